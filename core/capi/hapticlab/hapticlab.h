@@ -1,0 +1,115 @@
+/*
+ * HapticLab degradation engine: plain C API.
+ *
+ * Put this library between a haptic device driver and a virtual environment
+ * (VE). On every haptic update the driver passes the measured joint positions
+ * of one instrument, the time since that instrument's previous update, and the
+ * force the VE wants on the tool tip. The engine returns the force to command
+ * on the device, and the positions to show the VE, so that the device feels
+ * like inexpensive hardware (friction, cogging, backlash, inertia, force
+ * saturation, coarse encoders, a slow loop).
+ *
+ * Units are SI everywhere: m, rad, N, N·m, s.
+ * Joints of an instrument: insertion (m, pivot to tip), pitch (rad), yaw (rad).
+ * World frame: origin at the instrument's pivot (trocar), z up, out of the
+ * patient; at pitch = yaw = 0 the instrument points along -z. A positive
+ * insertion force pushes toward larger insertion. See docs/engine.md.
+ *
+ * Threads: hl_engine_update() must be called from one thread (the haptic
+ * loop); it never allocates, locks, blocks or does I/O. hl_engine_set_settings()
+ * may be called from any other thread; the change takes effect between two
+ * updates. Create and destroy from a non-real-time thread.
+ */
+#ifndef HAPTICLAB_HAPTICLAB_H_
+#define HAPTICLAB_HAPTICLAB_H_
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(HAPTICLAB_BUILDING_LIBRARY)
+#define HL_API __attribute__((visibility("default")))
+#else
+#define HL_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct hl_engine hl_engine;
+
+/* Return codes. */
+#define HL_OK 0
+#define HL_ERROR_INVALID_ARGUMENT (-1) /* null pointer, bad instrument index */
+#define HL_ERROR_SETTINGS (-2)         /* settings JSON missing, malformed or out of range */
+
+/* Status bits of hl_output.status (same values as hapticlab::StatusFlag). */
+#define HL_FAULT_NON_FINITE_INPUT 0x01u /* NaN/inf input: force is zero this update */
+#define HL_FAULT_NON_FINITE_STATE 0x02u /* internal fault: force zero, state reset */
+#define HL_DT_NOT_POSITIVE 0x04u        /* dt <= 0: no time advanced */
+#define HL_DT_SUBSTEPPED 0x08u          /* dt > 1/150 s: split into sub-steps */
+#define HL_DT_RESYNCED 0x10u            /* stall > ~53 ms: states re-anchored */
+#define HL_FORCE_LIMITED 0x20u          /* a joint force hit the device limit */
+#define HL_FAULT_INVALID_ARGUMENT 0x40u /* bad call: force is zero */
+#define HL_FAULT_MASK 0x43u             /* bits meaning "the force was zeroed" */
+
+typedef struct hl_input {
+  double dt_s;           /* time since this instrument's previous update, s */
+  double insertion_m;    /* measured insertion, m */
+  double pitch_rad;      /* measured pitch, rad */
+  double yaw_rad;        /* measured yaw, rad */
+  double ve_force_N[3];  /* force the VE applies to the tool tip, world frame, N */
+} hl_input;
+
+typedef struct hl_output {
+  double displayed_force_N[3]; /* force to command at the tool tip, world frame, N */
+  double insertion_force_N;    /* the same as joint commands: insertion force, N */
+  double pitch_torque_Nm;      /* pitch torque, N·m */
+  double yaw_torque_Nm;        /* yaw torque, N·m */
+  double degraded_insertion_m; /* positions to give the VE */
+  double degraded_pitch_rad;
+  double degraded_yaw_rad;
+  double tip_offset_m[3];      /* VE tip position minus measured tip, world frame (eq. 2.20) */
+  double orientation_offset[9]; /* row-major world rotation, measured -> VE tool (eq. 2.21) */
+  uint32_t status;             /* HL_* status bits */
+} hl_output;
+
+/* Library version, e.g. "0.1.0". */
+HL_API const char* hl_version(void);
+
+/*
+ * Creates an engine with two instruments (0 = left, 1 = right) from a
+ * settings JSON text (the format of examples/settings/). Both instruments
+ * start at rest at 0.1 m insertion, pitch = yaw = 0; the first update with
+ * real positions re-anchors them (it reports HL_DT_RESYNCED).
+ * On failure returns NULL and, if error is not NULL, writes a message naming
+ * the bad field, its value and the allowed range (truncated to error_size).
+ */
+HL_API hl_engine* hl_engine_create(const char* settings_json, char* error, size_t error_size);
+
+/* Same, reading the settings from a file. */
+HL_API hl_engine* hl_engine_create_from_file(const char* path, char* error, size_t error_size);
+
+/*
+ * One haptic update of one instrument. Returns HL_OK, or
+ * HL_ERROR_INVALID_ARGUMENT (then *out, if given, holds zero force and
+ * HL_FAULT_INVALID_ARGUMENT). Non-finite inputs are not an error: the output
+ * force is zero and status has HL_FAULT_NON_FINITE_INPUT.
+ */
+HL_API int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in,
+                            hl_output* out);
+
+/*
+ * Replaces the settings of a running engine. The text is validated first; on
+ * any error nothing changes and HL_ERROR_SETTINGS is returned with a message.
+ */
+HL_API int hl_engine_set_settings(hl_engine* engine, const char* settings_json, char* error,
+                                  size_t error_size);
+
+HL_API void hl_engine_destroy(hl_engine* engine);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* HAPTICLAB_HAPTICLAB_H_ */

@@ -1,0 +1,121 @@
+// The C API: a thin shell over hapticlab::Engine. No exception crosses it.
+#include "hapticlab/hapticlab.h"
+
+#include <cstdio>
+#include <exception>
+#include <memory>
+#include <new>
+#include <string>
+
+#include "core/engine/engine.h"
+#include "core/engine/status.h"
+#include "core/settings/settings_json.h"
+
+struct hl_engine {
+  explicit hl_engine(const hapticlab::EngineSettings& s) : engine(s) {}
+  hapticlab::Engine engine;
+};
+
+namespace {
+
+static_assert(HL_FAULT_NON_FINITE_INPUT == hapticlab::kFaultNonFiniteInput);
+static_assert(HL_FAULT_NON_FINITE_STATE == hapticlab::kFaultNonFiniteState);
+static_assert(HL_DT_NOT_POSITIVE == hapticlab::kDtNotPositive);
+static_assert(HL_DT_SUBSTEPPED == hapticlab::kDtSubstepped);
+static_assert(HL_DT_RESYNCED == hapticlab::kDtResynced);
+static_assert(HL_FORCE_LIMITED == hapticlab::kForceLimited);
+static_assert(HL_FAULT_INVALID_ARGUMENT == hapticlab::kFaultInvalidArgument);
+static_assert(HL_FAULT_MASK == hapticlab::kFaultMask);
+
+void write_error(char* error, size_t size, const std::string& message) {
+  if (error != nullptr && size > 0) std::snprintf(error, size, "%s", message.c_str());
+}
+
+template <typename Load>
+hl_engine* create(Load load, char* error, size_t error_size) {
+  try {
+    const hapticlab::NamedSettings s = load();
+    write_error(error, error_size, "");
+    return new hl_engine(s.engine);
+  } catch (const std::exception& e) {
+    write_error(error, error_size, e.what());
+  } catch (...) {
+    write_error(error, error_size, "unknown error");
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+extern "C" {
+
+const char* hl_version(void) { return HAPTICLAB_VERSION_STRING; }
+
+hl_engine* hl_engine_create(const char* settings_json, char* error, size_t error_size) {
+  if (settings_json == nullptr) {
+    write_error(error, error_size, "hl_engine_create: settings_json is NULL");
+    return nullptr;
+  }
+  return create([&] { return hapticlab::settings_from_json_text(settings_json, "settings"); },
+                error, error_size);
+}
+
+hl_engine* hl_engine_create_from_file(const char* path, char* error, size_t error_size) {
+  if (path == nullptr) {
+    write_error(error, error_size, "hl_engine_create_from_file: path is NULL");
+    return nullptr;
+  }
+  return create([&] { return hapticlab::load_settings_file(path); }, error, error_size);
+}
+
+int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_output* out) {
+  if (out == nullptr) return HL_ERROR_INVALID_ARGUMENT;
+  *out = hl_output{};
+  out->orientation_offset[0] = out->orientation_offset[4] = out->orientation_offset[8] = 1.0;
+  if (engine == nullptr || in == nullptr || instrument < 0 ||
+      instrument >= hapticlab::kNumInstruments) {
+    out->status = HL_FAULT_INVALID_ARGUMENT;
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  hapticlab::InstrumentInput input;
+  input.dt_s = in->dt_s;
+  input.position = {in->insertion_m, in->pitch_rad, in->yaw_rad};
+  input.ve_force_N = {in->ve_force_N[0], in->ve_force_N[1], in->ve_force_N[2]};
+  const hapticlab::InstrumentOutput r = engine->engine.update(instrument, input);
+  for (int i = 0; i < 3; ++i) {
+    out->displayed_force_N[i] = r.displayed_force_N[i];
+    out->tip_offset_m[i] = r.tip_offset_m[i];
+    for (int j = 0; j < 3; ++j) out->orientation_offset[3 * i + j] = r.orientation_offset(i, j);
+  }
+  out->insertion_force_N = r.joint_force[hapticlab::kInsertion];
+  out->pitch_torque_Nm = r.joint_force[hapticlab::kPitch];
+  out->yaw_torque_Nm = r.joint_force[hapticlab::kYaw];
+  out->degraded_insertion_m = r.degraded_position[hapticlab::kInsertion];
+  out->degraded_pitch_rad = r.degraded_position[hapticlab::kPitch];
+  out->degraded_yaw_rad = r.degraded_position[hapticlab::kYaw];
+  out->status = r.status;
+  return HL_OK;
+}
+
+int hl_engine_set_settings(hl_engine* engine, const char* settings_json, char* error,
+                           size_t error_size) {
+  if (engine == nullptr || settings_json == nullptr) {
+    write_error(error, error_size, "hl_engine_set_settings: engine or settings_json is NULL");
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  try {
+    engine->engine.set_settings(
+        hapticlab::settings_from_json_text(settings_json, "settings").engine);
+    write_error(error, error_size, "");
+    return HL_OK;
+  } catch (const std::exception& e) {
+    write_error(error, error_size, e.what());
+  } catch (...) {
+    write_error(error, error_size, "unknown error");
+  }
+  return HL_ERROR_SETTINGS;
+}
+
+void hl_engine_destroy(hl_engine* engine) { delete engine; }
+
+}  // extern "C"

@@ -1,0 +1,69 @@
+#pragma once
+// The degradation chain of one DOF (thesis 2.2.6.1, Fig. 2-11 and 2-12).
+//
+//   (x measured, F_ve on this axis, dt)
+//     encoder      x  => x_q                       (quantized position)
+//     velocity     x_q => v                        (difference + 70 Hz Butterworth)
+//     saturation   F_ve => F_ves                   (clip of the VE force on this axis)
+//     without backlash (Fig. 2-12):
+//       F = F_ves + cogging(x_q) + friction(x_q, v) + inertia(x_q, v)
+//       x_ve = x_q
+//     with backlash (Fig. 2-11):
+//       x_in = mass position limited to x_q ± gap/2
+//       mass <= F_ves + cogging(x_in) + friction(x_in) ; F = gap contact force
+//       x_ve = x_in
+//     ripple       F => F·(1 + r·sin(...))         (of the motor-side position)
+//   => (F commanded on this axis, x_ve sent to the VE)
+//
+// Everything here is allocation-free and noexcept; parameters are validated
+// when settings are loaded, not here.
+
+#include "core/models/backlash.h"
+#include "core/models/friction.h"
+#include "core/models/inertia.h"
+#include "core/models/velocity_filter.h"
+#include "core/settings/axis_settings.h"
+
+namespace hapticlab {
+
+struct DofOutput {
+  double force = 0.0;     // [F] commanded on this axis, before the device limit
+  double position = 0.0;  // [X] degraded position for the VE
+};
+
+class DofChain {
+ public:
+  // Puts every model in its neutral state at `position`, at rest.
+  void reset(const AxisSettings& s, double position) noexcept;
+
+  // Called between two updates when the settings change: models that are
+  // switched on start neutral (no force jump), the mass is kept in a changed gap.
+  void on_settings_change(const AxisSettings& before, const AxisSettings& after) noexcept;
+
+  // Re-anchors the dynamic states at a new measured position after a stall or
+  // a fault, keeping position-independent forces and dropping stored energy.
+  void resync(const AxisSettings& s, double position) noexcept;
+
+  // One update of dt_s (0 <= dt_s <= 1/150 s); `filter` holds the Butterworth
+  // coefficients for this dt.
+  DofOutput step(const AxisSettings& s, double position, double ve_force, double dt_s,
+                 const ButterworthCoefficients& filter) noexcept;
+
+  double last_position() const noexcept { return last_position_; }
+
+  // Read-only access for tests and diagnostics.
+  const Friction& friction() const noexcept { return friction_; }
+  const Inertia& inertia() const noexcept { return inertia_; }
+  const Backlash& backlash() const noexcept { return backlash_; }
+
+ private:
+  double measure(const AxisSettings& s, double position) const noexcept;
+
+  VelocityFilter velocity_;
+  Friction friction_;
+  Inertia inertia_;
+  Backlash backlash_;
+  double last_position_ = 0.0;  // quantized, as the models saw it
+};
+
+}  // namespace hapticlab

@@ -1,0 +1,26 @@
+#include "core/engine/engine.h"
+
+#include "core/engine/status.h"
+
+namespace hapticlab {
+
+Engine::Engine(const EngineSettings& settings,
+               const std::array<JointVector, kNumInstruments>& start)
+    : exchange_(settings),
+      instruments_{Instrument(settings, start[0]), Instrument(settings, start[1])} {}
+
+InstrumentOutput Engine::update(int instrument, const InstrumentInput& in) noexcept {
+  if (instrument < 0 || instrument >= kNumInstruments) {
+    InstrumentOutput out;
+    out.status = kFaultInvalidArgument;
+    return out;
+  }
+  if (exchange_.take()) ++generation_;
+  if (applied_generation_[instrument] != generation_) {
+    instruments_[instrument].apply_settings(exchange_.current());
+    applied_generation_[instrument] = generation_;
+  }
+  return instruments_[instrument].step(in);
+}
+
+}  // namespace hapticlab

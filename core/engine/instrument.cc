@@ -1,0 +1,132 @@
+#include "core/engine/instrument.h"
+
+#include <cmath>
+
+#include "core/engine/status.h"
+#include "core/models/saturation.h"
+
+namespace hapticlab {
+namespace {
+
+bool finite(const Eigen::Vector3d& v) noexcept { return v.allFinite(); }
+
+Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept {
+  const double norm = f.norm();
+  return norm > limit ? Eigen::Vector3d(f * (limit / norm)) : f;
+}
+
+}  // namespace
+
+Instrument::Instrument(const EngineSettings& settings, const JointVector& start) noexcept
+    : settings_(settings) {
+  for (int a = 0; a < kNumAxes; ++a) chains_[a].reset(settings_.axis(a), start[a]);
+  ve_force_delay_.reset(Eigen::Vector3d::Zero());
+  position_delay_.reset(start);
+  last_position_ = start;
+  last_degraded_ = start;
+}
+
+void Instrument::apply_settings(const EngineSettings& settings) noexcept {
+  for (int a = 0; a < kNumAxes; ++a) {
+    chains_[a].on_settings_change(settings_.axis(a), settings.axis(a));
+  }
+  settings_ = settings;
+}
+
+void Instrument::resync(const JointVector& q) noexcept {
+  for (int a = 0; a < kNumAxes; ++a) chains_[a].resync(settings_.axis(a), q[a]);
+  last_position_ = q;
+}
+
+InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
+  InstrumentOutput out;
+  // guard: a non-finite value never reaches a motor
+  if (!std::isfinite(in.dt_s) || !finite(in.position) || !finite(in.ve_force_N)) {
+    out.status = kFaultNonFiniteInput;
+    out.degraded_position = in.position.allFinite() ? JointVector(in.position) : last_degraded_;
+    needs_resync_ = true;
+    return out;
+  }
+
+  // F_ve => tip-clipped, delayed/held F_ve => joint forces
+  Eigen::Vector3d ve = in.ve_force_N;
+  if (settings_.tip_force_saturation.enabled) {
+    ve = clip_magnitude(ve, settings_.tip_force_saturation.limit_N);
+  }
+  const LoopEmulation& loop = settings_.loop;
+  ve = ve_force_delay_.step(ve, in.dt_s, loop.force_latency_s, loop.hold_rate_Hz);
+  const JointVector ve_joint = world_to_joint(in.position, ve);
+
+  // dt policy: how many sub-steps of which length
+  int substeps = 1;
+  double dt = in.dt_s;
+  if (!(dt > 0.0)) {
+    out.status |= kDtNotPositive;
+    dt = 0.0;
+  } else if (dt > kMaxDt_s) {
+    substeps = static_cast<int>(std::ceil(dt / kMaxDt_s - 1e-9));
+    out.status |= kDtSubstepped;
+  }
+  if (needs_resync_ || substeps > kMaxSubsteps) {
+    if (!anchored_) {
+      // First real update: nothing before it happened, not even in the
+      // emulated loop's history.
+      ve_force_delay_.reset(ve);
+      position_delay_.reset(in.position);
+      anchored_ = true;
+    }
+    resync(in.position);
+    out.status |= kDtResynced;
+    needs_resync_ = false;
+    substeps = 1;
+    dt = 0.0;
+  }
+
+  // per DOF chains, sub-stepped along the straight line from the last position
+  const double sub_dt = dt / substeps;
+  const ButterworthCoefficients filter =
+      sub_dt > 0.0 ? butterworth_lowpass_1st(kVelocityCutoff_Hz, sub_dt) : ButterworthCoefficients{};
+  JointVector command = JointVector::Zero();
+  JointVector degraded = in.position;
+  for (int i = 1; i <= substeps; ++i) {
+    const double w = static_cast<double>(i) / substeps;
+    for (int a = 0; a < kNumAxes; ++a) {
+      const double x = last_position_[a] + w * (in.position[a] - last_position_[a]);
+      const DofOutput d = chains_[a].step(settings_.axis(a), x, ve_joint[a], sub_dt, filter);
+      command[a] = d.force;
+      degraded[a] = d.position;
+    }
+  }
+  last_position_ = in.position;
+
+  // device limit, per axis, last
+  for (int a = 0; a < kNumAxes; ++a) {
+    const double limit = settings_.device_limit(a);
+    if (std::abs(command[a]) > limit) {
+      command[a] = saturate(command[a], limit);
+      out.status |= kForceLimited;
+    }
+  }
+  out.joint_force = command;
+  out.displayed_force_N = joint_to_world(in.position, command, settings_.min_moment_arm_m);
+
+  // degraded joints => delayed/held => VE, with display offsets
+  out.degraded_position =
+      position_delay_.step(degraded, in.dt_s, loop.position_latency_s, loop.hold_rate_Hz);
+  out.tip_offset_m = tip_offset(in.position, out.degraded_position);
+  out.orientation_offset = orientation_offset(in.position, out.degraded_position);
+
+  if (!out.displayed_force_N.allFinite() || !out.joint_force.allFinite() ||
+      !out.degraded_position.allFinite()) {
+    // Should be impossible with validated settings; never let it reach a motor.
+    for (int a = 0; a < kNumAxes; ++a) chains_[a].reset(settings_.axis(a), in.position[a]);
+    out.displayed_force_N.setZero();
+    out.joint_force.setZero();
+    out.degraded_position = in.position;
+    out.status |= kFaultNonFiniteState;
+  }
+  last_degraded_ = out.degraded_position;
+  return out;
+}
+
+}  // namespace hapticlab

@@ -1,0 +1,76 @@
+#pragma once
+// One instrument: three degradation chains (insertion, pitch, yaw) between
+// the device and the VE — the thesis' HapticEffect class (2.2.7).
+//
+//   (dt, joints q, VE tip force F_ve in the world frame)
+//     guard         non-finite input => zero force + fault flag
+//     tip clip      |F_ve| <= limit (thesis "Force Saturation", 0 = no FFB)
+//     loop emul.    F_ve delayed / held
+//     world=>joint  F_ve => (F_i, T_pitch, T_yaw)            eq. 2.16–2.18
+//     dt policy     dt <= 0: no time passes; dt > 1/150 s: sub-steps of
+//                   <= 1/150 s along the straight line between the two
+//                   positions; beyond 8 sub-steps (≈53 ms): re-anchor
+//     per DOF       DofChain: friction, cogging, saturation, inertia, backlash
+//     device limit  |joint force| <= device limit per axis
+//     joint=>world  displayed tip force                        eq. 2.19
+//     loop emul.    degraded joints delayed / held => VE; offsets eq. 2.20–2.21
+//
+// Not thread-safe: one instrument is stepped by one (real-time) thread.
+
+#include <array>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "core/engine/dof_chain.h"
+#include "core/engine/joint_transform.h"
+#include "core/engine/loop_emulation.h"
+#include "core/settings/settings.h"
+
+namespace hapticlab {
+
+inline constexpr double kMinDt_s = 1.0 / 2000.0;  // fastest rate the models are specified for
+inline constexpr double kMaxDt_s = 1.0 / 150.0;   // slowest rate; longer dt is sub-stepped
+inline constexpr int kMaxSubsteps = 8;
+
+struct InstrumentInput {
+  double dt_s = 0.0;                                          // time since the previous update
+  JointVector position = JointVector::Zero();                 // insertion m, pitch rad, yaw rad
+  Eigen::Vector3d ve_force_N = Eigen::Vector3d::Zero();       // VE force on the tip, world frame
+};
+
+struct InstrumentOutput {
+  Eigen::Vector3d displayed_force_N = Eigen::Vector3d::Zero();  // for the device, world frame
+  JointVector joint_force = JointVector::Zero();  // insertion N, pitch N·m, yaw N·m (commanded)
+  JointVector degraded_position = JointVector::Zero();  // for the VE
+  Eigen::Vector3d tip_offset_m = Eigen::Vector3d::Zero();          // eq. 2.20
+  Eigen::Matrix3d orientation_offset = Eigen::Matrix3d::Identity();  // eq. 2.21
+  std::uint32_t status = 0;                                         // StatusFlag bits
+};
+
+class Instrument {
+ public:
+  Instrument(const EngineSettings& settings, const JointVector& start_position) noexcept;
+
+  InstrumentOutput step(const InstrumentInput& in) noexcept;
+
+  // Takes effect from the next step; see DofChain::on_settings_change.
+  void apply_settings(const EngineSettings& settings) noexcept;
+  const EngineSettings& settings() const noexcept { return settings_; }
+
+  const DofChain& chain(int axis) const noexcept { return chains_[axis]; }
+
+ private:
+  void resync(const JointVector& q) noexcept;
+
+  EngineSettings settings_;
+  std::array<DofChain, kNumAxes> chains_;
+  SignalDelayHold ve_force_delay_;
+  SignalDelayHold position_delay_;
+  JointVector last_position_ = JointVector::Zero();
+  JointVector last_degraded_ = JointVector::Zero();
+  bool needs_resync_ = true;
+  bool anchored_ = false;  // false until the first finite update  // the first update anchors the models at the real position
+};
+
+}  // namespace hapticlab

@@ -1,0 +1,52 @@
+#include "core/engine/joint_transform.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hapticlab {
+
+Eigen::Matrix3d tool_orientation(double pitch_rad, double yaw_rad) noexcept {
+  const double sp = std::sin(pitch_rad), cp = std::cos(pitch_rad);
+  const double sy = std::sin(yaw_rad), cy = std::cos(yaw_rad);
+  Eigen::Matrix3d r;
+  // Columns: e_yaw, e_pitch, −d_in (eq. 2.20 with sin(−y) = −sin y).
+  r << cy, -sy * sp, -sy * cp,
+       0.0, cp, -sp,
+       sy, cy * sp, cy * cp;
+  return r;
+}
+
+Eigen::Vector3d insertion_direction(double pitch_rad, double yaw_rad) noexcept {
+  const double sp = std::sin(pitch_rad), cp = std::cos(pitch_rad);
+  const double sy = std::sin(yaw_rad), cy = std::cos(yaw_rad);
+  return {sy * cp, sp, -cy * cp};
+}
+
+Eigen::Vector3d tip_position(const JointVector& q) noexcept {
+  return q[0] * insertion_direction(q[1], q[2]);
+}
+
+JointVector world_to_joint(const JointVector& q, const Eigen::Vector3d& f) noexcept {
+  const Eigen::Matrix3d r = tool_orientation(q[1], q[2]);
+  const double arm_pitch = q[0];
+  const double arm_yaw = q[0] * std::cos(q[1]);
+  return {-r.col(2).dot(f), arm_pitch * r.col(1).dot(f), arm_yaw * r.col(0).dot(f)};
+}
+
+Eigen::Vector3d joint_to_world(const JointVector& q, const JointVector& tau,
+                               double min_moment_arm_m) noexcept {
+  const Eigen::Matrix3d r = tool_orientation(q[1], q[2]);
+  const double arm_pitch = std::max(q[0], min_moment_arm_m);
+  const double arm_yaw = std::max(q[0] * std::cos(q[1]), min_moment_arm_m);
+  return -tau[0] * r.col(2) + (tau[1] / arm_pitch) * r.col(1) + (tau[2] / arm_yaw) * r.col(0);
+}
+
+Eigen::Vector3d tip_offset(const JointVector& q, const JointVector& q_ve) noexcept {
+  return tip_position(q_ve) - tip_position(q);
+}
+
+Eigen::Matrix3d orientation_offset(const JointVector& q, const JointVector& q_ve) noexcept {
+  return tool_orientation(q_ve[1], q_ve[2]) * tool_orientation(q[1], q[2]).transpose();
+}
+
+}  // namespace hapticlab

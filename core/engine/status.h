@@ -1,0 +1,35 @@
+#pragma once
+// Status flags reported by every engine update. They are bits so that one
+// update can report several conditions; the C API exposes the same values.
+
+#include <cstdint>
+
+namespace hapticlab {
+
+enum StatusFlag : std::uint32_t {
+  kStatusOk = 0,
+  // An input (position, VE force or dt) was NaN or infinite. The displayed
+  // force is zero for this update; the engine recovers once inputs are finite.
+  kFaultNonFiniteInput = 1u << 0,
+  // An internal value became non-finite (should never happen); the output was
+  // zeroed and the instrument state was reset.
+  kFaultNonFiniteState = 1u << 1,
+  // dt was zero or negative: no time advanced, velocity estimates were held.
+  kDtNotPositive = 1u << 2,
+  // dt was above 1/150 s: the update was split into sub-steps of at most 1/150 s.
+  kDtSubstepped = 1u << 3,
+  // dt was longer than the engine can bridge by sub-stepping (a stall): the
+  // dynamic states were re-anchored to the instrument so no energy is injected.
+  kDtResynced = 1u << 4,
+  // The commanded force or torque hit the device limit on at least one axis.
+  kForceLimited = 1u << 5,
+  // The call itself was invalid (e.g. an instrument index other than 0 or 1);
+  // nothing was computed and the force is zero.
+  kFaultInvalidArgument = 1u << 6,
+};
+
+// Flags that mean "the displayed force was forced to zero".
+inline constexpr std::uint32_t kFaultMask =
+    kFaultNonFiniteInput | kFaultNonFiniteState | kFaultInvalidArgument;
+
+}  // namespace hapticlab

@@ -1,0 +1,332 @@
+#include "core/settings/settings_json.h"
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <numbers>
+#include <set>
+#include <sstream>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace hapticlab {
+namespace {
+
+using nlohmann::json;
+
+// One numeric field: its JSON key, where it lives, what is allowed, its default.
+struct Field {
+  std::string key;
+  double* value;
+  double lo;
+  double hi;
+  bool lo_exclusive;
+  double default_value;
+};
+
+// One block of fields; `enabled` is null for blocks that cannot be switched off.
+struct Block {
+  std::string name;
+  bool* enabled;
+  std::vector<Field> fields;
+};
+
+std::string format_number(double v) {
+  std::ostringstream os;
+  os.precision(10);
+  os << v;
+  return os.str();
+}
+
+std::string range_text(const Field& f) {
+  return std::string("must be ") + (f.lo_exclusive ? "> " : ">= ") + format_number(f.lo) +
+         " and <= " + format_number(f.hi);
+}
+
+void check_range(const std::string& path, const Field& f, double v) {
+  const bool low_ok = f.lo_exclusive ? v > f.lo : v >= f.lo;
+  if (!std::isfinite(v) || !low_ok || v > f.hi) {
+    throw SettingsError("settings field '" + path + "' is " + format_number(v) +
+                        ", but " + range_text(f));
+  }
+}
+
+// The model blocks of one axis kind. Field names, ranges and defaults differ
+// between translation and rotation only in units and magnitudes.
+std::vector<Block> axis_blocks(AxisKind kind, AxisSettings& s) {
+  const bool t = kind == AxisKind::kTranslation;
+  const std::string F = t ? "N" : "Nm";
+  const std::string X = t ? "m" : "rad";
+  const double max_force = t ? 50.0 : 5.0;
+  const double two_pi = 2.0 * std::numbers::pi;
+  // Default cogging period: see core/models/cogging.h.
+  const double cog_period = t ? 0.010 : two_pi / 60.0;
+
+  std::vector<Block> b;
+  // Thesis Table 3.1 level and pre-sliding, Table 2.2 stick velocity.
+  b.push_back({"friction", &s.friction.enabled,
+               {{"dynamic_level_" + F, &s.friction.dynamic_level, 0, max_force, false, t ? 0.45 : 0.030},
+                {"presliding_displacement_" + X, &s.friction.presliding_displacement, 0,
+                 t ? 0.01 : 0.1, true, t ? 1e-4 : 0.01},
+                {"stick_velocity_" + X + "_per_s", &s.friction.stick_velocity, 0, t ? 1.0 : 10.0,
+                 true, t ? 0.005 : 0.1}}});
+  b.push_back({"cogging", &s.cogging.enabled,
+               {{"amplitude_" + F, &s.cogging.amplitude, 0, max_force, false, t ? 0.45 : 0.030},
+                {"period_" + X, &s.cogging.period, t ? 5e-4 : 1e-3, t ? 1.0 : two_pi, false, cog_period},
+                {"phase_rad", &s.cogging.phase_rad, -two_pi, two_pi, false, 0.0},
+                {"ripple_fraction", &s.cogging.ripple_fraction, 0, 0.5, false, 0.0},
+                {"ripple_period_" + X, &s.cogging.ripple_period, t ? 5e-4 : 1e-3, t ? 1.0 : two_pi,
+                 false, cog_period}}});
+  // Thesis Table 3.1: 1 N; rotation is N/A there, 0.1 Nm is 1 N at 10 cm.
+  b.push_back({"saturation", &s.saturation.enabled,
+               {{"level_" + F, &s.saturation.level, 0, max_force, false, t ? 1.0 : 0.1}}});
+  // Table 3.1 mass, Table 2.2 K and damping ratio.
+  b.push_back({"inertia", &s.inertia.enabled,
+               {{t ? "mass_kg" : "inertia_kg_m2", &s.inertia.mass, 0, t ? 10.0 : 0.1, true,
+                 t ? 0.1 : 0.001},
+                {"stiffness_" + F + "_per_" + X, &s.inertia.stiffness, 0, t ? 1e5 : 1e3, true,
+                 t ? 600.0 : 4.0},
+                {"damping_ratio", &s.inertia.damping_ratio, 0, 2.0, false, t ? 0.3 : 0.2}}});
+  // Table 3.1 gap; the Karnopp friction on the free mass is "a small amount"
+  // in the thesis: about a tenth of the friction degradation's level.
+  b.push_back({"backlash", &s.backlash.enabled,
+               {{"gap_" + X, &s.backlash.gap, 0, t ? 0.05 : 0.5, true, t ? 0.002 : 0.04},
+                {"static_friction_" + F, &s.backlash.static_friction, 0, max_force, false,
+                 t ? 0.05 : 0.003},
+                {"dynamic_friction_" + F, &s.backlash.dynamic_friction, 0, max_force, false,
+                 t ? 0.04 : 0.0025},
+                {"stick_velocity_" + X + "_per_s", &s.backlash.stick_velocity, 0, t ? 1.0 : 10.0,
+                 false, t ? 0.001 : 0.02}}});
+  // Default resolution: the LSW's sensors, Table 2.1 (0.008 mm, 0.01°).
+  b.push_back({"encoder", &s.encoder.enabled,
+               {{"counts_per_" + X, &s.encoder.counts_per_unit, 1, 1e9, false,
+                 t ? 125000.0 : 5729.58}}});
+  return b;
+}
+
+std::vector<Block> engine_blocks(EngineSettings& s) {
+  std::vector<Block> b;
+  b.push_back({"tip_force_saturation", &s.tip_force_saturation.enabled,
+               {{"limit_N", &s.tip_force_saturation.limit_N, 0, 100.0, false, 1.0}}});
+  b.push_back({"loop", nullptr,
+               {{"hold_rate_Hz", &s.loop.hold_rate_Hz, 0, 2000.0, false, 0.0},
+                {"position_latency_s", &s.loop.position_latency_s, 0, 0.1, false, 0.0},
+                {"force_latency_s", &s.loop.force_latency_s, 0, 0.1, false, 0.0}}});
+  b.push_back({"device_limits", nullptr,
+               {{"insertion_force_N", &s.device_limits.insertion_force_N, 0, 1000.0, true, 19.0},
+                {"pitch_torque_Nm", &s.device_limits.pitch_torque_Nm, 0, 100.0, true, 0.85},
+                {"yaw_torque_Nm", &s.device_limits.yaw_torque_Nm, 0, 100.0, true, 0.85}}});
+  return b;
+}
+
+Field moment_arm_field(EngineSettings& s) {
+  return {"min_moment_arm_m", &s.min_moment_arm_m, 0.001, 0.5, false, 0.02};
+}
+
+std::string known_keys(const Block& b) {
+  std::string out = b.enabled ? "enabled" : "";
+  for (const Field& f : b.fields) out += (out.empty() ? "" : ", ") + f.key;
+  return out;
+}
+
+const json& expect_object(const json& j, const std::string& path) {
+  if (!j.is_object()) {
+    throw SettingsError("settings field '" + path + "' must be a JSON object, got " +
+                        std::string(j.type_name()));
+  }
+  return j;
+}
+
+// Reads a block present in the file: enabled unless told otherwise; absent
+// fields take defaults; unknown keys are rejected.
+void read_block(const json& j, const std::string& path, Block& b) {
+  expect_object(j, path);
+  for (Field& f : b.fields) *f.value = f.default_value;
+  if (b.enabled) *b.enabled = true;
+  for (const auto& [key, value] : j.items()) {
+    const std::string field_path = path + "." + key;
+    if (key == "enabled" && b.enabled) {
+      if (!value.is_boolean()) {
+        throw SettingsError("settings field '" + field_path + "' must be true or false, got " +
+                            value.dump());
+      }
+      *b.enabled = value.get<bool>();
+      continue;
+    }
+    auto it = std::find_if(b.fields.begin(), b.fields.end(),
+                           [&](const Field& f) { return f.key == key; });
+    if (it == b.fields.end()) {
+      throw SettingsError("unknown settings field '" + field_path + "' (known fields: " +
+                          known_keys(b) + ")");
+    }
+    if (!value.is_number()) {
+      throw SettingsError("settings field '" + field_path + "' must be a number, got " +
+                          value.dump() + "; " + range_text(*it));
+    }
+    *it->value = value.get<double>();
+    check_range(field_path, *it, *it->value);
+  }
+}
+
+void read_blocks(const json& j, const std::string& prefix, std::vector<Block>& blocks,
+                 const std::set<std::string>& other_keys) {
+  expect_object(j, prefix.empty() ? "(top level)" : prefix);
+  for (const auto& [key, value] : j.items()) {
+    if (other_keys.count(key)) continue;
+    auto it = std::find_if(blocks.begin(), blocks.end(),
+                           [&](const Block& b) { return b.name == key; });
+    const std::string path = prefix.empty() ? key : prefix + "." + key;
+    if (it == blocks.end()) {
+      std::string known;
+      for (const Block& b : blocks) known += (known.empty() ? "" : ", ") + b.name;
+      for (const std::string& k : other_keys) known += ", " + k;
+      throw SettingsError("unknown settings field '" + path + "' (known: " + known + ")");
+    }
+    read_block(value, path, *it);
+  }
+}
+
+// Rules that involve more than one field.
+void check_cross_fields(const EngineSettings& s) {
+  for (AxisKind kind : {AxisKind::kTranslation, AxisKind::kRotation}) {
+    const AxisSettings& a = kind == AxisKind::kTranslation ? s.translation : s.rotation;
+    const std::string name = kind == AxisKind::kTranslation ? "translation" : "rotation";
+    const std::string F = kind == AxisKind::kTranslation ? "N" : "Nm";
+    if (a.backlash.enabled && !a.inertia.enabled) {
+      throw SettingsError("settings block '" + name + ".backlash' needs '" + name +
+                          ".inertia' enabled: the gap lies between the instrument and the "
+                          "virtual mass, whose mass and coupling come from the inertia block");
+    }
+    if (a.backlash.enabled && a.backlash.dynamic_friction > a.backlash.static_friction) {
+      throw SettingsError("settings field '" + name + ".backlash.dynamic_friction_" + F +
+                          "' is " + format_number(a.backlash.dynamic_friction) +
+                          ", but must be <= static_friction_" + F + " (" +
+                          format_number(a.backlash.static_friction) + ")");
+    }
+  }
+}
+
+json block_to_json(const Block& b) {
+  json out = json::object();
+  if (b.enabled) out["enabled"] = *b.enabled;
+  for (const Field& f : b.fields) out[f.key] = *f.value;
+  return out;
+}
+
+// Fills every field of a default-constructed EngineSettings with its default,
+// leaving all blocks disabled.
+EngineSettings defaults() {
+  EngineSettings s;
+  auto fill = [](std::vector<Block> blocks) {
+    for (Block& b : blocks)
+      for (Field& f : b.fields) *f.value = f.default_value;
+  };
+  fill(axis_blocks(AxisKind::kTranslation, s.translation));
+  fill(axis_blocks(AxisKind::kRotation, s.rotation));
+  fill(engine_blocks(s));
+  *moment_arm_field(s).value = moment_arm_field(s).default_value;
+  return s;
+}
+
+}  // namespace
+
+NamedSettings settings_from_json(const json& j, const std::string& source) {
+  try {
+    NamedSettings out;
+    out.engine = defaults();
+    EngineSettings& s = out.engine;
+    expect_object(j, "(top level)");
+    std::vector<Block> top = engine_blocks(s);
+    read_blocks(j, "", top,
+                {"name", "description", "translation", "rotation", "min_moment_arm_m"});
+    if (j.contains("name")) {
+      if (!j["name"].is_string()) throw SettingsError("settings field 'name' must be a string");
+      out.name = j["name"].get<std::string>();
+    }
+    if (j.contains("description")) {
+      if (!j["description"].is_string())
+        throw SettingsError("settings field 'description' must be a string");
+      out.description = j["description"].get<std::string>();
+    }
+    if (j.contains("min_moment_arm_m")) {
+      Field f = moment_arm_field(s);
+      if (!j["min_moment_arm_m"].is_number())
+        throw SettingsError("settings field 'min_moment_arm_m' must be a number; " + range_text(f));
+      *f.value = j["min_moment_arm_m"].get<double>();
+      check_range("min_moment_arm_m", f, *f.value);
+    }
+    for (auto [kind, key] : {std::pair{AxisKind::kTranslation, "translation"},
+                             std::pair{AxisKind::kRotation, "rotation"}}) {
+      if (!j.contains(key)) continue;
+      AxisSettings& a = kind == AxisKind::kTranslation ? s.translation : s.rotation;
+      std::vector<Block> blocks = axis_blocks(kind, a);
+      const json& axis_json = j[key];
+      read_blocks(axis_json, key, blocks, {});
+      // The ripple follows the cogging period unless given.
+      if (axis_json.contains("cogging") &&
+          !axis_json["cogging"].contains(blocks[1].fields[4].key)) {
+        a.cogging.ripple_period = a.cogging.period;
+      }
+    }
+    check_cross_fields(s);
+    return out;
+  } catch (const SettingsError& e) {
+    throw SettingsError(source + ": " + e.what());
+  }
+}
+
+NamedSettings settings_from_json_text(std::string_view text, const std::string& source) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw SettingsError(source + ": not valid JSON: " + e.what());
+  }
+  return settings_from_json(j, source);
+}
+
+NamedSettings load_settings_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw SettingsError(path.string() + ": cannot open settings file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return settings_from_json_text(text.str(), path.string());
+}
+
+json settings_to_json(const NamedSettings& named) {
+  EngineSettings s = named.engine;
+  json out = json::object();
+  out["name"] = named.name;
+  if (!named.description.empty()) out["description"] = named.description;
+  for (auto [kind, key] : {std::pair{AxisKind::kTranslation, "translation"},
+                           std::pair{AxisKind::kRotation, "rotation"}}) {
+    AxisSettings& a = kind == AxisKind::kTranslation ? s.translation : s.rotation;
+    json axis = json::object();
+    for (const Block& b : axis_blocks(kind, a)) axis[b.name] = block_to_json(b);
+    out[key] = axis;
+  }
+  for (const Block& b : engine_blocks(s)) out[b.name] = block_to_json(b);
+  out["min_moment_arm_m"] = s.min_moment_arm_m;
+  return out;
+}
+
+void validate_settings(const EngineSettings& settings) {
+  EngineSettings s = settings;  // the tables need mutable access
+  auto check = [](const std::string& prefix, std::vector<Block> blocks) {
+    for (const Block& b : blocks) {
+      // Disabled blocks may hold anything except non-finite garbage; enabled
+      // ones must be in range.
+      if (b.enabled && !*b.enabled) continue;
+      for (const Field& f : b.fields) check_range(prefix + b.name + "." + f.key, f, *f.value);
+    }
+  };
+  check("translation.", axis_blocks(AxisKind::kTranslation, s.translation));
+  check("rotation.", axis_blocks(AxisKind::kRotation, s.rotation));
+  check("", engine_blocks(s));
+  Field arm = moment_arm_field(s);
+  check_range("min_moment_arm_m", arm, *arm.value);
+  check_cross_fields(s);
+}
+
+}  // namespace hapticlab

@@ -1,0 +1,50 @@
+#pragma once
+// JSON settings files: load, validate, write.
+//
+// Every physical field carries its SI unit in its name. The insertion axis is
+// configured under "translation" (N, m, kg), pitch and yaw under "rotation"
+// (Nm, rad, kg·m²); the field names are built from one table for both, e.g.
+// translation.friction.dynamic_level_N and rotation.friction.dynamic_level_Nm.
+// A model block that is present is enabled unless it says "enabled": false;
+// fields it leaves out take the defaults listed in docs/settings.md (thesis
+// Tables 2.2 and 3.1). Unknown fields are errors, so a typo never silently
+// runs with a default.
+//
+// Loading validates every field and throws SettingsError naming the field,
+// the value and the allowed range; nothing partial is ever returned.
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "core/settings/settings.h"
+
+namespace hapticlab {
+
+class SettingsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct NamedSettings {
+  std::string name;         // e.g. "All Degradations"
+  std::string description;  // free text
+  EngineSettings engine;
+};
+
+// `source` names the origin in error messages (a file path, "inline", ...).
+NamedSettings settings_from_json(const nlohmann::json& j, const std::string& source);
+NamedSettings settings_from_json_text(std::string_view text, const std::string& source);
+NamedSettings load_settings_file(const std::filesystem::path& path);
+
+// The full settings, every block and field written out (a stored copy must
+// not depend on defaults that may change).
+nlohmann::json settings_to_json(const NamedSettings& s);
+
+// Checks settings built in code against the same ranges the loader uses.
+void validate_settings(const EngineSettings& s);
+
+}  // namespace hapticlab

@@ -1,0 +1,85 @@
+#include "core/engine/engine.h"
+
+#include <atomic>
+#include <cmath>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "core/engine/status.h"
+#include "core/settings/settings_json.h"
+
+namespace hapticlab {
+namespace {
+
+EngineSettings saturating(double level) {
+  EngineSettings s;
+  s.translation.saturation = {true, level};
+  s.rotation.saturation = {true, level};
+  s.device_limits = {100.0, 100.0, 100.0};
+  return s;
+}
+
+TEST(EngineTest, InstrumentsKeepSeparateState) {
+  EngineSettings s = load_settings_file(std::string(HAPTICLAB_SOURCE_DIR) +
+                                        "/examples/settings/inertia.json")
+                         .engine;
+  Engine two(s), one(s);
+  double t = 0.0;
+  for (int i = 0; i < 1000; ++i) {
+    t += 1e-3;
+    const JointVector q1(0.1 + 0.02 * std::sin(5 * t), 0.1, 0.0);
+    const InstrumentOutput a = two.update(1, {1e-3, q1, {0, 0, 0}});
+    two.update(0, {1e-3, JointVector(0.05 + 0.03 * std::sin(9 * t), -0.2, 0.1), {0, 0, 1}});
+    const InstrumentOutput b = one.update(1, {1e-3, q1, {0, 0, 0}});
+    ASSERT_EQ(a.joint_force, b.joint_force);
+  }
+}
+
+TEST(EngineTest, BadInstrumentIndexIsAFaultNotACrash) {
+  Engine e(EngineSettings{});
+  EXPECT_TRUE(e.update(2, {}).status & kFaultInvalidArgument);
+  EXPECT_TRUE(e.update(-1, {}).status & kFaultInvalidArgument);
+}
+
+TEST(EngineTest, SettingsSwapIsAtomicBetweenUpdates) {
+  // The writer flips between two settings whose per-axis saturation levels
+  // differ (1 and 2). With a large VE force every update's joint forces show
+  // the level in use; a torn copy would mix 1 on one axis with 2 on another.
+  Engine e(saturating(1.0));
+  std::atomic<bool> stop{false};
+  std::thread writer([&] {
+    for (int i = 0; !stop.load(); ++i) e.set_settings(saturating(i % 2 ? 1.0 : 2.0));
+  });
+  int seen_one = 0, seen_two = 0;
+  const JointVector q(0.1, 0.0, 0.0);
+  for (int i = 0; i < 200000; ++i) {
+    const InstrumentOutput out = e.update(i % 2, {1e-3, q, {50.0, 50.0, -50.0}});
+    const double level = out.joint_force[0];
+    ASSERT_TRUE(level == 1.0 || level == 2.0) << level;
+    ASSERT_EQ(out.joint_force[1], level);
+    ASSERT_EQ(out.joint_force[2], level);
+    (level == 1.0 ? seen_one : seen_two)++;
+  }
+  stop = true;
+  writer.join();
+  EXPECT_GT(seen_one, 0);
+  EXPECT_GT(seen_two, 0);
+}
+
+TEST(EngineTest, SwitchingCoggingOnJumpsOnlyByTheCoggingForce) {
+  EngineSettings off;
+  EngineSettings on;
+  on.translation.cogging = {true, 0.45, 0.010, 0.0, 0.0, 0.010};
+  Engine e(off);
+  const JointVector q(0.1025, 0.0, 0.0);  // a quarter period past a detent
+  InstrumentOutput before;
+  for (int i = 0; i < 10; ++i) before = e.update(0, {1e-3, q, {0, 0, -1.0}});
+  e.set_settings(on);
+  const InstrumentOutput after = e.update(0, {1e-3, q, {0, 0, -1.0}});
+  // cogging(0.1025 m) = -0.45·sin(2π·10.25) = -0.45 N
+  EXPECT_NEAR(after.joint_force[0] - before.joint_force[0], -0.45, 1e-9);
+}
+
+}  // namespace
+}  // namespace hapticlab

@@ -1,0 +1,231 @@
+// One instrument, 3 DOF: safety, dt policy and integration of the chains.
+#include "core/engine/instrument.h"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/engine/status.h"
+#include "core/settings/settings_json.h"
+#include "testing/rates.h"
+
+namespace hapticlab {
+namespace {
+
+EngineSettings load_example(const std::string& name) {
+  return load_settings_file(std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/" + name +
+                            ".json")
+      .engine;
+}
+
+// A smooth two-handed-surgery-like motion of one instrument.
+JointVector hand(double t) {
+  return {0.10 + 0.02 * std::sin(1.7 * t), 0.2 * std::sin(1.1 * t + 0.3),
+          0.15 * std::sin(0.9 * t)};
+}
+
+TEST(InstrumentTest, NonFiniteInputGivesZeroForceAndRecovers) {
+  Instrument inst(load_example("all_degradations"), hand(0));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  double t = 0.0;
+  for (int i = 0; i < 500; ++i) {
+    t += 1e-3;
+    inst.step({1e-3, hand(t), {0.3, -0.2, 0.5}});
+  }
+  for (const InstrumentInput& bad :
+       {InstrumentInput{1e-3, {nan, 0.0, 0.0}, {0, 0, 0}},
+        InstrumentInput{1e-3, hand(t), {0, inf, 0}}, InstrumentInput{nan, hand(t), {0, 0, 0}}}) {
+    const InstrumentOutput out = inst.step(bad);
+    EXPECT_EQ(out.displayed_force_N, Eigen::Vector3d::Zero());
+    EXPECT_EQ(out.joint_force, JointVector::Zero());
+    EXPECT_TRUE(out.status & kFaultNonFiniteInput);
+    EXPECT_TRUE(out.degraded_position.allFinite());
+  }
+  // Finite again: the engine re-anchors and carries on without a spike.
+  for (int i = 0; i < 100; ++i) {
+    t += 1e-3;
+    const InstrumentOutput out = inst.step({1e-3, hand(t), {0.3, -0.2, 0.5}});
+    EXPECT_FALSE(out.status & kFaultMask);
+    EXPECT_TRUE(out.displayed_force_N.allFinite());
+    EXPECT_LT(out.joint_force[0], 2.0);
+  }
+}
+
+TEST(InstrumentTest, DisplayedForceNeverExceedsTheDeviceLimitWhateverTheParameters) {
+  // Random settings at the top of every range, huge VE forces, random poses.
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    EngineSettings s = load_example("max_stable");
+    s.translation.cogging.amplitude = 50.0 * u(rng);
+    s.translation.friction.dynamic_level = 50.0 * u(rng);
+    s.rotation.cogging.amplitude = 5.0 * u(rng);
+    s.translation.inertia.mass = 0.01 + 10 * u(rng);
+    s.translation.inertia.stiffness = 1e5 * u(rng) + 1.0;
+    s.tip_force_saturation.enabled = false;
+    s.device_limits = {1.0 + 18 * u(rng), 0.1 + 0.75 * u(rng), 0.1 + 0.75 * u(rng)};
+    validate_settings(s);
+    Instrument inst(s, hand(0));
+    double t = 0.0;
+    for (int i = 0; i < 2000; ++i) {
+      t += 1e-3;
+      const Eigen::Vector3d ve(400 * (u(rng) - 0.5), 400 * (u(rng) - 0.5), 400 * (u(rng) - 0.5));
+      const InstrumentOutput out = inst.step({1e-3, hand(3 * t), ve});
+      ASSERT_LE(std::abs(out.joint_force[0]), s.device_limits.insertion_force_N);
+      ASSERT_LE(std::abs(out.joint_force[1]), s.device_limits.pitch_torque_Nm);
+      ASSERT_LE(std::abs(out.joint_force[2]), s.device_limits.yaw_torque_Nm);
+    }
+  }
+}
+
+TEST(InstrumentTest, TipForceSaturationClipsTheVeForceMagnitude) {
+  const EngineSettings s = load_example("force_saturation");  // 1 N
+  Instrument inst(s, hand(0));
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0.0, 2.0);
+  double t = 0.0;
+  for (int i = 0; i < 3000; ++i) {
+    t += 1e-3;
+    const Eigen::Vector3d ve(g(rng), g(rng), g(rng));
+    const InstrumentOutput out = inst.step({1e-3, hand(t), ve});
+    ASSERT_LE(out.displayed_force_N.norm(), 1.0 + 1e-12);
+    if (ve.norm() > 1.0 && i > 0) {
+      // Same direction, 1 N long (nothing else is on in this setting).
+      ASSERT_TRUE(out.displayed_force_N.isApprox(ve.normalized(), 1e-9));
+    }
+  }
+}
+
+TEST(InstrumentTest, NoForceFeedbackDisplaysNothing) {
+  Instrument inst(load_example("no_force_feedback"), hand(0));
+  double t = 0.0;
+  for (int i = 0; i < 1000; ++i) {
+    t += 1e-3;
+    const InstrumentOutput out = inst.step({1e-3, hand(t), {1.5, -2.0, 3.0}});
+    ASSERT_EQ(out.displayed_force_N.norm(), 0.0);
+  }
+}
+
+TEST(InstrumentTest, HighFidelityPassesTheVeThroughUnchanged) {
+  Instrument inst(load_example("high_fidelity"), hand(0));
+  double t = 0.0;
+  for (int i = 0; i < 1000; ++i) {
+    t += 1e-3;
+    const Eigen::Vector3d ve(0.4 * std::sin(t), -0.3, 1.2 * std::cos(3 * t));
+    const InstrumentOutput out = inst.step({1e-3, hand(t), ve});
+    ASSERT_LT((out.displayed_force_N - ve).norm(), 1e-12);
+    ASSERT_EQ(out.degraded_position, hand(t));
+  }
+}
+
+// Runs hand() at 1 kHz, with an optional stall of stall_s starting at 1 s,
+// and records the displayed force magnitude between t_from and t_to.
+struct Window {
+  double peak_N = 0.0;
+  std::uint32_t stall_status = 0;  // status of the update that ended the stall
+};
+Window run_with_stall(const EngineSettings& s, double stall_s, double t_from, double t_to) {
+  Instrument inst(s, hand(0));
+  Window w;
+  double t = 0.0;
+  while (t < t_to) {
+    double dt = 1e-3;
+    if (stall_s > 0 && t >= 1.0 && t < 1.0 + 1e-3) dt = stall_s;
+    t += dt;
+    const InstrumentOutput out = inst.step({dt, hand(4 * t), {0.0, 0.0, 0.5}});
+    if (dt == stall_s) w.stall_status = out.status;
+    if (t >= t_from) w.peak_N = std::max(w.peak_N, out.displayed_force_N.norm());
+  }
+  return w;
+}
+
+TEST(InstrumentTest, A50msStallIsBridgedWithoutASpike) {
+  // The hand keeps moving (up to 0.14 m/s, 0.9 rad/s) during a 50 ms stall.
+  // Afterwards the force must stay within what the same motion gives without
+  // a stall, over the 100 ms after the stall plus 0.1 N. Without sub-stepping
+  // a 50 ms dt would put the 70 Hz Butterworth above Nyquist and integrate
+  // the stiff couplings over a 7x longer step than they are specified for.
+  for (const char* name : {"inertia", "all_degradations", "max_stable"}) {
+    const EngineSettings s = load_example(name);
+    const Window stalled = run_with_stall(s, 0.050, 1.050, 1.150);
+    const Window reference = run_with_stall(s, 0.0, 1.0, 1.150);
+    EXPECT_TRUE(stalled.stall_status & kDtSubstepped) << name;
+    EXPECT_FALSE(stalled.stall_status & kDtResynced) << name;
+    EXPECT_LE(stalled.peak_N, reference.peak_N + 0.1) << name;
+  }
+}
+
+TEST(InstrumentTest, ALongStallReanchorsAndInjectsNoEnergy) {
+  // After a 1 s stall nothing dynamic is left: at most the VE force (0 here),
+  // cogging and friction levels, on any axis.
+  const EngineSettings s = load_example("max_stable");
+  std::uint32_t status = 0;
+  Instrument inst(s, hand(0));
+  double t = 0.0;
+  for (int i = 0; i < 1000; ++i) {
+    t += 1e-3;
+    inst.step({1e-3, hand(4 * t), {0, 0, 0}});
+  }
+  t += 1.0;
+  const InstrumentOutput out = inst.step({1.0, hand(4 * t), {0, 0, 0}});
+  status = out.status;
+  EXPECT_TRUE(status & kDtResynced);
+  EXPECT_LE(std::abs(out.joint_force[0]), 0.6 + 0.45 + 1e-9);
+  EXPECT_LE(std::abs(out.joint_force[1]), 0.04 + 0.03 + 1e-9);
+  EXPECT_LE(std::abs(out.joint_force[2]), 0.04 + 0.03 + 1e-9);
+}
+
+TEST(InstrumentTest, ZeroAndNegativeDtAdvanceNoTime) {
+  const EngineSettings s = load_example("inertia");
+  Instrument inst(s, hand(0));
+  double t = 0.0;
+  InstrumentOutput before;
+  for (int i = 0; i < 500; ++i) {
+    t += 1e-3;
+    before = inst.step({1e-3, hand(4 * t), {0, 0, 0}});
+  }
+  // Same position, no time: the mass does not move, so the only change is
+  // the short average taking the (identical) coupling force once more.
+  for (double dt : {0.0, -1e-3}) {
+    const InstrumentOutput out = inst.step({dt, hand(4 * t), {0, 0, 0}});
+    EXPECT_TRUE(out.status & kDtNotPositive);
+    EXPECT_LT((out.joint_force - before.joint_force).cwiseAbs().maxCoeff(), 0.05);
+  }
+}
+
+class InstrumentRateTest : public ::testing::TestWithParam<testing::RateCase> {};
+
+TEST_P(InstrumentRateTest, AllDegradationsArePassiveOverAClosedMotion) {
+  // Net work done on the hand over a motion that returns to rest where it
+  // began: ≤ 0 for a passive device (1 mJ slack for discretization, against
+  // ~50 mJ that friction dissipates here).
+  EngineSettings s = load_example("max_stable");
+  Instrument inst(s, hand(0));
+  testing::DtSource dts(GetParam());
+  double t = 0.0, work_J = 0.0, dissipated_scale = 0.0;
+  JointVector q_prev = hand(0);
+  while (t < 8.0) {
+    const double dt = dts.next();
+    t += dt;
+    const double envelope = t < 7.0 ? std::sin(std::numbers::pi * t / 7.0) : 0.0;
+    const JointVector q = hand(0) + envelope * (hand(2 * t) - hand(0));
+    const InstrumentOutput out = inst.step({dt, q, {0, 0, 0}});
+    ASSERT_FALSE(out.status & kFaultMask);
+    const JointVector dq = q - q_prev;
+    work_J += out.joint_force.dot(dq);
+    dissipated_scale += 0.45 * std::abs(dq[0]);
+    q_prev = q;
+  }
+  EXPECT_LE(work_J, 1e-3);
+  EXPECT_GT(dissipated_scale, 0.02);  // the motion is not trivially small
+}
+
+INSTANTIATE_TEST_SUITE_P(Rates, InstrumentRateTest, ::testing::ValuesIn(testing::kRateCases),
+                         [](const auto& info) { return testing::rate_name(info.param); });
+
+}  // namespace
+}  // namespace hapticlab
