@@ -17,6 +17,8 @@ void add_settings_check_command(CLI::App& settings) {
       "check", "Validate settings files; print the resolved parameters (defaults filled in)");
   cmd->add_option("files", *files, "Settings JSON files")->required()->check(CLI::ExistingFile);
   cmd->add_flag("-q,--quiet", *quiet, "Only report errors");
+  settings.add_subcommand("reference", "Print every settings field with its default and range")
+      ->callback([] { std::cout << settings_reference_markdown(); });
   cmd->callback([files, quiet] {
     for (const std::string& f : *files) {
       const NamedSettings s = load_settings_file(f);

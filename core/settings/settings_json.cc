@@ -330,3 +330,29 @@ void validate_settings(const EngineSettings& settings) {
 }
 
 }  // namespace hapticlab
+
+namespace hapticlab {
+
+std::string settings_reference_markdown() {
+  EngineSettings s;
+  std::ostringstream md;
+  md << "| field | default | allowed |\n| --- | --- | --- |\n";
+  auto rows = [&md](const std::string& prefix, const std::vector<Block>& blocks) {
+    for (const Block& b : blocks) {
+      for (const Field& f : b.fields) {
+        md << "| `" << prefix << b.name << "." << f.key << "` | " << format_number(f.default_value)
+           << " | " << (f.lo_exclusive ? "> " : ">= ") << format_number(f.lo) << ", <= "
+           << format_number(f.hi) << " |\n";
+      }
+    }
+  };
+  rows("translation.", axis_blocks(AxisKind::kTranslation, s.translation));
+  rows("rotation.", axis_blocks(AxisKind::kRotation, s.rotation));
+  rows("", engine_blocks(s));
+  const Field arm = moment_arm_field(s);
+  md << "| `" << arm.key << "` | " << format_number(arm.default_value) << " | >= "
+     << format_number(arm.lo) << ", <= " << format_number(arm.hi) << " |\n";
+  return md.str();
+}
+
+}  // namespace hapticlab

@@ -47,4 +47,8 @@ nlohmann::json settings_to_json(const NamedSettings& s);
 // Checks settings built in code against the same ranges the loader uses.
 void validate_settings(const EngineSettings& s);
 
+// Markdown table of every field with its default and allowed range, made
+// from the same table the loader uses (docs/settings.md embeds it).
+std::string settings_reference_markdown();
+
 }  // namespace hapticlab

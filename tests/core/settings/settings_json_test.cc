@@ -1,6 +1,8 @@
 #include "core/settings/settings_json.h"
 
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -126,6 +128,20 @@ TEST(SettingsJsonTest, ValidateCatchesSettingsBuiltInCode) {
   } catch (const SettingsError& e) {
     EXPECT_THAT(std::string(e.what()), HasSubstr("translation.inertia.mass_kg"));
   }
+}
+
+}  // namespace
+}  // namespace hapticlab
+
+namespace hapticlab {
+namespace {
+
+TEST(SettingsReferenceTest, DocsContainTheGeneratedFieldTable) {
+  std::ifstream in(std::string(HAPTICLAB_SOURCE_DIR) + "/docs/settings.md");
+  std::stringstream doc;
+  doc << in.rdbuf();
+  EXPECT_THAT(doc.str(), ::testing::HasSubstr(settings_reference_markdown()))
+      << "regenerate the table with `hapticlab settings reference`";
 }
 
 }  // namespace

@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# The main job: install, build, and run the demo on the embedded defaults.
+#   scripts/demo.sh [demo options...]    (e.g. --out DIR, --seconds S)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh build
+build/app/hapticlab demo "$@"
