@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/models/cogging.h"
-#include "testing/rates.h"
+#include "testing/chain_driver.h"
 
 namespace hapticlab {
 namespace {
@@ -30,23 +30,17 @@ TEST_P(DofChainLoopTest, WithoutBacklashTheForcesAddOnTheInstrument) {
   // clipped to 1 N: F = 1 − 0.45 + cogging(x) ± small inertia noise.
   AxisSettings s = all_degradations();
   s.backlash.enabled = false;
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0, x = 0.0;
-  while (t < 1.0) {
-    const double dt = dts.next();
-    t += dt;
-    x += 0.05 * dt;
-    const DofOutput out = chain.step(s, x, 3.0, dt, butterworth_lowpass_1st(70.0, dt));
-    // The start from rest excites the coupling (ζ = 0.3, ω_n = 77 rad/s),
-    // which decays as exp(−ζ·ω_n·t): below 1e-6 N after 0.6 s.
-    if (t > 0.6) {
-      const double expected = 1.0 - 0.45 + cogging_force(s.cogging, x).force;
-      ASSERT_NEAR(out.force, expected, GetParam().jitter ? 3e-3 : 1e-5) << t;
-      ASSERT_EQ(out.position, x);
-    }
-  }
+  const double tolerance_N = GetParam().jitter ? 3e-3 : 1e-5;
+  testing::drive_chain(
+      s, GetParam(), 1.0, [](double t) { return 0.05 * t; }, testing::constant_force(3.0),
+      [&](const testing::ChainStep& k) {
+        // The start from rest excites the coupling (ζ = 0.3, ω_n = 77 rad/s),
+        // which decays as exp(−ζ·ω_n·t): below 1e-6 N after 0.6 s.
+        if (k.t_s <= 0.6) return;
+        const double expected = 1.0 - 0.45 + cogging_force(s.cogging, k.x).force;
+        ASSERT_NEAR(k.out.force, expected, tolerance_N) << k.t_s;
+        ASSERT_EQ(k.out.position, k.x);
+      });
 }
 
 TEST_P(DofChainLoopTest, WithBacklashTheForcesActOnTheMassAndTheVeSeesTheGap) {
@@ -55,18 +49,13 @@ TEST_P(DofChainLoopTest, WithBacklashTheForcesActOnTheMassAndTheVeSeesTheGap) {
   // user feels the VE force plus the cogging at the limited position, less
   // what friction (up to 0.45 N + Karnopp 0.05 N) holds back.
   const AxisSettings s = all_degradations();
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
   DofOutput out;
-  double t = 0.0;
   double max_offset = 0.0;
-  while (t < 2.0) {
-    const double dt = dts.next();
-    t += dt;
-    out = chain.step(s, 0.0, 0.8, dt, butterworth_lowpass_1st(70.0, dt));
-    max_offset = std::max(max_offset, std::abs(out.position));
-  }
+  testing::drive_chain(s, GetParam(), 2.0, [](double) { return 0.0; },
+                       testing::constant_force(0.8), [&](const testing::ChainStep& k) {
+                         out = k.out;
+                         max_offset = std::max(max_offset, std::abs(k.out.position));
+                       });
   EXPECT_LE(max_offset, 0.001 + 1e-12);
   const double wall_cogging = cogging_force(s.cogging, out.position).force;
   EXPECT_LE(out.force, 0.8 + wall_cogging + 1e-3);
@@ -80,20 +69,17 @@ TEST_P(DofChainLoopTest, AllDegradationsStayBoundedAndPassiveOnAHandMotion) {
   // implicitly integrated mass stores and returns energy without gain).
   AxisSettings s = all_degradations();
   s.friction.enabled = true;
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0, x_prev = 0.0, work_on_hand_J = 0.0, peak = 0.0;
-  while (t < 6.0) {
-    const double dt = dts.next();
-    t += dt;
-    const double x = t < 5.0 ? 0.01 * std::sin(1.3 * t) * std::sin(2 * std::numbers::pi * t / 5.0)
-                             : 0.0;
-    const DofOutput out = chain.step(s, x, 0.0, dt, butterworth_lowpass_1st(70.0, dt));
-    work_on_hand_J += out.force * (x - x_prev);
-    peak = std::max(peak, std::abs(out.force));
-    x_prev = x;
-  }
+  double x_prev = 0.0, work_on_hand_J = 0.0, peak = 0.0;
+  testing::drive_chain(
+      s, GetParam(), 6.0,
+      [](double t) {
+        return t < 5.0 ? 0.01 * std::sin(1.3 * t) * std::sin(2 * std::numbers::pi * t / 5.0) : 0.0;
+      },
+      testing::no_force(), [&](const testing::ChainStep& k) {
+        work_on_hand_J += k.out.force * (k.x - x_prev);
+        peak = std::max(peak, std::abs(k.out.force));
+        x_prev = k.x;
+      });
   EXPECT_LE(work_on_hand_J, 1e-5);
   EXPECT_LT(peak, 2.0);
 }

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "core/engine/dof_chain.h"
-#include "testing/rates.h"
+#include "testing/chain_driver.h"
 
 namespace hapticlab {
 namespace {
@@ -28,26 +28,17 @@ TEST_P(BacklashLoopTest, ZeroForceDeadBandEqualsTheGap) {
   // pushed against Karnopp friction of at most 0.05 N: 0.05/600 = 0.083 mm),
   // minus the few steps the 3-update average needs to reach exactly zero.
   const AxisSettings s = inertia_backlash();
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  const double v = 0.002;
-  double t = 0.0, x = 0.0;
+  const double v = 0.002, turn_s = 1.5;  // 3 mm forward, then back to -3 mm
   double zero_start = NAN, zero_end = NAN;
-  bool back = false;
-  while (true) {
-    const double dt = dts.next();
-    t += dt;
-    if (!back && x >= 0.003) back = true;
-    x += (back ? -v : v) * dt;
-    if (x < -0.003) break;
-    const DofOutput out = chain.step(s, x, 0.0, dt, butterworth_lowpass_1st(70.0, dt));
-    ASSERT_LE(std::abs(out.position - x), 0.001 + 1e-12);  // VE never sees more than gap/2
-    if (back) {
-      if (out.force == 0.0 && std::isnan(zero_start)) zero_start = x;
-      if (out.force != 0.0 && !std::isnan(zero_start) && std::isnan(zero_end)) zero_end = x;
-    }
-  }
+  testing::drive_chain(
+      s, GetParam(), 3 * turn_s,
+      [&](double t) { return t < turn_s ? v * t : v * (2 * turn_s - t); }, testing::no_force(),
+      [&](const testing::ChainStep& k) {
+        ASSERT_LE(std::abs(k.out.position - k.x), 0.001 + 1e-12);  // VE sees at most gap/2
+        if (k.t_s < turn_s) return;
+        if (k.out.force == 0.0 && std::isnan(zero_start)) zero_start = k.x;
+        if (k.out.force != 0.0 && !std::isnan(zero_start) && std::isnan(zero_end)) zero_end = k.x;
+      });
   ASSERT_FALSE(std::isnan(zero_start));
   ASSERT_FALSE(std::isnan(zero_end));
   const double band = zero_start - zero_end;
@@ -60,17 +51,10 @@ TEST_P(BacklashLoopTest, VeForceReachesTheHandOnlyThroughTheWall) {
   // A steady 0.5 N VE force pushes the mass forward against the front wall;
   // with the instrument held still the user feels the full 0.5 N (minus the
   // Karnopp friction the mass may keep) through the compressed coupling.
-  const AxisSettings s = inertia_backlash();
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
   DofOutput out;
-  double t = 0.0;
-  while (t < 1.5) {
-    const double dt = dts.next();
-    t += dt;
-    out = chain.step(s, 0.0, 0.5, dt, butterworth_lowpass_1st(70.0, dt));
-  }
+  testing::drive_chain(inertia_backlash(), GetParam(), 1.5, [](double) { return 0.0; },
+                       testing::constant_force(0.5),
+                       [&](const testing::ChainStep& k) { out = k.out; });
   EXPECT_NEAR(out.force, 0.5, 0.05 + 1e-6);
   // The VE sees the tool at the wall, gap/2 ahead (infinitely stiff walls).
   EXPECT_NEAR(out.position, 0.001, 1e-12);

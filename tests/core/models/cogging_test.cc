@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "core/engine/dof_chain.h"
-#include "testing/rates.h"
+#include "testing/chain_driver.h"
 
 namespace hapticlab {
 namespace {
@@ -58,36 +58,24 @@ class CoggingLoopTest : public ::testing::TestWithParam<testing::RateCase> {};
 TEST_P(CoggingLoopTest, ChainOutputIsThePositionFunctionAtAnyRate) {
   AxisSettings s;
   s.cogging = table31();
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0;
-  while (t < 1.0) {
-    const double dt = dts.next();
-    t += dt;
-    const double x = 0.03 * std::sin(2.0 * t);
-    const DofOutput out = chain.step(s, x, 0.0, dt, butterworth_lowpass_1st(70.0, dt));
-    ASSERT_NEAR(out.force, -0.45 * std::sin(2 * std::numbers::pi * x / 0.010), 1e-12);
-  }
+  testing::drive_chain(
+      s, GetParam(), 1.0, [](double t) { return 0.03 * std::sin(2.0 * t); }, testing::no_force(),
+      [](const testing::ChainStep& k) {
+        ASSERT_NEAR(k.out.force, -0.45 * std::sin(2 * std::numbers::pi * k.x / 0.010), 1e-12);
+      });
 }
 
 TEST_P(CoggingLoopTest, RippleModulatesVeForceAndCogging) {
   AxisSettings s;
   s.cogging = table31();
   s.cogging.ripple_fraction = 0.05;
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0;
-  while (t < 0.5) {
-    const double dt = dts.next();
-    t += dt;
-    const double x = 0.02 * t;
-    const double phase = 2 * std::numbers::pi * x / 0.010;
-    const DofOutput out = chain.step(s, x, 2.0, dt, butterworth_lowpass_1st(70.0, dt));
-    ASSERT_NEAR(out.force, (2.0 - 0.45 * std::sin(phase)) * (1.0 + 0.05 * std::sin(phase)),
-                1e-12);
-  }
+  testing::drive_chain(
+      s, GetParam(), 0.5, [](double t) { return 0.02 * t; }, testing::constant_force(2.0),
+      [](const testing::ChainStep& k) {
+        const double phase = 2 * std::numbers::pi * k.x / 0.010;
+        ASSERT_NEAR(k.out.force, (2.0 - 0.45 * std::sin(phase)) * (1.0 + 0.05 * std::sin(phase)),
+                    1e-12);
+      });
 }
 
 INSTANTIATE_TEST_SUITE_P(Rates, CoggingLoopTest, ::testing::ValuesIn(testing::kRateCases),

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "core/engine/dof_chain.h"
-#include "testing/rates.h"
+#include "testing/chain_driver.h"
 
 namespace hapticlab {
 namespace {
@@ -82,20 +82,15 @@ TEST_P(FrictionLoopTest, HysteresisLoopDissipatesTheParallelogramArea) {
   const double amplitude_m = 5e-3, freq_Hz = 1.0;
   AxisSettings s;
   s.friction = table31();
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0, x_prev = 0.0, work_on_hand_J = 0.0, peak_N = 0.0;
-  while (t < 3.0) {
-    const double dt = dts.next();
-    t += dt;
-    const double x = amplitude_m * std::sin(2 * std::numbers::pi * freq_Hz * t);
-    const double dt_eff = dt;
-    const DofOutput out = chain.step(s, x, 0.0, dt_eff, butterworth_lowpass_1st(70.0, dt_eff));
-    if (t > 1.0 && t <= 3.0) work_on_hand_J += out.force * (x - x_prev);  // two full cycles
-    peak_N = std::max(peak_N, std::abs(out.force));
-    x_prev = x;
-  }
+  double x_prev = 0.0, work_on_hand_J = 0.0, peak_N = 0.0;
+  testing::drive_chain(
+      s, GetParam(), 3.0,
+      [&](double t) { return amplitude_m * std::sin(2 * std::numbers::pi * freq_Hz * t); },
+      testing::no_force(), [&](const testing::ChainStep& k) {
+        if (k.t_s > 1.0 && k.t_s <= 3.0) work_on_hand_J += k.out.force * (k.x - x_prev);  // 2 cycles
+        peak_N = std::max(peak_N, std::abs(k.out.force));
+        x_prev = k.x;
+      });
   const double expected_J = 2 * 4 * 0.45 * (amplitude_m - 1e-4);  // 2 cycles: 0.01764 J
   // Tolerance 2%: the rectangle-rule sum misplaces each force switch by up to
   // one step; at 150 Hz a step is 0.2 mm ≈ 2% of the 2A = 10 mm travel in
@@ -109,18 +104,11 @@ TEST_P(FrictionLoopTest, RotationalVariantUsesTheSameModelInItsUnits) {
   // Table 3.1 rotation: 30 mN·m, 0.01 rad pre-sliding; Table 2.2: 0.1 rad/s.
   AxisSettings s;
   s.friction = {true, 0.030, 0.01, 0.1};
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0, q = 0.0;
-  DofOutput out;
-  while (t < 0.5) {  // rotate at 0.5 rad/s for half a second
-    const double dt = dts.next();
-    t += dt;
-    q += 0.5 * dt;
-    out = chain.step(s, q, 0.0, dt, butterworth_lowpass_1st(70.0, dt));
-  }
-  EXPECT_NEAR(out.force, -0.030, 1e-12);
+  double last_torque_Nm = 0.0;
+  testing::drive_chain(  // rotate at 0.5 rad/s for half a second
+      s, GetParam(), 0.5, [](double t) { return 0.5 * t; }, testing::no_force(),
+      [&](const testing::ChainStep& k) { last_torque_Nm = k.out.force; });
+  EXPECT_NEAR(last_torque_Nm, -0.030, 1e-12);
 }
 
 INSTANTIATE_TEST_SUITE_P(Rates, FrictionLoopTest, ::testing::ValuesIn(testing::kRateCases),

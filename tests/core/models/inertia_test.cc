@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/engine/dof_chain.h"
-#include "testing/rates.h"
+#include "testing/chain_driver.h"
 
 namespace hapticlab {
 namespace {
@@ -36,24 +36,15 @@ TEST_P(InertiaLoopTest, ForceIsMinusMassTimesAccelerationOnASlowSinusoid) {
   const double amplitude_m = 0.02, w = 2 * std::numbers::pi;
   AxisSettings s;
   s.inertia = table31();
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0, sin_sum = 0.0, cos_sum = 0.0, duration = 0.0;
-  double x_prev = 0.0;
-  while (t < 4.0) {
-    const double dt = dts.next();
-    t += dt;
-    const double x = amplitude_m * std::sin(w * t);
-    const DofOutput out = chain.step(s, x, 0.0, dt, butterworth_lowpass_1st(70.0, dt));
-    if (t > 1.0) {  // after the start-up transient; three whole cycles
-      sin_sum += out.force * std::sin(w * t) * dt;
-      cos_sum += out.force * std::cos(w * t) * dt;
-      duration += dt;
-    }
-    x_prev = x;
-  }
-  (void)x_prev;
+  double sin_sum = 0.0, cos_sum = 0.0, duration = 0.0;
+  testing::drive_chain(
+      s, GetParam(), 4.0, [&](double t) { return amplitude_m * std::sin(w * t); },
+      testing::no_force(), [&](const testing::ChainStep& k) {
+        if (k.t_s <= 1.0) return;  // start-up transient; then three whole cycles
+        sin_sum += k.out.force * std::sin(w * k.t_s) * k.dt_s;
+        cos_sum += k.out.force * std::cos(w * k.t_s) * k.dt_s;
+        duration += k.dt_s;
+      });
   const SineFit fit{2 * std::hypot(sin_sum, cos_sum) / duration, std::atan2(cos_sum, sin_sum)};
   const double expected = 0.1 * amplitude_m * w * w;
   EXPECT_NEAR(fit.amplitude, expected, 0.03 * expected);
@@ -64,17 +55,9 @@ TEST_P(InertiaLoopTest, NoForceAtConstantVelocity) {
   // Unaccelerated motion needs no force once the mass has caught up.
   AxisSettings s;
   s.inertia = table31();
-  DofChain chain;
-  chain.reset(s, 0.0);
-  testing::DtSource dts(GetParam());
-  double t = 0.0, x = 0.0;
   DofOutput out;
-  while (t < 1.5) {
-    const double dt = dts.next();
-    t += dt;
-    x += 0.05 * dt;
-    out = chain.step(s, x, 0.0, dt, butterworth_lowpass_1st(70.0, dt));
-  }
+  testing::drive_chain(s, GetParam(), 1.5, [](double t) { return 0.05 * t; },
+                       testing::no_force(), [&](const testing::ChainStep& k) { out = k.out; });
   // Jittered dt makes the difference quotient noisy, which the coupling
   // passes on as a small force; fixed rates settle to 0.
   EXPECT_NEAR(out.force, 0.0, GetParam().jitter ? 2e-3 : 1e-6);
