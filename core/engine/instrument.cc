@@ -55,7 +55,8 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   }
   const LoopEmulation& loop = settings_.loop;
   ve = ve_force_delay_.step(ve, in.dt_s, loop.force_latency_s, loop.hold_rate_Hz);
-  const JointVector ve_joint = world_to_joint(in.position, ve);
+  const ToolPose pose = tool_pose(in.position);
+  const JointVector ve_joint = world_to_joint(pose, ve);
 
   // dt policy: how many sub-steps of which length
   int substeps = 1;
@@ -108,13 +109,16 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
     }
   }
   out.joint_force = command;
-  out.displayed_force_N = joint_to_world(in.position, command, settings_.min_moment_arm_m);
+  out.displayed_force_N = joint_to_world(pose, command, settings_.min_moment_arm_m);
 
   // degraded joints => delayed/held => VE, with display offsets
   out.degraded_position =
       position_delay_.step(degraded, in.dt_s, loop.position_latency_s, loop.hold_rate_Hz);
-  out.tip_offset_m = tip_offset(in.position, out.degraded_position);
-  out.orientation_offset = orientation_offset(in.position, out.degraded_position);
+  if (out.degraded_position != in.position) {  // backlash or latency on: the VE sees elsewhere
+    const ToolPose shown = tool_pose(out.degraded_position);
+    out.tip_offset_m = tip_offset(pose, shown);
+    out.orientation_offset = orientation_offset(pose, shown);
+  }
 
   if (!out.displayed_force_N.allFinite() || !out.joint_force.allFinite() ||
       !out.degraded_position.allFinite()) {

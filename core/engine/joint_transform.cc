@@ -26,27 +26,33 @@ Eigen::Vector3d tip_position(const JointVector& q) noexcept {
   return q[0] * insertion_direction(q[1], q[2]);
 }
 
-JointVector world_to_joint(const JointVector& q, const Eigen::Vector3d& f) noexcept {
-  const Eigen::Matrix3d r = tool_orientation(q[1], q[2]);
-  const double arm_pitch = q[0];
-  const double arm_yaw = q[0] * std::cos(q[1]);
+ToolPose tool_pose(const JointVector& q) noexcept {
+  return {tool_orientation(q[1], q[2]), q[0], std::cos(q[1])};
+}
+
+JointVector world_to_joint(const ToolPose& pose, const Eigen::Vector3d& f) noexcept {
+  const Eigen::Matrix3d& r = pose.orientation;
+  const double arm_pitch = pose.insertion_m;
+  const double arm_yaw = pose.insertion_m * pose.cos_pitch;
   return {-r.col(2).dot(f), arm_pitch * r.col(1).dot(f), arm_yaw * r.col(0).dot(f)};
 }
 
-Eigen::Vector3d joint_to_world(const JointVector& q, const JointVector& tau,
+Eigen::Vector3d joint_to_world(const ToolPose& pose, const JointVector& tau,
                                double min_moment_arm_m) noexcept {
-  const Eigen::Matrix3d r = tool_orientation(q[1], q[2]);
-  const double arm_pitch = std::max(q[0], min_moment_arm_m);
-  const double arm_yaw = std::max(q[0] * std::cos(q[1]), min_moment_arm_m);
+  const Eigen::Matrix3d& r = pose.orientation;
+  const double arm_pitch = std::max(pose.insertion_m, min_moment_arm_m);
+  const double arm_yaw = std::max(pose.insertion_m * pose.cos_pitch, min_moment_arm_m);
   return -tau[0] * r.col(2) + (tau[1] / arm_pitch) * r.col(1) + (tau[2] / arm_yaw) * r.col(0);
 }
 
-Eigen::Vector3d tip_offset(const JointVector& q, const JointVector& q_ve) noexcept {
-  return tip_position(q_ve) - tip_position(q);
+Eigen::Vector3d tip_offset(const ToolPose& measured, const ToolPose& shown) noexcept {
+  // tip = insertion·d_in = −insertion·(third column of R_w)
+  return measured.insertion_m * measured.orientation.col(2) -
+         shown.insertion_m * shown.orientation.col(2);
 }
 
-Eigen::Matrix3d orientation_offset(const JointVector& q, const JointVector& q_ve) noexcept {
-  return tool_orientation(q_ve[1], q_ve[2]) * tool_orientation(q[1], q[2]).transpose();
+Eigen::Matrix3d orientation_offset(const ToolPose& measured, const ToolPose& shown) noexcept {
+  return shown.orientation * measured.orientation.transpose();
 }
 
 }  // namespace hapticlab

@@ -29,25 +29,47 @@ namespace hapticlab {
 // (insertion m, pitch rad, yaw rad)
 using JointVector = Eigen::Vector3d;
 
+// A pose with its trigonometry done once: every transform of one update
+// shares it (the sines and cosines are most of an update's cost).
+struct ToolPose {
+  Eigen::Matrix3d orientation;  // R_w: columns e_yaw, e_pitch, −d_in
+  double insertion_m;
+  double cos_pitch;
+};
+ToolPose tool_pose(const JointVector& q) noexcept;
+
 Eigen::Matrix3d tool_orientation(double pitch_rad, double yaw_rad) noexcept;
 Eigen::Vector3d insertion_direction(double pitch_rad, double yaw_rad) noexcept;
 Eigen::Vector3d tip_position(const JointVector& q) noexcept;
 
 // World tip force [N] => (insertion force N, pitch torque N·m, yaw torque N·m).
-JointVector world_to_joint(const JointVector& q, const Eigen::Vector3d& force_N) noexcept;
+JointVector world_to_joint(const ToolPose& pose, const Eigen::Vector3d& force_N) noexcept;
+inline JointVector world_to_joint(const JointVector& q, const Eigen::Vector3d& force_N) noexcept {
+  return world_to_joint(tool_pose(q), force_N);
+}
 
 // Joint forces => world tip force [N]. Moment arms are floored at
 // min_moment_arm_m so a tool at the trocar (insertion 0) gives finite forces.
-Eigen::Vector3d joint_to_world(const JointVector& q, const JointVector& joint_force,
+Eigen::Vector3d joint_to_world(const ToolPose& pose, const JointVector& joint_force,
                                double min_moment_arm_m) noexcept;
+inline Eigen::Vector3d joint_to_world(const JointVector& q, const JointVector& joint_force,
+                                      double min_moment_arm_m) noexcept {
+  return joint_to_world(tool_pose(q), joint_force, min_moment_arm_m);
+}
 
 // Backlash display offsets (eq. 2.20–2.21): where the VE should show the tip
 // and how it should rotate the tool, given the instrument's measured joints q
 // and the degraded joints q_ve. The tip offset is the exact difference of tip
 // positions; eq. 2.20 is its first-order form J(q)·(q_ve − q).
-Eigen::Vector3d tip_offset(const JointVector& q, const JointVector& q_ve) noexcept;
+Eigen::Vector3d tip_offset(const ToolPose& measured, const ToolPose& shown) noexcept;
+inline Eigen::Vector3d tip_offset(const JointVector& q, const JointVector& q_ve) noexcept {
+  return tip_offset(tool_pose(q), tool_pose(q_ve));
+}
 // World-frame rotation taking the measured tool orientation to the degraded
 // one: R_w(q_ve)·R_w(q)ᵀ (eq. 2.21 with R_offset,t expressed in the world).
-Eigen::Matrix3d orientation_offset(const JointVector& q, const JointVector& q_ve) noexcept;
+Eigen::Matrix3d orientation_offset(const ToolPose& measured, const ToolPose& shown) noexcept;
+inline Eigen::Matrix3d orientation_offset(const JointVector& q, const JointVector& q_ve) noexcept {
+  return orientation_offset(tool_pose(q), tool_pose(q_ve));
+}
 
 }  // namespace hapticlab
