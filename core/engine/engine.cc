@@ -1,13 +1,26 @@
 #include "core/engine/engine.h"
 
 #include "core/engine/status.h"
+#include "core/settings/settings_json.h"
 
 namespace hapticlab {
 
+namespace {
+const EngineSettings& validated(const EngineSettings& s) {
+  validate_settings(s);
+  return s;
+}
+}  // namespace
+
 Engine::Engine(const EngineSettings& settings,
                const std::array<JointVector, kNumInstruments>& start)
-    : exchange_(settings),
+    : exchange_(validated(settings)),
       instruments_{Instrument(settings, start[0]), Instrument(settings, start[1])} {}
+
+void Engine::set_settings(const EngineSettings& settings) {
+  validate_settings(settings);
+  exchange_.publish(settings);
+}
 
 InstrumentOutput Engine::update(int instrument, const InstrumentInput& in) noexcept {
   if (instrument < 0 || instrument >= kNumInstruments) {

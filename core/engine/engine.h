@@ -20,7 +20,8 @@ namespace hapticlab {
 
 class Engine {
  public:
-  // `settings` must have passed validation (settings_json.h does it on load).
+  // Throws SettingsError if `settings` break a documented range
+  // (validate_settings); files loaded with settings_json.h already passed.
   explicit Engine(const EngineSettings& settings,
                   const std::array<JointVector, kNumInstruments>& start_positions = {
                       JointVector(0.1, 0.0, 0.0), JointVector(0.1, 0.0, 0.0)});
@@ -29,8 +30,9 @@ class Engine {
   // with kFaultInvalidArgument set).
   InstrumentOutput update(int instrument, const InstrumentInput& in) noexcept;
 
-  // Control thread. Validated settings only.
-  void set_settings(const EngineSettings& settings) { exchange_.publish(settings); }
+  // Control thread. Validates first (throws SettingsError, and nothing
+  // changes, if a field is out of range), then publishes.
+  void set_settings(const EngineSettings& settings);
 
   // Settings in use by the real-time side (read it from that thread).
   const EngineSettings& settings() const noexcept { return exchange_.current(); }

@@ -83,3 +83,22 @@ TEST(EngineTest, SwitchingCoggingOnJumpsOnlyByTheCoggingForce) {
 
 }  // namespace
 }  // namespace hapticlab
+
+namespace hapticlab {
+namespace {
+
+TEST(EngineTest, InvalidSettingsAreRefusedAndChangeNothing) {
+  EngineSettings good;
+  good.translation.saturation = {true, 1.0};
+  Engine e(good);
+  EngineSettings bad = good;
+  bad.translation.saturation.level = -1.0;
+  EXPECT_THROW(e.set_settings(bad), SettingsError);
+  EXPECT_THROW(Engine{bad}, SettingsError);
+  const JointVector q(0.1, 0.0, 0.0);
+  e.update(0, {1e-3, q, {0, 0, -5.0}});
+  EXPECT_EQ(e.update(0, {1e-3, q, {0, 0, -5.0}}).joint_force[0], 1.0);
+}
+
+}  // namespace
+}  // namespace hapticlab
