@@ -29,6 +29,10 @@ int main(int argc, char** argv) {
   bench->require_subcommand(1);
   hapticlab::app::add_bench_engine_command(*bench);
 
+  if (argc == 1) {
+    std::fputs(app.help().c_str(), stdout);
+    return 0;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

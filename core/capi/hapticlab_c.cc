@@ -20,7 +20,7 @@ namespace {
 
 static_assert(HL_FAULT_NON_FINITE_INPUT == hapticlab::kFaultNonFiniteInput);
 static_assert(HL_FAULT_NON_FINITE_STATE == hapticlab::kFaultNonFiniteState);
-static_assert(HL_DT_NOT_POSITIVE == hapticlab::kDtNotPositive);
+static_assert(HL_DT_DEFERRED == hapticlab::kDtDeferred);
 static_assert(HL_DT_SUBSTEPPED == hapticlab::kDtSubstepped);
 static_assert(HL_DT_RESYNCED == hapticlab::kDtResynced);
 static_assert(HL_FORCE_LIMITED == hapticlab::kForceLimited);

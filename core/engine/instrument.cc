@@ -58,17 +58,21 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   const ToolPose pose = tool_pose(in.position);
   const JointVector ve_joint = world_to_joint(pose, ve);
 
-  // dt policy: how many sub-steps of which length
+  // dt policy: how many sub-steps of which length. A dt below 1/2000 s (or
+  // <= 0) advances no time: it is carried into the next update, because a
+  // position difference over a microsecond would be a velocity spike.
+  double dt = (in.dt_s > 0.0 ? in.dt_s : 0.0) + deferred_dt_s_;
+  deferred_dt_s_ = 0.0;
   int substeps = 1;
-  double dt = in.dt_s;
-  if (!(dt > 0.0)) {
-    out.status |= kDtNotPositive;
+  if (dt < kMinDt_s) {
+    out.status |= kDtDeferred;
+    deferred_dt_s_ = dt;
     dt = 0.0;
-  } else if (dt > kMaxDt_s) {
+  } else if (dt > kMaxDt_s && dt <= kMaxSubsteps * kMaxDt_s) {
     substeps = static_cast<int>(std::ceil(dt / kMaxDt_s - 1e-9));
     out.status |= kDtSubstepped;
   }
-  if (needs_resync_ || substeps > kMaxSubsteps) {
+  if (needs_resync_ || dt > kMaxSubsteps * kMaxDt_s) {
     if (!anchored_) {
       // First real update: nothing before it happened, not even in the
       // emulated loop's history.
@@ -79,6 +83,7 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
     resync(in.position);
     out.status |= kDtResynced;
     needs_resync_ = false;
+    deferred_dt_s_ = 0.0;
     substeps = 1;
     dt = 0.0;
   }
@@ -92,13 +97,15 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   for (int i = 1; i <= substeps; ++i) {
     const double w = static_cast<double>(i) / substeps;
     for (int a = 0; a < kNumAxes; ++a) {
-      const double x = last_position_[a] + w * (in.position[a] - last_position_[a]);
+      // The last sub-step lands exactly on the measured position.
+      const double x = i == substeps ? in.position[a]
+                                     : (1.0 - w) * last_position_[a] + w * in.position[a];
       const DofOutput d = chains_[a].step(settings_.axis(a), x, ve_joint[a], sub_dt, filter);
       command[a] = d.force;
       degraded[a] = d.position;
     }
   }
-  last_position_ = in.position;
+  if (dt > 0.0) last_position_ = in.position;  // a deferred update keeps the start point
 
   // device limit, per axis, last
   for (int a = 0; a < kNumAxes; ++a) {
@@ -109,7 +116,10 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
     }
   }
   out.joint_force = command;
-  out.displayed_force_N = joint_to_world(pose, command, settings_.min_moment_arm_m);
+  // The VE's own force passes to the tip exactly; only what the degradations
+  // changed goes back through the moment arms, whose floor near the trocar
+  // would otherwise distort the VE force there.
+  out.displayed_force_N = ve + joint_to_world(pose, command - ve_joint, settings_.min_moment_arm_m);
 
   // degraded joints => delayed/held => VE, with display offsets
   out.degraded_position =

@@ -7,7 +7,7 @@
 //     tip clip      |F_ve| <= limit (thesis "Force Saturation", 0 = no FFB)
 //     loop emul.    F_ve delayed / held
 //     world=>joint  F_ve => (F_i, T_pitch, T_yaw)            eq. 2.16–2.18
-//     dt policy     dt <= 0: no time passes; dt > 1/150 s: sub-steps of
+//     dt policy     dt < 1/2000 s: no time passes yet (carried over); dt > 1/150 s: sub-steps of
 //                   <= 1/150 s along the straight line between the two
 //                   positions; beyond 8 sub-steps (≈53 ms): re-anchor
 //     per DOF       DofChain: friction, cogging, saturation, inertia, backlash
@@ -70,7 +70,8 @@ class Instrument {
   JointVector last_position_ = JointVector::Zero();
   JointVector last_degraded_ = JointVector::Zero();
   bool needs_resync_ = true;
-  bool anchored_ = false;  // false until the first finite update  // the first update anchors the models at the real position
+  bool anchored_ = false;      // false until the first finite update
+  double deferred_dt_s_ = 0.0;  // time of updates too short to advance the models
 };
 
 }  // namespace hapticlab

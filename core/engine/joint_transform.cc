@@ -37,11 +37,19 @@ JointVector world_to_joint(const ToolPose& pose, const Eigen::Vector3d& f) noexc
   return {-r.col(2).dot(f), arm_pitch * r.col(1).dot(f), arm_yaw * r.col(0).dot(f)};
 }
 
+namespace {
+// |arm| floored, sign kept: a tip behind the pivot (negative insertion) has
+// its lateral directions reversed, and a floor must not flip them back.
+double floored_arm(double arm_m, double min_arm_m) noexcept {
+  return std::copysign(std::max(std::abs(arm_m), min_arm_m), arm_m);
+}
+}  // namespace
+
 Eigen::Vector3d joint_to_world(const ToolPose& pose, const JointVector& tau,
                                double min_moment_arm_m) noexcept {
   const Eigen::Matrix3d& r = pose.orientation;
-  const double arm_pitch = std::max(pose.insertion_m, min_moment_arm_m);
-  const double arm_yaw = std::max(pose.insertion_m * pose.cos_pitch, min_moment_arm_m);
+  const double arm_pitch = floored_arm(pose.insertion_m, min_moment_arm_m);
+  const double arm_yaw = floored_arm(pose.insertion_m * pose.cos_pitch, min_moment_arm_m);
   return -tau[0] * r.col(2) + (tau[1] / arm_pitch) * r.col(1) + (tau[2] / arm_yaw) * r.col(0);
 }
 

@@ -48,8 +48,9 @@ inline JointVector world_to_joint(const JointVector& q, const Eigen::Vector3d& f
   return world_to_joint(tool_pose(q), force_N);
 }
 
-// Joint forces => world tip force [N]. Moment arms are floored at
-// min_moment_arm_m so a tool at the trocar (insertion 0) gives finite forces.
+// Joint forces => world tip force [N]. The moment arms' magnitudes are
+// floored at min_moment_arm_m (signs kept) so a tool at the trocar
+// (insertion 0) gives finite forces.
 Eigen::Vector3d joint_to_world(const ToolPose& pose, const JointVector& joint_force,
                                double min_moment_arm_m) noexcept;
 inline Eigen::Vector3d joint_to_world(const JointVector& q, const JointVector& joint_force,

@@ -14,8 +14,9 @@ enum StatusFlag : std::uint32_t {
   // An internal value became non-finite (should never happen); the output was
   // zeroed and the instrument state was reset.
   kFaultNonFiniteState = 1u << 1,
-  // dt was zero or negative: no time advanced, velocity estimates were held.
-  kDtNotPositive = 1u << 2,
+  // dt was below 1/2000 s (or <= 0): no time advanced in this update and the
+  // velocity estimates were held; a positive dt is carried into the next update.
+  kDtDeferred = 1u << 2,
   // dt was above 1/150 s: the update was split into sub-steps of at most 1/150 s.
   kDtSubstepped = 1u << 3,
   // dt was longer than the engine can bridge by sub-stepping (a stall): the

@@ -6,7 +6,6 @@
 #include <cstring>
 #include <fstream>
 #include <istream>
-#include <optional>
 #include <ostream>
 #include <system_error>
 
@@ -37,13 +36,20 @@ void split_cells(std::string_view line, std::vector<std::string_view>& cells) {
   }
 }
 
-std::optional<double> parse_number(std::string_view cell) {
+// Empty string when `cell` is a number (stored in `value`), else what is wrong.
+std::string parse_number(std::string_view cell, double& value) {
+  if (cell.empty()) return "empty cell";
+  std::string_view digits = cell;
   // from_chars rejects a leading '+', which spreadsheets sometimes write.
-  if (cell.size() > 1 && cell.front() == '+' && cell[1] != '-') cell.remove_prefix(1);
-  double value = 0.0;
-  const auto [end, ec] = std::from_chars(cell.data(), cell.data() + cell.size(), value);
-  if (ec != std::errc{} || end != cell.data() + cell.size()) return std::nullopt;
-  return value;
+  if (digits.size() > 1 && digits.front() == '+' && digits[1] != '-') digits.remove_prefix(1);
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+  if (ec == std::errc::result_out_of_range) {
+    return "number out of the range of a double '" + std::string(cell) + "'";
+  }
+  if (ec != std::errc{} || end != digits.data() + digits.size()) {
+    return "non-numeric cell '" + std::string(cell) + "'";
+  }
+  return {};
 }
 
 std::string format_number(double v) {
@@ -117,7 +123,10 @@ void TrajectoryCsvReader::read_header() {
     throw TrajectoryCsvError(source_ + ": empty file, no header line" + expected);
   }
   split_cells(line_, cells_);
-  if (parse_number(cells_.front())) fail("no header line, the first line holds numbers" + expected);
+  double first = 0.0;
+  if (parse_number(cells_.front(), first).empty()) {
+    fail("no header line, the first line holds numbers" + expected);
+  }
 
   column_of_.fill(kUnset);
   std::vector<std::string> unknown;
@@ -162,13 +171,8 @@ bool TrajectoryCsvReader::next(TrajectoryRow& row) {
 
   std::array<double, kTrajectoryInputColumns.size()> v{};
   for (std::size_t k = 0; k < v.size(); ++k) {
-    const std::string_view cell = cells_[column_of_[k]];
-    const std::optional<double> number = parse_number(cell);
-    if (!number) {
-      fail(kTrajectoryInputColumns[k],
-           cell.empty() ? "empty cell" : "non-numeric cell '" + std::string(cell) + "'");
-    }
-    v[k] = *number;
+    const std::string problem = parse_number(cells_[column_of_[k]], v[k]);
+    if (!problem.empty()) fail(kTrajectoryInputColumns[k], problem);
   }
 
   const std::string_view instrument_cell = cells_[column_of_[kColInstrument]];

@@ -19,8 +19,9 @@ void VelocityFilter::reset(double position, double velocity) noexcept {
 double VelocityFilter::update(double position, double dt_s,
                               const ButterworthCoefficients& c) noexcept {
   if (!(dt_s > 0.0)) {
-    // No time passed: a difference quotient is undefined, keep the estimate.
-    last_position_ = position;
+    // No time passed: a difference quotient is undefined. Keep the estimate
+    // and the reference position, so the next update sees the whole motion
+    // over the whole time.
     return filtered_;
   }
   const double raw = (position - last_position_) / dt_s;

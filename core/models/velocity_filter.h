@@ -29,7 +29,8 @@ class VelocityFilter {
   void reset(double position, double velocity = 0.0) noexcept;
 
   // Feeds a new position measured dt_s after the previous one and returns the
-  // filtered velocity. dt_s == 0 holds the previous estimate.
+  // filtered velocity. dt_s == 0 holds the previous estimate and reference
+  // position (the motion is counted at the next update with time).
   double update(double position, double dt_s, const ButterworthCoefficients& c) noexcept;
 
   double velocity() const noexcept { return filtered_; }

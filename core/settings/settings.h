@@ -28,13 +28,13 @@ struct TipForceSaturation {
 // physical hardware; what is held or delayed is the exchange with the VE:
 // the positions sent to it and the force received from it.
 struct LoopEmulation {
-  double hold_rate_Hz = 0.0;          // 0 = off; else the emulated loop rate, 10..2000 Hz
+  double hold_rate_Hz = 0.0;          // 0 = off; else the emulated loop rate, <= 2000 Hz
   double position_latency_s = 0.0;    // 0..0.1 s delay of positions sent to the VE
   double force_latency_s = 0.0;       // 0..0.1 s delay of the VE force
 };
 
-// Safety limits of the physical device, applied last, per axis, whatever the
-// other parameters. Defaults: peak output of the Laparoscopic Surgical
+// Safety limits of the physical device, applied last, per joint (motor axis),
+// whatever the other parameters. Defaults: peak output of the Laparoscopic Surgical
 // Workstation, thesis Table 2.1.
 struct DeviceLimits {
   double insertion_force_N = 19.0;

@@ -280,7 +280,7 @@ NamedSettings settings_from_json_text(std::string_view text, const std::string& 
   json j;
   try {
     j = json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax errors, numbers beyond a double, ...
     throw SettingsError(source + ": not valid JSON: " + e.what());
   }
   return settings_from_json(j, source);

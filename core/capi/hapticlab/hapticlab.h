@@ -46,7 +46,7 @@ typedef struct hl_engine hl_engine;
 /* Status bits of hl_output.status (same values as hapticlab::StatusFlag). */
 #define HL_FAULT_NON_FINITE_INPUT 0x01u /* NaN/inf input: force is zero this update */
 #define HL_FAULT_NON_FINITE_STATE 0x02u /* internal fault: force zero, state reset */
-#define HL_DT_NOT_POSITIVE 0x04u        /* dt <= 0: no time advanced */
+#define HL_DT_DEFERRED 0x04u            /* dt < 1/2000 s: no time advanced yet, carried over */
 #define HL_DT_SUBSTEPPED 0x08u          /* dt > 1/150 s: split into sub-steps */
 #define HL_DT_RESYNCED 0x10u            /* stall > ~53 ms: states re-anchored */
 #define HL_FORCE_LIMITED 0x20u          /* a joint force hit the device limit */

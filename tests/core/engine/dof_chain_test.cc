@@ -30,7 +30,7 @@ TEST_P(DofChainLoopTest, WithoutBacklashTheForcesAddOnTheInstrument) {
   // clipped to 1 N: F = 1 − 0.45 + cogging(x) ± small inertia noise.
   AxisSettings s = all_degradations();
   s.backlash.enabled = false;
-  const double tolerance_N = GetParam().jitter ? 3e-3 : 1e-5;
+  const double tolerance_N = GetParam().jittered() ? 3e-3 : 1e-5;
   testing::drive_chain(
       s, GetParam(), 1.0, [](double t) { return 0.05 * t; }, testing::constant_force(3.0),
       [&](const testing::ChainStep& k) {

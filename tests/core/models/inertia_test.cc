@@ -60,7 +60,7 @@ TEST_P(InertiaLoopTest, NoForceAtConstantVelocity) {
                        testing::no_force(), [&](const testing::ChainStep& k) { out = k.out; });
   // Jittered dt makes the difference quotient noisy, which the coupling
   // passes on as a small force; fixed rates settle to 0.
-  EXPECT_NEAR(out.force, 0.0, GetParam().jitter ? 2e-3 : 1e-6);
+  EXPECT_NEAR(out.force, 0.0, GetParam().jittered() ? 2e-3 : 1e-6);
 }
 
 INSTANTIATE_TEST_SUITE_P(Rates, InertiaLoopTest, ::testing::ValuesIn(testing::kRateCases),
