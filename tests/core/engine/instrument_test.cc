@@ -236,56 +236,50 @@ TEST(InstrumentTest, HighFidelityIsTransparentNearAndBehindTheTrocar) {
   }
 }
 
-class InstrumentRateTest : public ::testing::TestWithParam<testing::RateCase> {};
+// Leaves hand(0), wanders for 7 s and comes back to rest there at 8 s.
+JointVector closed_motion(double t) {
+  const double envelope = t < 7.0 ? std::sin(std::numbers::pi * t / 7.0) : 0.0;
+  return hand(0) + envelope * (hand(2 * t) - hand(0));
+}
 
-TEST_P(InstrumentRateTest, AllDegradationsArePassiveOverAClosedMotion) {
-  // Net work done on the hand over a motion that returns to rest where it
-  // began: ≤ 0 for a passive device (1 mJ slack for discretization, against
-  // ~50 mJ that friction dissipates here).
-  EngineSettings s = load_example("max_stable");
+// Net work the instrument does on the hand along closed_motion, paired as a
+// device delivers it (zero-order hold: the force of update n acts over the
+// motion until update n+1). <= 0 for a passive device.
+double work_on_hand_J(const EngineSettings& s, const testing::RateCase& rate) {
   Instrument inst(s, hand(0));
-  testing::DtSource dts(GetParam());
-  double t = 0.0, work_J = 0.0, dissipated_scale = 0.0;
+  testing::DtSource dts(rate);
+  double t = 0.0, work_J = 0.0;
+  JointVector held_force = JointVector::Zero();
   JointVector q_prev = hand(0);
   while (t < 8.0) {
     const double dt = dts.next();
     t += dt;
-    const double envelope = t < 7.0 ? std::sin(std::numbers::pi * t / 7.0) : 0.0;
-    const JointVector q = hand(0) + envelope * (hand(2 * t) - hand(0));
+    const JointVector q = closed_motion(t);
+    work_J += held_force.dot(q - q_prev);
     const InstrumentOutput out = inst.step({dt, q, {0, 0, 0}});
-    ASSERT_FALSE(out.status & kFaultMask);
-    const JointVector dq = q - q_prev;
-    work_J += out.joint_force.dot(dq);
-    dissipated_scale += 0.45 * std::abs(dq[0]);
+    EXPECT_FALSE(out.status & kFaultMask);
+    held_force = out.joint_force;
     q_prev = q;
   }
-  EXPECT_LE(work_J, 1e-3);
-  EXPECT_GT(dissipated_scale, 0.02);  // the motion is not trivially small
+  return work_J;
 }
 
-TEST_P(InstrumentRateTest, EnergyStoringModelsAloneInjectNoEnergy) {
-  // Without friction to hide behind: inertia, backlash and cogging store and
-  // return energy, so over a motion that ends at rest where it began the net
-  // work on the hand must be <= 0. Work is paired as a real device delivers
-  // it, zero-order hold: the force of update n acts over the motion until
-  // update n+1. Slack: 0.1 mJ (the kinetic energy of 0.1 kg at 45 mm/s).
+class InstrumentRateTest : public ::testing::TestWithParam<testing::RateCase> {};
+
+TEST_P(InstrumentRateTest, EnergyStoringModelsInjectNoEnergy) {
+  // Inertia, backlash and cogging store and return energy; without friction
+  // to hide behind, the net work must still be <= 0. Slack: 0.1 mJ, the
+  // kinetic energy of 0.1 kg at 45 mm/s.
   for (const char* name : {"inertia", "inertia_backlash", "cogging", "all_degradations"}) {
-    Instrument inst(load_example(name), hand(0));
-    testing::DtSource dts(GetParam());
-    double t = 0.0, work_J = 0.0;
-    JointVector held_force = JointVector::Zero();
-    JointVector q_prev = hand(0);
-    while (t < 8.0) {
-      const double dt = dts.next();
-      t += dt;
-      const double envelope = t < 7.0 ? std::sin(std::numbers::pi * t / 7.0) : 0.0;
-      const JointVector q = hand(0) + envelope * (hand(2 * t) - hand(0));
-      work_J += held_force.dot(q - q_prev);
-      held_force = inst.step({dt, q, {0, 0, 0}}).joint_force;
-      q_prev = q;
-    }
-    EXPECT_LE(work_J, 1e-4) << name;
+    EXPECT_LE(work_on_hand_J(load_example(name), GetParam()), 1e-4) << name;
   }
+}
+
+TEST_P(InstrumentRateTest, MaximumStableSetIsPassiveAndFrictionDissipates) {
+  // Everything on at Table 4.1 strengths, friction included: friction alone
+  // takes 0.45 N over tens of centimetres of insertion travel, so well over
+  // 10 mJ must be dissipated.
+  EXPECT_LT(work_on_hand_J(load_example("max_stable"), GetParam()), -0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(Rates, InstrumentRateTest, ::testing::ValuesIn(testing::kRateCases),
