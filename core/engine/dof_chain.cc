@@ -49,8 +49,8 @@ void DofChain::resync(const AxisSettings& s, double position) noexcept {
   velocity_.reset(x, 0.0);
   friction_.shift(shift);
   inertia_.reset(x, 0.0);
-  const double offset = backlash_.mass().position() - last_position_;
-  backlash_.reset(last_position_ + offset + shift, 0.0);
+  // The mass moves with the instrument, keeping its place in the gap.
+  backlash_.reset(backlash_.mass().position() + shift, 0.0);
   if (s.backlash.enabled) backlash_.confine(x, s.backlash.gap);
   last_position_ = x;
 }

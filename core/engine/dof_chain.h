@@ -49,13 +49,6 @@ class DofChain {
   DofOutput step(const AxisSettings& s, double position, double ve_force, double dt_s,
                  const ButterworthCoefficients& filter) noexcept;
 
-  double last_position() const noexcept { return last_position_; }
-
-  // Read-only access for tests and diagnostics.
-  const Friction& friction() const noexcept { return friction_; }
-  const Inertia& inertia() const noexcept { return inertia_; }
-  const Backlash& backlash() const noexcept { return backlash_; }
-
  private:
   double measure(const AxisSettings& s, double position) const noexcept;
 

@@ -56,9 +56,6 @@ class Instrument {
 
   // Takes effect from the next step; see DofChain::on_settings_change.
   void apply_settings(const EngineSettings& settings) noexcept;
-  const EngineSettings& settings() const noexcept { return settings_; }
-
-  const DofChain& chain(int axis) const noexcept { return chains_[axis]; }
 
  private:
   void resync(const JointVector& q) noexcept;

@@ -25,7 +25,6 @@ class Backlash {
   void reset(double x_hi, double v_hi) noexcept;
   // Keeps the mass within the (possibly new) gap of the instrument.
   void confine(double x_hi, double gap) noexcept;
-  void shift(double shift) noexcept { mass_.set_position(mass_.position() + shift); }
 
   // Mass position limited to x_hi ± gap/2: the position the VE sees and the
   // input of the VE, cogging and friction models.

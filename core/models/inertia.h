@@ -19,7 +19,6 @@ class Inertia {
   void reset(double x_hi, double v_hi) noexcept;
   // Returns the force on the instrument [F].
   double step(const InertiaParams& p, double x_hi, double v_hi, double dt_s) noexcept;
-  void shift(double shift) noexcept { mass_.set_position(mass_.position() + shift); }
 
   const VirtualMass& mass() const noexcept { return mass_; }
 

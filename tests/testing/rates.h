@@ -37,16 +37,15 @@ class DtSource {
  public:
   explicit DtSource(const RateCase& c, std::uint64_t seed = 12345) : case_(c), state_(seed) {}
   double next() {
-    const double nominal_s = 1.0 / case_.rate_Hz;
     switch (case_.jitter) {
       case Jitter::kNone:
-        return nominal_s;
+        return 1.0 / case_.rate_Hz;
       case Jitter::kMild:
-        return std::clamp(nominal_s * (0.5 + uniform()), kMinDt_s, kMaxDt_s);
+        return std::clamp((0.5 + uniform()) / case_.rate_Hz, kMinDt_s, kMaxDt_s);
       case Jitter::kWander:
         return kMinDt_s * std::pow(kMaxDt_s / kMinDt_s, uniform());
     }
-    return nominal_s;
+    return kMaxDt_s;
   }
 
  private:
