@@ -9,7 +9,8 @@ build_dir=${1:-build}
 shift || true
 
 packages=(g++ make cmake pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
-          libgtest-dev libgmock-dev)
+          libgtest-dev libgmock-dev libsqlite3-dev libboost-math-dev
+          libbenchmark-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
