@@ -1,0 +1,82 @@
+#pragma once
+// One interface for every haptic device: the simulated workstation, replay
+// of a recorded trial, and (through the C API) external hardware.
+//
+// Lifecycle: configure -> activate -> { read, write }* -> deactivate.
+// Every call returns a DeviceStatus; nothing throws. read() and write() are
+// called by the haptic loop's real-time thread: they must not allocate, lock
+// or block beyond the device's own bus transfer.
+//
+// Joint order and units (thesis Table 2.1, Laparoscopic Surgical Workstation):
+//   insertion [m], pitch [rad], yaw [rad], handle twist [rad], grip [rad].
+// Forces/torques follow the same order: insertion [N], pitch/yaw/twist/grip
+// [N·m]. Twist is not actuated on the LSW; a command on it is ignored.
+
+#include <array>
+#include <cstdint>
+
+namespace hapticlab {
+
+enum DeviceJoint : int { kJointInsertion = 0, kJointPitch, kJointYaw, kJointTwist, kJointGrip };
+inline constexpr int kNumDeviceJoints = 5;
+
+using DeviceJoints = std::array<double, kNumDeviceJoints>;
+
+enum class DeviceStatus : std::int32_t {
+  kOk = 0,
+  kNotConfigured,      // activate() before configure()
+  kNotActive,          // read()/write() outside activate()..deactivate()
+  kInvalidConfig,      // configure() got a value outside its documented range
+  kReadFailed,         // the transfer failed (bus error, device unplugged)
+  kNonFiniteReading,   // the device returned NaN or infinity
+  kOutOfRange,         // a reading lies outside the joint's mechanical range
+  kWriteFailed,        // the force command could not be sent
+  kEndOfData,          // replay: the recording is exhausted
+};
+
+// A short, stable name for logs and error messages ("read_failed", ...).
+const char* to_string(DeviceStatus status) noexcept;
+
+struct DeviceReading {
+  // One row per instrument: 0 = left, 1 = right.
+  std::array<DeviceJoints, 2> position{};
+  // The device's own timestamp of the reading [s], if it has one (sim and
+  // replay do); NaN otherwise. The loop measures dt with its own clock.
+  double device_time_s = 0.0;
+};
+
+struct DeviceCommand {
+  std::array<DeviceJoints, 2> force{};  // N and N·m, see the joint order above
+};
+
+struct DeviceConfig {
+  // Loop rate the device should expect [Hz], 150..2000 (informative for sim,
+  // used by drivers that need a bus schedule).
+  double nominal_rate_Hz = 1000.0;
+  // Seed for anything random in a simulated device (sensor noise); devices
+  // that are not simulated ignore it.
+  std::uint64_t seed = 0;
+};
+
+class Clock;
+
+class Device {
+ public:
+  virtual ~Device() = default;
+
+  // Control thread. May be called again while inactive to reconfigure.
+  virtual DeviceStatus configure(const DeviceConfig& config) = 0;
+  // Control thread. Powers the amplifiers / starts playback. `clock` is the
+  // loop's clock; simulated devices advance their physics to clock.now_s().
+  virtual DeviceStatus activate(const Clock& clock) = 0;
+  // Real-time thread.
+  virtual DeviceStatus read(DeviceReading& reading) noexcept = 0;
+  // Real-time thread. Forces are clipped by the device to its peak limits.
+  virtual DeviceStatus write(const DeviceCommand& command) noexcept = 0;
+  // Control thread. Zero forces, amplifiers off. Always safe to call.
+  virtual DeviceStatus deactivate() noexcept = 0;
+
+  virtual const char* name() const noexcept = 0;
+};
+
+}  // namespace hapticlab
