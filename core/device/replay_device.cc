@@ -1,1 +1,134 @@
-// filled in by the device/loop work
+#include "core/device/replay_device.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "core/io/trajectory_csv.h"
+#include "core/loop/clock.h"
+
+namespace hapticlab {
+namespace {
+
+std::string format_number(double value) {
+  std::ostringstream out;
+  out.precision(17);
+  out << value;
+  return out.str();
+}
+
+}  // namespace
+
+ReplayDevice::ReplayDevice(std::vector<ReplayFrame> frames) : frames_(std::move(frames)) {
+  if (frames_.empty()) throw std::invalid_argument("ReplayDevice(): frames is empty, but must hold at least one frame");
+  for (std::size_t k = 0; k < frames_.size(); ++k) {
+    const double t_s = frames_[k].t_s;
+    if (!std::isfinite(t_s)) {
+      throw std::invalid_argument("ReplayDevice(): frame " + std::to_string(k) + " has t_s = " +
+                                  format_number(t_s) + ", but t_s must be finite");
+    }
+    if (k > 0 && t_s < frames_[k - 1].t_s) {
+      throw std::invalid_argument("ReplayDevice(): frame " + std::to_string(k) + " has t_s = " +
+                                  format_number(t_s) + " s, before frame " + std::to_string(k - 1) +
+                                  " (" + format_number(frames_[k - 1].t_s) +
+                                  " s); frames must be sorted by non-decreasing t_s");
+    }
+  }
+}
+
+DeviceStatus ReplayDevice::configure(const DeviceConfig& config) {
+  if (active_) return DeviceStatus::kInvalidConfig;
+  if (!(config.nominal_rate_Hz >= 150.0 && config.nominal_rate_Hz <= 2000.0)) {
+    return DeviceStatus::kInvalidConfig;
+  }
+  configured_ = true;
+  return DeviceStatus::kOk;
+}
+
+DeviceStatus ReplayDevice::activate(const Clock& clock) {
+  if (!configured_) return DeviceStatus::kNotConfigured;
+  clock_ = &clock;
+  start_s_ = clock.now_s();
+  cursor_ = 0;
+  last_command_ = DeviceCommand{};
+  active_ = true;
+  return DeviceStatus::kOk;
+}
+
+DeviceStatus ReplayDevice::deactivate() noexcept {
+  active_ = false;
+  return DeviceStatus::kOk;
+}
+
+DeviceStatus ReplayDevice::read(DeviceReading& reading) noexcept {
+  if (!active_) return DeviceStatus::kNotActive;
+  const double elapsed_s = clock_->now_s() - start_s_;
+  const double first_s = frames_.front().t_s;
+
+  // The clock never runs backwards, so the cursor only moves forward: O(1)
+  // per read on average, whatever the recording's length.
+  while (cursor_ + 1 < frames_.size() && frames_[cursor_ + 1].t_s - first_s <= elapsed_s) ++cursor_;
+
+  const ReplayFrame& frame = frames_[cursor_];
+  reading.position = frame.position;
+  reading.device_time_s = frame.t_s;
+
+  if (elapsed_s > frames_.back().t_s - first_s) return DeviceStatus::kEndOfData;
+  for (const DeviceJoints& joints : frame.position) {
+    for (double x : joints) {
+      if (!std::isfinite(x)) return DeviceStatus::kNonFiniteReading;
+    }
+  }
+  return DeviceStatus::kOk;
+}
+
+DeviceStatus ReplayDevice::write(const DeviceCommand& command) noexcept {
+  if (!active_) return DeviceStatus::kNotActive;
+  last_command_ = command;
+  return DeviceStatus::kOk;
+}
+
+std::vector<ReplayFrame> load_replay_frames_from_trajectory_csv(const std::filesystem::path& path) {
+  struct Sample {
+    double t_s;
+    int instrument;
+    DeviceJoints position;
+  };
+  std::vector<Sample> samples;
+  TrajectoryCsvReader reader(path);
+  TrajectoryRow row;
+  while (reader.next(row)) {
+    DeviceJoints q{};
+    q[kJointInsertion] = row.position(0);
+    q[kJointPitch] = row.position(1);
+    q[kJointYaw] = row.position(2);
+    samples.push_back({row.t_s, row.instrument, q});
+  }
+  if (samples.empty()) {
+    throw TrajectoryCsvError(path.string() + ": no rows; a replay needs at least one");
+  }
+  // Rows of the two instruments may interleave out of global time order.
+  std::stable_sort(samples.begin(), samples.end(),
+                   [](const Sample& a, const Sample& b) { return a.t_s < b.t_s; });
+
+  std::vector<ReplayFrame> frames;
+  std::array<DeviceJoints, 2> latest{};
+  std::array<bool, 2> seen{};
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const Sample& s = samples[k];
+    latest[s.instrument] = s.position;
+    if (!seen[s.instrument]) {
+      // Before its first row the instrument holds its first recorded position.
+      seen[s.instrument] = true;
+      for (ReplayFrame& earlier : frames) earlier.position[s.instrument] = s.position;
+    }
+    // One frame per distinct time, after all rows at that time.
+    if (k + 1 == samples.size() || samples[k + 1].t_s != s.t_s) frames.push_back({s.t_s, latest});
+  }
+  return frames;
+}
+
+}  // namespace hapticlab

@@ -1,1 +1,73 @@
-// filled in by the device/loop work
+#include "core/loop/loop_timing.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hapticlab {
+
+LoopTimingStats::LoopTimingStats()
+    : bins_(std::make_unique<std::atomic<std::uint64_t>[]>(kNumBins)) {}
+
+void LoopTimingStats::record(double period_s, bool overrun) noexcept {
+  if (!(period_s >= 0.0 && std::isfinite(period_s))) {
+    rejected_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  // Compare as double before converting: a huge period must not overflow the cast.
+  const double bin = period_s / kBinWidth_s;
+  const std::size_t index =
+      bin < static_cast<double>(kNumRegularBins) ? static_cast<std::size_t>(bin) : kNumRegularBins;
+  bins_[index].fetch_add(1, std::memory_order_relaxed);
+
+  // One writer: a load and a store need no read-modify-write.
+  sum_s_.store(sum_s_.load(std::memory_order_relaxed) + period_s, std::memory_order_relaxed);
+  if (period_s > max_s_.load(std::memory_order_relaxed)) {
+    max_s_.store(period_s, std::memory_order_relaxed);
+  }
+  if (overrun) overruns_.fetch_add(1, std::memory_order_relaxed);
+  count_.fetch_add(1, std::memory_order_relaxed);
+}
+
+double LoopTimingStats::percentile_s(double fraction, std::uint64_t total,
+                                     double max_s) const noexcept {
+  // Nearest rank: the smallest sample with at least `fraction` of all at or below it.
+  const auto rank = std::max<std::uint64_t>(
+      1, static_cast<std::uint64_t>(std::ceil(fraction * static_cast<double>(total))));
+  std::uint64_t seen = 0;
+  for (std::size_t k = 0; k < kNumRegularBins; ++k) {
+    seen += bins_[k].load(std::memory_order_relaxed);
+    // A bin centre can lie above the largest sample in it; the max is exact.
+    if (seen >= rank) return std::min((static_cast<double>(k) + 0.5) * kBinWidth_s, max_s);
+  }
+  return max_s;  // the rank lies in the overflow bin
+}
+
+LoopTimingSummary LoopTimingStats::summary() const {
+  LoopTimingSummary s;
+  s.count = count_.load(std::memory_order_relaxed);
+  s.overruns = overruns_.load(std::memory_order_relaxed);
+  s.rejected = rejected_.load(std::memory_order_relaxed);
+  s.max_period_s = max_s_.load(std::memory_order_relaxed);
+  if (s.count > 0) s.mean_period_s = sum_s_.load(std::memory_order_relaxed) / static_cast<double>(s.count);
+
+  // Percentiles rank within what the histogram holds now, which can differ
+  // from `count` by the samples recorded during this scan.
+  std::uint64_t total = 0;
+  for (std::size_t k = 0; k < kNumBins; ++k) total += bins_[k].load(std::memory_order_relaxed);
+  if (total > 0) {
+    s.p50_period_s = percentile_s(0.50, total, s.max_period_s);
+    s.p99_period_s = percentile_s(0.99, total, s.max_period_s);
+  }
+  return s;
+}
+
+void LoopTimingStats::reset() noexcept {
+  for (std::size_t k = 0; k < kNumBins; ++k) bins_[k].store(0, std::memory_order_relaxed);
+  count_.store(0, std::memory_order_relaxed);
+  sum_s_.store(0.0, std::memory_order_relaxed);
+  max_s_.store(0.0, std::memory_order_relaxed);
+  overruns_.store(0, std::memory_order_relaxed);
+  rejected_.store(0, std::memory_order_relaxed);
+}
+
+}  // namespace hapticlab
