@@ -4,6 +4,7 @@
 // did. The same motion is felt through each shipped setting; one CSV per
 // setting (the `engine replay` output format) and a summary table come out.
 #include "app/engine_demo.h"
+#include "app/data_paths.h"
 
 #include <algorithm>
 #include <cmath>
@@ -30,13 +31,6 @@ const char* const kSettingFiles[] = {"high_fidelity", "no_force_feedback", "iner
                                      "inertia_backlash", "friction", "cogging",
                                      "force_saturation", "all_degradations", "max_stable"};
 
-fs::path default_settings_dir() {
-  for (const fs::path& candidate : {fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings",
-                                   fs::path(HAPTICLAB_DATA_DIR) / "settings"}) {
-    if (fs::exists(candidate / "high_fidelity.json")) return candidate;
-  }
-  return fs::path("examples") / "settings";
-}
 
 // Scripted hands: the right instrument probes in and out, the left one holds
 // tissue with small corrections. Joints: insertion m, pitch rad, yaw rad.

@@ -13,6 +13,7 @@
 #include "core/engine/status.h"
 #include "core/io/trajectory_csv.h"
 #include "core/settings/settings_json.h"
+#include "app/temp_output_file.h"
 
 namespace hapticlab::app {
 namespace {
@@ -25,39 +26,6 @@ struct ReplayOptions {
   std::string output;
 };
 
-// The output is written next to its final name and renamed only once every
-// row succeeded, so a failed replay never leaves a file that looks complete.
-class TempOutputFile {
- public:
-  explicit TempOutputFile(fs::path final_path)
-      : final_(std::move(final_path)), temp_(final_.string() + ".tmp") {
-    stream_.open(temp_, std::ios::binary | std::ios::trunc);
-    if (!stream_) throw TrajectoryCsvError(temp_.string() + ": cannot open for writing");
-  }
-  TempOutputFile(const TempOutputFile&) = delete;
-  TempOutputFile& operator=(const TempOutputFile&) = delete;
-  ~TempOutputFile() {
-    if (committed_) return;
-    stream_.close();
-    std::error_code ignored;  // best effort: the destructor must not throw
-    fs::remove(temp_, ignored);
-  }
-
-  std::ostream& stream() { return stream_; }
-
-  void commit() {
-    stream_.close();
-    if (!stream_) throw TrajectoryCsvError(temp_.string() + ": write failed");
-    fs::rename(temp_, final_);
-    committed_ = true;
-  }
-
- private:
-  fs::path final_;
-  fs::path temp_;
-  std::ofstream stream_;
-  bool committed_ = false;
-};
 
 // Each instrument's first finite position, so the engine (and any position
 // latency it emulates) starts where the recording starts rather than at the

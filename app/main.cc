@@ -8,6 +8,8 @@
 #include "app/engine_demo.h"
 #include "app/engine_replay.h"
 #include "app/settings_check.h"
+#include "app/sim_run.h"
+#include "app/bench_loop.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"HapticLab: make a high-end haptic device feel like inexpensive hardware, "
@@ -25,9 +27,14 @@ int main(int argc, char** argv) {
   settings->require_subcommand(1);
   hapticlab::app::add_settings_check_command(*settings);
 
+  CLI::App* sim = app.add_subcommand("sim", "Simulated rig: participant, workstation and tasks");
+  sim->require_subcommand(1);
+  hapticlab::app::add_sim_run_command(*sim);
+
   CLI::App* bench = app.add_subcommand("bench", "Measure performance");
   bench->require_subcommand(1);
   hapticlab::app::add_bench_engine_command(*bench);
+  hapticlab::app::add_bench_loop_commands(*bench);
 
   if (argc == 1) {
     std::fputs(app.help().c_str(), stdout);

@@ -1,1 +1,239 @@
-// in progress
+#include "core/loop/haptic_loop.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "core/sim/workspace.h"
+
+namespace hapticlab {
+
+const char* to_string(StopReason reason) noexcept {
+  switch (reason) {
+    case StopReason::kNotStopped: return "not_stopped";
+    case StopReason::kTaskComplete: return "task_complete";
+    case StopReason::kMaxDuration: return "max_duration";
+    case StopReason::kStopRequested: return "stop_requested";
+    case StopReason::kDeviceFault: return "device_fault";
+  }
+  return "unknown";
+}
+
+namespace {
+
+// Cut-off of the tool-tip velocity estimate. Hand motion in laparoscopy is
+// below ~5 Hz; 20 Hz keeps it while an encoder count per update (8 µm/ms =
+// 8 mm/s) is averaged away.
+constexpr double kTipVelocityCutoff_Hz = 20.0;
+
+bool finite(const DeviceReading& r) noexcept {
+  for (const auto& joints : r.position)
+    for (double v : joints)
+      if (!std::isfinite(v)) return false;
+  return true;
+}
+
+Vec3 to_vec3(const Eigen::Vector3d& v) noexcept { return {v.x(), v.y(), v.z()}; }
+
+}  // namespace
+
+template <typename T>
+void HapticLoop::push_or_count(SpscQueue<T>& queue, const T& item, bool wait,
+                               std::atomic<std::uint64_t>& dropped) noexcept {
+  while (!queue.try_push(item)) {
+    if (!wait || stop_requested_.load(std::memory_order_relaxed)) {
+      dropped.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    std::this_thread::yield();
+  }
+}
+
+namespace {
+
+}  // namespace
+
+HapticLoop::HapticLoop(Device& device, Engine& engine, VirtualEnvironment& ve, Clock& clock,
+                       RateSchedule schedule, const LoopConfig& config, LoopAgent* agent)
+    : device_(device),
+      engine_(engine),
+      ve_(ve),
+      clock_(clock),
+      schedule_(std::move(schedule)),
+      config_(config),
+      agent_(agent),
+      samples_(config.sample_queue_capacity),
+      events_(config.event_queue_capacity) {}
+
+HapticLoop::~HapticLoop() {
+  request_stop();
+  join();
+}
+
+bool HapticLoop::activate() {
+  const DeviceStatus status = device_.activate(clock_);
+  device_status_.store(static_cast<std::int32_t>(status), std::memory_order_release);
+  if (status != DeviceStatus::kOk) {
+    stop_reason_.store(StopReason::kDeviceFault, std::memory_order_release);
+    return false;
+  }
+  running_.store(true, std::memory_order_release);
+  return true;
+}
+
+bool HapticLoop::start() {
+  if (!activate()) return false;
+  thread_ = std::thread([this] { loop_body(); });
+  return true;
+}
+
+StopReason HapticLoop::run() {
+  if (!activate()) return StopReason::kDeviceFault;
+  return loop_body();
+}
+
+void HapticLoop::join() {
+  if (thread_.joinable()) thread_.join();
+}
+
+void HapticLoop::finish(StopReason reason) noexcept {
+  device_.write(DeviceCommand{});
+  device_.deactivate();
+  stop_reason_.store(reason, std::memory_order_release);
+  running_.store(false, std::memory_order_release);
+}
+
+StopReason HapticLoop::loop_body() {
+  DeviceReading reading;
+  DeviceCommand command;
+  VeInput ve_in;
+  VeOutput ve_out;
+  EventBuffer events;
+  std::array<InstrumentOutput, 2> engine_out{};
+  std::array<Eigen::Vector3d, 2> tip_prev{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  std::array<Eigen::Vector3d, 2> tip_velocity{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  LoopSample sample;
+
+  const double t0_s = clock_.now_s();
+  double deadline_s = t0_s;           // scheduled start of the current update
+  double last_start_s = t0_s;
+  double complete_at_s = -1.0;
+  bool first = true;
+
+  for (std::uint64_t tick = 0;; ++tick) {
+    const double now_s = clock_.now_s();
+    const double t_s = now_s - t0_s;
+    // Measured, not scheduled: the engine must see the time that really
+    // passed, which on a loaded machine is not the nominal period.
+    const double dt_s = first ? schedule_.nominal_period_s() : now_s - last_start_s;
+    if (!first) timing_.record(dt_s, now_s > deadline_s + schedule_.nominal_period_s());
+    last_start_s = now_s;
+
+    if (stop_requested_.load(std::memory_order_relaxed)) {
+      finish(StopReason::kStopRequested);
+      return StopReason::kStopRequested;
+    }
+
+    const DeviceStatus read_status = device_.read(reading);
+    if (read_status != DeviceStatus::kOk || !finite(reading)) {
+      const DeviceStatus reported =
+          read_status != DeviceStatus::kOk ? read_status : DeviceStatus::kNonFiniteReading;
+      device_status_.store(static_cast<std::int32_t>(reported), std::memory_order_release);
+      finish(StopReason::kDeviceFault);
+      return StopReason::kDeviceFault;
+    }
+
+    events.clear();
+    ve_in.t_s = t_s;
+    ve_in.dt_s = dt_s;
+    for (int i = 0; i < 2; ++i) {
+      const auto& raw = reading.position[static_cast<std::size_t>(i)];
+      InstrumentInput in;
+      in.dt_s = dt_s;
+      in.position = JointVector(raw[kJointInsertion], raw[kJointPitch], raw[kJointYaw]);
+      in.ve_force_N = ve_out.tip_force_N[static_cast<std::size_t>(i)];
+      engine_out[static_cast<std::size_t>(i)] = engine_.update(i, in);
+      auto& joints = ve_in.joints[static_cast<std::size_t>(i)];
+      const JointVector& q = engine_out[static_cast<std::size_t>(i)].degraded_position;
+      joints = raw;
+      joints[kJointInsertion] = q[0];
+      joints[kJointPitch] = q[1];
+      joints[kJointYaw] = q[2];
+    }
+    ve_.step(ve_in, ve_out, events);
+
+    if (agent_ != nullptr) agent_->act(LoopTickView{t_s, dt_s, reading, engine_out, ve_in, ve_out});
+
+    for (int i = 0; i < 2; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      auto& f = command.force[ui];
+      const JointVector& jf = engine_out[ui].joint_force;
+      f[kJointInsertion] = jf[0];
+      f[kJointPitch] = jf[1];
+      f[kJointYaw] = jf[2];
+      f[kJointTwist] = 0.0;
+      f[kJointGrip] = ve_out.grip_torque_Nm[ui];
+    }
+    const DeviceStatus write_status = device_.write(command);
+    if (write_status != DeviceStatus::kOk) {
+      device_status_.store(static_cast<std::int32_t>(write_status), std::memory_order_release);
+      finish(StopReason::kDeviceFault);
+      return StopReason::kDeviceFault;
+    }
+
+    // Tool-tip kinematics in the VE, for the logger and the analysis.
+    const double alpha = dt_s / (dt_s + 1.0 / (2.0 * std::numbers::pi * kTipVelocityCutoff_Hz));
+    for (int i = 0; i < 2; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      const Eigen::Vector3d tip = tip_world(i, engine_out[ui].degraded_position);
+      if (!first && dt_s > 0.0) tip_velocity[ui] += alpha * ((tip - tip_prev[ui]) / dt_s - tip_velocity[ui]);
+      tip_prev[ui] = tip;
+    }
+
+    if (config_.publish_samples) {
+      sample.tick = tick;
+      sample.t_s = t_s;
+      sample.dt_s = dt_s;
+      sample.device_status = static_cast<std::int32_t>(read_status);
+      for (int i = 0; i < 2; ++i) {
+        const auto ui = static_cast<std::size_t>(i);
+        InstrumentSample& s = sample.instrument[ui];
+        const InstrumentOutput& o = engine_out[ui];
+        s.raw_position = reading.position[ui];
+        s.degraded_position = {o.degraded_position[0], o.degraded_position[1], o.degraded_position[2]};
+        s.tip_position_m = to_vec3(tip_prev[ui]);
+        s.tip_velocity_m_per_s = to_vec3(tip_velocity[ui]);
+        s.ve_force_N = to_vec3(ve_out.tip_force_N[ui]);
+        s.displayed_force_N = to_vec3(o.displayed_force_N);
+        s.joint_force = {o.joint_force[0], o.joint_force[1], o.joint_force[2]};
+        s.engine_status = o.status;
+        s.in_contact = ve_out.in_contact[ui];
+      }
+      const bool wait = config_.wait_when_full_virtual && clock_.is_virtual();
+      for (int e = 0; e < events.size(); ++e) push_or_count(events_, events[e], wait, dropped_events_);
+      push_or_count(samples_, sample, wait, dropped_samples_);
+      if (events.overflow() > 0)
+        dropped_events_.fetch_add(static_cast<std::uint64_t>(events.overflow()), std::memory_order_relaxed);
+    }
+    ticks_.store(tick + 1, std::memory_order_relaxed);
+    elapsed_s_.store(t_s, std::memory_order_relaxed);
+    first = false;
+
+    if (complete_at_s < 0.0 && ve_.complete()) complete_at_s = t_s;
+    if (complete_at_s >= 0.0 && t_s - complete_at_s >= config_.linger_after_complete_s) {
+      finish(StopReason::kTaskComplete);
+      return StopReason::kTaskComplete;
+    }
+    if (t_s >= config_.max_duration_s) {
+      finish(StopReason::kMaxDuration);
+      return StopReason::kMaxDuration;
+    }
+
+    deadline_s += schedule_.next_period_s();
+    // After a stall longer than a period, restart the schedule from now
+    // instead of firing a burst of catch-up updates.
+    if (clock_.now_s() > deadline_s + schedule_.nominal_period_s()) deadline_s = clock_.now_s();
+    clock_.sleep_until(deadline_s);
+  }
+}
+
+}  // namespace hapticlab

@@ -1,1 +1,434 @@
-// in progress
+#include "core/sim/participant.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/sim/workspace.h"
+
+namespace hapticlab {
+
+namespace {
+
+constexpr int kLeft = 0, kRight = 1;
+constexpr double kGripOpenTarget_rad = 0.30;
+constexpr double kGripShut_rad = 0.0;
+
+// Forces the participant aims for at force_level 1 [N]: light cautery
+// contact, a firm pull on the tissue, light seating of the clip applier and a
+// gentle lift of the grasped duct — all below the 1 N the thesis' clip
+// forces rarely exceeded.
+constexpr double kCauteryForce_N = 0.45;
+constexpr double kTouchForce_N = 0.15;
+constexpr double kTensionForce_N = 0.6;
+constexpr double kSeatForce_N = 0.3;
+constexpr double kLiftForce_N = 0.25;
+
+// Fitts' law for laparoscopic reaching, T = a + b·log2(D/W + 1).
+constexpr double kFittsA_s = 0.20;
+constexpr double kFittsB_s = 0.14;
+// Dragging the cautery along the line while burning [m/s].
+constexpr double kDragSpeed_m_per_s = 0.006;
+
+}  // namespace
+
+ParticipantTraits ParticipantTraits::sample(std::uint64_t seed) noexcept {
+  Random r = Random::derive(seed, 0x747261697473ull);
+  ParticipantTraits t;
+  t.speed = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
+  t.force_level = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
+  t.consistency = r.uniform(0.06, 0.18);
+  t.hand_stiffness_N_per_m = r.uniform(220.0, 380.0);
+  t.visual_force_gain = std::clamp(r.normal(0.72, 0.1), 0.5, 0.95);
+  t.haptic_delay_s = r.uniform(0.03, 0.06);
+  t.visual_delay_s = r.uniform(0.13, 0.20);
+  t.right_handed = r.uniform() >= 0.1;
+  t.nondominant_factor = r.uniform(1.1, 1.4);
+  t.learning_gain = r.uniform(0.3, 0.7);
+  t.learning_trials = r.uniform(4.0, 10.0);
+  return t;
+}
+
+DeviceJoints Participant::start_pose(int instrument) noexcept {
+  const JointVector aim = joints_for_tip(instrument, Eigen::Vector3d(0.0, 0.0, -0.11));
+  return {0.005, aim[1], aim[2], 0.0, kGripOpenTarget_rad};
+}
+
+Participant::Participant(const ParticipantTraits& traits, const ParticipantTrial& trial,
+                         SimDevice& device, const VirtualEnvironment& task)
+    : traits_(traits), device_(device), rng_(Random::derive(trial.seed, 0x747269616cull)) {
+  if (task.kind() == TaskKind::kDissection) dissection_ = static_cast<const DissectionTask*>(&task);
+  else clip_ = static_cast<const ClipTask*>(&task);
+
+  const double practice = 1.0 + traits_.learning_gain * std::exp(-trial.practice_trials / traits_.learning_trials);
+  const double trial_speed = rng_.lognormal_factor(traits_.consistency);
+  force_factor_ = traits_.force_level * rng_.lognormal_factor(traits_.consistency);
+  const int dominant = traits_.right_handed ? kRight : kLeft;
+  for (int h = 0; h < 2; ++h) {
+    const double other = h == dominant ? 1.0 : traits_.nondominant_factor;
+    time_factor_[static_cast<std::size_t>(h)] = traits_.speed * practice * trial_speed * other;
+  }
+}
+
+double Participant::reach_time(int hand, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                               double width_m) const noexcept {
+  const double d = (to - from).norm();
+  return (kFittsA_s + kFittsB_s * std::log2(d / width_m + 1.0)) * time_factor_[static_cast<std::size_t>(hand)];
+}
+
+double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexcept {
+  if (dissection_ != nullptr) {
+    const auto& g = dissection_->grasp();
+    if (hand == kLeft && g.holding()) return (tip - g.anchor()).dot(pull_dir_);
+    const int cell = dissection_->cell_at(tip.x(), tip.y());
+    const bool covered = cell >= 0 && !dissection_->removed(cell);
+    const double z = dissection_->params().surface_z_m - (covered ? 0.0 : 0.002);
+    return z - tip.z();
+  }
+  const auto& g = clip_->grasp();
+  if (hand == kLeft && g.holding()) return (tip - g.anchor()).z();
+  const Eigen::Vector3d radial(0.0, tip.y() - clip_->duct_y_m(), tip.z() - clip_->params().duct_z_m);
+  return clip_->params().duct_radius_m - radial.norm();
+}
+
+void Participant::act(const LoopTickView& view) noexcept {
+  const double t = view.t_s;
+  for (int i = 0; i < 2; ++i) {
+    const auto& j = view.ve_input.joints[static_cast<std::size_t>(i)];
+    tip_[static_cast<std::size_t>(i)] =
+        tip_world(i, JointVector(j[kJointInsertion], j[kJointPitch], j[kJointYaw]));
+  }
+  if (!started_) {
+    started_ = true;
+    const int dominant = traits_.right_handed ? kRight : kLeft;
+    for (int h = 0; h < 2; ++h) {
+      HandParams p;
+      const double other = h == dominant ? 1.0 : traits_.nondominant_factor;
+      p.stiffness_N_per_m = traits_.hand_stiffness_N_per_m / other;
+      p.haptic_delay_s = traits_.haptic_delay_s;
+      p.visual_delay_s = traits_.visual_delay_s;
+      p.visual_force_gain = traits_.visual_force_gain;
+      p.motor_noise_m = 0.0003 * other;
+      p.regulation_time_s = 0.15 * other;
+      hands_[static_cast<std::size_t>(h)].init(h, p, tip_[static_cast<std::size_t>(h)], rng_.next_u64());
+      hands_[static_cast<std::size_t>(h)].grip_to(kGripOpenTarget_rad, t, 0.05);
+      phase_start_s_[static_cast<std::size_t>(h)] = t;
+    }
+  }
+
+  if (dissection_ != nullptr) act_dissection(t);
+  else act_clip(t);
+
+  for (int i = 0; i < 2; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    HandCouplings couplings;
+    hands_[ui].step(t, view.dt_s, view.reading.position[ui], device_.hand_force(i),
+                    seen_depth(i, tip_[ui]), tip_[ui], couplings);
+    device_.set_hand(i, couplings);
+  }
+}
+
+// Phase bookkeeping shared by both tasks: `entering` is true on the first
+// update of a phase, so each intent is issued once.
+#define HL_ENTER(h, p)                              \
+  do {                                              \
+    phase_[static_cast<std::size_t>(h)] = (p);      \
+    phase_start_s_[static_cast<std::size_t>(h)] = -1.0; \
+  } while (0)
+
+void Participant::act_dissection(double t) noexcept {
+  const DissectionTask& task = *dissection_;
+  const auto& path = task.line_path();
+  const bool done = task.complete();
+  auto next_line_index = [&](int from) {
+    for (int k = std::max(from, 0); k < static_cast<int>(path.size()); ++k)
+      if (!task.removed(path[static_cast<std::size_t>(k)])) return k;
+    return -1;
+  };
+  const double cautery_N = kCauteryForce_N * force_factor_;
+
+  // --- right hand: the cautery
+  {
+    Hand& hand = hands_[kRight];
+    const bool entering = phase_start_s_[kRight] < 0.0;
+    if (entering) phase_start_s_[kRight] = t;
+    switch (phase_[kRight]) {
+      case Phase::kApproach:
+        if (entering || burn_index_ < 0) {
+          burn_index_ = next_line_index(0);
+          if (burn_index_ < 0) { HL_ENTER(kRight, Phase::kRetract); break; }
+          const Eigen::Vector3d hover =
+              task.cell_center(path[static_cast<std::size_t>(burn_index_)]) + Eigen::Vector3d(0, 0, 0.004);
+          hand.reach(hover, t, reach_time(kRight, hand.base(), hover, 0.002));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kRight, Phase::kDescend);
+        }
+        break;
+      case Phase::kDescend:
+        if (entering) {
+          const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(burn_index_)]);
+          hand.reach(spot, t, 0.35 * time_factor_[kRight]);
+          hand.press(-Eigen::Vector3d::UnitZ(), cautery_N * rng_.lognormal_factor(traits_.consistency));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kRight, Phase::kWork);
+          removed_seen_at_s_ = -1.0;
+          burn_progress_s_ = t;
+        }
+        break;
+      case Phase::kWork: {
+        if (done) { HL_ENTER(kRight, Phase::kRelease); break; }
+        const int cell = path[static_cast<std::size_t>(burn_index_)];
+        if (!task.removed(cell)) {
+          // No visible progress: press a little harder, within reason.
+          if (t - burn_progress_s_ > 1.0 * time_factor_[kRight]) {
+            burn_progress_s_ = t;
+            hand.set_target_force(std::min(3.0 * cautery_N, hand.target_force_N() * 1.15));
+          }
+          break;
+        }
+        burn_progress_s_ = t;
+        // The participant sees the tissue go only after the visual delay.
+        if (removed_seen_at_s_ < 0.0) removed_seen_at_s_ = t;
+        if (t - removed_seen_at_s_ < traits_.visual_delay_s) break;
+        removed_seen_at_s_ = -1.0;
+        const int next = next_line_index(burn_index_ + 1);
+        if (next < 0) { HL_ENTER(kRight, Phase::kRelease); break; }
+        burn_index_ = next;
+        const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(next)]);
+        const double dist = (spot - hand.base()).norm();
+        if (dist > 0.005) { HL_ENTER(kRight, Phase::kRelease); break; }
+        hand.reach(spot, t, std::max(0.12, dist / kDragSpeed_m_per_s) * time_factor_[kRight]);
+        if (rng_.uniform() < 0.15)  // now and then the surgeon re-sets the pressure
+          hand.set_target_force(cautery_N * rng_.lognormal_factor(traits_.consistency));
+        break;
+      }
+      case Phase::kRelease:
+        if (entering) {
+          hand.stop_press();
+          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.005), t, 0.3 * time_factor_[kRight]);
+        } else if (hand.reach_done(t)) {
+          if (done) { HL_ENTER(kRight, Phase::kRetract); }
+          else { burn_index_ = -1; HL_ENTER(kRight, Phase::kApproach); }
+        }
+        break;
+      case Phase::kRetract:
+        if (entering) {
+          const Eigen::Vector3d out = kTrocarPosition_m[kRight] +
+              0.012 * (hand.base() - kTrocarPosition_m[kRight]).normalized();
+          hand.stop_press();
+          hand.reach(out, t, reach_time(kRight, hand.base(), out, 0.01));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kRight, Phase::kDone);
+        }
+        break;
+      case Phase::kDone:
+        break;
+    }
+  }
+
+  // --- left hand: the grasper that tensions the tissue near the cautery
+  {
+    Hand& hand = hands_[kLeft];
+    const bool entering = phase_start_s_[kLeft] < 0.0;
+    if (entering) phase_start_s_[kLeft] = t;
+    const Eigen::Vector3d target =
+        burn_index_ >= 0 ? task.cell_center(path[static_cast<std::size_t>(burn_index_)]) : hands_[kRight].base();
+    const double tension_N = kTensionForce_N * force_factor_;
+    const auto& grasp = task.grasp();
+    switch (phase_[kLeft]) {
+      case Phase::kApproach:
+        if (done) { HL_ENTER(kLeft, Phase::kRetract); break; }
+        if (entering) {
+          // Grasp beside and behind the dissection site, pulling away from it.
+          const double side = target.y() > 0.0 ? -1.0 : 1.0;
+          const auto& p = task.params();
+          grasp_site_ = Eigen::Vector3d(
+              std::clamp(target.x() + 0.004, -p.half_width_x_m + 0.001, p.half_width_x_m - 0.001),
+              std::clamp(target.y() + side * 0.006, -p.half_width_y_m + 0.001, p.half_width_y_m - 0.001),
+              p.surface_z_m);
+          Eigen::Vector3d away = grasp_site_ - target;
+          away.z() = 0.0;
+          if (away.norm() < 1e-6) away = Eigen::Vector3d(-1, 0, 0);
+          pull_dir_ = (away.normalized() + Eigen::Vector3d(0, 0, 0.6)).normalized();
+          const Eigen::Vector3d hover = grasp_site_ + Eigen::Vector3d(0, 0, 0.005);
+          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+          hand.reach(hover, t, reach_time(kLeft, hand.base(), hover, 0.004));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kLeft, Phase::kDescend);
+        }
+        break;
+      case Phase::kDescend:
+        if (entering) {
+          hand.reach(grasp_site_, t, 0.35 * time_factor_[kLeft]);
+          hand.press(-Eigen::Vector3d::UnitZ(), kTouchForce_N * force_factor_);
+        } else if (grasp.holding()) {
+          HL_ENTER(kLeft, Phase::kWork);
+        } else if (hand.reach_done(t) && hand.grip_done(t) && hand.estimated_force_N() > 0.05 &&
+                   t - phase_start_s_[kLeft] > 0.4 * time_factor_[kLeft]) {
+          hand.grip_to(kGripShut_rad, t, 0.25);
+        }
+        if (t - phase_start_s_[kLeft] > 3.0) HL_ENTER(kLeft, Phase::kRelease);
+        break;
+      case Phase::kWork:
+        if (entering) {
+          hand.stop_press();
+          hand.press(pull_dir_, tension_N * rng_.lognormal_factor(traits_.consistency));
+        }
+        if (done || !grasp.holding() || (target - grasp.anchor()).norm() > 0.014)
+          HL_ENTER(kLeft, Phase::kRelease);
+        break;
+      case Phase::kRelease:
+        if (entering) {
+          hand.stop_press();
+          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.006), t, 0.3 * time_factor_[kLeft]);
+        } else if (hand.reach_done(t) && hand.grip_done(t)) {
+          HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
+        }
+        break;
+      case Phase::kRetract:
+        if (entering) {
+          const Eigen::Vector3d out = kTrocarPosition_m[kLeft] +
+              0.012 * (hand.base() - kTrocarPosition_m[kLeft]).normalized();
+          hand.reach(out, t, reach_time(kLeft, hand.base(), out, 0.01));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kLeft, Phase::kDone);
+        }
+        break;
+      case Phase::kDone:
+        break;
+    }
+  }
+}
+
+void Participant::act_clip(double t) noexcept {
+  const ClipTask& task = *clip_;
+  const bool done = task.complete();
+  const auto& p = task.params();
+  const int k = std::min(clip_index_, ClipTask::kClipsPerDuct - 1);
+  const double marker = task.marker_x_m(k);
+  const auto& grasp = task.grasp();
+
+  // --- left hand: grasp the duct beside the marker and hold it up gently
+  {
+    Hand& hand = hands_[kLeft];
+    const bool entering = phase_start_s_[kLeft] < 0.0;
+    if (entering) phase_start_s_[kLeft] = t;
+    switch (phase_[kLeft]) {
+      case Phase::kApproach:
+        if (done) { HL_ENTER(kLeft, Phase::kRetract); break; }
+        if (entering) {
+          grasp_site_ = task.axis_point(marker - 0.008);
+          const Eigen::Vector3d hover = grasp_site_ + Eigen::Vector3d(0, 0, p.duct_radius_m + 0.006);
+          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+          hand.reach(hover, t, reach_time(kLeft, hand.base(), hover, 0.003));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kLeft, Phase::kDescend);
+        }
+        break;
+      case Phase::kDescend:
+        if (entering) {
+          hand.reach(grasp_site_, t, 0.4 * time_factor_[kLeft]);
+        } else if (grasp.holding()) {
+          HL_ENTER(kLeft, Phase::kWork);
+        } else if (hand.reach_done(t) && hand.grip_done(t) &&
+                   t - phase_start_s_[kLeft] > 0.5 * time_factor_[kLeft]) {
+          hand.grip_to(kGripShut_rad, t, 0.25);
+        }
+        if (t - phase_start_s_[kLeft] > 3.0) HL_ENTER(kLeft, Phase::kRelease);
+        break;
+      case Phase::kWork:
+        if (entering) {
+          pull_dir_ = Eigen::Vector3d::UnitZ();
+          hand.press(pull_dir_, kLiftForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency));
+        }
+        if (done || !grasp.holding() || std::abs(grasp.anchor().x() - marker) > 0.014)
+          HL_ENTER(kLeft, Phase::kRelease);
+        break;
+      case Phase::kRelease:
+        if (entering) {
+          hand.stop_press();
+          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.006), t, 0.3 * time_factor_[kLeft]);
+        } else if (hand.reach_done(t) && hand.grip_done(t)) {
+          HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
+        }
+        break;
+      case Phase::kRetract:
+        if (entering) {
+          const Eigen::Vector3d out = kTrocarPosition_m[kLeft] +
+              0.012 * (hand.base() - kTrocarPosition_m[kLeft]).normalized();
+          hand.reach(out, t, reach_time(kLeft, hand.base(), out, 0.01));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kLeft, Phase::kDone);
+        }
+        break;
+      case Phase::kDone:
+        break;
+    }
+  }
+
+  // --- right hand: the clip applier
+  {
+    Hand& hand = hands_[kRight];
+    const bool entering = phase_start_s_[kRight] < 0.0;
+    if (entering) phase_start_s_[kRight] = t;
+    const Eigen::Vector3d top = task.axis_point(marker) + Eigen::Vector3d(0, 0, p.duct_radius_m);
+    switch (phase_[kRight]) {
+      case Phase::kApproach:
+        if (done) { HL_ENTER(kRight, Phase::kRetract); break; }
+        if (entering) {
+          const Eigen::Vector3d hover = top + Eigen::Vector3d(0, 0, 0.008);
+          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+          hand.reach(hover, t, reach_time(kRight, hand.base(), hover, 0.002));
+        } else if (hand.reach_done(t) && (grasp.holding() || t - phase_start_s_[kRight] > 4.0)) {
+          HL_ENTER(kRight, Phase::kDescend);
+        }
+        break;
+      case Phase::kDescend:
+        if (entering) {
+          hand.reach(top, t, 0.4 * time_factor_[kRight]);
+          hand.press(-Eigen::Vector3d::UnitZ(),
+                     kSeatForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency));
+        } else if (hand.reach_done(t) && t - phase_start_s_[kRight] > 0.6 * time_factor_[kRight]) {
+          HL_ENTER(kRight, Phase::kWork);
+        }
+        break;
+      case Phase::kWork:
+        if (entering) hand.grip_to(kGripShut_rad, t, 0.3 * time_factor_[kRight]);
+        if (task.clips_applied() > clip_index_) {
+          clip_index_ = task.clips_applied();
+          HL_ENTER(kRight, Phase::kRelease);
+        } else if (task.clips_missed() > clips_seen_missed_) {
+          clips_seen_missed_ = task.clips_missed();
+          HL_ENTER(kRight, Phase::kRelease);
+        } else if (hand.grip_done(t) && t - phase_start_s_[kRight] > 1.5) {
+          HL_ENTER(kRight, Phase::kRelease);
+        }
+        break;
+      case Phase::kRelease:
+        if (entering) {
+          hand.stop_press();
+          hand.grip_to(kGripOpenTarget_rad, t, 0.25);
+          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.008), t, 0.3 * time_factor_[kRight]);
+        } else if (hand.reach_done(t) && hand.grip_done(t)) {
+          HL_ENTER(kRight, done ? Phase::kRetract : Phase::kApproach);
+        }
+        break;
+      case Phase::kRetract:
+        if (entering) {
+          const Eigen::Vector3d out = kTrocarPosition_m[kRight] +
+              0.012 * (hand.base() - kTrocarPosition_m[kRight]).normalized();
+          hand.reach(out, t, reach_time(kRight, hand.base(), out, 0.01));
+        } else if (hand.reach_done(t)) {
+          HL_ENTER(kRight, Phase::kDone);
+        }
+        break;
+      case Phase::kDone:
+        break;
+    }
+  }
+}
+
+#undef HL_ENTER
+
+}  // namespace hapticlab

@@ -1,1 +1,116 @@
-// in progress
+#include "core/sim/trial_runner.h"
+
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/device/sim_device.h"
+#include "core/engine/engine.h"
+#include "core/loop/clock.h"
+#include "core/sim/clip_task.h"
+#include "core/sim/dissection_task.h"
+
+namespace hapticlab {
+
+ClockKind parse_clock_kind(std::string_view name) {
+  if (name == "virtual") return ClockKind::kVirtual;
+  if (name == "wall") return ClockKind::kWall;
+  throw std::invalid_argument("clock: '" + std::string(name) + "' is not a clock; choose virtual or wall");
+}
+
+SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& sink) {
+  if (!(config.max_duration_s > 0.0) || !std::isfinite(config.max_duration_s))
+    throw std::invalid_argument("max_duration_s: " + std::to_string(config.max_duration_s) +
+                                " must be a positive number of seconds");
+  RateSchedule schedule = config.thesis_rate ? RateSchedule::thesis_wander(config.trial_seed)
+                                             : RateSchedule::fixed(config.rate_Hz);
+
+  // The simulated workstation. Sub-steps of 1 ms are plenty for a hand of a
+  // few hundred N/m on a few hundred grams (ω·h < 0.05) and keep a 1 kHz
+  // loop at one physics step per update.
+  SimDeviceParams device_params;
+  device_params.max_substep_s = 1e-3;
+  SimDevice device(device_params);
+  std::array<JointVector, kNumInstruments> start{};
+  for (int i = 0; i < 2; ++i) {
+    const DeviceJoints pose = Participant::start_pose(i);
+    device.set_position(i, pose);
+    start[static_cast<std::size_t>(i)] = JointVector(pose[kJointInsertion], pose[kJointPitch], pose[kJointYaw]);
+  }
+  DeviceConfig device_config;
+  device_config.nominal_rate_Hz = std::clamp(1.0 / schedule.nominal_period_s(), 150.0, 2000.0);
+  device_config.seed = config.trial_seed;
+  if (device.configure(device_config) != DeviceStatus::kOk)
+    throw std::invalid_argument("rate_Hz: the simulated device refused the loop rate");
+  if (config.inject_fault) device.inject_fault(config.inject_fault->first, config.inject_fault->second);
+
+  Engine engine(config.settings, start);
+  std::unique_ptr<VirtualEnvironment> ve;
+  if (config.task == TaskKind::kDissection) ve = std::make_unique<DissectionTask>(config.trial_seed);
+  else ve = std::make_unique<ClipTask>(config.trial_seed);
+
+  const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed);
+  Participant participant(traits, ParticipantTrial{config.trial_seed, config.practice_trials}, device, *ve);
+
+  VirtualClock virtual_clock;
+  WallClock wall_clock;
+  Clock& clock = config.clock == ClockKind::kVirtual ? static_cast<Clock&>(virtual_clock)
+                                                     : static_cast<Clock&>(wall_clock);
+  LoopConfig loop_config;
+  loop_config.max_duration_s = config.max_duration_s;
+  loop_config.sample_queue_capacity = config.sample_queue_capacity;
+  loop_config.publish_samples = config.publish_samples;
+  if (!config.stop_when_complete) loop_config.linger_after_complete_s = config.max_duration_s;
+  HapticLoop loop(device, engine, *ve, clock, std::move(schedule), loop_config, &participant);
+
+  SimTrialResult result;
+  std::vector<LoopSample> batch(256);
+  // Samples first, then events: an event is queued before the sample of its
+  // update, so after this order every event up to the last popped sample is
+  // in hand and the sink gets events no later than their sample.
+  auto drain = [&] {
+    for (;;) {
+      const std::size_t n = loop.samples().pop_bulk(batch.data(), batch.size());
+      TaskEvent event;
+      while (loop.events().try_pop(event))
+        if (sink.on_event) sink.on_event(event);
+      if (n == 0) break;
+      for (std::size_t k = 0; k < n; ++k) {
+        const LoopSample& s = batch[k];
+        for (int i = 0; i < 2; ++i) {
+          const auto& f = s.instrument[static_cast<std::size_t>(i)].ve_force_N;
+          auto& peak = result.peak_ve_force_N[static_cast<std::size_t>(i)];
+          peak = std::max(peak, std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]));
+        }
+        if (sink.on_sample) sink.on_sample(s);
+      }
+      result.samples += n;
+    }
+  };
+
+  if (!loop.start()) {
+    result.stop_reason = loop.stop_reason();
+    result.device_status = loop.device_status();
+    return result;
+  }
+  while (loop.running()) {
+    drain();
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  loop.join();
+  drain();
+
+  result.stop_reason = loop.stop_reason();
+  result.device_status = loop.device_status();
+  result.task_complete = ve->complete();
+  result.duration_s = loop.elapsed_s();
+  result.dropped_samples = loop.dropped_samples();
+  result.dropped_events = loop.dropped_events();
+  result.timing = loop.timing();
+  return result;
+}
+
+}  // namespace hapticlab

@@ -1,0 +1,95 @@
+#pragma once
+// A simulated surgeon: moves both instruments of the SimDevice through a
+// task, inside the haptic loop (a LoopAgent).
+//
+// Traits (per participant, from a seed): speed, force level, hand
+// impedance, how much the visual force estimate is off, cue delays, which
+// hand is dominant, how consistent trials are, how fast practice pays off.
+// Trials vary around the traits and get faster with practice.
+//
+// The participant never knows the engine setting. Everything a setting
+// changes reaches it through the device (what the hand feels) and the VE
+// (where the degraded tools are and how much the tissue dents); see hand.h
+// for how felt and seen force are combined.
+
+#include <cstdint>
+
+#include "core/device/sim_device.h"
+#include "core/loop/haptic_loop.h"
+#include "core/sim/clip_task.h"
+#include "core/sim/dissection_task.h"
+#include "core/sim/hand.h"
+
+namespace hapticlab {
+
+struct ParticipantTraits {
+  double speed = 1.0;                  // movement time factor (> 1 is slower), ~0.7..1.4
+  double force_level = 1.0;            // scales the forces it aims for, ~0.7..1.4
+  double consistency = 0.12;           // log-sd of trial-to-trial variation
+  double hand_stiffness_N_per_m = 300.0;
+  double visual_force_gain = 0.75;     // < 1: forces seen as smaller than they are
+  double haptic_delay_s = 0.04;
+  double visual_delay_s = 0.16;
+  bool right_handed = true;            // the right tool (cautery, clip applier) in the dominant hand
+  double nondominant_factor = 1.25;    // the other hand: this much slower and noisier
+  double learning_gain = 0.5;          // the first trial takes (1 + gain) times longer...
+  double learning_trials = 6.0;        // ...and the excess decays over this many trials
+
+  // Draws a participant; the same seed gives the same person.
+  static ParticipantTraits sample(std::uint64_t seed) noexcept;
+};
+
+struct ParticipantTrial {
+  std::uint64_t seed = 0;     // varies this trial's execution
+  int practice_trials = 0;    // trials this participant already did (training included)
+};
+
+class Participant final : public LoopAgent {
+ public:
+  // `task` must be the VE the loop steps (DissectionTask or ClipTask).
+  Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, SimDevice& device,
+              const VirtualEnvironment& task);
+
+  void act(const LoopTickView& view) noexcept override;
+
+  // The start pose of both instruments: tools retracted in their trocars,
+  // pointing at the work area.
+  static DeviceJoints start_pose(int instrument) noexcept;
+
+  // For inspection and tests.
+  const Hand& hand(int instrument) const noexcept { return hands_[static_cast<std::size_t>(instrument)]; }
+  int phase(int instrument) const noexcept { return static_cast<int>(phase_[static_cast<std::size_t>(instrument)]); }
+
+ private:
+  enum class Phase : std::uint8_t { kApproach, kDescend, kWork, kRelease, kRetract, kDone };
+
+  void act_dissection(double t_s) noexcept;
+  void act_clip(double t_s) noexcept;
+  double reach_time(int hand, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                    double width_m) const noexcept;
+  double seen_depth(int hand, const Eigen::Vector3d& tip) const noexcept;
+
+  ParticipantTraits traits_;
+  SimDevice& device_;
+  const DissectionTask* dissection_ = nullptr;
+  const ClipTask* clip_ = nullptr;
+  Random rng_;
+  std::array<Hand, 2> hands_;
+  std::array<double, 2> time_factor_{1.0, 1.0};  // this trial's movement-time factor per hand
+  double force_factor_ = 1.0;
+  std::array<Phase, 2> phase_{Phase::kApproach, Phase::kApproach};
+  std::array<double, 2> phase_start_s_{0.0, 0.0};
+  std::array<Eigen::Vector3d, 2> tip_{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  // dissection
+  int burn_index_ = -1;         // position in line_path() being exposed
+  double removed_seen_at_s_ = -1.0;
+  double burn_progress_s_ = 0.0;  // when the cautery last made visible progress
+  Eigen::Vector3d grasp_site_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d pull_dir_ = Eigen::Vector3d::UnitZ();
+  // clip
+  int clip_index_ = 0;
+  int clips_seen_missed_ = 0;
+  bool started_ = false;
+};
+
+}  // namespace hapticlab

@@ -1,0 +1,64 @@
+#pragma once
+// Runs one simulated trial end to end: the sim device held by a simulated
+// participant, the degradation engine, a simulated task VE and the haptic
+// loop, with the virtual or the wall clock.
+//
+// The loop runs on its own thread; samples and events are handed to the
+// caller's sink on the calling thread as they arrive. With the virtual
+// clock the same configuration gives bit-identical samples.
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+
+#include "core/loop/haptic_loop.h"
+#include "core/settings/settings.h"
+#include "core/sim/participant.h"
+#include "core/sim/virtual_environment.h"
+
+namespace hapticlab {
+
+enum class ClockKind : std::uint8_t { kVirtual, kWall };
+// "virtual" or "wall"; throws std::invalid_argument otherwise.
+ClockKind parse_clock_kind(std::string_view name);
+
+struct SimTrialConfig {
+  TaskKind task = TaskKind::kDissection;
+  EngineSettings settings;
+  std::uint64_t participant_seed = 1;  // who: the traits
+  std::uint64_t trial_seed = 1;        // this trial: task layout and execution variation
+  int practice_trials = 0;             // trials the participant already did
+  ClockKind clock = ClockKind::kVirtual;
+  double rate_Hz = 1000.0;             // 150..2000
+  bool thesis_rate = false;            // rate wanders 200..2000 Hz like the thesis' VE
+  double max_duration_s = 300.0;
+  bool stop_when_complete = true;       // false: run on to max_duration_s (benchmarks)
+  bool publish_samples = true;         // false: no samples reach the sink (throughput runs)
+  std::size_t sample_queue_capacity = 1 << 14;
+  // Fault injection for tests: from this simulated time on, the device read
+  // fails with this status. nullopt: no fault.
+  std::optional<std::pair<DeviceStatus, double>> inject_fault;
+};
+
+struct SimTrialResult {
+  StopReason stop_reason = StopReason::kNotStopped;
+  DeviceStatus device_status = DeviceStatus::kOk;
+  bool task_complete = false;
+  double duration_s = 0.0;          // loop time at the last update
+  std::uint64_t samples = 0;
+  std::uint64_t dropped_samples = 0;
+  std::uint64_t dropped_events = 0;
+  std::array<double, 2> peak_ve_force_N{0.0, 0.0};  // max |VE force| per instrument
+  LoopTimingSummary timing;
+};
+
+struct SimTrialSink {
+  std::function<void(const LoopSample&)> on_sample;
+  std::function<void(const TaskEvent&)> on_event;
+};
+
+// Throws std::invalid_argument (rate, durations) or SettingsError before any
+// simulation starts.
+SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& sink = {});
+
+}  // namespace hapticlab

@@ -1,0 +1,54 @@
+#pragma once
+// The virtual environment (VE) side of the haptic loop: it receives the
+// degraded instrument positions and returns the tissue force on each tool
+// tip, in the world frame, plus task events.
+//
+// HapticLab ships two simulated VEs, the thesis' tasks (3.3.2): dissection
+// and clip application. A user's own VE connects through the C API instead;
+// this interface is for VEs that run inside the loop.
+
+#include <array>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include <Eigen/Core>
+
+#include "core/device/device.h"
+#include "core/sim/task_event.h"
+
+namespace hapticlab {
+
+enum class TaskKind : std::uint8_t { kDissection = 0, kClip = 1 };
+const char* to_string(TaskKind task) noexcept;
+// "dissection" or "clip"; throws std::invalid_argument naming the value and
+// the choices otherwise.
+TaskKind parse_task_kind(std::string_view name);
+
+struct VeInput {
+  double t_s = 0.0;
+  double dt_s = 0.0;
+  // Per instrument: insertion/pitch/yaw as degraded by the engine, twist and
+  // grip as read from the device (the engine does not degrade them).
+  std::array<DeviceJoints, 2> joints{};
+};
+
+struct VeOutput {
+  std::array<Eigen::Vector3d, 2> tip_force_N{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  // Torque on the handle grip [N·m] (the thesis' VE pushes back in the
+  // handle when a clip is applied); positive opens the grip.
+  std::array<double, 2> grip_torque_Nm{0.0, 0.0};
+  std::array<bool, 2> in_contact{false, false};
+};
+
+class VirtualEnvironment {
+ public:
+  virtual ~VirtualEnvironment() = default;
+  // Real-time thread: no allocation, locks, I/O or exceptions.
+  virtual void step(const VeInput& in, VeOutput& out, EventBuffer& events) noexcept = 0;
+  virtual bool complete() const noexcept = 0;
+  virtual TaskKind kind() const noexcept = 0;
+};
+
+}  // namespace hapticlab
