@@ -1,0 +1,55 @@
+#include "analysis/stats/pairwise_friedman.h"
+
+#include <cmath>
+
+#include "analysis/stats/data_error.h"
+#include "analysis/stats/friedman.h"
+
+namespace hapticlab::analysis {
+
+double sidak_level(double alpha, std::size_t m) {
+  if (!(alpha > 0.0 && alpha < 1.0)) {
+    throw DataError("sidak_level(): alpha is " + std::to_string(alpha) +
+                    ", but must be > 0 and < 1");
+  }
+  if (m == 0) throw DataError("sidak_level(): the number of comparisons must be >= 1");
+  // 1 − (1 − α)^(1/m), written with expm1/log1p to keep precision for small α
+  return -std::expm1(std::log1p(-alpha) / static_cast<double>(m));
+}
+
+std::vector<PairwiseComparison> pairwise_friedman_vs_control(const BlockTable& table,
+                                                             const std::string& control,
+                                                             double alpha) {
+  const std::size_t c = table.treatment_index(control);
+  if (table.treatment_count() < 2) {
+    throw DataError("pairwise_friedman_vs_control(): only the control '" + control +
+                    "' is present; nothing to compare");
+  }
+  const double level = sidak_level(alpha, table.treatment_count() - 1);
+
+  std::vector<PairwiseComparison> out;
+  for (std::size_t t = 0; t < table.treatment_count(); ++t) {
+    if (t == c) continue;
+    PairwiseComparison cmp;
+    cmp.treatment = table.treatment_names[t];
+    // The blocks with data for both: "all data available" for this pair.
+    BlockTable pair;
+    pair.treatment_names = {table.treatment_names[c], table.treatment_names[t]};
+    for (std::size_t b = 0; b < table.block_count(); ++b) {
+      if (table.cells[b][c].empty() || table.cells[b][t].empty()) continue;
+      pair.block_names.push_back(table.block_names[b]);
+      pair.cells.push_back({table.cells[b][c], table.cells[b][t]});
+    }
+    cmp.n_blocks = pair.block_count();
+    if (cmp.n_blocks > 0) {
+      const TestResult r = friedman_test(pair);
+      cmp.p = r.p;
+      cmp.statistic = r.statistic;
+      cmp.significant = r.p < level;
+    }
+    out.push_back(std::move(cmp));
+  }
+  return out;
+}
+
+}  // namespace hapticlab::analysis

@@ -1,0 +1,214 @@
+#include "app/stats_command.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "analysis/stats/data_error.h"
+#include "analysis/stats/testing_tables.h"
+
+namespace hapticlab::app {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+class StatsCommandTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::path(::testing::TempDir()) / (std::string("stats_command_test_") + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path write_file(const std::string& name, const std::string& text) const {
+    const fs::path path = dir_ / name;
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+
+  // RoundingTimes in long format: player,method,time
+  fs::path rounding_csv() const {
+    std::ostringstream csv;
+    csv << "player,method,time\n";
+    const char* methods[] = {"round_out", "narrow_angle", "wide_angle"};
+    const auto rows = analysis::testing::rounding_times();
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      for (std::size_t m = 0; m < 3; ++m) csv << "P" << r + 1 << "," << methods[m] << "," << rows[r][m] << "\n";
+    }
+    return write_file("rounding.csv", csv.str());
+  }
+
+  // `hapticlab <args>`, in process, through CLI11; returns stdout.
+  static std::string run(std::vector<std::string> args) {
+    CLI::App app;
+    add_stats_command(app);
+    std::reverse(args.begin(), args.end());  // CLI11 2.1 takes the arguments last first
+    ::testing::internal::CaptureStdout();
+    try {
+      app.parse(args);
+    } catch (...) {
+      ::testing::internal::GetCapturedStdout();
+      throw;
+    }
+    return ::testing::internal::GetCapturedStdout();
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(StatsCommandTest, FriedmanTable) {
+  const std::string out = run({"stats", "friedman", "--csv", rounding_csv().string(), "--block",
+                               "player", "--treatment", "method", "--value", "time"});
+  EXPECT_THAT(out, HasSubstr("chi-square = 11.1429"));
+  EXPECT_THAT(out, HasSubstr("df = 2"));
+  EXPECT_THAT(out, HasSubstr("p = 0.00380"));
+}
+
+TEST_F(StatsCommandTest, FriedmanJson) {
+  const auto j = nlohmann::json::parse(run({"stats", "friedman", "--csv", rounding_csv().string(),
+                                            "--block", "player", "--treatment", "method",
+                                            "--value", "time", "--json"}));
+  EXPECT_NEAR(j.at("statistic").get<double>(), 11.143, 0.0005);
+  EXPECT_EQ(j.at("df").get<double>(), 2.0);
+  EXPECT_NEAR(j.at("p").get<double>(), 0.003805, 5e-7);
+  EXPECT_EQ(j.at("n").get<int>(), 66);
+}
+
+// Per-group results (thesis Table 3.4: one Friedman test per participant).
+TEST_F(StatsCommandTest, FriedmanPerGroup) {
+  std::ostringstream csv;
+  csv << "surgeon,hand,setting,force\n";
+  for (const char* s : {"S1", "S2"}) {
+    for (const char* h : {"L", "R"}) {
+      csv << s << "," << h << ",HiFi,1\n" << s << "," << h << ",NoFFB,3\n" << s << "," << h << ",AllDg,2\n";
+    }
+  }
+  const auto j = nlohmann::json::parse(run({"stats", "friedman", "--csv",
+                                            write_file("g.csv", csv.str()).string(), "--block",
+                                            "hand", "--treatment", "setting", "--value", "force",
+                                            "--group", "surgeon", "--json"}));
+  ASSERT_EQ(j.at("groups").size(), 2u);
+  EXPECT_EQ(j["groups"][1]["group"]["surgeon"], "S2");
+  // 2 blocks, identical orderings: R = (2, 6, 4), Σ(R−4)² = 8, Q = 12·8/(2·3·4) = 4
+  EXPECT_NEAR(j["groups"][0]["statistic"].get<double>(), 4.0, 1e-12);
+}
+
+TEST_F(StatsCommandTest, PairwiseJsonHasNullForNoData) {
+  const auto path = write_file("p.csv",
+                               "b,t,v\n"
+                               "1,HiFi,1\n1,NoFFB,2\n"
+                               "2,HiFi,1\n2,NoFFB,3\n"
+                               "3,HiFi,2\n3,Sat,1\n");
+  const auto j = nlohmann::json::parse(run({"stats", "pairwise", "--csv", path.string(), "--block",
+                                            "b", "--treatment", "t", "--value", "v", "--control",
+                                            "HiFi", "--json"}));
+  EXPECT_EQ(j.at("m").get<int>(), 2);
+  EXPECT_NEAR(j.at("sidak_level").get<double>(), 1.0 - std::sqrt(0.95), 1e-12);
+  ASSERT_EQ(j.at("comparisons").size(), 2u);
+  EXPECT_EQ(j["comparisons"][0]["treatment"], "NoFFB");
+  EXPECT_EQ(j["comparisons"][0]["n_blocks"].get<int>(), 2);
+  EXPECT_EQ(j["comparisons"][1]["n_blocks"].get<int>(), 1);
+
+  const auto k = nlohmann::json::parse(
+      run({"stats", "pairwise", "--csv", write_file("q.csv", "b,t,v\n1,HiFi,1\n1,A,2\n2,HiFi,1\n2,A,2\n3,B,4\n3,C,5\n").string(),
+           "--block", "b", "--treatment", "t", "--value", "v", "--control", "HiFi", "--json"}));
+  EXPECT_TRUE(k["comparisons"][1]["p"].is_null());
+  EXPECT_EQ(k["comparisons"][1]["n_blocks"].get<int>(), 0);
+}
+
+TEST_F(StatsCommandTest, PairwiseTablePrintsNA) {
+  const auto path = write_file("q.csv", "b,t,v\n1,HiFi,1\n1,A,2\n2,HiFi,1\n2,A,2\n3,B,4\n3,C,5\n");
+  const std::string out = run({"stats", "pairwise", "--csv", path.string(), "--block", "b",
+                               "--treatment", "t", "--value", "v", "--control", "HiFi"});
+  EXPECT_THAT(out, HasSubstr("N/A"));
+  EXPECT_THAT(out, HasSubstr("Sidak"));
+}
+
+TEST_F(StatsCommandTest, CorrelationWithGroups) {
+  std::ostringstream csv;
+  csv << "hand,trial,force\n";
+  for (int i = 1; i <= 5; ++i) csv << "L," << i << "," << 2 * i << "\n";
+  for (int i = 1; i <= 5; ++i) csv << "R," << i << "," << (i % 2) << "\n";
+  const auto j = nlohmann::json::parse(run({"stats", "correlation", "--csv",
+                                            write_file("c.csv", csv.str()).string(), "--x",
+                                            "trial", "--y", "force", "--group", "hand", "--json"}));
+  ASSERT_EQ(j.at("groups").size(), 2u);
+  EXPECT_NEAR(j["groups"][0]["r"].get<double>(), 1.0, 1e-12);
+  EXPECT_EQ(j["groups"][0]["strength"], "strong");
+  EXPECT_EQ(j["groups"][1]["n"].get<int>(), 5);
+}
+
+TEST_F(StatsCommandTest, KsWithBootstrapIsReproducible) {
+  std::ostringstream csv;
+  csv << "surgeon,setting,rep,force\n";
+  for (const char* s : {"S1", "S2"}) {
+    for (int rep = 1; rep <= 3; ++rep) {
+      for (int i = 0; i < 50; ++i) csv << s << ",HiFi," << rep << "," << (i * 7 + rep) % 13 << "\n";
+      for (int i = 0; i < 50; ++i) csv << s << ",NoFFB," << rep << "," << 20 + (i * 5 + rep) % 11 << "\n";
+    }
+  }
+  const auto path = write_file("ks.csv", csv.str());
+  const std::vector<std::string> args = {"stats", "ks", "--csv", path.string(), "--block",
+                                         "surgeon", "--treatment", "setting", "--replicate", "rep",
+                                         "--value", "force", "--control", "HiFi", "--other",
+                                         "NoFFB", "--bootstrap", "100", "--block-length", "5",
+                                         "--seed", "3", "--json"};
+  const auto first = nlohmann::json::parse(run(args));
+  const auto second = nlohmann::json::parse(run(args));
+  EXPECT_EQ(first, second);
+  EXPECT_EQ(first.at("statistic").get<double>(), 1.0);
+  EXPECT_TRUE(first["bootstrap"]["significant"].get<bool>());
+  EXPECT_EQ(first["bootstrap"]["participants_used"].get<int>(), 2);
+}
+
+TEST_F(StatsCommandTest, KsBootstrapNeedsReplicateColumn) {
+  const auto path = write_file("k.csv", "s,t,v\nS1,A,1\nS1,B,2\n");
+  EXPECT_THROW(run({"stats", "ks", "--csv", path.string(), "--block", "s", "--treatment", "t",
+                    "--value", "v", "--control", "A", "--other", "B", "--bootstrap", "10",
+                    "--block-length", "1"}),
+               analysis::DataError);
+}
+
+TEST_F(StatsCommandTest, ErrorsAreRuntimeErrorsNamingTheProblem) {
+  const auto path = rounding_csv();
+  try {
+    run({"stats", "friedman", "--csv", path.string(), "--block", "player", "--treatment",
+         "method"});  // default value column "value" is absent
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("'value'"));
+    EXPECT_THAT(e.what(), HasSubstr("player, method, time"));
+  }
+  EXPECT_THROW(run({"stats", "friedman"}), CLI::RequiredError);
+}
+
+TEST_F(StatsCommandTest, HelpDocumentsEveryOption) {
+  CLI::App app;
+  add_stats_command(app);
+  CLI::App* ks = app.get_subcommand("stats")->get_subcommand("ks");
+  const std::string help = ks->help();
+  for (const char* option : {"--csv", "--block", "--treatment", "--replicate", "--value", "--json",
+                             "--group", "--control", "--other", "--bootstrap", "--block-length",
+                             "--seed", "--percentile-method"}) {
+    EXPECT_THAT(help, HasSubstr(option));
+  }
+  for (const auto* sub : app.get_subcommand("stats")->get_subcommands({})) {
+    for (const auto* opt : sub->get_options()) {
+      if (opt->get_name() == "--help") continue;
+      EXPECT_FALSE(opt->get_description().empty()) << sub->get_name() << " " << opt->get_name();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace hapticlab::app
