@@ -1,0 +1,207 @@
+#include "protocols/protocol.h"
+
+#include <set>
+
+#include "protocols/protocol_error.h"
+
+namespace hapticlab::protocols {
+namespace {
+
+std::string in_quotes(std::string_view s) { return "\"" + std::string(s) + "\""; }
+
+std::string index_path(const std::string& base, std::size_t i) {
+  return base + "[" + std::to_string(i) + "]";
+}
+
+// Checks one list of setting names (design.required or one explicit
+// assignment): every name known, none twice.
+void check_setting_names(const Protocol& p, const std::vector<std::string>& names,
+                         const std::string& path, const std::string& source) {
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (!p.find_setting(names[i])) {
+      std::string known;
+      for (const auto& s : p.settings) known += (known.empty() ? "" : ", ") + in_quotes(s.settings.name);
+      throw ProtocolError(source, index_path(path, i),
+                          "is " + in_quotes(names[i]) + ", but must be the name of one of the protocol's settings: " +
+                              known);
+    }
+    if (!seen.insert(names[i]).second) {
+      throw ProtocolError(source, index_path(path, i),
+                          "is " + in_quotes(names[i]) + ", which is already listed; each setting at most once");
+    }
+  }
+}
+
+void check_enough_settings(std::size_t count, const std::string& path, const std::string& what,
+                           const std::string& source) {
+  if (count < 2) {
+    throw ProtocolError(source, path,
+                        "gives " + what + " " + std::to_string(count) +
+                            " setting(s), but must give at least 2: a within-subject comparison needs two, "
+                            "and with one every trial would repeat the same setting");
+  }
+}
+
+}  // namespace
+
+std::string_view task_name(Task task) {
+  switch (task) {
+    case Task::kDissection:
+      return "dissection";
+    case Task::kClip:
+      return "clip";
+  }
+  return "?";
+}
+
+std::optional<Task> task_from_name(std::string_view name) {
+  for (Task t : kAllTasks) {
+    if (task_name(t) == name) return t;
+  }
+  return std::nullopt;
+}
+
+std::optional<std::size_t> Protocol::find_setting(std::string_view name) const {
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    if (settings[i].settings.name == name) return i;
+  }
+  return std::nullopt;
+}
+
+std::optional<std::string> participant_code_problem(std::string_view code) {
+  const std::string rule = "must be a pseudonymous code of 1 to " + std::to_string(kMaxCodeLength) +
+                           " letters, digits, '_' or '-' (codes only, never names)";
+  if (code.find(' ') != std::string_view::npos) {
+    return "contains a space and looks like a person's name; it " + rule;
+  }
+  if (code.empty() || code.size() > kMaxCodeLength) return "has " + std::to_string(code.size()) +
+                                                           " characters, but " + rule;
+  for (char c : code) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '-';
+    if (!ok) return "contains a character other than letters, digits, '_' or '-'; it " + rule;
+  }
+  return std::nullopt;
+}
+
+void validate_protocol(const Protocol& p, const std::string& source) {
+  if (p.study.empty()) throw ProtocolError(source, "study", "is empty, but must name the study");
+
+  // tasks and their repetitions
+  if (p.tasks.empty()) {
+    throw ProtocolError(source, "tasks", "is empty, but must list at least one of \"dissection\", \"clip\"");
+  }
+  for (std::size_t i = 0; i < p.tasks.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (p.tasks[i] == p.tasks[j]) {
+        throw ProtocolError(source, index_path("tasks", i),
+                            "is " + in_quotes(task_name(p.tasks[i])) + ", which is already listed");
+      }
+    }
+    const int reps = p.repetitions_of(p.tasks[i]);
+    if (reps < 1 || reps > kMaxRepetitions) {
+      throw ProtocolError(source, "repetitions." + std::string(task_name(p.tasks[i])),
+                          "is " + std::to_string(reps) + ", but must be >= 1 and <= " +
+                              std::to_string(kMaxRepetitions) + " (repetitions of every setting)");
+    }
+  }
+
+  // settings: named, names unique (designs refer to settings by name)
+  for (std::size_t i = 0; i < p.settings.size(); ++i) {
+    const std::string& name = p.settings[i].settings.name;
+    if (name.empty()) {
+      throw ProtocolError(source, index_path("settings", i) + ".name",
+                          "is missing or empty, but every setting needs a name: designs refer to settings by it");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (p.settings[j].settings.name == name) {
+        throw ProtocolError(source, index_path("settings", i) + ".name",
+                            "is " + in_quotes(name) + ", the same as settings[" + std::to_string(j) +
+                                "]; setting names must be unique");
+      }
+    }
+  }
+  if (p.settings.size() < 2) {
+    throw ProtocolError(source, "settings",
+                        "has " + std::to_string(p.settings.size()) + " setting(s), but must have at least 2");
+  }
+
+  // participants: codes, tasks, training
+  if (p.participants.empty()) {
+    throw ProtocolError(source, "participants", "is empty, but must list at least one participant code");
+  }
+  std::set<std::string> codes;
+  for (std::size_t i = 0; i < p.participants.size(); ++i) {
+    const ParticipantSpec& ps = p.participants[i];
+    const std::string path = index_path("participants", i);
+    if (auto problem = participant_code_problem(ps.code)) {
+      throw ProtocolError(source, path + ".code", "is " + in_quotes(ps.code) + ", which " + *problem);
+    }
+    if (!codes.insert(ps.code).second) {
+      throw ProtocolError(source, path + ".code",
+                          "is " + in_quotes(ps.code) + ", which is already used; codes must be unique");
+    }
+    if (ps.tasks.empty()) {
+      throw ProtocolError(source, path + ".tasks", "is empty, but must list at least one of the study's tasks");
+    }
+    for (std::size_t t = 0; t < ps.tasks.size(); ++t) {
+      bool in_study = false;
+      for (Task st : p.tasks) in_study = in_study || st == ps.tasks[t];
+      if (!in_study) {
+        throw ProtocolError(source, index_path(path + ".tasks", t),
+                            "is " + in_quotes(task_name(ps.tasks[t])) + ", which is not one of the study's tasks");
+      }
+      for (std::size_t u = 0; u < t; ++u) {
+        if (ps.tasks[u] == ps.tasks[t]) {
+          throw ProtocolError(source, index_path(path + ".tasks", t),
+                              "is " + in_quotes(task_name(ps.tasks[t])) + ", which is already listed");
+        }
+      }
+    }
+    if (ps.training_trials < 0 || ps.training_trials > kMaxTrainingTrials) {
+      throw ProtocolError(source, path + ".training_trials",
+                          "is " + std::to_string(ps.training_trials) + ", but must be >= 0 and <= " +
+                              std::to_string(kMaxTrainingTrials));
+    }
+  }
+
+  // design
+  const Design& d = p.design;
+  switch (d.type) {
+    case DesignType::kComplete:
+      break;
+    case DesignType::kIncomplete: {
+      check_setting_names(p, d.required, "design.required", source);
+      const int optional = static_cast<int>(p.settings.size() - d.required.size());
+      if (d.k < 0 || d.k > optional) {
+        throw ProtocolError(source, "design.k",
+                            "is " + std::to_string(d.k) + ", but must be >= 0 and <= " + std::to_string(optional) +
+                                " (the number of settings not in design.required)");
+      }
+      check_enough_settings(d.required.size() + static_cast<std::size_t>(d.k), "design",
+                            "each participant", source);
+      break;
+    }
+    case DesignType::kExplicit: {
+      for (const auto& [code, names] : d.assignments) {
+        const std::string path = "design.assignments." + code;
+        if (!codes.count(code)) {
+          throw ProtocolError(source, path, "assigns settings to " + in_quotes(code) +
+                                                ", which is not in participants; every key must be a participant code");
+        }
+        check_setting_names(p, names, path, source);
+        check_enough_settings(names.size(), path, in_quotes(code), source);
+      }
+      for (std::size_t i = 0; i < p.participants.size(); ++i) {
+        if (!d.assignments.count(p.participants[i].code)) {
+          throw ProtocolError(source, "design.assignments." + p.participants[i].code,
+                              "is missing; an explicit design assigns settings to every participant");
+        }
+      }
+      break;
+    }
+  }
+}
+
+}  // namespace hapticlab::protocols

@@ -1,0 +1,108 @@
+#pragma once
+// A study protocol: which tasks, which settings, who takes part, how settings
+// are assigned to participants (the design), how often each is repeated, and
+// the seed that fixes every random choice. Plain data; protocol_json.h reads
+// and validates it, design.h assigns settings, schedule.h orders the trials.
+//
+// Thesis (Ch. 3.3.6): 2 tasks, 8 settings, 3 dissection and 9 clip
+// repetitions of every setting; planned 8 surgeons in an incomplete design
+// (Table 3.2), run with 3 (Table 3.3).
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/settings/settings_json.h"
+
+namespace hapticlab::protocols {
+
+// The thesis' two simulator tasks (Ch. 3.3.2).
+enum class Task { kDissection = 0, kClip = 1 };
+inline constexpr std::size_t kTaskCount = 2;
+inline constexpr std::array<Task, kTaskCount> kAllTasks{Task::kDissection, Task::kClip};
+
+// "dissection" / "clip": the names used in protocol files.
+std::string_view task_name(Task task);
+std::optional<Task> task_from_name(std::string_view name);
+
+// Repetitions allowed per setting and task (each repetition is one block).
+inline constexpr int kMaxRepetitions = 100;
+// Practice trials allowed per participant and task.
+inline constexpr int kMaxTrainingTrials = 1000;
+// Participant codes: 1..kMaxCodeLength of [A-Za-z0-9_-].
+inline constexpr std::size_t kMaxCodeLength = 32;
+
+// One setting of the study, with its full parameters (so a results database
+// can store exactly what ran, not a file name whose content may change).
+struct ProtocolSetting {
+  NamedSettings settings;  // settings.name is how designs refer to it; unique per protocol
+  std::string source;      // the path as written in the protocol file, or "inline"
+};
+
+enum class DesignType {
+  kComplete,    // every participant does every setting
+  kIncomplete,  // `required` for all, plus `k` of the others, balanced (design.h)
+  kExplicit,    // `assignments` given per participant (e.g. thesis Table 3.3)
+};
+
+struct Design {
+  DesignType type = DesignType::kComplete;
+  // kIncomplete: setting names every participant does (thesis: High
+  // Fidelity, No Force Feedback, All Degradations). The other settings of the
+  // protocol, in protocol order, are the optional ones.
+  std::vector<std::string> required;
+  // kIncomplete: optional settings per participant, 0 <= k <= optional count.
+  int k = 0;
+  // kExplicit: participant code -> setting names; exactly one entry per participant.
+  std::map<std::string, std::vector<std::string>> assignments;
+};
+
+struct ParticipantSpec {
+  // Pseudonymous code, 1..32 of [A-Za-z0-9_-]. Never a name: protocol files
+  // and everything derived from them (schedules, databases) hold codes only.
+  std::string code;
+  // Tasks this participant does, a non-empty subset of Protocol::tasks in
+  // protocol order (thesis: Surgeon 3 did only the dissection).
+  std::vector<Task> tasks;
+  // Practice trials per task before its scheduled trials, 0..1000. Not part
+  // of the schedule and not analysed; simulated participants use them to
+  // settle (the thesis' surgeons trained until they stopped improving).
+  int training_trials = 0;
+};
+
+struct Protocol {
+  std::string study;                      // study name, non-empty
+  std::string description;                // free text, may be empty
+  std::vector<Task> tasks;                // non-empty, no duplicates, in file order
+  std::vector<ProtocolSetting> settings;  // >= 2, unique names
+  // Repetitions of every setting per task, 1..100, indexed by Task; used only
+  // for tasks in `tasks` (thesis: 3 dissection, 9 clip).
+  std::array<int, kTaskCount> repetitions{};
+  std::vector<ParticipantSpec> participants;  // >= 1, unique codes
+  Design design;
+  std::uint64_t seed = 0;  // fixes the design search, task orders and schedules
+
+  int repetitions_of(Task task) const { return repetitions[static_cast<std::size_t>(task)]; }
+  // Index into `settings` of the setting called `name`, or nullopt.
+  std::optional<std::size_t> find_setting(std::string_view name) const;
+};
+
+// Why `code` is not an acceptable participant code, or nullopt if it is.
+// A code with a space is refused as looking like a person's name.
+std::optional<std::string> participant_code_problem(std::string_view code);
+
+// Checks every rule of docs/protocols.md on a protocol built in code or
+// parsed from a file; throws ProtocolError naming the field by its path in
+// the protocol file (e.g. "design.required[1]", "participants[2].code"),
+// the value and the rule. `source` prefixes the message (a file path).
+// Among the rules: every participant ends up with >= 2 settings, because a
+// within-subject comparison needs two, and with one setting every trial
+// would repeat it (block randomization could not keep runs <= 2).
+void validate_protocol(const Protocol& protocol, const std::string& source);
+
+}  // namespace hapticlab::protocols

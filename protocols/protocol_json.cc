@@ -1,0 +1,260 @@
+#include "protocols/protocol_json.h"
+
+#include <algorithm>
+#include <climits>
+#include <cstdint>
+#include <fstream>
+#include <initializer_list>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace hapticlab::protocols {
+namespace {
+
+using nlohmann::json;
+
+// The value as it appears in the file, shortened for messages.
+std::string shown(const json& v) {
+  std::string s = v.dump();
+  if (s.size() > 60) s = s.substr(0, 57) + "...";
+  return s;
+}
+
+std::string index_path(const std::string& base, std::size_t i) {
+  return base + "[" + std::to_string(i) + "]";
+}
+
+// Reads one protocol document; every helper names the field path on error.
+class Reader {
+ public:
+  Reader(std::string source, std::filesystem::path base_dir)
+      : source_(std::move(source)), base_dir_(std::move(base_dir)) {}
+
+  Protocol read(const json& j) {
+    expect_object(j, "(top level)");
+    check_keys(j, "", {"study", "description", "tasks", "repetitions", "settings", "participants", "design",
+                       "seed", "training_trials"});
+    Protocol p;
+    p.study = as_string(require(j, "study", ""), "study");
+    if (j.contains("description")) p.description = as_string(j["description"], "description");
+    p.tasks = read_tasks(require(j, "tasks", ""), "tasks");
+    read_repetitions(require(j, "repetitions", ""), p);
+    read_settings(require(j, "settings", ""), p);
+    const int default_training =
+        j.contains("training_trials") ? as_int(j["training_trials"], "training_trials", 0, kMaxTrainingTrials) : 0;
+    read_participants(require(j, "participants", ""), p, default_training);
+    read_design(require(j, "design", ""), p);
+    p.seed = as_seed(require(j, "seed", ""), "seed");
+    validate_protocol(p, source_);
+    return p;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& path, const std::string& message) const {
+    throw ProtocolError(source_, path, message);
+  }
+
+  static std::string join(const std::string& parent, const std::string& key) {
+    return parent.empty() ? key : parent + "." + key;
+  }
+
+  const json& require(const json& obj, const std::string& key, const std::string& parent) const {
+    auto it = obj.find(key);
+    if (it == obj.end()) fail(join(parent, key), "is missing, but is required");
+    return *it;
+  }
+
+  void expect_object(const json& v, const std::string& path) const {
+    if (!v.is_object()) fail(path, "is " + shown(v) + ", but must be an object");
+  }
+
+  void check_keys(const json& obj, const std::string& parent, std::initializer_list<std::string_view> allowed) const {
+    for (const auto& [key, value] : obj.items()) {
+      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
+        std::string list;
+        for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        fail(join(parent, key), "is not a known field; allowed here: " + list);
+      }
+    }
+  }
+
+  std::string as_string(const json& v, const std::string& path) const {
+    if (!v.is_string()) fail(path, "is " + shown(v) + ", but must be a string");
+    return v.get<std::string>();
+  }
+
+  const json& as_array(const json& v, const std::string& path) const {
+    if (!v.is_array()) fail(path, "is " + shown(v) + ", but must be an array");
+    return v;
+  }
+
+  int as_int(const json& v, const std::string& path, long long lo, long long hi,
+             const std::string& why = "") const {
+    const std::string rule = "must be a whole number >= " + std::to_string(lo) + " and <= " + std::to_string(hi) + why;
+    if (!v.is_number_integer()) fail(path, "is " + shown(v) + ", but " + rule);
+    // Unsigned values above LLONG_MAX are out of every range used here.
+    if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi)) {
+      fail(path, "is " + shown(v) + ", but " + rule);
+    }
+    const long long x = v.get<long long>();
+    if (x < lo || x > hi) fail(path, "is " + shown(v) + ", but " + rule);
+    return static_cast<int>(x);
+  }
+
+  std::uint64_t as_seed(const json& v, const std::string& path) const {
+    const std::string rule = "must be a whole number >= 0 and <= 18446744073709551615 (unsigned 64-bit)";
+    if (v.is_number_unsigned()) return v.get<std::uint64_t>();
+    // Parsed non-negative integers are unsigned; ones built in code may be
+    // signed.
+    if (v.is_number_integer() && v.get<long long>() >= 0) return static_cast<std::uint64_t>(v.get<long long>());
+    fail(path, "is " + shown(v) + ", but " + rule);
+  }
+
+  Task as_task(const json& v, const std::string& path) const {
+    const std::string name = v.is_string() ? v.get<std::string>() : "";
+    if (auto t = task_from_name(name)) return *t;
+    fail(path, "is " + shown(v) + ", but must be one of \"dissection\", \"clip\"");
+  }
+
+  std::vector<Task> read_tasks(const json& v, const std::string& path) const {
+    std::vector<Task> tasks;
+    const json& arr = as_array(v, path);
+    for (std::size_t i = 0; i < arr.size(); ++i) tasks.push_back(as_task(arr[i], index_path(path, i)));
+    return tasks;
+  }
+
+  void read_repetitions(const json& v, Protocol& p) const {
+    expect_object(v, "repetitions");
+    for (const auto& [key, value] : v.items()) {
+      auto task = task_from_name(key);
+      if (!task) fail("repetitions." + key, "is not a task; tasks are \"dissection\", \"clip\"");
+      if (std::find(p.tasks.begin(), p.tasks.end(), *task) == p.tasks.end()) {
+        fail("repetitions." + key, "is given, but \"" + key + "\" is not in tasks");
+      }
+      p.repetitions[static_cast<std::size_t>(*task)] =
+          as_int(value, "repetitions." + key, 1, kMaxRepetitions, " (repetitions of every setting)");
+    }
+    for (Task t : p.tasks) {
+      if (!v.contains(std::string(task_name(t)))) {
+        fail("repetitions." + std::string(task_name(t)), "is missing, but every task in tasks needs its repetitions");
+      }
+    }
+  }
+
+  void read_settings(const json& v, Protocol& p) const {
+    const json& arr = as_array(v, "settings");
+    for (std::size_t i = 0; i < arr.size(); ++i) {
+      const std::string path = index_path("settings", i);
+      const json& item = arr[i];
+      ProtocolSetting ps;
+      try {
+        if (item.is_string()) {
+          ps.source = item.get<std::string>();
+          std::filesystem::path file(ps.source);
+          if (file.is_relative()) file = base_dir_ / file;
+          ps.settings = load_settings_file(file);
+        } else if (item.is_object()) {
+          ps.source = "inline";
+          ps.settings = settings_from_json(item, source_ + " " + path);
+        } else {
+          fail(path, "is " + shown(item) + ", but must be a settings file path (string) or a settings object");
+        }
+      } catch (const SettingsError& e) {
+        fail(path, "(" + shown(item) + ") is not valid settings: " + e.what());
+      }
+      p.settings.push_back(std::move(ps));
+    }
+  }
+
+  void read_participants(const json& v, Protocol& p, int default_training) const {
+    const json& arr = as_array(v, "participants");
+    for (std::size_t i = 0; i < arr.size(); ++i) {
+      const std::string path = index_path("participants", i);
+      const json& item = arr[i];
+      ParticipantSpec ps;
+      ps.tasks = p.tasks;
+      ps.training_trials = default_training;
+      // A bare string is shorthand for {"code": ...}.
+      if (item.is_string()) {
+        ps.code = item.get<std::string>();
+        if (auto problem = participant_code_problem(ps.code)) fail(path, "is " + shown(item) + ", which " + *problem);
+      } else if (item.is_object()) {
+        check_keys(item, path, {"code", "tasks", "training_trials"});
+        ps.code = as_string(require(item, "code", path), path + ".code");
+        if (item.contains("tasks")) ps.tasks = read_tasks(item["tasks"], path + ".tasks");
+        if (item.contains("training_trials")) {
+          ps.training_trials = as_int(item["training_trials"], path + ".training_trials", 0, kMaxTrainingTrials);
+        }
+      } else {
+        fail(path, "is " + shown(item) + ", but must be a participant code (string) or an object with \"code\"");
+      }
+      p.participants.push_back(std::move(ps));
+    }
+  }
+
+  std::vector<std::string> read_names(const json& v, const std::string& path) const {
+    std::vector<std::string> names;
+    const json& arr = as_array(v, path);
+    for (std::size_t i = 0; i < arr.size(); ++i) names.push_back(as_string(arr[i], index_path(path, i)));
+    return names;
+  }
+
+  void read_design(const json& v, Protocol& p) const {
+    expect_object(v, "design");
+    const std::string type = as_string(require(v, "type", "design"), "design.type");
+    Design& d = p.design;
+    if (type == "complete") {
+      d.type = DesignType::kComplete;
+      check_keys(v, "design", {"type"});
+    } else if (type == "incomplete") {
+      d.type = DesignType::kIncomplete;
+      check_keys(v, "design", {"type", "required", "k"});
+      d.required = read_names(require(v, "required", "design"), "design.required");
+      const long long optional =
+          std::max(0LL, static_cast<long long>(p.settings.size()) - static_cast<long long>(d.required.size()));
+      d.k = as_int(require(v, "k", "design"), "design.k", 0, optional,
+                   " (the number of settings not in design.required)");
+    } else if (type == "explicit") {
+      d.type = DesignType::kExplicit;
+      check_keys(v, "design", {"type", "assignments"});
+      const json& a = require(v, "assignments", "design");
+      expect_object(a, "design.assignments");
+      for (const auto& [code, names] : a.items()) {
+        d.assignments[code] = read_names(names, "design.assignments." + code);
+      }
+    } else {
+      fail("design.type", "is \"" + type + "\", but must be one of \"complete\", \"incomplete\", \"explicit\"");
+    }
+  }
+
+  std::string source_;
+  std::filesystem::path base_dir_;
+};
+
+}  // namespace
+
+Protocol protocol_from_json(const json& j, const std::filesystem::path& base_dir, const std::string& source) {
+  return Reader(source, base_dir).read(j);
+}
+
+Protocol protocol_from_json_text(std::string_view text, const std::filesystem::path& base_dir,
+                                 const std::string& source) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw ProtocolError(source, "(file)", std::string("is not valid JSON: ") + e.what());
+  }
+  return protocol_from_json(j, base_dir, source);
+}
+
+Protocol load_protocol_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw ProtocolError(path.string(), "(file)", "cannot be opened");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return protocol_from_json_text(text.str(), path.parent_path(), path.string());
+}
+
+}  // namespace hapticlab::protocols

@@ -1,0 +1,30 @@
+#pragma once
+// Protocol files (JSON): read and validate. Format: docs/protocols.md.
+//
+// Every field is checked when the file is read; unknown fields are errors
+// (a typo must never silently fall back to a default), and every error is a
+// ProtocolError naming the field's path, the value and the rule. Settings
+// given as paths are resolved relative to the protocol file's directory and
+// loaded in full; a settings file that fails to load is reported with the
+// protocol field and the SettingsError's message.
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "protocols/protocol.h"
+#include "protocols/protocol_error.h"
+
+namespace hapticlab::protocols {
+
+// `base_dir` resolves relative settings paths; `source` names the origin in
+// error messages.
+Protocol protocol_from_json(const nlohmann::json& j, const std::filesystem::path& base_dir,
+                            const std::string& source);
+Protocol protocol_from_json_text(std::string_view text, const std::filesystem::path& base_dir,
+                                 const std::string& source);
+Protocol load_protocol_file(const std::filesystem::path& path);
+
+}  // namespace hapticlab::protocols

@@ -1,0 +1,303 @@
+#include "protocols/protocol_json.h"
+
+#include <filesystem>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace hapticlab::protocols {
+namespace {
+
+using ::testing::HasSubstr;
+using nlohmann::json;
+
+const std::filesystem::path kProtocolsDir = std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols";
+
+// A valid protocol; each test breaks one thing.
+json valid() {
+  return json::parse(R"({
+    "study": "unit test",
+    "tasks": ["dissection", "clip"],
+    "repetitions": {"dissection": 3, "clip": 9},
+    "settings": ["../settings/high_fidelity.json", "../settings/no_force_feedback.json",
+                 "../settings/all_degradations.json", "../settings/cogging.json",
+                 {"name": "Inline Friction", "translation": {"friction": {"dynamic_level_N": 0.3}}}],
+    "participants": ["S1", {"code": "S2", "tasks": ["clip"], "training_trials": 4}],
+    "design": {"type": "incomplete", "required": ["High Fidelity", "No Force Feedback"], "k": 1},
+    "seed": 18446744073709551615
+  })");
+}
+
+Protocol parse(const json& j) { return protocol_from_json(j, kProtocolsDir, "test.json"); }
+
+// The error for `j`: field path and message.
+struct Failure {
+  std::string field;
+  std::string message;
+};
+
+Failure failure_of(const json& j) {
+  try {
+    parse(j);
+  } catch (const ProtocolError& e) {
+    return {e.field(), e.what()};
+  }
+  return {"(no error)", "(no error)"};
+}
+
+TEST(ProtocolJsonTest, ValidProtocolReadsEveryField) {
+  const Protocol p = parse(valid());
+  EXPECT_EQ(p.study, "unit test");
+  EXPECT_EQ(p.tasks, (std::vector<Task>{Task::kDissection, Task::kClip}));
+  EXPECT_EQ(p.repetitions_of(Task::kDissection), 3);
+  EXPECT_EQ(p.repetitions_of(Task::kClip), 9);
+  ASSERT_EQ(p.settings.size(), 5u);
+  EXPECT_EQ(p.settings[0].settings.name, "High Fidelity");
+  EXPECT_EQ(p.settings[0].source, "../settings/high_fidelity.json");
+  EXPECT_EQ(p.settings[4].source, "inline");
+  EXPECT_TRUE(p.settings[4].settings.engine.translation.friction.enabled);
+  EXPECT_DOUBLE_EQ(p.settings[4].settings.engine.translation.friction.dynamic_level, 0.3);
+  ASSERT_EQ(p.participants.size(), 2u);
+  EXPECT_EQ(p.participants[0].code, "S1");
+  EXPECT_EQ(p.participants[0].tasks, p.tasks);
+  EXPECT_EQ(p.participants[0].training_trials, 0);
+  EXPECT_EQ(p.participants[1].tasks, std::vector<Task>{Task::kClip});
+  EXPECT_EQ(p.participants[1].training_trials, 4);
+  EXPECT_EQ(p.design.type, DesignType::kIncomplete);
+  EXPECT_EQ(p.design.k, 1);
+  EXPECT_EQ(p.seed, 18446744073709551615ULL);
+}
+
+TEST(ProtocolJsonTest, UnknownSettingNameInRequired) {
+  json j = valid();
+  j["design"]["required"][1] = "No Force Feedbak";
+  const Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "design.required[1]");
+  EXPECT_THAT(f.message, HasSubstr("\"No Force Feedbak\""));
+  EXPECT_THAT(f.message, HasSubstr("\"No Force Feedback\""));  // lists the known names
+  EXPECT_THAT(f.message, HasSubstr("test.json"));
+}
+
+TEST(ProtocolJsonTest, UnknownSettingNameInExplicitAssignments) {
+  json j = valid();
+  j["design"] = {{"type", "explicit"},
+                 {"assignments", {{"S1", {"High Fidelity", "Cogging"}}, {"S2", {"High Fidelity", "Backlash"}}}}};
+  const Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "design.assignments.S2[1]");
+  EXPECT_THAT(f.message, HasSubstr("\"Backlash\""));
+}
+
+TEST(ProtocolJsonTest, ExplicitAssignmentsMustCoverExactlyTheParticipants) {
+  json j = valid();
+  j["design"] = {{"type", "explicit"}, {"assignments", {{"S1", {"High Fidelity", "Cogging"}}}}};
+  EXPECT_EQ(failure_of(j).field, "design.assignments.S2");
+  j["design"]["assignments"]["S2"] = {"High Fidelity", "Cogging"};
+  j["design"]["assignments"]["S9"] = {"High Fidelity", "Cogging"};
+  EXPECT_EQ(failure_of(j).field, "design.assignments.S9");
+  j["design"]["assignments"].erase("S9");
+  EXPECT_NO_THROW(parse(j));
+  j["design"]["assignments"]["S2"] = {"High Fidelity", "Cogging", "Cogging"};
+  EXPECT_EQ(failure_of(j).field, "design.assignments.S2[2]");
+}
+
+TEST(ProtocolJsonTest, KOutOfRange) {
+  json j = valid();
+  j["design"]["k"] = 4;  // 5 settings, 2 required: 3 optional
+  Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "design.k");
+  EXPECT_THAT(f.message, HasSubstr("is 4"));
+  EXPECT_THAT(f.message, HasSubstr(">= 0 and <= 3"));
+  j["design"]["k"] = -1;
+  f = failure_of(j);
+  EXPECT_EQ(f.field, "design.k");
+  EXPECT_THAT(f.message, HasSubstr("is -1"));
+  j["design"]["k"] = 1.5;
+  EXPECT_EQ(failure_of(j).field, "design.k");
+  j["design"]["k"] = 3;
+  EXPECT_NO_THROW(parse(j));
+}
+
+TEST(ProtocolJsonTest, KBuiltInCodeIsCheckedToo) {
+  Protocol p = parse(valid());
+  p.design.k = 7;
+  try {
+    validate_protocol(p, "code");
+    FAIL();
+  } catch (const ProtocolError& e) {
+    EXPECT_EQ(e.field(), "design.k");
+    EXPECT_THAT(e.what(), HasSubstr("<= 3"));
+  }
+}
+
+TEST(ProtocolJsonTest, ZeroOrTooManyRepetitions) {
+  json j = valid();
+  j["repetitions"]["clip"] = 0;
+  Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "repetitions.clip");
+  EXPECT_THAT(f.message, HasSubstr("is 0"));
+  EXPECT_THAT(f.message, HasSubstr(">= 1 and <= 100"));
+  j["repetitions"]["clip"] = 101;
+  EXPECT_EQ(failure_of(j).field, "repetitions.clip");
+  j["repetitions"].erase("clip");
+  f = failure_of(j);
+  EXPECT_EQ(f.field, "repetitions.clip");
+  EXPECT_THAT(f.message, HasSubstr("missing"));
+}
+
+TEST(ProtocolJsonTest, DuplicateParticipantCodes) {
+  json j = valid();
+  j["participants"] = {"S1", "S2", "S1"};
+  const Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "participants[2].code");
+  EXPECT_THAT(f.message, HasSubstr("\"S1\""));
+  EXPECT_THAT(f.message, HasSubstr("unique"));
+}
+
+TEST(ProtocolJsonTest, NamesAreRefusedCodesOnly) {
+  json j = valid();
+  j["participants"][0] = "John Smith";
+  Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "participants[0]");
+  EXPECT_THAT(f.message, HasSubstr("looks like a person's name"));
+  EXPECT_THAT(f.message, HasSubstr("codes only, never names"));
+  j["participants"][0] = json{{"code", "Dr. Jones"}};
+  f = failure_of(j);
+  EXPECT_EQ(f.field, "participants[0].code");
+  EXPECT_THAT(f.message, HasSubstr("never names"));
+  j["participants"][0] = "S1/x";
+  EXPECT_EQ(failure_of(j).field, "participants[0]");
+  j["participants"][0] = "";
+  EXPECT_EQ(failure_of(j).field, "participants[0]");
+  j["participants"][0] = std::string(33, 'a');
+  EXPECT_EQ(failure_of(j).field, "participants[0]");
+  j["participants"][0] = std::string(32, 'a');
+  EXPECT_NO_THROW(parse(j));
+}
+
+TEST(ProtocolJsonTest, UnknownTask) {
+  json j = valid();
+  j["tasks"][1] = "suturing";
+  Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "tasks[1]");
+  EXPECT_THAT(f.message, HasSubstr("\"suturing\""));
+  EXPECT_THAT(f.message, HasSubstr("\"dissection\", \"clip\""));
+  j = valid();
+  j["participants"][1]["tasks"] = {"knot"};
+  EXPECT_EQ(failure_of(j).field, "participants[1].tasks[0]");
+  j = valid();
+  j["repetitions"]["knot"] = 3;
+  EXPECT_EQ(failure_of(j).field, "repetitions.knot");
+}
+
+TEST(ProtocolJsonTest, ParticipantTaskOutsideTheStudy) {
+  json j = valid();
+  j["tasks"] = {"dissection"};
+  j["repetitions"].erase("clip");
+  const Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "participants[1].tasks[0]");
+  EXPECT_THAT(f.message, HasSubstr("not one of the study's tasks"));
+}
+
+TEST(ProtocolJsonTest, MissingFields) {
+  for (const char* key : {"study", "tasks", "repetitions", "settings", "participants", "design", "seed"}) {
+    json j = valid();
+    j.erase(key);
+    const Failure f = failure_of(j);
+    EXPECT_EQ(f.field, key);
+    EXPECT_THAT(f.message, HasSubstr("missing"));
+  }
+  json j = valid();
+  j["design"].erase("k");
+  EXPECT_EQ(failure_of(j).field, "design.k");
+  j = valid();
+  j["participants"][1].erase("code");
+  EXPECT_EQ(failure_of(j).field, "participants[1].code");
+}
+
+TEST(ProtocolJsonTest, UnknownFields) {
+  json j = valid();
+  j["seeds"] = 3;
+  Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "seeds");
+  EXPECT_THAT(f.message, HasSubstr("not a known field"));
+  j = valid();
+  j["design"]["optional"] = {"Cogging"};
+  EXPECT_EQ(failure_of(j).field, "design.optional");
+  j = valid();
+  j["participants"][1]["name"] = "Jane";
+  EXPECT_EQ(failure_of(j).field, "participants[1].name");
+  j = valid();
+  j["design"] = {{"type", "complete"}, {"k", 2}};
+  EXPECT_EQ(failure_of(j).field, "design.k");
+  j["design"] = {{"type", "latin-square"}};
+  EXPECT_EQ(failure_of(j).field, "design.type");
+}
+
+TEST(ProtocolJsonTest, SeedMustBeAnUnsigned64BitInteger) {
+  for (json bad : {json(-1), json(1.5), json("42"), json(nullptr)}) {
+    json j = valid();
+    j["seed"] = bad;
+    const Failure f = failure_of(j);
+    EXPECT_EQ(f.field, "seed") << bad;
+    EXPECT_THAT(f.message, HasSubstr("unsigned 64-bit"));
+  }
+  json j = valid();
+  j["seed"] = 0;
+  EXPECT_EQ(parse(j).seed, 0u);
+}
+
+TEST(ProtocolJsonTest, SettingsFileThatFailsToLoad) {
+  json j = valid();
+  j["settings"][2] = "../settings/no_such_file.json";
+  Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "settings[2]");
+  EXPECT_THAT(f.message, HasSubstr("no_such_file.json"));
+  EXPECT_THAT(f.message, HasSubstr("cannot open settings file"));  // the SettingsError text
+
+  j = valid();
+  j["settings"][4]["translation"]["friction"]["dynamic_level_N"] = -1;
+  f = failure_of(j);
+  EXPECT_EQ(f.field, "settings[4]");
+  EXPECT_THAT(f.message, HasSubstr("dynamic_level_N"));  // the SettingsError text names the field
+}
+
+TEST(ProtocolJsonTest, SettingsNeedUniqueNames) {
+  json j = valid();
+  j["settings"][4] = "../settings/cogging.json";
+  Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "settings[4].name");
+  EXPECT_THAT(f.message, HasSubstr("unique"));
+  j = valid();
+  j["settings"][4].erase("name");
+  EXPECT_EQ(failure_of(j).field, "settings[4].name");
+}
+
+TEST(ProtocolJsonTest, EveryParticipantNeedsTwoSettings) {
+  json j = valid();
+  j["design"] = {{"type", "incomplete"}, {"required", {"High Fidelity"}}, {"k", 0}};
+  const Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "design");
+  EXPECT_THAT(f.message, HasSubstr("at least 2"));
+}
+
+TEST(ProtocolJsonTest, WrongTypesAndBadJson) {
+  json j = valid();
+  j["participants"] = "S1";
+  EXPECT_EQ(failure_of(j).field, "participants");
+  j = valid();
+  j["settings"][0] = 3;
+  EXPECT_EQ(failure_of(j).field, "settings[0]");
+  try {
+    protocol_from_json_text("{ \"study\": ", kProtocolsDir, "broken.json");
+    FAIL();
+  } catch (const ProtocolError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("broken.json"));
+    EXPECT_THAT(e.what(), HasSubstr("not valid JSON"));
+  }
+  EXPECT_THROW(load_protocol_file(kProtocolsDir / "does_not_exist.json"), ProtocolError);
+}
+
+}  // namespace
+}  // namespace hapticlab::protocols
