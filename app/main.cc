@@ -9,6 +9,7 @@
 #include "app/engine_replay.h"
 #include "app/settings_check.h"
 #include "app/sim_run.h"
+#include "app/stats_command.h"
 #include "app/bench_loop.h"
 
 int main(int argc, char** argv) {
@@ -30,6 +31,8 @@ int main(int argc, char** argv) {
   CLI::App* sim = app.add_subcommand("sim", "Simulated rig: participant, workstation and tasks");
   sim->require_subcommand(1);
   hapticlab::app::add_sim_run_command(*sim);
+
+  hapticlab::app::add_stats_command(app);
 
   CLI::App* bench = app.add_subcommand("bench", "Measure performance");
   bench->require_subcommand(1);

@@ -22,7 +22,6 @@ constexpr double kOffsetRelease_s = 0.1;
 constexpr double kTremorTime_s = 0.2;
 constexpr double kVisualDrift_s = 1.0;
 constexpr double kAgreementTime_s = 0.5;
-constexpr double kBaselineTime_s = 0.15;
 constexpr double kMinArm_m = 0.02;
 // A gap the eye resolves between tool and tissue on the monitor [m].
 constexpr double kVisibleGap_m = 0.0005;
@@ -90,14 +89,14 @@ void Hand::reach(const Eigen::Vector3d& target_m, double t_s, double duration_s)
   reach_end_s_ = t_s + std::max(duration_s, 0.05);
 }
 
-void Hand::press(const Eigen::Vector3d& into, double target_force_N) noexcept {
+void Hand::press(const Eigen::Vector3d& into, double target_force_N, double stiffness_N_per_m) noexcept {
   into_ = into.normalized();
+  believed_stiffness_N_per_m_ = stiffness_N_per_m;
   target_force_N_ = target_force_N;
   if (!pressing_) {
-    felt_baseline_N_ = 0.0;
     // Hand and tissue in series, as learned with force feedback.
     offset_m_ = target_force_N *
-                (1.0 / params_.stiffness_N_per_m + 1.0 / params_.believed_stiffness_N_per_m);
+                (1.0 / params_.stiffness_N_per_m + 1.0 / believed_stiffness_N_per_m_);
   }
   pressing_ = true;
 }
@@ -143,19 +142,15 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
     seen_cue_.push(t_s, seen_depth_m);
     const double h = felt_cue_.delayed(params_.haptic_delay_s);
     const double seen_depth = seen_cue_.delayed(params_.visual_delay_s);
+    seen_depth_m_ = seen_depth;
     const double v = seen_depth > 0.0 ? params_.visual_force_gain * std::exp(visual_bias_) *
-                                            params_.believed_stiffness_N_per_m * seen_depth
+                                            believed_stiffness_N_per_m_ * seen_depth
                                       : 0.0;
     if (v > 0.1) {
-      const double ratio = std::clamp(std::max(0.0, h - felt_baseline_N_) / v, 0.0, 1.5);
+      const double ratio = std::clamp(h / v, 0.0, 1.5);
       agreement_ += (ratio - agreement_) * std::min(1.0, dt_s / kAgreementTime_s);
     }
-    // What the hand feels while the tool visibly moves in free space
-    // (device and degradation forces: friction, cogging, inertia) is the
-    // baseline it learns to discount from the felt contact force.
-    if (seen_depth < -kVisibleGap_m)
-      felt_baseline_N_ += (h - felt_baseline_N_) * std::min(1.0, dt_s / kBaselineTime_s);
-    const double h_contact = std::max(0.0, h - felt_baseline_N_);
+    const double h_contact = h;
     const double trust = std::clamp(agreement_, 0.0, 1.0);
     haptic_weight_ = 0.9 * trust * trust;
     // A visible gap between tool and tissue is unmistakable: whatever the
@@ -167,18 +162,20 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
   } else {
     felt_cue_.push(t_s, 0.0);
     seen_cue_.push(t_s, seen_depth_m);
+    seen_depth_m_ = seen_cue_.delayed(params_.visual_delay_s);
     offset_m_ -= offset_m_ * std::min(1.0, dt_s / kOffsetRelease_s);
   }
 
   // Visual steering: once a reach is over, the seen tip (delayed) is pulled
   // onto the aim. Along the press direction the force regulation rules.
   for (int k = 0; k < 3; ++k) seen_tip_cue_[static_cast<std::size_t>(k)].push(t_s, seen_tip_m[k]);
+  const Eigen::Vector3d seen(seen_tip_cue_[0].delayed(params_.visual_delay_s),
+                             seen_tip_cue_[1].delayed(params_.visual_delay_s),
+                             seen_tip_cue_[2].delayed(params_.visual_delay_s));
+  Eigen::Vector3d error = reach_to_m_ - seen;
+  if (pressing_) error -= error.dot(into_) * into_;
+  aim_error_m_ = error.norm();
   if (t_s >= reach_end_s_) {
-    const Eigen::Vector3d seen(seen_tip_cue_[0].delayed(params_.visual_delay_s),
-                               seen_tip_cue_[1].delayed(params_.visual_delay_s),
-                               seen_tip_cue_[2].delayed(params_.visual_delay_s));
-    Eigen::Vector3d error = reach_to_m_ - seen;
-    if (pressing_) error -= error.dot(into_) * into_;
     // Errors below what the eye resolves are left alone.
     if (error.norm() > kVisibleGap_m) {
       correction_m_ += std::min(1.0, dt_s / params_.visual_servo_time_s) * error;

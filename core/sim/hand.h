@@ -27,13 +27,12 @@
 namespace hapticlab {
 
 struct HandParams {
-  double stiffness_N_per_m = 300.0;   // tip impedance of the arm holding the tool
+  double stiffness_N_per_m = 600.0;   // tip impedance of the arm holding the tool
   double damping_ratio = 0.8;
   double mass_kg = 0.3;               // arm mass, referred to the tip
   double haptic_delay_s = 0.04;
   double visual_delay_s = 0.16;
   double visual_force_gain = 0.75;    // seen/true force: indentation is underestimated
-  double believed_stiffness_N_per_m = 220.0;  // tissue stiffness the participant has learned
   double regulation_time_s = 0.15;    // time constant of the force correction
   double motor_noise_m = 0.0003;      // sd of slow positional tremor/drift
   double visual_noise = 0.2;          // log-sd of the slowly varying visual force estimate
@@ -64,10 +63,11 @@ class Hand {
   // --- intents (called by the task strategy)
   // Minimum-jerk move of the base reference to `target_m` over duration_s.
   void reach(const Eigen::Vector3d& target_m, double t_s, double duration_s) noexcept;
-  // Start pressing along unit `into` with target_force_N: the reference
-  // offset starts where the participant expects that force, given the
-  // stiffness of hand and tissue in series.
-  void press(const Eigen::Vector3d& into, double target_force_N) noexcept;
+  // Start pressing along unit `into` with target_force_N against something
+  // the participant knows (from training) to be about `stiffness_N_per_m`
+  // stiff: the reference offset starts where that force is expected with
+  // hand and tissue in series, and the visual force estimate uses it.
+  void press(const Eigen::Vector3d& into, double target_force_N, double stiffness_N_per_m) noexcept;
   void set_target_force(double target_force_N) noexcept { target_force_N_ = target_force_N; }
   void stop_press() noexcept { pressing_ = false; }
   void grip_to(double angle_rad, double t_s, double duration_s) noexcept;
@@ -80,6 +80,11 @@ class Hand {
   double target_force_N() const noexcept { return target_force_N_; }
   double haptic_weight() const noexcept { return haptic_weight_; }
   double press_offset_m() const noexcept { return offset_m_; }
+  // Indentation as the participant currently sees it (visual delay applied) [m].
+  double seen_depth_m() const noexcept { return seen_depth_m_; }
+  // Distance between the aim and the tip as seen (delayed), across the
+  // press direction while pressing [m].
+  double aim_error_m() const noexcept { return aim_error_m_; }
   const Eigen::Vector3d& aim_correction_m() const noexcept { return correction_m_; }
 
   // --- every update
@@ -107,9 +112,11 @@ class Hand {
   Eigen::Vector3d into_ = -Eigen::Vector3d::UnitZ();
   double target_force_N_ = 0.0;
   double offset_m_ = 0.0;
+  double believed_stiffness_N_per_m_ = 220.0;
+  double seen_depth_m_ = 0.0;
+  double aim_error_m_ = 0.0;
   double estimate_N_ = 0.0;
   double agreement_ = 1.0;     // running felt/seen force ratio
-  double felt_baseline_N_ = 0.0;  // free-space felt force, discounted in contact
   double haptic_weight_ = 0.9;
   CueDelay felt_cue_, seen_cue_;
   double visual_bias_ = 0.0;   // slowly varying log error of the visual estimate

@@ -37,7 +37,9 @@ ParticipantTraits ParticipantTraits::sample(std::uint64_t seed) noexcept {
   t.speed = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
   t.force_level = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
   t.consistency = r.uniform(0.06, 0.18);
-  t.hand_stiffness_N_per_m = r.uniform(220.0, 380.0);
+  // Arm endpoint stiffness with the co-contraction of precise work
+  // (several hundred N/m up to ~1 kN/m).
+  t.hand_stiffness_N_per_m = r.uniform(450.0, 800.0);
   t.visual_force_gain = std::clamp(r.normal(0.72, 0.1), 0.5, 0.95);
   t.haptic_delay_s = r.uniform(0.03, 0.06);
   t.visual_delay_s = r.uniform(0.13, 0.20);
@@ -167,7 +169,8 @@ void Participant::act_dissection(double t) noexcept {
         if (entering) {
           const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(burn_index_)]);
           hand.reach(spot, t, 0.35 * time_factor_[kRight]);
-          hand.press(-Eigen::Vector3d::UnitZ(), cautery_N * rng_.lognormal_factor(traits_.consistency));
+          hand.press(-Eigen::Vector3d::UnitZ(), cautery_N * rng_.lognormal_factor(traits_.consistency),
+                     task.params().tissue.stiffness_N_per_m);
         } else if (hand.reach_done(t)) {
           HL_ENTER(kRight, Phase::kWork);
           removed_seen_at_s_ = -1.0;
@@ -259,19 +262,21 @@ void Participant::act_dissection(double t) noexcept {
       case Phase::kDescend:
         if (entering) {
           hand.reach(grasp_site_, t, 0.35 * time_factor_[kLeft]);
-          hand.press(-Eigen::Vector3d::UnitZ(), kTouchForce_N * force_factor_);
+          hand.press(-Eigen::Vector3d::UnitZ(), kTouchForce_N * force_factor_, task.params().tissue.stiffness_N_per_m);
         } else if (grasp.holding()) {
           HL_ENTER(kLeft, Phase::kWork);
         } else if (hand.reach_done(t) && hand.grip_done(t) && hand.estimated_force_N() > 0.05 &&
                    t - phase_start_s_[kLeft] > 0.4 * time_factor_[kLeft]) {
           hand.grip_to(kGripShut_rad, t, 0.25);
+        } else if (t - phase_start_s_[kLeft] > 3.0) {
+          HL_ENTER(kLeft, Phase::kRelease);  // could not get hold: start over
         }
-        if (t - phase_start_s_[kLeft] > 3.0) HL_ENTER(kLeft, Phase::kRelease);
         break;
       case Phase::kWork:
         if (entering) {
           hand.stop_press();
-          hand.press(pull_dir_, tension_N * rng_.lognormal_factor(traits_.consistency));
+          hand.press(pull_dir_, tension_N * rng_.lognormal_factor(traits_.consistency),
+                     task.params().grasp.stiffness_N_per_m);
         }
         if (done || !grasp.holding() || (target - grasp.anchor()).norm() > 0.014)
           HL_ENTER(kLeft, Phase::kRelease);
@@ -333,13 +338,15 @@ void Participant::act_clip(double t) noexcept {
         } else if (hand.reach_done(t) && hand.grip_done(t) &&
                    t - phase_start_s_[kLeft] > 0.5 * time_factor_[kLeft]) {
           hand.grip_to(kGripShut_rad, t, 0.25);
+        } else if (t - phase_start_s_[kLeft] > 3.0) {
+          HL_ENTER(kLeft, Phase::kRelease);  // could not get hold: start over
         }
-        if (t - phase_start_s_[kLeft] > 3.0) HL_ENTER(kLeft, Phase::kRelease);
         break;
       case Phase::kWork:
         if (entering) {
           pull_dir_ = Eigen::Vector3d::UnitZ();
-          hand.press(pull_dir_, kLiftForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency));
+          hand.press(pull_dir_, kLiftForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency),
+                     p.grasp.stiffness_N_per_m);
         }
         if (done || !grasp.holding() || std::abs(grasp.anchor().x() - marker) > 0.014)
           HL_ENTER(kLeft, Phase::kRelease);
@@ -373,6 +380,9 @@ void Participant::act_clip(double t) noexcept {
     const bool entering = phase_start_s_[kRight] < 0.0;
     if (entering) phase_start_s_[kRight] = t;
     const Eigen::Vector3d top = task.axis_point(marker) + Eigen::Vector3d(0, 0, p.duct_radius_m);
+    // The applier slipped down beside the duct instead of sitting on it.
+    const bool slid_off = tip_[kRight].z() < p.duct_z_m &&
+                          std::abs(tip_[kRight].y() - task.duct_y_m()) > 0.8 * p.duct_radius_m;
     switch (phase_[kRight]) {
       case Phase::kApproach:
         if (done) { HL_ENTER(kRight, Phase::kRetract); break; }
@@ -380,21 +390,35 @@ void Participant::act_clip(double t) noexcept {
           const Eigen::Vector3d hover = top + Eigen::Vector3d(0, 0, 0.008);
           hand.grip_to(kGripOpenTarget_rad, t, 0.2);
           hand.reach(hover, t, reach_time(kRight, hand.base(), hover, 0.002));
-        } else if (hand.reach_done(t) && (grasp.holding() || t - phase_start_s_[kRight] > 4.0)) {
+        } else if (hand.reach_done(t) && (grasp.holding() || t - phase_start_s_[kRight] > 4.0) &&
+                   (hand.aim_error_m() < 0.001 || t - phase_start_s_[kRight] > 3.0)) {
+          // Aim first (the seen tip over the marker), then go down.
           HL_ENTER(kRight, Phase::kDescend);
         }
         break;
       case Phase::kDescend:
+        if (!entering && slid_off) {
+          HL_ENTER(kRight, Phase::kRelease);  // slid off the duct: lift and aim again
+          break;
+        }
         if (entering) {
           hand.reach(top, t, 0.4 * time_factor_[kRight]);
           hand.press(-Eigen::Vector3d::UnitZ(),
-                     kSeatForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency));
-        } else if (hand.reach_done(t) && t - phase_start_s_[kRight] > 0.6 * time_factor_[kRight]) {
+                     kSeatForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency),
+                     p.duct.stiffness_N_per_m);
+        } else if (hand.reach_done(t) &&
+                   ((hand.seen_depth_m() > 0.0003 && hand.estimated_force_N() >= 0.5 * hand.target_force_N()) ||
+                    t - phase_start_s_[kRight] > 2.5 * time_factor_[kRight])) {
+          // Close only once the applier is seen (or felt) seated on the duct.
           HL_ENTER(kRight, Phase::kWork);
         }
         break;
       case Phase::kWork:
         if (entering) hand.grip_to(kGripShut_rad, t, 0.3 * time_factor_[kRight]);
+        if (slid_off && hand.grip_done(t)) {
+          HL_ENTER(kRight, Phase::kRelease);  // slid off the duct: lift and aim again
+          break;
+        }
         if (task.clips_applied() > clip_index_) {
           clip_index_ = task.clips_applied();
           HL_ENTER(kRight, Phase::kRelease);
