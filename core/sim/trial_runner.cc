@@ -21,7 +21,7 @@ ClockKind parse_clock_kind(std::string_view name) {
   throw std::invalid_argument("clock: '" + std::string(name) + "' is not a clock; choose virtual or wall");
 }
 
-SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& sink) {
+SimRig::SimRig(const SimTrialConfig& config) {
   if (!(config.max_duration_s > 0.0) || !std::isfinite(config.max_duration_s))
     throw std::invalid_argument("max_duration_s: " + std::to_string(config.max_duration_s) +
                                 " must be a positive number of seconds");
@@ -33,39 +33,49 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
   // loop at one physics step per update.
   SimDeviceParams device_params;
   device_params.max_substep_s = 1e-3;
-  SimDevice device(device_params);
+  device_ = std::make_unique<SimDevice>(device_params);
   std::array<JointVector, kNumInstruments> start{};
   for (int i = 0; i < 2; ++i) {
     const DeviceJoints pose = Participant::start_pose(i);
-    device.set_position(i, pose);
+    device_->set_position(i, pose);
     start[static_cast<std::size_t>(i)] = JointVector(pose[kJointInsertion], pose[kJointPitch], pose[kJointYaw]);
   }
   DeviceConfig device_config;
   device_config.nominal_rate_Hz = std::clamp(1.0 / schedule.nominal_period_s(), 150.0, 2000.0);
   device_config.seed = config.trial_seed;
-  if (device.configure(device_config) != DeviceStatus::kOk)
+  if (device_->configure(device_config) != DeviceStatus::kOk)
     throw std::invalid_argument("rate_Hz: the simulated device refused the loop rate");
-  if (config.inject_fault) device.inject_fault(config.inject_fault->first, config.inject_fault->second);
+  if (config.inject_fault) device_->inject_fault(config.inject_fault->first, config.inject_fault->second);
 
-  Engine engine(config.settings, start);
-  std::unique_ptr<VirtualEnvironment> ve;
-  if (config.task == TaskKind::kDissection) ve = std::make_unique<DissectionTask>(config.trial_seed);
-  else ve = std::make_unique<ClipTask>(config.trial_seed);
+  engine_ = std::make_unique<Engine>(config.settings, start);
+  if (config.task == TaskKind::kDissection) ve_ = std::make_unique<DissectionTask>(config.trial_seed);
+  else ve_ = std::make_unique<ClipTask>(config.trial_seed);
 
   const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed);
-  Participant participant(traits, ParticipantTrial{config.trial_seed, config.practice_trials}, device, *ve);
+  participant_ = std::make_unique<Participant>(
+      traits, ParticipantTrial{config.trial_seed, config.practice_trials}, *device_, *ve_);
 
-  VirtualClock virtual_clock;
-  WallClock wall_clock;
-  Clock& clock = config.clock == ClockKind::kVirtual ? static_cast<Clock&>(virtual_clock)
-                                                     : static_cast<Clock&>(wall_clock);
+  if (config.clock == ClockKind::kVirtual) clock_ = std::make_unique<VirtualClock>();
+  else clock_ = std::make_unique<WallClock>();
   LoopConfig loop_config;
   loop_config.max_duration_s = config.max_duration_s;
   loop_config.sample_queue_capacity = config.sample_queue_capacity;
   loop_config.publish_samples = config.publish_samples;
   if (!config.stop_when_complete) loop_config.linger_after_complete_s = config.max_duration_s;
-  HapticLoop loop(device, engine, *ve, clock, std::move(schedule), loop_config, &participant);
+  loop_ = std::make_unique<HapticLoop>(*device_, *engine_, *ve_, *clock_, std::move(schedule),
+                                       loop_config, participant_.get());
+}
 
+SimRig::~SimRig() {
+  if (loop_) {
+    loop_->request_stop();
+    loop_->join();
+  }
+}
+
+SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& sink) {
+  SimRig rig(config);
+  HapticLoop& loop = rig.loop();
   SimTrialResult result;
   std::vector<LoopSample> batch(256);
   // Samples first, then events: an event is queued before the sample of its
@@ -105,7 +115,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
 
   result.stop_reason = loop.stop_reason();
   result.device_status = loop.device_status();
-  result.task_complete = ve->complete();
+  result.task_complete = rig.ve().complete();
   result.duration_s = loop.elapsed_s();
   result.dropped_samples = loop.dropped_samples();
   result.dropped_events = loop.dropped_events();

@@ -9,8 +9,11 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 
+#include "core/device/sim_device.h"
+#include "core/engine/engine.h"
 #include "core/loop/haptic_loop.h"
 #include "core/settings/settings.h"
 #include "core/sim/participant.h"
@@ -50,6 +53,32 @@ struct SimTrialResult {
   std::uint64_t dropped_events = 0;
   std::array<double, 2> peak_ve_force_N{0.0, 0.0};  // max |VE force| per instrument
   LoopTimingSummary timing;
+};
+
+// Everything one simulated trial needs, wired together and ready to run:
+// the caller owns the loop's consumer side (a sink, or the database
+// writer). Not movable: the parts point at each other.
+class SimRig {
+ public:
+  // Throws std::invalid_argument (rate, durations) or SettingsError.
+  explicit SimRig(const SimTrialConfig& config);
+  SimRig(const SimRig&) = delete;
+  SimRig& operator=(const SimRig&) = delete;
+  ~SimRig();
+
+  HapticLoop& loop() noexcept { return *loop_; }
+  SimDevice& device() noexcept { return *device_; }
+  Engine& engine() noexcept { return *engine_; }
+  VirtualEnvironment& ve() noexcept { return *ve_; }
+  const Participant& participant() const noexcept { return *participant_; }
+
+ private:
+  std::unique_ptr<SimDevice> device_;
+  std::unique_ptr<Engine> engine_;
+  std::unique_ptr<VirtualEnvironment> ve_;
+  std::unique_ptr<Participant> participant_;
+  std::unique_ptr<Clock> clock_;
+  std::unique_ptr<HapticLoop> loop_;
 };
 
 struct SimTrialSink {
