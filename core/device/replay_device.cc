@@ -65,18 +65,22 @@ DeviceStatus ReplayDevice::deactivate() noexcept {
 
 DeviceStatus ReplayDevice::read(DeviceReading& reading) noexcept {
   if (!active_) return DeviceStatus::kNotActive;
+  // A clock that advances by adding periods lands a few ulps short of a
+  // frame's stamp (1.0079999999999998 for 1.008); 1 ns of grace, far below
+  // any update period (>= 0.5 ms), keeps such a frame due on time.
+  constexpr double kStampTolerance_s = 1e-9;
   const double elapsed_s = clock_->now_s() - start_s_;
   const double first_s = frames_.front().t_s;
 
   // The clock never runs backwards, so the cursor only moves forward: O(1)
   // per read on average, whatever the recording's length.
-  while (cursor_ + 1 < frames_.size() && frames_[cursor_ + 1].t_s - first_s <= elapsed_s) ++cursor_;
+  while (cursor_ + 1 < frames_.size() && frames_[cursor_ + 1].t_s - first_s <= elapsed_s + kStampTolerance_s) ++cursor_;
 
   const ReplayFrame& frame = frames_[cursor_];
   reading.position = frame.position;
   reading.device_time_s = frame.t_s;
 
-  if (elapsed_s > frames_.back().t_s - first_s) return DeviceStatus::kEndOfData;
+  if (elapsed_s > frames_.back().t_s - first_s + kStampTolerance_s) return DeviceStatus::kEndOfData;
   for (const DeviceJoints& joints : frame.position) {
     for (double x : joints) {
       if (!std::isfinite(x)) return DeviceStatus::kNonFiniteReading;

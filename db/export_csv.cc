@@ -1,0 +1,226 @@
+#include "db/export_csv.h"
+
+#include <cctype>
+#include <charconv>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+
+#include "db/sample_codec.h"
+
+namespace hapticlab::db {
+namespace {
+
+std::string slug(std::string_view text) {
+  std::string out;
+  for (char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (std::isalnum(c) || c == '-') out += static_cast<char>(std::tolower(c));
+    else if (!out.empty() && out.back() != '_') out += '_';
+  }
+  while (!out.empty() && out.back() == '_') out.pop_back();
+  return out.empty() ? "_" : out;
+}
+
+// RFC 4180: quote a field holding a comma, quote or line break.
+void put_text(std::string& line, std::string_view text) {
+  if (text.find_first_of(",\"\r\n") == std::string_view::npos) {
+    line += text;
+    return;
+  }
+  line += '"';
+  for (char c : text) {
+    if (c == '"') line += '"';
+    line += c;
+  }
+  line += '"';
+}
+
+template <typename T>
+void put_number(std::string& line, T value) {
+  char buf[40];
+  const auto r = std::to_chars(buf, buf + sizeof buf, value);
+  line.append(buf, r.ptr);
+}
+
+// Writes to "<path>.tmp", renames on commit(), removes the temp file if
+// never committed.
+class CsvFile {
+ public:
+  explicit CsvFile(std::filesystem::path path) : path_(std::move(path)), temp_(path_.string() + ".tmp") {
+    out_.open(temp_, std::ios::binary | std::ios::trunc);
+    if (!out_) throw std::runtime_error(temp_.string() + ": cannot open for writing");
+  }
+  ~CsvFile() {
+    if (committed_) return;
+    out_.close();
+    std::error_code ignored;
+    std::filesystem::remove(temp_, ignored);
+  }
+  CsvFile(const CsvFile&) = delete;
+  CsvFile& operator=(const CsvFile&) = delete;
+  void line(std::string& text) {
+    text += '\n';
+    out_.write(text.data(), static_cast<std::streamsize>(text.size()));
+    text.clear();
+  }
+  void commit() {
+    out_.close();
+    if (!out_) throw std::runtime_error(temp_.string() + ": write failed");
+    std::filesystem::rename(temp_, path_);
+    committed_ = true;
+  }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_, temp_;
+  std::ofstream out_;
+  bool committed_ = false;
+};
+
+void put_trial_key(std::string& line, const TrialRow& t) {
+  put_number(line, t.id);
+  line += ',';
+  put_text(line, t.participant_code);
+  line += ',';
+  put_text(line, t.task);
+  line += ',';
+  put_text(line, t.setting_name);
+  line += ',';
+  put_number(line, t.repetition);
+}
+
+void put_sample(std::string& line, const StoredSample& s) {
+  const InstrumentSample& v = s.value;
+  line += ',';
+  put_number(line, s.tick);
+  line += ',';
+  put_number(line, s.dt_s);
+  line += ',';
+  put_number(line, s.t_s);
+  // Stored as float32: printing the float keeps the text short and exact.
+  auto f = [&](double x) {
+    line += ',';
+    put_number(line, to_stored_float(x));
+  };
+  for (double x : v.raw_position) f(x);
+  for (double x : v.degraded_position) f(x);
+  for (double x : v.tip_position_m) f(x);
+  for (double x : v.tip_velocity_m_per_s) f(x);
+  for (double x : v.ve_force_N) f(x);
+  for (double x : v.displayed_force_N) f(x);
+  for (double x : v.joint_force) f(x);
+  line += ',';
+  put_number(line, v.engine_status);
+  line += ',';
+  put_number(line, s.device_status);
+  line += v.in_contact ? ",1" : ",0";
+}
+
+std::filesystem::path trial_stem(const std::filesystem::path& dir, const TrialRow& t) {
+  return dir / (slug(t.participant_code) + "_" + slug(t.task) + "_" + slug(t.setting_name) + "_rep" +
+                std::to_string(t.repetition) + "_trial" + std::to_string(t.id));
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t trial_id,
+                                                    const std::filesystem::path& out_dir) {
+  const TrialRow t = db.trial(trial_id);
+  std::filesystem::create_directories(out_dir);
+  const std::string stem = trial_stem(out_dir, t).string();
+  std::string line;
+
+  CsvFile samples(stem + "_samples.csv");
+  line = "trial_id,participant,task,setting,repetition,instrument,tick";
+  for (const char* name : kChannelNames) line += std::string(",") + name;
+  samples.line(line);
+  const std::vector<StoredSample> left = db.samples(trial_id, 0);
+  const std::vector<StoredSample> right = db.samples(trial_id, 1);
+  // Merge by tick, left first within a tick.
+  std::size_t i = 0, k = 0;
+  while (i < left.size() || k < right.size()) {
+    const bool take_left = k == right.size() || (i < left.size() && left[i].tick <= right[k].tick);
+    const StoredSample& s = take_left ? left[i++] : right[k++];
+    put_trial_key(line, t);
+    line += take_left ? ",0" : ",1";
+    put_sample(line, s);
+    samples.line(line);
+  }
+
+  CsvFile events(stem + "_events.csv");
+  line = "trial_id,participant,task,setting,repetition,t_s,type,instrument,index,detail";
+  events.line(line);
+  for (const EventRow& e : db.events(trial_id)) {
+    put_trial_key(line, t);
+    line += ',';
+    put_number(line, e.t_s);
+    line += ',';
+    put_text(line, e.type);
+    line += ',';
+    put_number(line, e.instrument);
+    line += ',';
+    put_number(line, e.item_index);
+    line += ',';
+    put_text(line, e.detail);
+    events.line(line);
+  }
+  samples.commit();
+  events.commit();
+  return {samples.path(), events.path()};
+}
+
+std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t study_id,
+                                                    const std::filesystem::path& out_dir) {
+  std::filesystem::create_directories(out_dir);
+  std::vector<std::filesystem::path> written;
+  CsvFile index(out_dir / "trials.csv");
+  std::string line =
+      "trial_id,participant,task,setting,repetition,block,position,status,started_unix_s,ended_unix_s,"
+      "abort_reason,updates,loop_count,loop_p50_period_s,loop_p99_period_s,loop_max_period_s,"
+      "loop_mean_period_s,loop_overruns,dropped_samples,dropped_events";
+  index.line(line);
+  for (const TrialRow& t : db.trials(study_id)) {
+    put_trial_key(line, t);
+    line += ',';
+    put_number(line, t.block);
+    line += ',';
+    put_number(line, t.position);
+    line += ',';
+    line += to_string(t.status);
+    line += ',';
+    if (t.started_unix_s) put_number(line, *t.started_unix_s);
+    line += ',';
+    if (t.ended_unix_s) put_number(line, *t.ended_unix_s);
+    line += ',';
+    put_text(line, t.abort_reason);
+    line += ',';
+    put_number(line, db.sample_count(t.id, 0));
+    const std::optional<LoopTimingRow> timing = db.loop_timing(t.id);
+    if (timing && timing->timing) {
+      const LoopTimingSummary& s = *timing->timing;
+      for (double x : {static_cast<double>(s.count), s.p50_period_s, s.p99_period_s, s.max_period_s,
+                       s.mean_period_s, static_cast<double>(s.overruns)}) {
+        line += ',';
+        put_number(line, x);
+      }
+    } else {
+      line += ",,,,,,";
+    }
+    line += ',';
+    if (timing) put_number(line, timing->dropped_samples);
+    line += ',';
+    if (timing) put_number(line, timing->dropped_events);
+    index.line(line);
+    if (t.status != TrialStatus::kPlanned) {
+      const auto files = export_trial_csv(db, t.id, out_dir);
+      written.insert(written.end(), files.begin(), files.end());
+    }
+  }
+  index.commit();
+  written.push_back(index.path());
+  return written;
+}
+
+}  // namespace hapticlab::db

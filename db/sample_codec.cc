@@ -1,0 +1,194 @@
+#include "db/sample_codec.h"
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace hapticlab::db {
+
+const std::array<const char*, kChunkChannels> kChannelNames = {
+    "dt_s",           "t_s",
+    "raw_insertion_m", "raw_pitch_rad", "raw_yaw_rad", "raw_twist_rad", "raw_grip_rad",
+    "degraded_insertion_m", "degraded_pitch_rad", "degraded_yaw_rad",
+    "tip_x_m",        "tip_y_m",        "tip_z_m",
+    "tip_vx_m_per_s", "tip_vy_m_per_s", "tip_vz_m_per_s",
+    "ve_force_x_N",   "ve_force_y_N",   "ve_force_z_N",
+    "displayed_force_x_N", "displayed_force_y_N", "displayed_force_z_N",
+    "insertion_force_N", "pitch_torque_Nm", "yaw_torque_Nm",
+    "engine_status",  "device_status",  "in_contact"};
+
+namespace {
+
+enum Tag : std::uint8_t { kPerUpdate = 0, kConstant = 1, kRunningSum = 2 };
+
+// Channels 2..24: the float32 ones, as pointers into InstrumentSample.
+double* float_channel(InstrumentSample& s, std::size_t channel) noexcept {
+  const std::size_t k = channel - 2;
+  if (k < 5) return &s.raw_position[k];
+  if (k < 8) return &s.degraded_position[k - 5];
+  if (k < 11) return &s.tip_position_m[k - 8];
+  if (k < 14) return &s.tip_velocity_m_per_s[k - 11];
+  if (k < 17) return &s.ve_force_N[k - 14];
+  if (k < 20) return &s.displayed_force_N[k - 17];
+  return &s.joint_force[k - 20];
+}
+double float_channel(const InstrumentSample& s, std::size_t channel) noexcept {
+  return *float_channel(const_cast<InstrumentSample&>(s), channel);
+}
+constexpr std::size_t kFirstFloat = 2, kEndFloat = 25;
+constexpr std::size_t kEngineStatus = 25, kDeviceStatus = 26, kInContact = 27;
+
+void put_le(std::vector<std::byte>& out, std::uint64_t bits, int bytes) {
+  for (int i = 0; i < bytes; ++i) out.push_back(static_cast<std::byte>(bits >> (8 * i)));
+}
+
+// Writes one channel: `bits(i)` gives sample i's stored bit pattern.
+template <typename Bits>
+void put_channel(std::vector<std::byte>& out, std::size_t n, int bytes, Bits bits) {
+  bool constant = true;
+  const std::uint64_t first = bits(0);
+  for (std::size_t i = 1; i < n && constant; ++i) constant = bits(i) == first;
+  out.push_back(static_cast<std::byte>(constant ? kConstant : kPerUpdate));
+  const std::size_t values = constant ? 1 : n;
+  for (std::size_t i = 0; i < values; ++i) put_le(out, bits(i), bytes);
+}
+
+class Reader {
+ public:
+  explicit Reader(std::span<const std::byte> blob) : blob_(blob) {}
+  std::uint64_t get(int bytes) {
+    if (pos_ + static_cast<std::size_t>(bytes) > blob_.size()) throw std::runtime_error("sample chunk: blob too short");
+    std::uint64_t v = 0;
+    for (int i = 0; i < bytes; ++i) v |= std::uint64_t(std::to_integer<std::uint8_t>(blob_[pos_++])) << (8 * i);
+    return v;
+  }
+  bool at_end() const noexcept { return pos_ == blob_.size(); }
+
+ private:
+  std::span<const std::byte> blob_;
+  std::size_t pos_ = 0;
+};
+
+// Reads the values of one channel whose tag was just read, calling
+// `set(i, bits)` for every sample.
+template <typename Set>
+void get_values(Reader& r, std::uint8_t tag, std::size_t n, int bytes, std::size_t channel, Set set) {
+  if (tag == kConstant) {
+    const std::uint64_t v = r.get(bytes);
+    for (std::size_t i = 0; i < n; ++i) set(i, v);
+  } else if (tag == kPerUpdate) {
+    for (std::size_t i = 0; i < n; ++i) set(i, r.get(bytes));
+  } else {
+    throw std::runtime_error(std::string("sample chunk: channel ") + kChannelNames[channel] + " has unknown tag " +
+                             std::to_string(tag));
+  }
+}
+
+template <typename Set>
+void get_channel(Reader& r, std::size_t n, int bytes, std::size_t channel, Set set) {
+  get_values(r, static_cast<std::uint8_t>(r.get(1)), n, bytes, channel, set);
+}
+
+void decode_into(Reader& r, std::size_t count, StoredSample* s) {
+  get_channel(r, count, 8, 0, [&](std::size_t i, std::uint64_t v) { s[i].dt_s = std::bit_cast<double>(v); });
+  const auto t_tag = static_cast<std::uint8_t>(r.get(1));
+  if (t_tag == kRunningSum) {
+    s[0].t_s = std::bit_cast<double>(r.get(8));
+    for (std::size_t i = 1; i < count; ++i) s[i].t_s = s[i - 1].t_s + s[i].dt_s;
+  } else {
+    get_values(r, t_tag, count, 8, 1, [&](std::size_t i, std::uint64_t v) { s[i].t_s = std::bit_cast<double>(v); });
+  }
+  for (std::size_t c = kFirstFloat; c < kEndFloat; ++c)
+    get_channel(r, count, 4, c, [&](std::size_t i, std::uint64_t v) {
+      *float_channel(s[i].value, c) = double{std::bit_cast<float>(static_cast<std::uint32_t>(v))};
+    });
+  get_channel(r, count, 4, kEngineStatus,
+              [&](std::size_t i, std::uint64_t v) { s[i].value.engine_status = static_cast<std::uint32_t>(v); });
+  get_channel(r, count, 4, kDeviceStatus, [&](std::size_t i, std::uint64_t v) {
+    s[i].device_status = std::bit_cast<std::int32_t>(static_cast<std::uint32_t>(v));
+  });
+  get_channel(r, count, 1, kInContact, [&](std::size_t i, std::uint64_t v) { s[i].value.in_contact = v != 0; });
+}
+
+}  // namespace
+
+float to_stored_float(double value) noexcept {
+  // A double beyond float's range converts with undefined behaviour; such
+  // a value is stored as infinity of its sign.
+  constexpr double kMax = std::numeric_limits<float>::max();
+  if (value > kMax) return std::numeric_limits<float>::infinity();
+  if (value < -kMax) return -std::numeric_limits<float>::infinity();
+  return static_cast<float>(value);  // NaN and in-range values
+}
+
+std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
+  if (s.empty() || s.size() > kMaxChunkUpdates)
+    throw std::invalid_argument("encode_chunk(): " + std::to_string(s.size()) + " samples, must be 1.." +
+                                std::to_string(kMaxChunkUpdates));
+  for (std::size_t i = 1; i < s.size(); ++i)
+    if (s[i].tick != s[0].tick + i)
+      throw std::invalid_argument("encode_chunk(): ticks must be consecutive; tick " + std::to_string(s[i].tick) +
+                                  " follows " + std::to_string(s[i - 1].tick));
+  const std::size_t n = s.size();
+  std::vector<std::byte> out;
+  out.reserve(1 + kChunkChannels + n * 117);
+  out.push_back(static_cast<std::byte>(kChunkFormat));
+
+  put_channel(out, n, 8, [&](std::size_t i) { return std::bit_cast<std::uint64_t>(s[i].dt_s); });
+
+  // t_s: when every t is the previous t plus this dt, bit for bit (the
+  // usual case with the virtual clock), t[0] alone restores the rest.
+  bool running_sum = n > 1;
+  for (std::size_t i = 1; i < n && running_sum; ++i)
+    running_sum = std::bit_cast<std::uint64_t>(s[i - 1].t_s + s[i].dt_s) == std::bit_cast<std::uint64_t>(s[i].t_s);
+  if (running_sum) {
+    out.push_back(static_cast<std::byte>(kRunningSum));
+    put_le(out, std::bit_cast<std::uint64_t>(s[0].t_s), 8);
+  } else {
+    put_channel(out, n, 8, [&](std::size_t i) { return std::bit_cast<std::uint64_t>(s[i].t_s); });
+  }
+
+  for (std::size_t c = kFirstFloat; c < kEndFloat; ++c)
+    put_channel(out, n, 4, [&](std::size_t i) {
+      return std::uint64_t{std::bit_cast<std::uint32_t>(to_stored_float(float_channel(s[i].value, c)))};
+    });
+  put_channel(out, n, 4, [&](std::size_t i) { return std::uint64_t{s[i].value.engine_status}; });
+  put_channel(out, n, 4, [&](std::size_t i) {
+    return std::uint64_t{std::bit_cast<std::uint32_t>(s[i].device_status)};
+  });
+  put_channel(out, n, 1, [&](std::size_t i) { return std::uint64_t{s[i].value.in_contact ? 1u : 0u}; });
+  return out;
+}
+
+void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob,
+                  std::vector<StoredSample>& out) {
+  if (count == 0 || count > kMaxChunkUpdates)
+    throw std::runtime_error("sample chunk: count is " + std::to_string(count) + ", must be 1.." +
+                             std::to_string(kMaxChunkUpdates));
+  Reader r(blob);
+  const auto format = r.get(1);
+  if (format != kChunkFormat)
+    throw std::runtime_error("sample chunk: format " + std::to_string(format) + ", this HapticLab reads format " +
+                             std::to_string(kChunkFormat));
+  const std::size_t base = out.size();
+  out.resize(base + count);
+  StoredSample* s = out.data() + base;
+  for (std::size_t i = 0; i < count; ++i) s[i].tick = first_tick + i;
+
+  try {
+    decode_into(r, count, s);
+  } catch (...) {
+    out.resize(base);
+    throw;
+  }
+  if (!r.at_end()) {
+    out.resize(base);
+    throw std::runtime_error("sample chunk: " + std::to_string(blob.size()) + " bytes, more than " +
+                             std::to_string(count) + " samples use");
+  }
+}
+
+}  // namespace hapticlab::db

@@ -1,0 +1,193 @@
+#include "db/sample_writer.h"
+
+#include <stdexcept>
+#include <vector>
+
+namespace hapticlab::db {
+
+struct SampleWriter::OpenChunk {
+  std::vector<StoredSample> samples;
+  std::int64_t row_id = 0;  // 0: not in the database yet
+};
+
+SampleWriter::SampleWriter(const std::filesystem::path& db_path, std::int64_t trial_id,
+                           SpscQueue<LoopSample>& samples, SpscQueue<TaskEvent>& events,
+                           const SampleWriterConfig& config)
+    : trial_id_(trial_id), samples_(samples), events_(events), config_(config) {
+  if (config.commit_interval.count() <= 0)
+    throw std::invalid_argument("SampleWriter(): commit_interval is " + std::to_string(config.commit_interval.count()) +
+                                " ms, must be > 0");
+  if (config.chunk_updates < 1 || config.chunk_updates > kMaxChunkUpdates)
+    throw std::invalid_argument("SampleWriter(): chunk_updates is " + std::to_string(config.chunk_updates) +
+                                ", must be 1.." + std::to_string(kMaxChunkUpdates));
+  if (config.pop_batch < 1) throw std::invalid_argument("SampleWriter(): pop_batch must be >= 1");
+
+  OpenOptions options;
+  options.integrity = OpenOptions::Integrity::kSkip;  // the runner's own open checked it
+  options.recover = false;                            // our trial is running on purpose
+  db_ = std::make_unique<StudyDb>(db_path, options);
+  const TrialRow trial = db_->trial(trial_id);
+  if (trial.status != TrialStatus::kRunning)
+    throw DbError(db_->path() + ": SampleWriter: trial " + std::to_string(trial_id) + " is " +
+                  to_string(trial.status) + ", start it (StudyDb::start_trial) before writing samples");
+  batch_.resize(config.pop_batch);
+  chunks_ = std::make_unique<OpenChunk[]>(2);
+  for (int i = 0; i < 2; ++i) chunks_[i].samples.reserve(config.chunk_updates);
+  thread_ = std::thread([this] { run(); });
+}
+
+SampleWriter::~SampleWriter() { stop_thread(); }
+
+void SampleWriter::stop_thread() noexcept {
+  if (!thread_.joinable()) return;
+  stop_.store(true, std::memory_order_release);
+  thread_.join();
+}
+
+SampleWriterStats SampleWriter::stats() const noexcept {
+  SampleWriterStats s;
+  s.updates = updates_.load(std::memory_order_relaxed);
+  s.events = events_stored_.load(std::memory_order_relaxed);
+  s.commits = commits_.load(std::memory_order_relaxed);
+  s.missing_updates = missing_.load(std::memory_order_relaxed);
+  s.discarded = discarded_.load(std::memory_order_relaxed);
+  return s;
+}
+
+void SampleWriter::run() noexcept {
+  for (;;) {
+    // Read the flag before popping: once it is set the producer has
+    // stopped, so a pass that then finds both queues empty has seen all.
+    const bool stopping = stop_.load(std::memory_order_acquire);
+    bool idle = true;
+    try {
+      if (error_ == nullptr) {
+        const std::uint64_t before = updates_.load(std::memory_order_relaxed) + events_stored_.load(std::memory_order_relaxed);
+        drain_once();
+        idle = updates_.load(std::memory_order_relaxed) + events_stored_.load(std::memory_order_relaxed) == before;
+        if (tx_ && std::chrono::steady_clock::now() - tx_began_ >= config_.commit_interval) flush_and_commit();
+      }
+    } catch (...) {
+      error_ = std::current_exception();
+      tx_.reset();  // rolls back the failed batch
+    }
+    if (error_ != nullptr) {
+      // Keep the queues moving (see header) and count what is lost.
+      LoopSample sink[64];
+      TaskEvent event_sink[64];
+      const std::size_t n = samples_.pop_bulk(sink, 64);
+      discarded_.fetch_add(n, std::memory_order_relaxed);
+      idle = n == 0 && events_.pop_bulk(event_sink, 64) == 0;
+    }
+    if (idle) {
+      if (stopping) break;
+      std::this_thread::sleep_for(config_.idle_poll);
+    }
+  }
+  if (error_ == nullptr) {
+    try {
+      flush_and_commit();
+    } catch (...) {
+      error_ = std::current_exception();
+      tx_.reset();
+    }
+  }
+}
+
+// One bulk of each queue per call, so the commit check stays timely under
+// a flood.
+void SampleWriter::drain_once() {
+  TaskEvent events[64];
+  {
+    const std::size_t n = samples_.pop_bulk(batch_.data(), batch_.size());
+    const std::size_t m = events_.pop_bulk(events, 64);
+    if (n + m == 0) return;
+    if (!tx_) {
+      tx_ = std::make_unique<Transaction>(db_->connection());
+      tx_began_ = std::chrono::steady_clock::now();
+    }
+    for (std::size_t i = 0; i < n; ++i) store_sample(batch_[i]);
+    for (std::size_t i = 0; i < m; ++i) {
+      const TaskEvent& e = events[i];
+      db_->add_event({trial_id_, e.t_s, to_string(e.type), e.instrument, e.index, {}});
+    }
+    updates_.fetch_add(n, std::memory_order_relaxed);
+    events_stored_.fetch_add(m, std::memory_order_relaxed);
+  }
+}
+
+void SampleWriter::store_sample(const LoopSample& sample) {
+  if (have_tick_ && sample.tick != last_tick_ + 1) {
+    if (sample.tick <= last_tick_)
+      throw DbError(db_->path() + ": SampleWriter: trial " + std::to_string(trial_id_) + ": tick " +
+                    std::to_string(sample.tick) + " after tick " + std::to_string(last_tick_) +
+                    " (ticks must increase)");
+    const std::uint64_t missing = sample.tick - last_tick_ - 1;
+    missing_.fetch_add(missing, std::memory_order_relaxed);
+    db_->add_event({trial_id_, sample.t_s, "samples_missing", -1, static_cast<std::int64_t>(missing),
+                    "updates " + std::to_string(last_tick_ + 1) + ".." + std::to_string(sample.tick - 1) +
+                        " never reached the writer (sample queue full)"});
+  }
+  have_tick_ = true;
+  last_tick_ = sample.tick;
+  last_t_s_ = sample.t_s;
+  for (int k = 0; k < 2; ++k) {
+    OpenChunk& c = chunks_[k];
+    // A chunk holds consecutive ticks only: a gap closes it.
+    if (!c.samples.empty() && c.samples.back().tick + 1 != sample.tick) write_chunk(k, false);
+    c.samples.push_back({sample.tick, sample.t_s, sample.dt_s, sample.device_status,
+                         sample.instrument[static_cast<std::size_t>(k)]});
+    if (c.samples.size() >= config_.chunk_updates) write_chunk(k, false);
+  }
+}
+
+void SampleWriter::write_chunk(int instrument, bool keep_open) {
+  OpenChunk& c = chunks_[instrument];
+  if (!c.samples.empty()) {
+    if (c.row_id == 0) c.row_id = db_->insert_chunk(trial_id_, instrument, c.samples);
+    else db_->update_chunk(c.row_id, c.samples);
+  }
+  if (!keep_open) {
+    c.samples.clear();
+    c.row_id = 0;
+  }
+}
+
+void SampleWriter::flush_and_commit() {
+  if (!tx_) return;
+  // Partial chunks go in now (and are rewritten as they grow) so a crash
+  // loses at most one commit interval.
+  for (int k = 0; k < 2; ++k) write_chunk(k, true);
+  tx_->commit();
+  tx_.reset();
+  commits_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void SampleWriter::finish(const TrialOutcome& outcome) {
+  if (finished_) throw std::logic_error("SampleWriter::finish(): called twice");
+  finished_ = true;
+  stop_thread();
+  if (error_ != nullptr) {
+    try {
+      std::rethrow_exception(error_);
+    } catch (const std::exception& e) {
+      throw DbError(std::string(e.what()) + " (sample writer for trial " + std::to_string(trial_id_) + "; " +
+                    std::to_string(discarded_.load()) + " later updates discarded)");
+    }
+  }
+  Transaction tx(db_->connection());
+  db_->set_loop_timing(trial_id_, outcome.timing, outcome.dropped_samples, outcome.dropped_events);
+  if (outcome.dropped_samples > 0)
+    db_->add_event({trial_id_, last_t_s_, "samples_dropped", -1, static_cast<std::int64_t>(outcome.dropped_samples),
+                    "the haptic loop's sample queue was full: " + std::to_string(outcome.dropped_samples) +
+                        " updates were not logged (" + std::to_string(missing_.load()) +
+                        " of them seen as tick gaps)"});
+  if (outcome.dropped_events > 0)
+    db_->add_event({trial_id_, last_t_s_, "events_dropped", -1, static_cast<std::int64_t>(outcome.dropped_events),
+                    "the haptic loop's event queue was full: " + std::to_string(outcome.dropped_events) +
+                        " task events were not logged"});
+  db_->end_trial(trial_id_, outcome.status, outcome.abort_reason);
+  tx.commit();
+}
+
+}  // namespace hapticlab::db

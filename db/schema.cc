@@ -1,0 +1,169 @@
+#include "db/schema.h"
+
+#include <string>
+
+namespace hapticlab::db {
+namespace {
+
+// Version 1: the first layout. Loop timing was not stored, only the number
+// of dropped samples, as a column of trial; training was not recorded.
+constexpr const char* kV1 = R"sql(
+CREATE TABLE study (
+  id               INTEGER PRIMARY KEY,
+  name             TEXT NOT NULL UNIQUE,
+  protocol_json    TEXT NOT NULL,
+  protocol_sha256  TEXT NOT NULL CHECK (length(protocol_sha256) = 64),
+  seed             TEXT NOT NULL,
+  software_version TEXT NOT NULL,
+  created_utc      TEXT NOT NULL
+);
+CREATE TABLE participant (
+  id       INTEGER PRIMARY KEY,
+  study_id INTEGER NOT NULL REFERENCES study (id),
+  code     TEXT NOT NULL,
+  UNIQUE (study_id, code)
+);
+CREATE TABLE setting (
+  id              INTEGER PRIMARY KEY,
+  study_id        INTEGER NOT NULL REFERENCES study (id),
+  name            TEXT NOT NULL,
+  parameters_json TEXT NOT NULL,
+  UNIQUE (study_id, name)
+);
+CREATE TABLE session (
+  id             INTEGER PRIMARY KEY,
+  participant_id INTEGER NOT NULL REFERENCES participant (id),
+  started_unix_s REAL NOT NULL,
+  ended_unix_s   REAL,
+  device         TEXT NOT NULL,
+  clock          TEXT NOT NULL CHECK (clock IN ('virtual', 'wall')),
+  status         TEXT NOT NULL CHECK (status IN ('open', 'closed', 'interrupted'))
+);
+CREATE TABLE trial (
+  id              INTEGER PRIMARY KEY,
+  participant_id  INTEGER NOT NULL REFERENCES participant (id),
+  task            TEXT NOT NULL,
+  setting_id      INTEGER NOT NULL REFERENCES setting (id),
+  repetition      INTEGER NOT NULL,
+  block           INTEGER NOT NULL,
+  position        INTEGER NOT NULL,
+  status          TEXT NOT NULL DEFAULT 'planned'
+                  CHECK (status IN ('planned', 'running', 'complete', 'aborted')),
+  session_id      INTEGER REFERENCES session (id),
+  started_unix_s  REAL,
+  ended_unix_s    REAL,
+  abort_reason    TEXT,
+  dropped_samples INTEGER NOT NULL DEFAULT 0,
+  UNIQUE (participant_id, position)
+);
+CREATE TABLE sample_chunk (
+  id         INTEGER PRIMARY KEY,
+  trial_id   INTEGER NOT NULL REFERENCES trial (id),
+  instrument INTEGER NOT NULL CHECK (instrument IN (0, 1)),
+  first_tick INTEGER NOT NULL,
+  count      INTEGER NOT NULL CHECK (count > 0),
+  t0_s       REAL NOT NULL,
+  data       BLOB NOT NULL,
+  UNIQUE (trial_id, instrument, first_tick)
+);
+CREATE TABLE event (
+  id         INTEGER PRIMARY KEY,
+  trial_id   INTEGER NOT NULL REFERENCES trial (id),
+  t_s        REAL NOT NULL,
+  type       TEXT NOT NULL,
+  instrument INTEGER NOT NULL CHECK (instrument IN (-1, 0, 1)),
+  item_index INTEGER NOT NULL DEFAULT 0,
+  detail     TEXT
+);
+CREATE INDEX event_by_trial ON event (trial_id, t_s);
+)sql";
+
+// Version 2: loop timing per trial gets its own table, and the drop count
+// moves there from trial (timing columns stay NULL for trials recorded
+// before: it was not measured); training periods are recorded.
+constexpr const char* kV2 = R"sql(
+CREATE TABLE training (
+  id             INTEGER PRIMARY KEY,
+  session_id     INTEGER NOT NULL REFERENCES session (id),
+  task           TEXT NOT NULL,
+  started_unix_s REAL NOT NULL,
+  ended_unix_s   REAL,
+  duration_s     REAL,
+  trials         INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE loop_timing (
+  trial_id         INTEGER PRIMARY KEY REFERENCES trial (id),
+  count            INTEGER,
+  p50_period_s     REAL,
+  p99_period_s     REAL,
+  max_period_s     REAL,
+  mean_period_s    REAL,
+  overruns         INTEGER,
+  rejected_periods INTEGER,
+  dropped_samples  INTEGER NOT NULL DEFAULT 0,
+  dropped_events   INTEGER NOT NULL DEFAULT 0
+);
+INSERT INTO loop_timing (trial_id, dropped_samples)
+  SELECT id, dropped_samples FROM trial
+  WHERE status IN ('complete', 'aborted') OR dropped_samples <> 0;
+ALTER TABLE trial DROP COLUMN dropped_samples;
+)sql";
+
+constexpr Migration kMigrations[] = {
+    {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
+    {2, "loop_timing table (drop counts move out of trial), training table", kV2},
+};
+static_assert(std::size(kMigrations) == kSchemaVersion);
+
+int version_or_refuse(Database& db) {
+  const std::int64_t version = db.pragma_int("user_version");
+  const std::int64_t app_id = db.pragma_int("application_id");
+  if (version == 0) {
+    // Version 0 is an empty file, unless someone else put tables in it.
+    Statement s = db.prepare("SELECT count(*) FROM sqlite_schema");
+    s.step();
+    if (s.column_int64(0) != 0)
+      throw DbError(db.path() + ": not a HapticLab study database (it has tables but no schema version)");
+    return 0;
+  }
+  if (app_id != kApplicationId)
+    throw DbError(db.path() + ": not a HapticLab study database (application_id " + std::to_string(app_id) +
+                  ", expected " + std::to_string(kApplicationId) + ")");
+  if (version > kSchemaVersion)
+    throw DbError(db.path() + ": database schema version " + std::to_string(version) +
+                  " is newer than this HapticLab supports (" + std::to_string(kSchemaVersion) +
+                  "); open it with a newer HapticLab");
+  if (version < 0) throw DbError(db.path() + ": invalid schema version " + std::to_string(version));
+  return static_cast<int>(version);
+}
+
+}  // namespace
+
+std::span<const Migration> migrations() { return kMigrations; }
+
+int check_schema_version(Database& db) { return version_or_refuse(db); }
+
+int migrate(Database& db) {
+  if (version_or_refuse(db) == kSchemaVersion) return kSchemaVersion;
+  Transaction tx(db);
+  // Read again under the write lock: another process may have migrated
+  // the file between the first look and BEGIN IMMEDIATE.
+  const int found = version_or_refuse(db);
+  for (const Migration& m : kMigrations) {
+    if (m.to_version <= found) continue;
+    try {
+      db.exec(m.sql);
+    } catch (const DbError& e) {
+      throw DbError(db.path() + ": migration to schema version " + std::to_string(m.to_version) + " (" +
+                        m.description + ") failed, database left at version " + std::to_string(found) +
+                        ": " + e.what(),
+                    e.sqlite_code());
+    }
+  }
+  db.exec("PRAGMA user_version = " + std::to_string(kSchemaVersion));
+  db.exec("PRAGMA application_id = " + std::to_string(kApplicationId));
+  tx.commit();
+  return found;
+}
+
+}  // namespace hapticlab::db

@@ -1,0 +1,465 @@
+#include "db/study_db.h"
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "db/schema.h"
+#include "db/sha256.h"
+
+namespace hapticlab::db {
+namespace {
+
+std::string iso8601_utc_now() {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t secs = std::chrono::system_clock::to_time_t(now);
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
+                tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms));
+  return buf;
+}
+
+std::optional<double> opt_double(const Statement& s, int c) {
+  if (s.is_null(c)) return std::nullopt;
+  return s.column_double(c);
+}
+
+template <typename T>
+void bind_opt(Statement& s, int i, const std::optional<T>& v) {
+  if (v) s.bind(i, *v);
+  else s.bind_null(i);
+}
+
+// Row not found: names the table and id, since "no row" alone says little.
+[[noreturn]] void missing(const Database& db, const char* what, std::int64_t id) {
+  throw DbError(db.path() + ": no " + what + " with id " + std::to_string(id));
+}
+
+constexpr const char* kTrialColumns =
+    "t.id, t.participant_id, t.task, t.setting_id, t.repetition, t.block, t.position, t.status, t.session_id, "
+    "t.started_unix_s, t.ended_unix_s, t.abort_reason, p.code, s.name "
+    "FROM trial t JOIN participant p ON p.id = t.participant_id JOIN setting s ON s.id = t.setting_id ";
+
+TrialRow read_trial(const Statement& s) {
+  TrialRow r;
+  r.id = s.column_int64(0);
+  r.participant_id = s.column_int64(1);
+  r.task = s.column_text(2);
+  r.setting_id = s.column_int64(3);
+  r.repetition = static_cast<int>(s.column_int64(4));
+  r.block = static_cast<int>(s.column_int64(5));
+  r.position = static_cast<int>(s.column_int64(6));
+  r.status = parse_trial_status(s.column_text(7));
+  if (!s.is_null(8)) r.session_id = s.column_int64(8);
+  r.started_unix_s = opt_double(s, 9);
+  r.ended_unix_s = opt_double(s, 10);
+  r.abort_reason = s.column_text(11);
+  r.participant_code = s.column_text(12);
+  r.setting_name = s.column_text(13);
+  return r;
+}
+
+}  // namespace
+
+const char* to_string(TrialStatus status) noexcept {
+  switch (status) {
+    case TrialStatus::kPlanned: return "planned";
+    case TrialStatus::kRunning: return "running";
+    case TrialStatus::kComplete: return "complete";
+    case TrialStatus::kAborted: return "aborted";
+  }
+  return "unknown";
+}
+
+const char* to_string(SessionStatus status) noexcept {
+  switch (status) {
+    case SessionStatus::kOpen: return "open";
+    case SessionStatus::kClosed: return "closed";
+    case SessionStatus::kInterrupted: return "interrupted";
+  }
+  return "unknown";
+}
+
+TrialStatus parse_trial_status(std::string_view name) {
+  for (TrialStatus s : {TrialStatus::kPlanned, TrialStatus::kRunning, TrialStatus::kComplete, TrialStatus::kAborted})
+    if (name == to_string(s)) return s;
+  throw DbError("unknown trial status '" + std::string(name) + "' (planned, running, complete, aborted)");
+}
+
+SessionStatus parse_session_status(std::string_view name) {
+  for (SessionStatus s : {SessionStatus::kOpen, SessionStatus::kClosed, SessionStatus::kInterrupted})
+    if (name == to_string(s)) return s;
+  throw DbError("unknown session status '" + std::string(name) + "' (open, closed, interrupted)");
+}
+
+double unix_now_s() noexcept {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
+    : db_(path, options.read_only ? Database::Mode::kReadOnly : Database::Mode::kReadWriteCreate) {
+  if (!options.read_only) {
+    // journal_mode cannot change inside a transaction, so it comes first.
+    // In-memory databases answer "memory" and stay so.
+    db_.exec("PRAGMA journal_mode = WAL");
+    db_.exec("PRAGMA synchronous = NORMAL");
+  }
+  check_integrity(options.integrity);
+  if (options.read_only) {
+    version_found_ = check_schema_version(db_);
+    if (version_found_ != kSchemaVersion)
+      throw DbError(db_.path() + ": schema version " + std::to_string(version_found_) + ", expected " +
+                    std::to_string(kSchemaVersion) + "; open it once read-write to migrate it");
+  } else {
+    version_found_ = migrate(db_);
+    if (options.recover) recover();
+  }
+}
+
+void StudyDb::check_integrity(OpenOptions::Integrity level) {
+  if (level == OpenOptions::Integrity::kSkip) return;
+  const char* pragma = level == OpenOptions::Integrity::kFull ? "integrity_check" : "quick_check";
+  std::string findings;
+  int n = 0;
+  try {
+    Statement s = db_.prepare(std::string("PRAGMA ") + pragma + "(20)");
+    while (s.step()) {
+      const std::string line = s.column_text(0);
+      if (line == "ok") continue;
+      findings += (n++ ? "; " : "") + line;
+    }
+  } catch (const DbError& e) {
+    // A badly damaged file fails the check itself (SQLITE_CORRUPT).
+    throw DbError(db_.path() + ": " + pragma + " failed, the database file is damaged: " + e.what(),
+                  e.sqlite_code());
+  }
+  if (n > 0)
+    throw DbError(db_.path() + ": " + pragma + " found " + std::to_string(n) +
+                  " problem(s), the database file is damaged: " + findings);
+}
+
+void StudyDb::recover() {
+  Transaction tx(db_);
+  Statement trials = db_.prepare(
+      "UPDATE trial SET status = 'aborted', abort_reason = ?1 WHERE status = 'running'");
+  trials.bind(1, kInterruptedReason).run();
+  recovery_.trials_aborted = db_.changes();
+  db_.exec("UPDATE session SET status = 'interrupted' WHERE status = 'open'");
+  recovery_.sessions_interrupted = db_.changes();
+  tx.commit();
+}
+
+// --- studies, participants, settings
+
+std::int64_t StudyDb::add_study(const StudyInfo& info) {
+  Statement s = db_.prepare(
+      "INSERT INTO study (name, protocol_json, protocol_sha256, seed, software_version, created_utc) "
+      "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  // The seed is a uint64; SQLite integers are signed, so it is kept as its
+  // decimal text (readable in any SQLite shell, exact).
+  s.bind(1, info.name).bind(2, info.protocol_json).bind(3, sha256_hex(info.protocol_json))
+      .bind(4, std::to_string(info.seed)).bind(5, info.software_version).bind(6, iso8601_utc_now());
+  s.run();
+  return db_.last_insert_rowid();
+}
+
+StudyRow StudyDb::study(std::int64_t id) {
+  for (StudyRow& r : studies())
+    if (r.id == id) return r;
+  missing(db_, "study", id);
+}
+
+std::vector<StudyRow> StudyDb::studies() {
+  Statement s = db_.prepare(
+      "SELECT id, name, protocol_json, protocol_sha256, seed, software_version, created_utc FROM study ORDER BY id");
+  std::vector<StudyRow> out;
+  while (s.step()) {
+    StudyRow r;
+    r.id = s.column_int64(0);
+    r.name = s.column_text(1);
+    r.protocol_json = s.column_text(2);
+    r.protocol_sha256 = s.column_text(3);
+    r.seed = std::stoull(s.column_text(4));
+    r.software_version = s.column_text(5);
+    r.created_utc = s.column_text(6);
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+std::int64_t StudyDb::add_participant(std::int64_t study_id, std::string_view code) {
+  Statement s = db_.prepare("INSERT INTO participant (study_id, code) VALUES (?1, ?2)");
+  s.bind(1, study_id).bind(2, code).run();
+  return db_.last_insert_rowid();
+}
+
+std::optional<std::int64_t> StudyDb::find_participant(std::int64_t study_id, std::string_view code) {
+  Statement s = db_.prepare("SELECT id FROM participant WHERE study_id = ?1 AND code = ?2");
+  s.bind(1, study_id).bind(2, code);
+  if (!s.step()) return std::nullopt;
+  return s.column_int64(0);
+}
+
+std::int64_t StudyDb::add_setting(std::int64_t study_id, const NamedSettings& settings) {
+  return add_setting_json(study_id, settings.name, settings_to_json(settings).dump(2));
+}
+
+std::int64_t StudyDb::add_setting_json(std::int64_t study_id, std::string_view name,
+                                       std::string_view parameters_json) {
+  Statement s = db_.prepare("INSERT INTO setting (study_id, name, parameters_json) VALUES (?1, ?2, ?3)");
+  s.bind(1, study_id).bind(2, name).bind(3, parameters_json).run();
+  return db_.last_insert_rowid();
+}
+
+std::string StudyDb::setting_json(std::int64_t setting_id) {
+  Statement s = db_.prepare("SELECT parameters_json FROM setting WHERE id = ?1");
+  s.bind(1, setting_id);
+  if (!s.step()) missing(db_, "setting", setting_id);
+  return s.column_text(0);
+}
+
+NamedSettings StudyDb::setting(std::int64_t setting_id) {
+  return settings_from_json_text(setting_json(setting_id),
+                                 db_.path() + ": setting " + std::to_string(setting_id));
+}
+
+// --- sessions and training
+
+std::int64_t StudyDb::begin_session(std::int64_t participant_id, std::string_view device, std::string_view clock) {
+  Statement s = db_.prepare(
+      "INSERT INTO session (participant_id, started_unix_s, device, clock, status) VALUES (?1, ?2, ?3, ?4, 'open')");
+  s.bind(1, participant_id).bind(2, unix_now_s()).bind(3, device).bind(4, clock).run();
+  return db_.last_insert_rowid();
+}
+
+void StudyDb::end_session(std::int64_t session_id, SessionStatus status) {
+  Statement s = db_.prepare("UPDATE session SET status = ?2, ended_unix_s = ?3 WHERE id = ?1");
+  s.bind(1, session_id).bind(2, to_string(status)).bind(3, unix_now_s()).run();
+  if (db_.changes() == 0) missing(db_, "session", session_id);
+}
+
+SessionRow StudyDb::session(std::int64_t id) {
+  Statement s = db_.prepare(
+      "SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status FROM session WHERE id = ?1");
+  s.bind(1, id);
+  if (!s.step()) missing(db_, "session", id);
+  SessionRow r;
+  r.id = id;
+  r.participant_id = s.column_int64(0);
+  r.started_unix_s = s.column_double(1);
+  r.ended_unix_s = opt_double(s, 2);
+  r.device = s.column_text(3);
+  r.clock = s.column_text(4);
+  r.status = parse_session_status(s.column_text(5));
+  return r;
+}
+
+std::int64_t StudyDb::add_training(const TrainingRow& t) {
+  Statement s = db_.prepare(
+      "INSERT INTO training (session_id, task, started_unix_s, ended_unix_s, duration_s, trials) "
+      "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  s.bind(1, t.session_id).bind(2, t.task).bind(3, t.started_unix_s);
+  bind_opt(s, 4, t.ended_unix_s);
+  bind_opt(s, 5, t.duration_s);
+  s.bind(6, std::int64_t{t.trials}).run();
+  return db_.last_insert_rowid();
+}
+
+std::vector<TrainingRow> StudyDb::training(std::int64_t session_id) {
+  Statement s = db_.prepare(
+      "SELECT id, task, started_unix_s, ended_unix_s, duration_s, trials FROM training WHERE session_id = ?1 "
+      "ORDER BY id");
+  s.bind(1, session_id);
+  std::vector<TrainingRow> out;
+  while (s.step()) {
+    TrainingRow r;
+    r.id = s.column_int64(0);
+    r.session_id = session_id;
+    r.task = s.column_text(1);
+    r.started_unix_s = s.column_double(2);
+    r.ended_unix_s = opt_double(s, 3);
+    r.duration_s = opt_double(s, 4);
+    r.trials = static_cast<int>(s.column_int64(5));
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+// --- trials
+
+std::int64_t StudyDb::add_trial(const TrialPlan& p) {
+  Statement s = db_.prepare(
+      "INSERT INTO trial (participant_id, task, setting_id, repetition, block, position, status) "
+      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'planned')");
+  s.bind(1, p.participant_id).bind(2, p.task).bind(3, p.setting_id).bind(4, std::int64_t{p.repetition})
+      .bind(5, std::int64_t{p.block}).bind(6, std::int64_t{p.position}).run();
+  return db_.last_insert_rowid();
+}
+
+void StudyDb::start_trial(std::int64_t trial_id, std::int64_t session_id) {
+  Statement s = db_.prepare(
+      "UPDATE trial SET status = 'running', session_id = ?2, started_unix_s = ?3 "
+      "WHERE id = ?1 AND status = 'planned'");
+  s.bind(1, trial_id).bind(2, session_id).bind(3, unix_now_s()).run();
+  if (db_.changes() == 0)
+    throw DbError(db_.path() + ": start_trial: trial " + std::to_string(trial_id) + " is " +
+                  to_string(trial(trial_id).status) + ", only a planned trial can start");
+}
+
+void StudyDb::end_trial(std::int64_t trial_id, TrialStatus status, std::string_view abort_reason) {
+  if (status != TrialStatus::kComplete && status != TrialStatus::kAborted)
+    throw DbError(db_.path() + ": end_trial: trial " + std::to_string(trial_id) + " cannot end as '" +
+                  to_string(status) + "' (complete or aborted)");
+  Statement s = db_.prepare(
+      "UPDATE trial SET status = ?2, ended_unix_s = ?3, abort_reason = ?4 WHERE id = ?1 AND status = 'running'");
+  s.bind(1, trial_id).bind(2, to_string(status)).bind(3, unix_now_s());
+  if (status == TrialStatus::kAborted) s.bind(4, abort_reason);
+  else s.bind_null(4);
+  s.run();
+  if (db_.changes() == 0)
+    throw DbError(db_.path() + ": end_trial: trial " + std::to_string(trial_id) + " is " +
+                  to_string(trial(trial_id).status) + ", only a running trial can end");
+}
+
+TrialRow StudyDb::trial(std::int64_t id) {
+  Statement s = db_.prepare(std::string("SELECT ") + kTrialColumns + "WHERE t.id = ?1");
+  s.bind(1, id);
+  if (!s.step()) missing(db_, "trial", id);
+  return read_trial(s);
+}
+
+std::vector<TrialRow> StudyDb::trials(std::optional<std::int64_t> study_id) {
+  Statement s = db_.prepare(std::string("SELECT ") + kTrialColumns +
+                            "WHERE ?1 IS NULL OR p.study_id = ?1 ORDER BY p.study_id, p.code, t.position");
+  bind_opt(s, 1, study_id);
+  std::vector<TrialRow> out;
+  while (s.step()) out.push_back(read_trial(s));
+  return out;
+}
+
+std::optional<std::int64_t> StudyDb::next_planned_trial(std::int64_t participant_id) {
+  Statement s = db_.prepare(
+      "SELECT id FROM trial WHERE participant_id = ?1 AND status = 'planned' ORDER BY position LIMIT 1");
+  s.bind(1, participant_id);
+  if (!s.step()) return std::nullopt;
+  return s.column_int64(0);
+}
+
+// --- events and loop timing
+
+void StudyDb::add_event(const EventRow& e) {
+  Statement s = db_.prepare(
+      "INSERT INTO event (trial_id, t_s, type, instrument, item_index, detail) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  s.bind(1, e.trial_id).bind(2, e.t_s).bind(3, e.type).bind(4, std::int64_t{e.instrument}).bind(5, e.item_index);
+  if (e.detail.empty()) s.bind_null(6);
+  else s.bind(6, e.detail);
+  s.run();
+}
+
+std::vector<EventRow> StudyDb::events(std::int64_t trial_id) {
+  Statement s = db_.prepare(
+      "SELECT t_s, type, instrument, item_index, detail FROM event WHERE trial_id = ?1 ORDER BY t_s, id");
+  s.bind(1, trial_id);
+  std::vector<EventRow> out;
+  while (s.step()) {
+    EventRow e;
+    e.trial_id = trial_id;
+    e.t_s = s.column_double(0);
+    e.type = s.column_text(1);
+    e.instrument = static_cast<int>(s.column_int64(2));
+    e.item_index = s.column_int64(3);
+    e.detail = s.column_text(4);
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+void StudyDb::set_loop_timing(std::int64_t trial_id, const LoopTimingSummary& t, std::uint64_t dropped_samples,
+                              std::uint64_t dropped_events) {
+  Statement s = db_.prepare(
+      "INSERT OR REPLACE INTO loop_timing (trial_id, count, p50_period_s, p99_period_s, max_period_s, "
+      "mean_period_s, overruns, rejected_periods, dropped_samples, dropped_events) "
+      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)");
+  // Counts fit in int64 for any run shorter than 290 million years at 1 kHz.
+  s.bind(1, trial_id).bind(2, static_cast<std::int64_t>(t.count)).bind(3, t.p50_period_s)
+      .bind(4, t.p99_period_s).bind(5, t.max_period_s).bind(6, t.mean_period_s)
+      .bind(7, static_cast<std::int64_t>(t.overruns)).bind(8, static_cast<std::int64_t>(t.rejected))
+      .bind(9, static_cast<std::int64_t>(dropped_samples)).bind(10, static_cast<std::int64_t>(dropped_events));
+  s.run();
+}
+
+std::optional<LoopTimingRow> StudyDb::loop_timing(std::int64_t trial_id) {
+  Statement s = db_.prepare(
+      "SELECT count, p50_period_s, p99_period_s, max_period_s, mean_period_s, overruns, rejected_periods, "
+      "dropped_samples, dropped_events FROM loop_timing WHERE trial_id = ?1");
+  s.bind(1, trial_id);
+  if (!s.step()) return std::nullopt;
+  LoopTimingRow r;
+  if (!s.is_null(0)) {
+    LoopTimingSummary t;
+    t.count = static_cast<std::uint64_t>(s.column_int64(0));
+    t.p50_period_s = s.column_double(1);
+    t.p99_period_s = s.column_double(2);
+    t.max_period_s = s.column_double(3);
+    t.mean_period_s = s.column_double(4);
+    t.overruns = static_cast<std::uint64_t>(s.column_int64(5));
+    t.rejected = static_cast<std::uint64_t>(s.column_int64(6));
+    r.timing = t;
+  }
+  r.dropped_samples = static_cast<std::uint64_t>(s.column_int64(7));
+  r.dropped_events = static_cast<std::uint64_t>(s.column_int64(8));
+  return r;
+}
+
+// --- samples
+
+std::int64_t StudyDb::insert_chunk(std::int64_t trial_id, int instrument, std::span<const StoredSample> samples) {
+  const std::vector<std::byte> blob = encode_chunk(samples);
+  Statement s = db_.prepare(
+      "INSERT INTO sample_chunk (trial_id, instrument, first_tick, count, t0_s, data) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  s.bind(1, trial_id).bind(2, std::int64_t{instrument}).bind(3, static_cast<std::int64_t>(samples[0].tick))
+      .bind(4, static_cast<std::int64_t>(samples.size())).bind(5, samples[0].t_s).bind_blob(6, blob);
+  s.run();
+  return db_.last_insert_rowid();
+}
+
+void StudyDb::update_chunk(std::int64_t chunk_id, std::span<const StoredSample> samples) {
+  const std::vector<std::byte> blob = encode_chunk(samples);
+  Statement s = db_.prepare("UPDATE sample_chunk SET count = ?2, data = ?3 WHERE id = ?1 AND first_tick = ?4");
+  s.bind(1, chunk_id).bind(2, static_cast<std::int64_t>(samples.size())).bind_blob(3, blob)
+      .bind(4, static_cast<std::int64_t>(samples[0].tick));
+  s.run();
+  if (db_.changes() == 0) missing(db_, "sample_chunk starting at that tick", chunk_id);
+}
+
+std::vector<StoredSample> StudyDb::samples(std::int64_t trial_id, int instrument) {
+  Statement s = db_.prepare(
+      "SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = ?1 AND instrument = ?2 ORDER BY first_tick");
+  s.bind(1, trial_id).bind(2, std::int64_t{instrument});
+  std::vector<StoredSample> out;
+  while (s.step()) {
+    const auto first = static_cast<std::uint64_t>(s.column_int64(0));
+    try {
+      decode_chunk(first, static_cast<std::size_t>(s.column_int64(1)), s.column_blob(2), out);
+    } catch (const std::runtime_error& e) {
+      throw DbError(db_.path() + ": trial " + std::to_string(trial_id) + " instrument " + std::to_string(instrument) +
+                    " chunk at tick " + std::to_string(first) + ": " + e.what());
+    }
+  }
+  return out;
+}
+
+std::uint64_t StudyDb::sample_count(std::int64_t trial_id, int instrument) {
+  Statement s = db_.prepare("SELECT coalesce(sum(count), 0) FROM sample_chunk WHERE trial_id = ?1 AND instrument = ?2");
+  s.bind(1, trial_id).bind(2, std::int64_t{instrument});
+  s.step();
+  return static_cast<std::uint64_t>(s.column_int64(0));
+}
+
+}  // namespace hapticlab::db

@@ -1,0 +1,37 @@
+#pragma once
+// What `hapticlab study show` prints: the stored schedule and each
+// participant's progress through it (operator view: names the settings).
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "db/study_db.h"
+
+namespace hapticlab::sessions {
+
+struct ParticipantProgress {
+  std::string code;
+  int planned = 0;     // still to run (re-queued trials included)
+  int running = 0;     // a trial in progress (another process is running it)
+  int complete = 0;
+  int aborted = 0;     // kept, marked, left out of analysis by default
+  int scheduled = 0;   // trials in the original schedule
+  std::vector<db::TrialRow> trials;  // schedule order
+};
+
+struct StudyProgress {
+  db::StudyRow study;
+  std::vector<ParticipantProgress> participants;
+};
+
+// Reads the (single) study of the database. Throws std::runtime_error if
+// the file holds no study.
+StudyProgress study_progress(db::StudyDb& db);
+
+std::string format_study_progress(const StudyProgress& progress, bool with_schedule);
+nlohmann::json study_progress_json(const StudyProgress& progress);
+
+}  // namespace hapticlab::sessions

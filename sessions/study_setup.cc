@@ -1,0 +1,43 @@
+#include "sessions/study_setup.h"
+
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "protocols/protocol_json.h"
+#include "protocols/schedule.h"
+
+namespace hapticlab::sessions {
+
+CreatedStudy create_study(db::StudyDb& db, const std::filesystem::path& protocol_file,
+                          const std::string& software_version) {
+  if (!db.studies().empty())
+    throw std::runtime_error(db.path() + ": already holds a study; create each study in a new database file");
+  std::ifstream in(protocol_file, std::ios::binary);
+  if (!in) throw std::runtime_error(protocol_file.string() + ": cannot open the protocol file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  const protocols::Protocol protocol = protocols::load_protocol_file(protocol_file);
+  const protocols::StudyPlan plan = protocols::make_study_plan(protocol);
+
+  db::Transaction tx(db.connection());
+  CreatedStudy created;
+  created.study_id = db.add_study({protocol.study, text.str(), protocol.seed, software_version});
+  std::map<std::size_t, std::int64_t> setting_ids;  // protocol index -> row
+  for (std::size_t i = 0; i < protocol.settings.size(); ++i)
+    setting_ids[i] = db.add_setting(created.study_id, protocol.settings[i].settings);
+  for (const protocols::ParticipantPlan& p : plan.participants) {
+    const std::int64_t participant_id = db.add_participant(created.study_id, p.code);
+    ++created.participants;
+    for (const protocols::PlannedTrial& t : p.trials) {
+      db.add_trial({participant_id, std::string(protocols::task_name(t.task)), setting_ids.at(t.setting_index),
+                    t.repetition, t.block, t.position});
+      ++created.trials;
+    }
+  }
+  tx.commit();
+  return created;
+}
+
+}  // namespace hapticlab::sessions

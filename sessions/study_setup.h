@@ -1,0 +1,28 @@
+#pragma once
+// Puts a study into a database before any trial runs: the protocol text
+// and hash, the participants (codes only), the full parameters of every
+// setting, and every planned trial in schedule order.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "db/study_db.h"
+#include "protocols/protocol.h"
+
+namespace hapticlab::sessions {
+
+struct CreatedStudy {
+  std::int64_t study_id = 0;
+  int participants = 0;
+  int trials = 0;
+};
+
+// Reads and validates the protocol file (ProtocolError), plans the study
+// (design, block-randomized schedules) and stores it all in one
+// transaction. Refuses (std::runtime_error) a database that already holds
+// a study: one study per file keeps analysis and resumption unambiguous.
+CreatedStudy create_study(db::StudyDb& db, const std::filesystem::path& protocol_file,
+                          const std::string& software_version);
+
+}  // namespace hapticlab::sessions

@@ -1,0 +1,81 @@
+#pragma once
+// Shared by the db tests: a fresh temporary directory per test, removed
+// afterwards, and a LoopSample whose every channel depends on its tick.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/loop/loop_sample.h"
+#include "db/study_db.h"
+
+namespace hapticlab::db::testing {
+
+class TempDir {
+ public:
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = "hapticlab_db_";
+    if (info != nullptr) name += std::string(info->test_suite_name()) + "_" + info->name();
+    for (char& c : name)
+      if (c == '/') c = '_';
+    path_ = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path file(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// Every channel distinct and varying with the tick, so a swapped channel,
+// instrument or order shows.
+inline LoopSample make_sample(std::uint64_t tick, double dt_s = 1e-3) {
+  LoopSample s;
+  s.tick = tick;
+  s.t_s = static_cast<double>(tick) * dt_s;
+  s.dt_s = dt_s;
+  s.device_status = static_cast<std::int32_t>(tick % 3);
+  for (int k = 0; k < 2; ++k) {
+    InstrumentSample& v = s.instrument[static_cast<std::size_t>(k)];
+    const double x = static_cast<double>(tick) * 1e-3 + k;
+    for (std::size_t j = 0; j < 5; ++j) v.raw_position[j] = 0.1 * std::sin(x + 0.1 * static_cast<double>(j));
+    for (std::size_t j = 0; j < 3; ++j) {
+      const double d = static_cast<double>(j);
+      v.degraded_position[j] = 0.1 * std::cos(x + d);
+      v.tip_position_m[j] = 0.05 + 0.01 * std::sin(2 * x + d);
+      v.tip_velocity_m_per_s[j] = 0.2 * std::cos(3 * x + d);
+      v.ve_force_N[j] = 2.0 * std::sin(x * 5 + d);
+      v.displayed_force_N[j] = 1.5 * std::sin(x * 7 + d);
+      v.joint_force[j] = 0.7 * std::cos(x * 11 + d);
+    }
+    v.engine_status = static_cast<std::uint32_t>(tick % 5 == 0 ? 8 : 0);
+    v.in_contact = tick % 7 < 3;
+  }
+  return s;
+}
+
+// A study with one participant "P01", one setting and one trial; the trial
+// is started (running) unless `start` is false. Returns the trial id.
+inline std::int64_t make_trial(StudyDb& db, bool start = true, const std::string& setting = "All Degradations") {
+  const std::int64_t study = db.add_study({"test study", "{\"study\": \"test\"}", 42, "test"});
+  const std::int64_t participant = db.add_participant(study, "P01");
+  const std::int64_t setting_id = db.add_setting_json(study, setting, "{}");
+  const std::int64_t trial = db.add_trial({participant, "dissection", setting_id, 2, 2, 5});
+  if (start) db.start_trial(trial, db.begin_session(participant, "sim", "virtual"));
+  return trial;
+}
+
+}  // namespace hapticlab::db::testing

@@ -1,0 +1,219 @@
+#include "db/schema.h"
+
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "db/sample_codec.h"
+#include "db/sha256.h"
+#include "db/study_db.h"
+#include "db_test_util.h"
+
+namespace hapticlab::db {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+std::vector<std::string> tables(Database& db) {
+  std::vector<std::string> out;
+  Statement s = db.prepare("SELECT name FROM sqlite_schema WHERE type = 'table' ORDER BY name");
+  while (s.step()) out.push_back(s.column_text(0));
+  return out;
+}
+
+std::vector<std::string> columns(Database& db, const std::string& table) {
+  std::vector<std::string> out;
+  Statement s = db.prepare("SELECT name, type, \"notnull\" FROM pragma_table_info(?1) ORDER BY cid");
+  s.bind(1, table);
+  while (s.step()) out.push_back(s.column_text(0) + " " + s.column_text(1) + (s.column_int64(2) ? " NOT NULL" : ""));
+  return out;
+}
+
+TEST(Schema, FreshDatabaseIsAtTheCurrentVersionWithEveryTable) {
+  testing::TempDir dir;
+  StudyDb db(dir.file("fresh.db"));
+  EXPECT_EQ(db.schema_version_found(), 0);
+  EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
+  EXPECT_EQ(db.connection().pragma_int("application_id"), kApplicationId);
+  EXPECT_EQ(tables(db.connection()),
+            (std::vector<std::string>{"event", "loop_timing", "participant", "sample_chunk", "session", "setting",
+                                      "study", "training", "trial"}));
+  Statement s = db.connection().prepare("PRAGMA journal_mode");
+  ASSERT_TRUE(s.step());
+  EXPECT_EQ(s.column_text(0), "wal");
+}
+
+TEST(Schema, MigrationStepsAreNumberedInOrder) {
+  ASSERT_EQ(migrations().size(), static_cast<std::size_t>(kSchemaVersion));
+  for (std::size_t i = 0; i < migrations().size(); ++i) EXPECT_EQ(migrations()[i].to_version, static_cast<int>(i + 1));
+}
+
+TEST(Schema, ReopeningDoesNotMigrateAgain) {
+  testing::TempDir dir;
+  { StudyDb db(dir.file("a.db")); }
+  StudyDb db(dir.file("a.db"));
+  EXPECT_EQ(db.schema_version_found(), kSchemaVersion);
+}
+
+TEST(Schema, NewerVersionIsRefusedNamingTheVersions) {
+  testing::TempDir dir;
+  const auto path = dir.file("future.db");
+  { StudyDb db(path); db.connection().exec("PRAGMA user_version = 3"); }
+  try {
+    StudyDb db(path);
+    FAIL() << "opened a version 3 database";
+  } catch (const DbError& e) {
+    EXPECT_THAT(e.what(), AllOf(HasSubstr(path.string()), HasSubstr("version 3"), HasSubstr("newer"),
+                                HasSubstr("supports (2)")));
+  }
+}
+
+TEST(Schema, ForeignDatabaseIsRefused) {
+  testing::TempDir dir;
+  const auto path = dir.file("other.db");
+  { Database db(path); db.exec("CREATE TABLE accounts (id INTEGER)"); }
+  EXPECT_THROW(StudyDb db(path), DbError);
+  { Database db(path); db.exec("PRAGMA user_version = 1"); }
+  try {
+    StudyDb db(path);
+    FAIL();
+  } catch (const DbError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("not a HapticLab study database"));
+  }
+}
+
+// The version 1 layout as it was shipped, written out by hand (not taken
+// from schema.cc, so a change there cannot silently change this test).
+constexpr const char* kHandMadeV1 = R"sql(
+CREATE TABLE study (id INTEGER PRIMARY KEY, name TEXT NOT NULL UNIQUE, protocol_json TEXT NOT NULL,
+  protocol_sha256 TEXT NOT NULL CHECK (length(protocol_sha256) = 64), seed TEXT NOT NULL,
+  software_version TEXT NOT NULL, created_utc TEXT NOT NULL);
+CREATE TABLE participant (id INTEGER PRIMARY KEY, study_id INTEGER NOT NULL REFERENCES study (id),
+  code TEXT NOT NULL, UNIQUE (study_id, code));
+CREATE TABLE setting (id INTEGER PRIMARY KEY, study_id INTEGER NOT NULL REFERENCES study (id),
+  name TEXT NOT NULL, parameters_json TEXT NOT NULL, UNIQUE (study_id, name));
+CREATE TABLE session (id INTEGER PRIMARY KEY, participant_id INTEGER NOT NULL REFERENCES participant (id),
+  started_unix_s REAL NOT NULL, ended_unix_s REAL, device TEXT NOT NULL,
+  clock TEXT NOT NULL CHECK (clock IN ('virtual', 'wall')),
+  status TEXT NOT NULL CHECK (status IN ('open', 'closed', 'interrupted')));
+CREATE TABLE trial (id INTEGER PRIMARY KEY, participant_id INTEGER NOT NULL REFERENCES participant (id),
+  task TEXT NOT NULL, setting_id INTEGER NOT NULL REFERENCES setting (id), repetition INTEGER NOT NULL,
+  block INTEGER NOT NULL, position INTEGER NOT NULL,
+  status TEXT NOT NULL DEFAULT 'planned' CHECK (status IN ('planned', 'running', 'complete', 'aborted')),
+  session_id INTEGER REFERENCES session (id), started_unix_s REAL, ended_unix_s REAL, abort_reason TEXT,
+  dropped_samples INTEGER NOT NULL DEFAULT 0, UNIQUE (participant_id, position));
+CREATE TABLE sample_chunk (id INTEGER PRIMARY KEY, trial_id INTEGER NOT NULL REFERENCES trial (id),
+  instrument INTEGER NOT NULL CHECK (instrument IN (0, 1)), first_tick INTEGER NOT NULL,
+  count INTEGER NOT NULL CHECK (count > 0), t0_s REAL NOT NULL, data BLOB NOT NULL,
+  UNIQUE (trial_id, instrument, first_tick));
+CREATE TABLE event (id INTEGER PRIMARY KEY, trial_id INTEGER NOT NULL REFERENCES trial (id), t_s REAL NOT NULL,
+  type TEXT NOT NULL, instrument INTEGER NOT NULL CHECK (instrument IN (-1, 0, 1)),
+  item_index INTEGER NOT NULL DEFAULT 0, detail TEXT);
+CREATE INDEX event_by_trial ON event (trial_id, t_s);
+PRAGMA user_version = 1;
+PRAGMA application_id = 1212956994;
+)sql";
+
+std::vector<StoredSample> some_samples() {
+  std::vector<StoredSample> out;
+  for (std::uint64_t t = 10; t < 60; ++t) {
+    const LoopSample s = testing::make_sample(t);
+    out.push_back({s.tick, s.t_s, s.dt_s, s.device_status, s.instrument[0]});
+  }
+  return out;
+}
+
+void fill_v1(Database& db) {
+  db.exec(kHandMadeV1);
+  db.prepare("INSERT INTO study VALUES (1, 'old study', '{\"study\":\"old\"}', ?1, '18446744073709551615', '0.0.9', "
+             "'2023-01-02T03:04:05.000Z')")
+      .bind(1, sha256_hex("{\"study\":\"old\"}"))
+      .run();
+  db.exec(R"sql(
+    INSERT INTO participant VALUES (1, 1, 'S1');
+    INSERT INTO setting VALUES (1, 1, 'Friction', '{"name":"Friction"}');
+    INSERT INTO session VALUES (1, 1, 1.7e9, 1.7e9 + 600, 'sim', 'virtual', 'closed');
+    INSERT INTO trial VALUES (1, 1, 'dissection', 1, 1, 1, 1, 'complete', 1, 1.7e9 + 10, 1.7e9 + 70, NULL, 3);
+    INSERT INTO trial VALUES (2, 1, 'dissection', 1, 2, 2, 2, 'planned', NULL, NULL, NULL, NULL, 0);
+    INSERT INTO event VALUES (1, 1, 0.25, 'contact_start', 0, 0, NULL);
+  )sql");
+  const std::vector<StoredSample> samples = some_samples();
+  const std::vector<std::byte> blob = encode_chunk(samples);
+  db.prepare("INSERT INTO sample_chunk VALUES (1, 1, 0, 10, 50, ?1, ?2)").bind(1, samples[0].t_s).bind_blob(2, blob).run();
+}
+
+TEST(Schema, MigratesAVersion1DatabaseKeepingItsData) {
+  testing::TempDir dir;
+  const auto path = dir.file("v1.db");
+  { Database db(path); fill_v1(db); }
+
+  StudyDb db(path);
+  EXPECT_EQ(db.schema_version_found(), 1);
+  EXPECT_EQ(db.connection().pragma_int("user_version"), 2);
+
+  // The data survived.
+  const StudyRow study = db.study(1);
+  EXPECT_EQ(study.name, "old study");
+  EXPECT_EQ(study.seed, 18446744073709551615ull);
+  EXPECT_EQ(study.protocol_sha256, sha256_hex(study.protocol_json));
+  const TrialRow t1 = db.trial(1);
+  EXPECT_EQ(t1.status, TrialStatus::kComplete);
+  EXPECT_EQ(t1.participant_code, "S1");
+  EXPECT_EQ(t1.setting_name, "Friction");
+  EXPECT_EQ(db.trial(2).status, TrialStatus::kPlanned);
+  const std::vector<StoredSample> stored = db.samples(1, 0);
+  ASSERT_EQ(stored.size(), 50u);
+  EXPECT_EQ(stored.front().tick, 10u);
+  EXPECT_EQ(stored.back().t_s, some_samples().back().t_s);
+  ASSERT_EQ(db.events(1).size(), 1u);
+  EXPECT_EQ(db.events(1)[0].type, "contact_start");
+
+  // The drop count moved from trial to loop_timing; timing was not measured.
+  const std::optional<LoopTimingRow> timing = db.loop_timing(1);
+  ASSERT_TRUE(timing.has_value());
+  EXPECT_EQ(timing->dropped_samples, 3u);
+  EXPECT_FALSE(timing->timing.has_value());
+  EXPECT_FALSE(db.loop_timing(2).has_value());  // planned: nothing to say yet
+  for (const std::string& c : columns(db.connection(), "trial")) EXPECT_THAT(c, ::testing::Not(HasSubstr("dropped")));
+
+  // The new tables exist and work.
+  TrainingRow training;
+  training.session_id = 1;
+  training.task = "clip";
+  training.started_unix_s = 1.7e9;
+  training.trials = 2;
+  db.add_training(training);
+  EXPECT_EQ(db.training(1).size(), 1u);
+
+  // And the migrated layout is exactly the fresh one.
+  StudyDb fresh(dir.file("fresh.db"));
+  for (const std::string& table : tables(fresh.connection()))
+    EXPECT_EQ(columns(db.connection(), table), columns(fresh.connection(), table)) << table;
+}
+
+TEST(Schema, FailedMigrationLeavesTheFileAsItWas) {
+  testing::TempDir dir;
+  const auto path = dir.file("broken_v1.db");
+  {
+    Database db(path);
+    // A version 1 file whose trial table lost its drop column: step 2 fails.
+    db.exec("CREATE TABLE trial (id INTEGER PRIMARY KEY, status TEXT); PRAGMA user_version = 1; "
+            "PRAGMA application_id = 1212956994;");
+  }
+  try {
+    StudyDb db(path);
+    FAIL() << "migrated a damaged version 1 file";
+  } catch (const DbError& e) {
+    EXPECT_THAT(e.what(), AllOf(HasSubstr(path.string()), HasSubstr("migration to schema version 2"),
+                                HasSubstr("left at version 1")));
+  }
+  Database raw(path);
+  EXPECT_EQ(raw.pragma_int("user_version"), 1);
+  EXPECT_EQ(tables(raw), std::vector<std::string>{"trial"});
+}
+
+}  // namespace
+}  // namespace hapticlab::db
