@@ -27,6 +27,20 @@ constexpr double kMinArm_m = 0.02;
 constexpr double kVisibleGap_m = 0.0005;
 // Largest aim correction a participant makes before re-planning [m].
 constexpr double kMaxCorrection_m = 0.008;
+// Impedance adaptation (Burdet et al. 2001, Nature 414; Franklin et al.
+// 2008): people stiffen the arm by co-contraction against forces they cannot
+// predict. The forces of moving the tool's own mass are predicted (internal
+// model), so only the device's force counts; the disturbance is its
+// deviation from its recent mean (the ripple of cogging, the jerks of stick-slip or backlash); steady
+// contact forces do not count. Stiffness rises with its RMS above a
+// threshold, up to kMaxStiffening times the relaxed value, over about
+// kStiffenTime_s.
+constexpr double kDisturbanceMeanTime_s = 0.25;
+constexpr double kDisturbanceWindow_s = 0.5;
+constexpr double kDisturbanceThreshold_N = 0.04;
+constexpr double kDisturbancePerStiffening_N = 0.08;
+constexpr double kMaxStiffening = 4.0;
+constexpr double kStiffenTime_s = 0.3;
 
 double min_jerk(double tau) noexcept { return tau * tau * tau * (10.0 + tau * (-15.0 + 6.0 * tau)); }
 double min_jerk_rate(double tau) noexcept { return 30.0 * tau * tau * (1.0 - tau) * (1.0 - tau); }
@@ -78,6 +92,9 @@ void Hand::init(int instrument, const HandParams& params, const Eigen::Vector3d&
   tremor_m_.setZero();
   next_noise_s_ = 0.0;
   correction_m_.setZero();
+  felt_mean_N_.setZero();
+  disturbance_var_N2_ = 0.0;
+  stiffening_ = 1.0;
   grip_from_rad_ = grip_to_rad_ = 0.3;
   grip_start_s_ = grip_end_s_ = 0.0;
 }
@@ -96,7 +113,7 @@ void Hand::press(const Eigen::Vector3d& into, double target_force_N, double stif
   if (!pressing_) {
     // Hand and tissue in series, as learned with force feedback.
     offset_m_ = target_force_N *
-                (1.0 / params_.stiffness_N_per_m + 1.0 / believed_stiffness_N_per_m_);
+                (1.0 / (params_.stiffness_N_per_m * stiffening_) + 1.0 / believed_stiffness_N_per_m_);
   }
   pressing_ = true;
 }
@@ -106,6 +123,18 @@ void Hand::grip_to(double angle_rad, double t_s, double duration_s) noexcept {
   grip_to_rad_ = angle_rad;
   grip_start_s_ = t_s;
   grip_end_s_ = t_s + std::max(duration_s, 0.02);
+}
+
+void Hand::feel_device(const DeviceJoints& q, const DeviceJoints& device_force, double dt_s) noexcept {
+  const JointVector qj(q[kJointInsertion], q[kJointPitch], q[kJointYaw]);
+  const JointVector f(device_force[kJointInsertion], device_force[kJointPitch], device_force[kJointYaw]);
+  const Eigen::Vector3d tip_N = joint_to_world(qj, f, kMinArm_m);
+  felt_mean_N_ += std::min(1.0, dt_s / kDisturbanceMeanTime_s) * (tip_N - felt_mean_N_);
+  const double deviation2 = (tip_N - felt_mean_N_).squaredNorm();
+  disturbance_var_N2_ += std::min(1.0, dt_s / kDisturbanceWindow_s) * (deviation2 - disturbance_var_N2_);
+  const double excess_N = std::max(0.0, std::sqrt(disturbance_var_N2_) - kDisturbanceThreshold_N);
+  const double wanted = 1.0 + std::min(kMaxStiffening - 1.0, excess_N / kDisturbancePerStiffening_N);
+  stiffening_ += std::min(1.0, dt_s / kStiffenTime_s) * (wanted - stiffening_);
 }
 
 void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoints& felt,
@@ -134,6 +163,7 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
   }
 
   const JointVector qj(q[kJointInsertion], q[kJointPitch], q[kJointYaw]);
+  const double k = params_.stiffness_N_per_m * stiffening_;
   if (pressing_) {
     const JointVector reaction(-felt[kJointInsertion], -felt[kJointPitch], -felt[kJointYaw]);
     const Eigen::Vector3d felt_tip = joint_to_world(qj, reaction, kMinArm_m);
@@ -156,8 +186,9 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
     // A visible gap between tool and tissue is unmistakable: whatever the
     // hand feels then (friction, cogging, inertia) is not contact force.
     estimate_N_ = seen_depth < -kVisibleGap_m ? 0.0 : haptic_weight_ * h_contact + (1.0 - haptic_weight_) * v;
-    offset_m_ += dt_s * (target_force_N_ - estimate_N_) /
-                 (params_.stiffness_N_per_m * params_.regulation_time_s);
+    // Divided by the present stiffness: the force correction keeps its pace
+    // however stiff the arm is.
+    offset_m_ += dt_s * (target_force_N_ - estimate_N_) / (k * params_.regulation_time_s);
     offset_m_ = std::clamp(offset_m_, -0.004, 0.020);
   } else {
     felt_cue_.push(t_s, 0.0);
@@ -194,7 +225,7 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
   const double xz2 = std::max(p.x() * p.x() + p.z() * p.z(), 1e-6);
   const double yaw_rate = (-v.x() * p.z() + p.x() * v.z()) / xz2;
 
-  const double k = params_.stiffness_N_per_m, m = params_.mass_kg, z = params_.damping_ratio;
+  const double m = params_.mass_kg, z = params_.damping_ratio;
   const double arm_p2 = L * L, arm_y2 = (L * cos_pitch) * (L * cos_pitch);
   // Total moving mass for the damping: hand plus the device's own carriage.
   out[kJointInsertion] = coupling(q_ref[0], L_rate, k, z, m + 0.05, m);

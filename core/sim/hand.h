@@ -7,6 +7,8 @@
 // - Impedance: the hand holds the handle through a spring–damper to its
 //   reference (SimDevice's HandCoupling); the tip stiffness is converted to
 //   joint stiffnesses through the instrument's lever (K·L² for pitch).
+// - Impedance adaptation: against felt forces it cannot predict (ripple,
+//   stick-slip) the arm co-contracts, up to 2.5 times stiffer.
 // - Force regulation: while pressing along a direction, the hand shifts its
 //   reference by an offset that integrates the error between the target
 //   force and its estimate of the applied force. The estimate fuses two
@@ -86,8 +88,15 @@ class Hand {
   // press direction while pressing [m].
   double aim_error_m() const noexcept { return aim_error_m_; }
   const Eigen::Vector3d& aim_correction_m() const noexcept { return correction_m_; }
+  // Present arm stiffness over the relaxed one: > 1 while the hand braces
+  // against a force it cannot predict (impedance adaptation).
+  double stiffening() const noexcept { return stiffening_; }
 
   // --- every update
+  // Before step(): the force the device's motors put on the handle
+  // (SimDevice::motor_force), which the arm braces against when it varies
+  // unpredictably (impedance adaptation).
+  void feel_device(const DeviceJoints& q, const DeviceJoints& device_force, double dt_s) noexcept;
   // `q` the instrument's joints as the hand feels them (device), `felt` the
   // force the hand exerts on the handle (SimDevice::hand_force), `seen_depth_m`
   // how far the tool visibly indents the tissue along the press direction.
@@ -124,6 +133,10 @@ class Hand {
   std::array<CueDelay, 3> seen_tip_cue_;
   Eigen::Vector3d correction_m_ = Eigen::Vector3d::Zero();  // visual aim correction
   double next_noise_s_ = 0.0;
+  // impedance adaptation
+  Eigen::Vector3d felt_mean_N_ = Eigen::Vector3d::Zero();
+  double disturbance_var_N2_ = 0.0;
+  double stiffening_ = 1.0;  // arm stiffness / relaxed stiffness, 1..kMaxStiffening
   // grip
   double grip_from_rad_ = 0.3, grip_to_rad_ = 0.3, grip_start_s_ = 0.0, grip_end_s_ = 0.0;
 };

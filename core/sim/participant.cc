@@ -36,7 +36,7 @@ ParticipantTraits ParticipantTraits::sample(std::uint64_t seed) noexcept {
   ParticipantTraits t;
   t.speed = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
   t.force_level = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
-  t.consistency = r.uniform(0.06, 0.18);
+  t.consistency = r.uniform(0.15, 0.35);
   // Arm endpoint stiffness with the co-contraction of precise work
   // (several hundred N/m up to ~1 kN/m).
   t.hand_stiffness_N_per_m = r.uniform(450.0, 800.0);
@@ -123,6 +123,7 @@ void Participant::act(const LoopTickView& view) noexcept {
   for (int i = 0; i < 2; ++i) {
     const auto ui = static_cast<std::size_t>(i);
     HandCouplings couplings;
+    hands_[ui].feel_device(view.reading.position[ui], device_.motor_force(i), view.dt_s);
     hands_[ui].step(t, view.dt_s, view.reading.position[ui], device_.hand_force(i),
                     seen_depth(i, tip_[ui]), tip_[ui], couplings);
     device_.set_hand(i, couplings);

@@ -1,0 +1,126 @@
+#include "app/session_command.h"
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "app/interrupt_flag.h"
+#include "app/progress_line.h"
+#include "sessions/session_runner.h"
+
+namespace hapticlab::app {
+namespace {
+
+struct SessionCommandOptions {
+  std::string db;
+  std::string participant;
+  std::string device = "sim";
+  std::string clock = "virtual";
+  double rate_Hz = 1000.0;
+  double max_trial_s = 300.0;
+  int training_trials = -1;  // -1: the protocol's
+  int max_trials = -1;       // -1: all
+  bool blind = false;
+};
+
+std::string trial_label(const sessions::SessionProgress& p, bool blind) {
+  std::string s = p.participant + " trial " + std::to_string(p.trial_number) + "/" + std::to_string(p.trial_count) +
+                  " " + p.task + " rep " + std::to_string(p.repetition);
+  if (!blind) s += " [" + p.setting + "]";
+  return s;
+}
+
+int run(const SessionCommandOptions& opt) {
+  sessions::SessionOptions options;
+  options.participant = opt.participant;
+  options.device = opt.device;
+  options.clock = parse_clock_kind(opt.clock);
+  options.rate_Hz = opt.rate_Hz;
+  options.max_trial_s = opt.max_trial_s;
+  if (opt.training_trials >= 0) options.training_trials = opt.training_trials;
+  if (opt.max_trials >= 0) options.max_trials = opt.max_trials;
+
+  InterruptFlag interrupt;
+  options.stop = &interrupt.flag();
+  ProgressLine line;
+  options.on_progress = [&](const sessions::SessionProgress& p) {
+    using Phase = sessions::SessionProgress::Phase;
+    const double done = p.trial_count > 0 ? static_cast<double>(p.trial_number - 1) / p.trial_count : 0.0;
+    switch (p.phase) {
+      case Phase::kTraining:
+        line.print(p.participant + ": training (" + p.task + ")");
+        break;
+      case Phase::kTrialStarted:
+        line.update(done, trial_label(p, opt.blind), p.elapsed_s, p.eta_s);
+        break;
+      case Phase::kTrialFinished: {
+        char text[96];
+        std::snprintf(text, sizeof text, " %s after %.1f s", to_string(p.status), p.trial_sim_s);
+        std::string msg = trial_label(p, opt.blind) + text;
+        if (!p.abort_reason.empty()) msg += " (" + p.abort_reason + ")";
+        line.print(msg);
+        break;
+      }
+    }
+  };
+  const sessions::SessionResult r = sessions::run_session(opt.db, options);
+  line.finish();
+  std::printf("session %lld of %s: %d trials run (%d complete, %d aborted), %d re-queued, %d still planned, "
+              "%llu updates logged%s\n",
+              static_cast<long long>(r.session_id), opt.participant.c_str(), r.trials_run, r.trials_complete,
+              r.trials_aborted, r.trials_requeued, r.trials_left, static_cast<unsigned long long>(r.samples_logged),
+              r.training_trials > 0 ? (", after " + std::to_string(r.training_trials) + " training trials").c_str()
+                                    : "");
+  if (r.device_fault) {
+    std::fprintf(stderr, "hapticlab session run: %s; the trial is re-queued, run the session again once the "
+                         "device works\n", r.device_fault_reason.c_str());
+    return 3;
+  }
+  if (r.stopped_by_operator) {
+    std::fprintf(stderr, "hapticlab session run: stopped; run the same command again to continue\n");
+    return 130;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_session_command(CLI::App& app) {
+  CLI::App* session = app.add_subcommand("session", "Run a participant's session of a stored study");
+  session->require_subcommand(1);
+  auto opt = std::make_shared<SessionCommandOptions>();
+  CLI::App* cmd = session->add_subcommand(
+      "run",
+      "Train, then run the participant's planned trials in schedule order, logging every sample into the "
+      "study database. Ctrl-C aborts the running trial (its samples are kept and marked), re-queues it and "
+      "closes the session; running the command again continues with the next unfinished trial. "
+      "Exit status 0 when done, 130 when stopped, 3 on a device fault.");
+  cmd->add_option("--db", opt->db, "Study database (from `hapticlab study create`)")->required();
+  cmd->add_option("--participant", opt->participant, "Participant code, as in the protocol")->required();
+  cmd->add_option("--device", opt->device, "Device backend; sim: the simulated workstation and participant")
+      ->check(CLI::IsMember({"sim"}))
+      ->capture_default_str();
+  cmd->add_option("--clock", opt->clock, "virtual: as fast as the CPU allows; wall: real time")
+      ->check(CLI::IsMember({"virtual", "wall"}))
+      ->capture_default_str();
+  cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
+      ->check(CLI::Range(150.0, 2000.0))
+      ->capture_default_str();
+  cmd->add_option("--max-trial-s", opt->max_trial_s,
+                  "Time limit per trial [s]; a trial that reaches it is aborted and not re-queued")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--training-trials", opt->training_trials,
+                  "Simulated training trials per task before its first trial, 0..1000 (default: the protocol's)")
+      ->check(CLI::Range(0, 1000));
+  cmd->add_option("--max-trials", opt->max_trials, "Run at most this many trials, then stop (default: all)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--blind", opt->blind,
+                "Never print setting names (when the participant can see this terminal)");
+  cmd->callback([opt] {
+    const int status = run(*opt);
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+}
+
+}  // namespace hapticlab::app

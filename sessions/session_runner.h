@@ -1,0 +1,96 @@
+#pragma once
+// Runs one participant's session on the rig: training, then the planned
+// trials in schedule order, each logged sample by sample into the study
+// database, until the schedule is done, the operator stops, or the device
+// fails.
+//
+// Resumption is a property of the database, not of this process: trials are
+// taken with StudyDb::next_planned_trial, and opening the file marks a trial
+// left 'running' by a crashed runner as aborted. Every aborted trial
+// (interrupted, stopped by the operator, device fault) is re-queued as a
+// new planned copy at the same schedule position, so running the session
+// again continues with the first unfinished trial and never repeats a
+// complete one. A trial that hits the time limit is aborted but not
+// re-queued: running it again would most likely time out again.
+//
+// Seeds (simulated participants): the participant's traits come from the
+// study seed and the participant code; each trial's variation from those and
+// the trial's row id. The same database and protocol give the same session.
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "core/sim/trial_runner.h"
+#include "db/sample_writer.h"
+#include "db/study_db.h"
+
+namespace hapticlab::sessions {
+
+// What the terminal shows while a session runs. `setting` is for the
+// operator only; a view the participant can see must not print it.
+struct SessionProgress {
+  enum class Phase : std::uint8_t { kTraining, kTrialStarted, kTrialFinished };
+  Phase phase = Phase::kTrialStarted;
+  std::string participant;
+  int trial_number = 0;   // k: 1-based, counting this participant's complete trials + 1
+  int trial_count = 0;    // N: trials in the participant's schedule
+  std::string task;
+  std::string setting;    // operator view only
+  int repetition = 0;
+  db::TrialStatus status = db::TrialStatus::kRunning;  // kTrialFinished: complete or aborted
+  std::string abort_reason;
+  double trial_sim_s = 0.0;  // loop time of the finished trial [s]
+  double elapsed_s = 0.0;    // wall time since the session started [s]
+  std::optional<double> eta_s;  // wall time left, once a trial has finished in this session
+};
+
+struct SessionOptions {
+  std::string participant;  // code, as in the protocol
+  std::string device = "sim";  // the only backend a session can drive today
+  ClockKind clock = ClockKind::kVirtual;
+  double rate_Hz = 1000.0;     // 150..2000
+  double max_trial_s = 300.0;  // per-trial time limit (> 0)
+  // Simulated training trials per task before the first scheduled trial of
+  // that task in this session; nullopt: the protocol's training_trials.
+  std::optional<int> training_trials;
+  // Run at most this many scheduled trials, then close the session (the
+  // rest stays planned). nullopt: the whole remaining schedule.
+  std::optional<int> max_trials;
+  // Set (e.g. by a SIGINT handler) to stop: the running trial is aborted
+  // and re-queued, and the session closes. May be null.
+  const std::atomic<bool>* stop = nullptr;
+  std::function<void(const SessionProgress&)> on_progress;
+  // For tests: adjusts a trial's rig configuration (e.g. injects a fault).
+  std::function<void(SimTrialConfig&, const db::TrialRow&)> configure_trial;
+  db::SampleWriterConfig writer;
+};
+
+struct SessionResult {
+  std::int64_t session_id = 0;
+  int training_trials = 0;   // simulated training trials run
+  int trials_run = 0;        // scheduled trials started in this session
+  int trials_complete = 0;
+  int trials_aborted = 0;
+  int trials_requeued = 0;   // includes trials found aborted on opening
+  int trials_left = 0;       // planned trials of this participant after the session
+  bool stopped_by_operator = false;
+  bool device_fault = false;
+  std::string device_fault_reason;
+  std::uint64_t samples_logged = 0;  // instrument updates (LoopSamples) stored
+};
+
+// Opens (and recovers) the database, runs the session, returns what
+// happened. Throws std::invalid_argument for bad options (naming them),
+// std::runtime_error for an unknown participant or a database without a
+// study, db::DbError for a database failure.
+SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options);
+
+// Seeds of simulated participants (documented above).
+std::uint64_t participant_seed(std::uint64_t study_seed, std::string_view code) noexcept;
+std::uint64_t trial_seed(std::uint64_t participant_seed, std::int64_t trial_id) noexcept;
+
+}  // namespace hapticlab::sessions
