@@ -12,4 +12,12 @@ fs::path default_settings_dir() {
   return fs::path("examples") / "settings";
 }
 
+fs::path default_protocols_dir() {
+  for (const fs::path& candidate : {fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols",
+                                   fs::path(HAPTICLAB_DATA_DIR) / "protocols"}) {
+    if (fs::exists(candidate / "thesis_as_run.json")) return candidate;
+  }
+  return fs::path("examples") / "protocols";
+}
+
 }  // namespace hapticlab::app

@@ -5,4 +5,5 @@
 
 namespace hapticlab::app {
 std::filesystem::path default_settings_dir();
+std::filesystem::path default_protocols_dir();
 }  // namespace hapticlab::app

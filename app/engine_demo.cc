@@ -1,4 +1,4 @@
-// `hapticlab demo`: a short demonstration of the degradation engine. Both
+// `hapticlab engine demo`: a short demonstration of the degradation engine. Both
 // instruments follow a scripted two-handed motion against a soft tissue VE
 // while the VE update rate wanders between 200 and 2000 Hz, as the thesis'
 // did. The same motion is felt through each shipped setting; one CSV per
@@ -107,14 +107,14 @@ Summary run_setting(const NamedSettings& setting, const fs::path& csv_path, doub
 
 }  // namespace
 
-void add_demo_command(CLI::App& app) {
+void add_engine_demo_command(CLI::App& engine) {
   struct Options {
-    std::string out = "demo-output";
+    std::string out = "engine-demo-output";
     std::string settings_dir;
     double duration_s = 5.0;
   };
   auto opt = std::make_shared<Options>();
-  CLI::App* cmd = app.add_subcommand(
+  CLI::App* cmd = engine.add_subcommand(
       "demo", "Feel one scripted two-handed motion through each of the thesis' settings");
   cmd->add_option("--out", opt->out, "Directory for the per-setting CSV files")
       ->capture_default_str();

@@ -2,7 +2,7 @@
 #include <CLI/CLI.hpp>
 
 namespace hapticlab::app {
-// `hapticlab demo`: for now a short engine demonstration over the thesis'
-// eight settings (the full study demo replaces it later).
-void add_demo_command(CLI::App& app);
+// `hapticlab engine demo`: a short engine demonstration over the thesis'
+// eight settings (one scripted motion, one CSV per setting).
+void add_engine_demo_command(CLI::App& engine);
 }  // namespace hapticlab::app

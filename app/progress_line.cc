@@ -35,9 +35,18 @@ ProgressLine::~ProgressLine() { finish(); }
 
 void ProgressLine::update(double fraction, const std::string& label, double elapsed_s,
                           std::optional<double> eta_s) {
-  if (!tty_) return;
   std::string line = format_bar(fraction) + "  " + label + "  elapsed " + format_duration(elapsed_s) +
                      "  left " + (eta_s ? format_duration(*eta_s) : std::string("--:--"));
+  if (!tty_) {
+    // A log gets one line per tenth of the way, not one per update.
+    const int decile = std::isfinite(fraction) ? static_cast<int>(std::floor(std::clamp(fraction, 0.0, 1.0) * 10.0)) : 0;
+    if (decile > last_decile_) {
+      last_decile_ = decile;
+      std::fprintf(out_, "%s\n", line.c_str());
+      std::fflush(out_);
+    }
+    return;
+  }
   const std::size_t width = line.size();
   if (width < last_width_) line += std::string(last_width_ - width, ' ');  // erase the old tail
   std::fprintf(out_, "\r%s", line.c_str());

@@ -1,7 +1,8 @@
 #pragma once
 // One status line on the operator's terminal: a bar, a label, elapsed time
 // and the estimated time left. On a terminal it redraws in place (\r); into
-// a file or pipe it prints a line only when told to, so logs stay readable.
+// a file or pipe it prints the bar once per tenth of progress, so logs stay
+// readable.
 
 #include <cstdio>
 #include <optional>
@@ -23,7 +24,8 @@ class ProgressLine {
   ProgressLine(const ProgressLine&) = delete;
   ProgressLine& operator=(const ProgressLine&) = delete;
 
-  // Redraws the line (terminal) or does nothing (file).
+  // Redraws the line (terminal), or prints it when `fraction` enters a new
+  // tenth (file).
   void update(double fraction, const std::string& label, double elapsed_s, std::optional<double> eta_s);
   // Prints `text` as a line of its own, above the bar on a terminal.
   void print(const std::string& text);
@@ -35,6 +37,7 @@ class ProgressLine {
   bool tty_;
   bool drawn_ = false;
   std::size_t last_width_ = 0;
+  int last_decile_ = 0;
 };
 
 }  // namespace hapticlab::app

@@ -1,0 +1,257 @@
+#include "sessions/session_runner.h"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <set>
+#include <thread>
+#include <tuple>
+
+#include <gtest/gtest.h>
+
+#include "tests/sessions/session_fixture.h"
+
+namespace hapticlab::sessions {
+namespace {
+
+using testing::SessionFixture;
+using db::TrialStatus;
+
+std::vector<db::TrialRow> trials_of(const std::filesystem::path& path, const std::string& code) {
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(path, open);
+  std::vector<db::TrialRow> out;
+  for (auto& t : db.trials())
+    if (t.participant_code == code) out.push_back(t);
+  return out;
+}
+
+int count(const std::vector<db::TrialRow>& trials, TrialStatus status) {
+  int n = 0;
+  for (const auto& t : trials) n += t.status == status ? 1 : 0;
+  return n;
+}
+
+SessionOptions options_for(const std::string& code) {
+  SessionOptions o;
+  o.participant = code;
+  o.training_trials = 0;
+  return o;
+}
+
+TEST_F(SessionFixture, RunsTheScheduleInOrderAndLogsEverySample) {
+  const SessionResult r = run_session(db_path_, options_for("A1"));
+  EXPECT_EQ(r.trials_run, 4);
+  EXPECT_EQ(r.trials_complete, 4);
+  EXPECT_EQ(r.trials_left, 0);
+  EXPECT_FALSE(r.stopped_by_operator);
+  const auto trials = trials_of(db_path_, "A1");
+  ASSERT_EQ(trials.size(), 4u);
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(db_path_, open);
+  std::uint64_t stored = 0;
+  double last_start = 0.0;
+  for (const auto& t : trials) {  // schedule order
+    EXPECT_EQ(t.status, TrialStatus::kComplete);
+    ASSERT_TRUE(t.started_unix_s && t.ended_unix_s);
+    EXPECT_GE(*t.started_unix_s, last_start);
+    last_start = *t.started_unix_s;
+    const std::uint64_t n = db.sample_count(t.id, 0);
+    EXPECT_EQ(n, db.sample_count(t.id, 1));
+    EXPECT_GT(n, 1000u);  // a dissection takes seconds at 1 kHz
+    stored += n;
+    const auto timing = db.loop_timing(t.id);
+    ASSERT_TRUE(timing && timing->timing);
+    EXPECT_EQ(timing->dropped_samples, 0u);
+    bool complete_event = false;
+    for (const auto& e : db.events(t.id)) complete_event |= e.type == "task_complete";
+    EXPECT_TRUE(complete_event);
+  }
+  EXPECT_EQ(stored, r.samples_logged);
+  // The other participant is untouched.
+  EXPECT_EQ(count(trials_of(db_path_, "B2"), TrialStatus::kPlanned), 4);
+}
+
+TEST_F(SessionFixture, ResumesWithTheNextUnfinishedTrialAndNeverRepeatsACompleteOne) {
+  SessionOptions o = options_for("A1");
+  o.max_trials = 1;
+  EXPECT_EQ(run_session(db_path_, o).trials_complete, 1);
+  o.max_trials = 2;
+  const SessionResult second = run_session(db_path_, o);
+  EXPECT_EQ(second.trials_complete, 2);
+  EXPECT_EQ(second.trials_left, 1);
+  o.max_trials.reset();
+  EXPECT_EQ(run_session(db_path_, o).trials_run, 1);
+  EXPECT_EQ(run_session(db_path_, o).trials_run, 0);  // nothing left: nothing runs again
+  const auto trials = trials_of(db_path_, "A1");
+  EXPECT_EQ(trials.size(), 4u);
+  EXPECT_EQ(count(trials, TrialStatus::kComplete), 4);
+}
+
+TEST_F(SessionFixture, SameDatabaseSameSimulatedResults) {
+  // Two copies of the fresh study run separately give identical samples.
+  const auto copy = dir_ / "copy.db";
+  std::filesystem::copy_file(db_path_, copy);
+  SessionOptions o = options_for("B2");
+  o.max_trials = 1;
+  run_session(db_path_, o);
+  run_session(copy, o);
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb a(db_path_, open), b(copy, open);
+  const auto ta = trials_of(db_path_, "B2"), tb = trials_of(copy, "B2");
+  ASSERT_EQ(ta[0].id, tb[0].id);
+  const auto sa = a.samples(ta[0].id, 1), sb = b.samples(tb[0].id, 1);
+  ASSERT_EQ(sa.size(), sb.size());
+  ASSERT_FALSE(sa.empty());
+  for (std::size_t k = 0; k < sa.size(); ++k) {
+    ASSERT_EQ(sa[k].t_s, sb[k].t_s) << k;
+    ASSERT_EQ(sa[k].value.tip_position_m, sb[k].value.tip_position_m) << k;
+    ASSERT_EQ(sa[k].value.ve_force_N, sb[k].value.ve_force_N) << k;
+  }
+}
+
+TEST_F(SessionFixture, TrainingIsRecordedButNotScheduled) {
+  SessionOptions o;
+  o.participant = "B2";  // the protocol gives B2 two training trials
+  o.max_trials = 1;
+  const SessionResult r = run_session(db_path_, o);
+  EXPECT_EQ(r.training_trials, 2);
+  db::StudyDb db(db_path_);
+  const auto training = db.training(r.session_id);
+  ASSERT_EQ(training.size(), 1u);
+  EXPECT_EQ(training[0].task, "dissection");
+  EXPECT_EQ(training[0].trials, 2);
+  ASSERT_TRUE(training[0].duration_s);
+  EXPECT_GT(*training[0].duration_s, 1.0);  // simulated seconds actually trained
+  EXPECT_EQ(trials_of(db_path_, "B2").size(), 4u);
+}
+
+TEST_F(SessionFixture, OperatorStopAbortsKeepsSamplesAndRequeues) {
+  std::atomic<bool> stop{false};
+  SessionOptions o = options_for("A1");
+  o.clock = ClockKind::kWall;  // so the trial is still running when the stop comes
+  o.stop = &stop;
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));
+    stop = true;
+  });
+  const SessionResult r = run_session(db_path_, o);
+  stopper.join();
+  EXPECT_TRUE(r.stopped_by_operator);
+  EXPECT_EQ(r.trials_run, 1);
+  EXPECT_EQ(r.trials_aborted, 1);
+  EXPECT_EQ(r.trials_requeued, 1);
+  const auto trials = trials_of(db_path_, "A1");
+  ASSERT_EQ(trials.size(), 5u);
+  const auto& aborted = trials[0];
+  EXPECT_EQ(aborted.status, TrialStatus::kAborted);
+  EXPECT_EQ(aborted.abort_reason, "operator stopped the session");
+  EXPECT_EQ(trials[1].status, TrialStatus::kPlanned);
+  EXPECT_EQ(trials[1].position, aborted.position);  // the copy keeps its place
+  EXPECT_EQ(trials[1].setting_id, aborted.setting_id);
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(db_path_, open);
+  EXPECT_GT(db.sample_count(aborted.id, 0), 100u);  // ~0.4 s at 1 kHz, kept
+
+  // Running again starts with the re-queued copy.
+  SessionOptions again = options_for("A1");
+  again.max_trials = 1;
+  run_session(db_path_, again);
+  EXPECT_EQ(trials_of(db_path_, "A1")[1].status, TrialStatus::kComplete);
+}
+
+TEST_F(SessionFixture, DeviceFaultAbortsTheTrialAndEndsTheSession) {
+  SessionOptions o = options_for("A1");
+  int configured = 0;
+  o.configure_trial = [&](SimTrialConfig& c, const db::TrialRow&) {
+    if (++configured == 2) c.inject_fault = std::make_pair(DeviceStatus::kReadFailed, 0.5);
+  };
+  const SessionResult r = run_session(db_path_, o);
+  EXPECT_TRUE(r.device_fault);
+  EXPECT_NE(r.device_fault_reason.find("device fault"), std::string::npos) << r.device_fault_reason;
+  EXPECT_EQ(r.trials_complete, 1);
+  EXPECT_EQ(r.trials_aborted, 1);
+  const auto trials = trials_of(db_path_, "A1");
+  EXPECT_EQ(count(trials, TrialStatus::kAborted), 1);
+  EXPECT_EQ(count(trials, TrialStatus::kPlanned), 3);  // the faulted one re-queued
+  db::StudyDb db(db_path_);
+  EXPECT_EQ(db.session(r.session_id).status, db::SessionStatus::kInterrupted);
+}
+
+TEST_F(SessionFixture, KilledRunnerResumesAfterReopening) {
+  // The runner dies (SIGKILL) in the middle of a wall-clock trial.
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    SessionOptions o = options_for("A1");
+    o.clock = ClockKind::kWall;
+    try {
+      run_session(db_path_, o);
+    } catch (...) {
+    }
+    _exit(0);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+
+  {
+    const auto trials = trials_of(db_path_, "A1");  // opened without recovery
+    ASSERT_EQ(count(trials, TrialStatus::kRunning), 1);
+  }
+  SessionOptions o = options_for("A1");
+  const SessionResult r = run_session(db_path_, o);  // recovers, re-queues, finishes
+  EXPECT_EQ(r.trials_requeued, 1);
+  EXPECT_EQ(r.trials_left, 0);
+  const auto trials = trials_of(db_path_, "A1");
+  EXPECT_EQ(count(trials, TrialStatus::kComplete), 4);
+  EXPECT_EQ(count(trials, TrialStatus::kAborted), 1);
+  for (const auto& t : trials)
+    if (t.status == TrialStatus::kAborted) {
+      EXPECT_EQ(t.abort_reason, db::kInterruptedReason);
+      db::OpenOptions open;
+      open.recover = false;
+      db::StudyDb db(db_path_, open);
+      EXPECT_GT(db.sample_count(t.id, 1), 0u);  // what reached the disk is kept
+    }
+}
+
+TEST_F(SessionFixture, BadOptionsAndUnknownParticipantsAreNamed) {
+  SessionOptions o = options_for("ZZ");
+  try {
+    run_session(db_path_, o);
+    FAIL() << "unknown participant accepted";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'ZZ'"), std::string::npos) << what;
+    EXPECT_NE(what.find("A1, B2"), std::string::npos) << what;
+  }
+  o = options_for("A1");
+  o.rate_Hz = 5000.0;
+  EXPECT_THROW(run_session(db_path_, o), std::invalid_argument);
+  o = options_for("A1");
+  o.device = "lsw";
+  EXPECT_THROW(run_session(db_path_, o), std::invalid_argument);
+  EXPECT_THROW(run_session(dir_ / "missing.db", options_for("A1")), std::runtime_error);
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "missing.db"));
+}
+
+TEST(SessionSeeds, DifferPerParticipantAndTrialAndAreStable) {
+  EXPECT_EQ(participant_seed(2004, "S1"), participant_seed(2004, "S1"));
+  EXPECT_NE(participant_seed(2004, "S1"), participant_seed(2004, "S2"));
+  EXPECT_NE(participant_seed(2004, "S1"), participant_seed(2005, "S1"));
+  EXPECT_NE(trial_seed(1, 1), trial_seed(1, 2));
+}
+
+}  // namespace
+}  // namespace hapticlab::sessions
