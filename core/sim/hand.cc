@@ -35,8 +35,12 @@ constexpr double kMaxCorrection_m = 0.008;
 // contact forces do not count. Stiffness rises with its RMS above a
 // threshold, up to kMaxStiffening times the relaxed value, over about
 // kStiffenTime_s.
-constexpr double kDisturbanceMeanTime_s = 0.25;
-constexpr double kDisturbanceWindow_s = 0.5;
+// Force regulation works on the felt force averaged over a few hundred ms:
+// voluntary force control is slow (~1-2 Hz), ripple above that is felt as
+// texture, not as a change of the tissue's push.
+constexpr double kFeltSmoothing_s = 0.3;
+constexpr double kDisturbanceMeanTime_s = 1.0;
+constexpr double kDisturbanceWindow_s = 1.0;
 constexpr double kDisturbanceThreshold_N = 0.04;
 constexpr double kDisturbancePerStiffening_N = 0.08;
 constexpr double kMaxStiffening = 4.0;
@@ -93,6 +97,7 @@ void Hand::init(int instrument, const HandParams& params, const Eigen::Vector3d&
   next_noise_s_ = 0.0;
   correction_m_.setZero();
   felt_mean_N_.setZero();
+  felt_smooth_N_ = 0.0;
   disturbance_var_N2_ = 0.0;
   stiffening_ = 1.0;
   grip_from_rad_ = grip_to_rad_ = 0.3;
@@ -168,7 +173,8 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
     const JointVector reaction(-felt[kJointInsertion], -felt[kJointPitch], -felt[kJointYaw]);
     const Eigen::Vector3d felt_tip = joint_to_world(qj, reaction, kMinArm_m);
     const double felt_N = std::max(0.0, -into_.dot(felt_tip));
-    felt_cue_.push(t_s, felt_N);
+    felt_smooth_N_ += std::min(1.0, dt_s / kFeltSmoothing_s) * (felt_N - felt_smooth_N_);
+    felt_cue_.push(t_s, felt_smooth_N_);
     seen_cue_.push(t_s, seen_depth_m);
     const double h = felt_cue_.delayed(params_.haptic_delay_s);
     const double seen_depth = seen_cue_.delayed(params_.visual_delay_s);
@@ -191,6 +197,7 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
     offset_m_ += dt_s * (target_force_N_ - estimate_N_) / (k * params_.regulation_time_s);
     offset_m_ = std::clamp(offset_m_, -0.004, 0.020);
   } else {
+    felt_smooth_N_ = 0.0;
     felt_cue_.push(t_s, 0.0);
     seen_cue_.push(t_s, seen_depth_m);
     seen_depth_m_ = seen_cue_.delayed(params_.visual_delay_s);

@@ -136,6 +136,7 @@ class Hand {
   // impedance adaptation
   Eigen::Vector3d felt_mean_N_ = Eigen::Vector3d::Zero();
   double disturbance_var_N2_ = 0.0;
+  double felt_smooth_N_ = 0.0;  // felt force along the press, averaged (regulation cue)
   double stiffening_ = 1.0;  // arm stiffness / relaxed stiffness, 1..kMaxStiffening
   // grip
   double grip_from_rad_ = 0.3, grip_to_rad_ = 0.3, grip_start_s_ = 0.0, grip_end_s_ = 0.0;
