@@ -47,7 +47,7 @@ void create(const StudyOptions& opt) {
 void show(const StudyOptions& opt) {
   if (!std::filesystem::exists(opt.db)) throw std::runtime_error(opt.db + ": no such database");
   db::OpenOptions open;
-  open.recover = false;  // a session may be running: do not abort its trial
+  open.read_only = true;  // a session may be running: change nothing, not even the journal mode
   open.integrity = db::OpenOptions::Integrity::kQuick;
   db::StudyDb db(opt.db, open);
   const sessions::StudyProgress progress = sessions::study_progress(db);
