@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The main job: install, build, and run the demo on the embedded defaults.
-#   scripts/demo.sh [demo options...]    (e.g. --out DIR, --seconds S)
+#   scripts/demo.sh [demo options...]    (e.g. --out DIR, --quick)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh build

@@ -10,15 +10,20 @@
 namespace hapticlab::analysis {
 namespace {
 
-// Linear interpolation at 1-based fractional position h, clamped to [1, n].
-double interpolate(std::span<const double> sorted, double h) {
-  const double n = static_cast<double>(sorted.size());
-  if (h <= 1.0) return sorted.front();
-  if (h >= n) return sorted.back();
+// Linear interpolation at 1-based fractional position h, clamped to [1, n],
+// as a position: the value is x[lower] + fraction·(x[upper] − x[lower]).
+PercentilePosition interpolation_position(std::size_t n, double h) {
+  const double nd = static_cast<double>(n);
+  if (h <= 1.0) return {0, 0, 0.0};
+  if (h >= nd) return {n - 1, n - 1, 0.0};
   const double lower = std::floor(h);
   const auto i = static_cast<std::size_t>(lower) - 1;  // 0-based index of the lower neighbour
-  const double fraction = h - lower;
-  return sorted[i] + fraction * (sorted[i + 1] - sorted[i]);
+  return {i, i + 1, h - lower};
+}
+
+double value_at(const PercentilePosition& pos, double lower_value, double upper_value) {
+  if (pos.upper == pos.lower) return lower_value;
+  return lower_value + pos.fraction * (upper_value - lower_value);
 }
 
 void check_p(double p_percent) {
@@ -49,27 +54,70 @@ std::string_view percentile_method_name(PercentileMethod method) {
   return "matlab";
 }
 
-double percentile_sorted(std::span<const double> sorted, double p_percent, PercentileMethod method) {
+PercentilePosition percentile_position(std::size_t n, double p_percent, PercentileMethod method) {
   check_p(p_percent);
-  if (sorted.empty()) throw DataError("percentile(): the sample is empty");
-  const double n = static_cast<double>(sorted.size());
+  if (n == 0) throw DataError("percentile(): the sample is empty");
+  const double nd = static_cast<double>(n);
   switch (method) {
     case PercentileMethod::kMatlab:
       // x(i) at 100(i - 0.5)/n  <=>  i = n p/100 + 0.5
-      return interpolate(sorted, n * p_percent / 100.0 + 0.5);
+      return interpolation_position(n, nd * p_percent / 100.0 + 0.5);
     case PercentileMethod::kR7:
-      return interpolate(sorted, (n - 1.0) * p_percent / 100.0 + 1.0);
+      return interpolation_position(n, (nd - 1.0) * p_percent / 100.0 + 1.0);
     case PercentileMethod::kR6:
-      return interpolate(sorted, (n + 1.0) * p_percent / 100.0);
+      return interpolation_position(n, (nd + 1.0) * p_percent / 100.0);
     case PercentileMethod::kNearestRank: {
-      if (p_percent == 0.0) return sorted.front();
+      if (p_percent == 0.0) return {0, 0, 0.0};
       // n·p first, then /100: exact for integer p, so 95 % of 20 is rank 19, not 20.
-      const double rank = std::ceil(n * p_percent / 100.0);
-      const auto index = static_cast<std::size_t>(std::clamp(rank, 1.0, n)) - 1;
-      return sorted[index];
+      const double rank = std::ceil(nd * p_percent / 100.0);
+      const auto index = static_cast<std::size_t>(std::clamp(rank, 1.0, nd)) - 1;
+      return {index, index, 0.0};
     }
   }
-  return sorted.front();
+  return {0, 0, 0.0};
+}
+
+double percentile_sorted(std::span<const double> sorted, double p_percent, PercentileMethod method) {
+  const PercentilePosition pos = percentile_position(sorted.size(), p_percent, method);
+  return value_at(pos, sorted[pos.lower], sorted[pos.upper]);
+}
+
+namespace {
+
+// Puts the order statistics at ranks[lo, hi) (ascending, absolute indices)
+// in place: nth_element on the middle rank, then each side with its ranks.
+void select_ranks(std::vector<double>::iterator base, std::size_t first, std::size_t last,
+                  const std::vector<std::size_t>& ranks, std::size_t lo, std::size_t hi) {
+  while (lo < hi && first < last) {
+    const std::size_t mid = lo + (hi - lo) / 2;
+    const std::size_t r = ranks[mid];
+    std::nth_element(base + static_cast<std::ptrdiff_t>(first), base + static_cast<std::ptrdiff_t>(r),
+                     base + static_cast<std::ptrdiff_t>(last));
+    select_ranks(base, first, r, ranks, lo, mid);
+    first = r + 1;
+    lo = mid + 1;
+  }
+}
+
+}  // namespace
+
+std::vector<double> percentiles_select(std::vector<double>& values, std::span<const double> p_percents,
+                                       PercentileMethod method) {
+  std::vector<PercentilePosition> positions;
+  positions.reserve(p_percents.size());
+  std::vector<std::size_t> ranks;
+  for (double p : p_percents) {
+    positions.push_back(percentile_position(values.size(), p, method));
+    ranks.push_back(positions.back().lower);
+    ranks.push_back(positions.back().upper);
+  }
+  std::sort(ranks.begin(), ranks.end());
+  ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
+  select_ranks(values.begin(), 0, values.size(), ranks, 0, ranks.size());
+  std::vector<double> out;
+  out.reserve(positions.size());
+  for (const auto& pos : positions) out.push_back(value_at(pos, values[pos.lower], values[pos.upper]));
+  return out;
 }
 
 double percentile(std::span<const double> values, double p_percent, PercentileMethod method) {

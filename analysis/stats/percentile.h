@@ -14,8 +14,10 @@
 //                (Minitab, SPSS, Excel PERCENTILE.EXC inside its range).
 //   kNearestRank the smallest value with at least p % of the sample at or
 //                below it: x(ceil(n·p/100)), x(1) for p = 0.
+#include <cstddef>
 #include <span>
 #include <string_view>
+#include <vector>
 
 namespace hapticlab::analysis {
 
@@ -36,5 +38,23 @@ double percentile(std::span<const double> values, double p_percent,
 // Same, for values already sorted ascending (not checked); no allocation.
 double percentile_sorted(std::span<const double> sorted, double p_percent,
                          PercentileMethod method = PercentileMethod::kMatlab);
+
+// Where percentile p falls among n sorted values (0-based): the percentile is
+// x[lower] + fraction·(x[upper] − x[lower]), or x[lower] when upper == lower.
+struct PercentilePosition {
+  std::size_t lower = 0;
+  std::size_t upper = 0;
+  double fraction = 0.0;
+};
+// n >= 1, p_percent in [0, 100]; throws DataError otherwise.
+PercentilePosition percentile_position(std::size_t n, double p_percent,
+                                       PercentileMethod method = PercentileMethod::kMatlab);
+
+// Several percentiles of unsorted values by selection (nth_element) rather
+// than a full sort: the same order statistics, so the very results of
+// percentile_sorted on the sorted values, in O(n log k) for k percentiles.
+// Reorders `values`; values non-empty and finite (not checked).
+std::vector<double> percentiles_select(std::vector<double>& values, std::span<const double> p_percents,
+                                       PercentileMethod method = PercentileMethod::kMatlab);
 
 }  // namespace hapticlab::analysis

@@ -7,6 +7,9 @@
 #include <gtest/gtest.h>
 
 #include "analysis/stats/data_error.h"
+#include "analysis/stats/kolmogorov_smirnov.h"
+#include "analysis/stats/moving_block_bootstrap.h"
+#include "analysis/stats/split_mix64.h"
 
 namespace hapticlab::analysis {
 namespace {
@@ -113,6 +116,48 @@ TEST(KsBootstrapTest, BlockLengthIsRequired) {
   KsBootstrapOptions o = options();
   o.block_length = 0;
   EXPECT_THROW(ks_block_bootstrap(study(0.0), o), DataError);
+}
+
+
+// The bootstrap counts ranks instead of sorting each resample; it must give
+// the very D values of the plain procedure (resample, sort, ks_statistic),
+// ties included: here every value is rounded to 0.1, so ties abound, and the
+// participants differ in repetition counts and series lengths.
+TEST(KsBootstrapTest, RankCountingMatchesSortingBitForBit) {
+  std::vector<ParticipantRepetitions> data;
+  for (int p = 0; p < 3; ++p) {
+    ParticipantRepetitions r;
+    r.participant = "S" + std::to_string(p + 1);
+    for (int rep = 0; rep < 2 + p; ++rep) {
+      auto s = series(0.0, 0.3 * rep + p, 150 + 40 * rep);
+      for (double& v : s) v = std::round(v * 10) / 10;
+      r.control.push_back(s);
+    }
+    for (int rep = 0; rep < 3; ++rep) {
+      auto s = series(0.4 * p, 0.9 * rep, 180);
+      for (double& v : s) v = std::round(v * 10) / 10;
+      r.other.push_back(s);
+    }
+    data.push_back(std::move(r));
+  }
+  KsBootstrapOptions o = options(11);
+  o.block_length = 7;
+  const auto fast = ks_block_bootstrap(data, o);
+
+  SplitMix64 rng(o.seed);
+  std::vector<double> hf1, hf2, si1;
+  for (std::size_t m = 0; m < o.resamples; ++m) {
+    const auto& p = data[rng.below(data.size())];
+    const auto first = static_cast<std::size_t>(rng.below(p.control.size()));
+    auto second = static_cast<std::size_t>(rng.below(p.control.size() - 1));
+    if (second >= first) ++second;
+    const auto other = static_cast<std::size_t>(rng.below(p.other.size()));
+    moving_block_resample(p.control[first], o.block_length, rng, hf1);
+    moving_block_resample(p.control[second], o.block_length, rng, hf2);
+    moving_block_resample(p.other[other], o.block_length, rng, si1);
+    ASSERT_EQ(fast.d_intra[m], ks_statistic(hf1, hf2)) << "resample " << m;
+    ASSERT_EQ(fast.d_inter[m], ks_statistic(hf1, si1)) << "resample " << m;
+  }
 }
 
 }  // namespace

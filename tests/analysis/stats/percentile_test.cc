@@ -1,6 +1,8 @@
 #include "analysis/stats/percentile.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -113,6 +115,38 @@ TEST(PercentileTest, RejectsBadInput) {
   EXPECT_THROW(percentile(x, 100.5), DataError);
   EXPECT_THROW(percentile(std::vector<double>{}, 50), DataError);
   EXPECT_THROW(percentile(std::vector<double>{1.0, std::nan("")}, 50), DataError);
+}
+
+
+// Selection finds the same order statistics as a full sort, so every
+// definition gives bit-identical percentiles; ties (values rounded to 0.25)
+// and tiny samples included.
+TEST(PercentileTest, SelectionMatchesSortingExactly) {
+  std::uint64_t state = 12345;
+  auto next = [&state] {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) * 0x1.0p-53;
+  };
+  std::vector<double> ps;
+  for (int i = 0; i <= 200; ++i) ps.push_back(i * 0.5);
+  ps.push_back(95.0);
+  ps.push_back(12.345);
+  for (std::size_t n : {1u, 2u, 3u, 7u, 100u, 1001u}) {
+    std::vector<double> values;
+    for (std::size_t i = 0; i < n; ++i) values.push_back(std::round(next() * 40.0) / 4.0);
+    std::vector<double> sorted = values;
+    std::sort(sorted.begin(), sorted.end());
+    for (auto method : {PercentileMethod::kMatlab, PercentileMethod::kR7, PercentileMethod::kR6,
+                        PercentileMethod::kNearestRank}) {
+      std::vector<double> scratch = values;
+      const std::vector<double> selected = percentiles_select(scratch, ps, method);
+      ASSERT_EQ(selected.size(), ps.size());
+      for (std::size_t k = 0; k < ps.size(); ++k) {
+        ASSERT_EQ(selected[k], percentile_sorted(sorted, ps[k], method))
+            << "n " << n << " p " << ps[k] << " method " << percentile_method_name(method);
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -1,0 +1,44 @@
+#pragma once
+// Plots through gnuplot (Debian package gnuplot-nox), driven by one script
+// and one gnuplot process for all of a report's figures: starting gnuplot
+// costs tens of milliseconds, drawing one SVG far less.
+//
+// The script is kept next to the figures (plots.gp) so a user can restyle a
+// figure and rerun `gnuplot plots.gp` in that directory.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace hapticlab::analysis {
+
+// Finds gnuplot: $HAPTICLAB_GNUPLOT if set, else `gnuplot` on PATH. Throws
+// DataError saying how to install it when there is none.
+std::filesystem::path find_gnuplot();
+
+class GnuplotScript {
+ public:
+  // Data shared by later plots, as a named datablock ($name), rows of
+  // whitespace-separated columns; datasets separated by two blank lines
+  // (gnuplot's `index`). `name` is letters, digits and '_' only.
+  void add_datablock(const std::string& name, const std::string& rows);
+  // One figure: `commands` (set ..., plot ...) drawn into `svg_name`, a file
+  // name relative to the script's directory. Every plot starts from `reset`.
+  void add_plot(const std::string& svg_name, const std::string& commands, int width_px = 640,
+                int height_px = 420);
+  const std::vector<std::string>& outputs() const { return outputs_; }
+  std::string text() const { return text_; }
+
+ private:
+  std::string text_;
+  std::vector<std::string> outputs_;
+};
+
+// Writes the script to dir/plots.gp and runs gnuplot in `dir`. Throws
+// DataError with gnuplot's own messages if it fails or an output is missing.
+void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
+                 const std::filesystem::path& gnuplot);
+
+// Quotes a string for a gnuplot script ("..." with \ and " escaped).
+std::string gnuplot_quote(const std::string& s);
+
+}  // namespace hapticlab::analysis

@@ -1,0 +1,756 @@
+#include "analysis/report/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "analysis/report/box_stats.h"
+#include "analysis/report/gnuplot.h"
+#include "analysis/stats/data_error.h"
+
+namespace hapticlab::analysis {
+namespace {
+
+// ---------------------------------------------------------------------------
+// Document model: sections of tables and figures, rendered twice.
+// ---------------------------------------------------------------------------
+struct Cell {
+  std::string text;
+  bool bold = false;
+};
+
+struct Table {
+  std::string title;
+  std::vector<std::string> header;
+  std::vector<std::vector<Cell>> rows;
+  std::string note;
+};
+
+struct Figure {
+  std::string file;  // relative to the report, "figures/x.svg"
+  std::string caption;
+};
+
+struct Section {
+  std::string title;
+  std::string intro;
+  std::vector<Table> tables;
+  std::vector<Figure> figures;
+};
+
+std::string num(double v, const char* format = "%.3g") {
+  if (!std::isfinite(v)) return "N/A";
+  char buf[48];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+// File-name-safe form of a participant code or task name.
+std::string slug(const std::string& s) {
+  std::string out;
+  for (char c : s) out += std::isalnum(static_cast<unsigned char>(c)) || c == '-' ? c : '_';
+  return out.empty() ? "_" : out;
+}
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string md_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '|' || c == '*' || c == '_') out += '\\';
+    out += c;
+  }
+  return out;
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DataError("cannot read '" + path.string() + "'");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  out.flush();
+  if (!out) throw DataError("cannot write '" + path.string() + "'");
+}
+
+// The <svg> element of a gnuplot SVG file, without the XML prolog, so it can
+// sit inside HTML.
+std::string inline_svg(const std::string& svg) {
+  const auto start = svg.find("<svg");
+  return start == std::string::npos ? svg : svg.substr(start);
+}
+
+std::string render_html(const std::string& title, const std::vector<Section>& sections,
+                        const std::filesystem::path& dir) {
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html_escape(title)
+    << "</title>\n<style>\n"
+       "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}\n"
+       "table{border-collapse:collapse;margin:0.5em 0 0.3em}th,td{border:1px solid #bbb;padding:3px 8px;"
+       "text-align:left}th{background:#eee}td.b{font-weight:bold}\n"
+       "p.note{font-size:0.9em;color:#555;margin-top:0}figure{display:inline-block;margin:0.5em}"
+       "figcaption{font-size:0.9em;color:#444;max-width:640px}\n"
+       "svg{max-width:100%;height:auto}\n</style></head><body>\n";
+  h << "<h1>" << html_escape(title) << "</h1>\n";
+  for (const Section& s : sections) {
+    h << "<h2>" << html_escape(s.title) << "</h2>\n";
+    if (!s.intro.empty()) h << "<p>" << html_escape(s.intro) << "</p>\n";
+    for (const Table& t : s.tables) {
+      if (!t.title.empty()) h << "<h3>" << html_escape(t.title) << "</h3>\n";
+      h << "<table><tr>";
+      for (const auto& c : t.header) h << "<th>" << html_escape(c) << "</th>";
+      h << "</tr>\n";
+      for (const auto& row : t.rows) {
+        h << "<tr>";
+        for (const auto& c : row) h << (c.bold ? "<td class=\"b\">" : "<td>") << html_escape(c.text) << "</td>";
+        h << "</tr>\n";
+      }
+      h << "</table>\n";
+      if (!t.note.empty()) h << "<p class=\"note\">" << html_escape(t.note) << "</p>\n";
+    }
+    for (const Figure& f : s.figures) {
+      h << "<figure>" << inline_svg(read_file(dir / f.file)) << "<figcaption>" << html_escape(f.caption)
+        << "</figcaption></figure>\n";
+    }
+  }
+  h << "</body></html>\n";
+  return h.str();
+}
+
+std::string render_markdown(const std::string& title, const std::vector<Section>& sections) {
+  std::ostringstream m;
+  m << "# " << title << "\n\n";
+  for (const Section& s : sections) {
+    m << "## " << s.title << "\n\n";
+    if (!s.intro.empty()) m << s.intro << "\n\n";
+    for (const Table& t : s.tables) {
+      if (!t.title.empty()) m << "### " << t.title << "\n\n";
+      m << "|";
+      for (const auto& c : t.header) m << " " << md_escape(c) << " |";
+      m << "\n|";
+      for (std::size_t i = 0; i < t.header.size(); ++i) m << "---|";
+      m << "\n";
+      for (const auto& row : t.rows) {
+        m << "|";
+        for (const auto& c : row) m << " " << (c.bold ? "**" + md_escape(c.text) + "**" : md_escape(c.text)) << " |";
+        m << "\n";
+      }
+      m << "\n";
+      if (!t.note.empty()) m << "*" << t.note << "*\n\n";
+    }
+    for (const Figure& f : s.figures) m << "![" << f.caption << "](" << f.file << ")\n\n*" << f.caption << "*\n\n";
+  }
+  return m.str();
+}
+
+// ---------------------------------------------------------------------------
+// Tables
+// ---------------------------------------------------------------------------
+std::vector<std::string> measure_header(const std::string& first) {
+  std::vector<std::string> h{first};
+  for (Measure m : kAllMeasures) h.emplace_back(measure_label(m));
+  return h;
+}
+
+Cell p_cell(const std::optional<TestResult>& r, double level) {
+  if (!r) return {"N/A", false};
+  return {format_p(r->p), r->p < level};
+}
+
+Section summary_section(const StudyAnalysis& a) {
+  Section s;
+  s.title = "Study and data";
+  const TrialCounts& c = a.counts;
+  Table t;
+  t.header = {"Item", "Value"};
+  t.rows = {{{"Study"}, {a.study_name + " (id " + std::to_string(a.study_id) + ")"}},
+            {{"Database"}, {a.db_path.string()}},
+            {{"Participants"}, {std::to_string(a.participants.size())}},
+            {{"Tasks"}, {std::to_string(a.tasks.size())}},
+            {{"Settings"}, {std::to_string(a.settings.size()) + " (control: " + a.control + ")"}},
+            {{"Trials analysed"}, {std::to_string(c.analysed)}},
+            {{"Complete trials"}, {std::to_string(c.complete)}},
+            {{"Aborted trials left out"}, {std::to_string(c.aborted_excluded)}},
+            {{"Aborted trials included"}, {std::to_string(c.aborted_included)}},
+            {{"Trials not run (planned or running)"}, {std::to_string(c.not_run)}},
+            {{"Analysed trials without a task window"}, {std::to_string(c.without_window)}},
+            {{"Percentile definition"}, {std::string(percentile_method_name(a.options.percentile_method))}},
+            {{"Contact threshold |F|"}, {num(a.options.min_force_N * 1e3) + " mN"}},
+            {{"Significance level alpha"}, {num(a.options.alpha)}}};
+  s.tables.push_back(std::move(t));
+  s.intro = std::to_string(c.aborted_excluded) + " aborted trial(s) were left out" +
+            (a.options.include_aborted ? " (none: --include-aborted was given)" : "") +
+            ". Measures are computed over each trial's task window, from the first 20 mm insertion to the last "
+            "tissue contact; the per-trial values are in metrics.csv.";
+  if (c.without_window > 0) {
+    Table w;
+    w.title = "Trials without measures";
+    w.header = {"Trial", "Participant", "Task", "Setting", "Repetition", "Why"};
+    for (const auto& tr : a.trials)
+      if (!tr.window)
+        w.rows.push_back({{std::to_string(tr.trial_id)}, {tr.participant}, {tr.task}, {tr.setting},
+                          {std::to_string(tr.repetition)}, {tr.problem}});
+    s.tables.push_back(std::move(w));
+  }
+  return s;
+}
+
+Section friedman_section(const StudyAnalysis& a) {
+  Section s;
+  s.title = "Table 3.4: Friedman test per participant";
+  s.intro = "P values of intra-participant Friedman tests across settings: hands are the blocks, repetitions the "
+            "replicates ranked within each block (completion time: one block per participant). Bold: p < " +
+            num(a.options.alpha) + ".";
+  Table t;
+  t.header = measure_header("");
+  std::string notes;
+  for (const auto& task : a.tasks) {
+    for (const auto& participant : a.participants) {
+      std::vector<Cell> row{{task + " " + participant}};
+      bool any = false;
+      for (Measure m : kAllMeasures) {
+        Cell cell{"N/A"};
+        for (const auto& r : a.friedman) {
+          if (r.task != task || r.participant != participant || r.hand != -1 || r.measure != m) continue;
+          any = true;
+          cell = p_cell(r.test.result, a.options.alpha);
+          if (r.test.dropped > 0 || !r.test.note.empty()) {
+            notes += task + " " + participant + " " + measure_label(m) + ": " +
+                     (r.test.dropped > 0 ? std::to_string(r.test.dropped) + " observation(s) dropped to balance to " +
+                                               std::to_string(r.test.replicates) + " replicate(s)"
+                                         : std::string()) +
+                     (r.test.dropped > 0 && !r.test.note.empty() ? "; " : "") + r.test.note + ". ";
+          }
+        }
+        row.push_back(cell);
+      }
+      if (any) t.rows.push_back(std::move(row));
+    }
+  }
+  t.note = notes;
+  s.tables.push_back(std::move(t));
+
+  Table h;
+  h.title = "Per hand";
+  h.header = {"Task", "Participant", "Hand"};
+  for (Measure m : kAllMeasures)
+    if (measure_per_hand(m)) h.header.emplace_back(measure_label(m));
+  for (const auto& task : a.tasks) {
+    for (const auto& participant : a.participants) {
+      for (int hand = 0; hand < 2; ++hand) {
+        std::vector<Cell> row{{task}, {participant}, {hand_name(hand)}};
+        for (Measure m : kAllMeasures) {
+          if (!measure_per_hand(m)) continue;
+          for (const auto& r : a.friedman)
+            if (r.task == task && r.participant == participant && r.hand == hand && r.measure == m)
+              row.push_back(p_cell(r.test.result, a.options.alpha));
+        }
+        if (row.size() > 3) h.rows.push_back(std::move(row));
+      }
+    }
+  }
+  s.tables.push_back(std::move(h));
+  return s;
+}
+
+Section pairwise_section(const StudyAnalysis& a, const std::string& task, int number) {
+  Section s;
+  s.title = "Table 3." + std::to_string(number) + ": " + a.control + " compared to each setting, " + task;
+  s.intro = "P values of pairwise Friedman tests between " + a.control +
+            " and each other setting over every participant (and hand) who did both; the number in brackets is "
+            "the number of participants. Bold: significant at the Šidák level 1-(1-alpha)^(1/m) = " +
+            num(a.sidak_level, "%.4f") + " for m = " + std::to_string(a.sidak_m) +
+            ". A p value in parentheses was computed although no participant's Table 3.4 test was significant "
+            "for that measure (the thesis did not compare those).";
+  Table t;
+  t.header = measure_header(a.control + " compared to:");
+  for (std::size_t si = 1; si < a.settings.size(); ++si) {
+    std::size_t participants = 0;
+    for (const auto& c : a.pairwise)
+      if (c.task == task && c.setting == a.settings[si]) participants = std::max(participants, c.participants);
+    std::vector<Cell> row{{a.settings[si] + " (" + std::to_string(participants) + ")"}};
+    for (Measure m : kAllMeasures) {
+      Cell cell{"N/A"};
+      for (const auto& c : a.pairwise) {
+        if (c.task != task || c.setting != a.settings[si] || c.measure != m || !c.p) continue;
+        cell = {c.gated ? "(" + format_p(*c.p) + ")" : format_p(*c.p), c.significant};
+      }
+      row.push_back(cell);
+    }
+    t.rows.push_back(std::move(row));
+  }
+  s.tables.push_back(std::move(t));
+  return s;
+}
+
+Section whole_design_section(const StudyAnalysis& a) {
+  Section s;
+  s.title = "All participants at once";
+  s.intro = "Beyond the thesis: one test over every participant (and hand) per task and measure, each cell the "
+            "median of its repetitions. A complete design gets the Friedman test, a balanced incomplete one "
+            "Durbin's test, any other pattern of missing cells the Skillings-Mack test. Bold: p < " +
+            num(a.options.alpha) + ".";
+  Table t;
+  t.header = {"Task", "Measure", "Test", "Statistic", "df", "p", "Blocks", "Note"};
+  for (const auto& r : a.whole_design) {
+    if (r.test.result) {
+      const TestResult& x = *r.test.result;
+      t.rows.push_back({{r.task}, {measure_label(r.measure)}, {x.method}, {num(x.statistic, "%.4g")},
+                        {num(x.df, "%.0f")}, p_cell(x, a.options.alpha), {std::to_string(x.blocks)}, {r.test.note}});
+    } else {
+      t.rows.push_back({{r.task}, {measure_label(r.measure)}, {"N/A"}, {""}, {""}, {"N/A"}, {""}, {r.test.note}});
+    }
+  }
+  s.tables.push_back(std::move(t));
+  return s;
+}
+
+std::string correlation_hand(const CorrelationRow& r) { return r.hand < 0 ? "both" : hand_name(r.hand); }
+
+Section correlation_section(const StudyAnalysis& a) {
+  Section s;
+  s.title = "Table 3.7: Correlations with the trial number";
+  s.intro = "Pearson r between each measure and the trial number (the trial's position in the participant's "
+            "schedule), with its two-sided p. |r| >= 0.7 is strong, 0.3 <= |r| < 0.7 weak.";
+  Table t;
+  t.title = "Strong and weak correlations";
+  t.header = {"Perf. measure", "Task", "Participant", "Hand", "R", "P", "Strength"};
+  Table all;
+  all.title = "All correlations";
+  all.header = t.header;
+  all.header.emplace_back("n");
+  all.header.emplace_back("Note");
+  for (const auto& r : a.correlations) {
+    if (r.result) {
+      const std::string strength(correlation_strength_name(r.result->strength));
+      std::vector<Cell> row{{measure_label(r.measure)}, {r.task}, {r.participant}, {correlation_hand(r)},
+                            {num(r.result->r, "%.2f")}, {format_p(r.result->p)},
+                            {strength, r.result->strength == CorrelationStrength::kStrong}};
+      if (r.result->strength != CorrelationStrength::kNone) t.rows.push_back(row);
+      row.push_back({std::to_string(r.result->n)});
+      row.push_back({r.note});
+      all.rows.push_back(std::move(row));
+    } else {
+      all.rows.push_back({{measure_label(r.measure)}, {r.task}, {r.participant}, {correlation_hand(r)}, {"N/A"},
+                          {"N/A"}, {""}, {std::to_string(r.values.size())}, {r.note}});
+    }
+  }
+  if (t.rows.empty()) t.note = "No correlation reached |r| >= 0.3.";
+  s.tables.push_back(std::move(t));
+  s.tables.push_back(std::move(all));
+  return s;
+}
+
+Section ks_section(const StudyAnalysis& a) {
+  Section s;
+  s.title = "Appendix I: Kolmogorov-Smirnov with the moving block bootstrap";
+  const auto& o = a.options;
+  s.intro = "95% ranges of D between two " + a.control + " repetitions (D_intra) and between a " + a.control +
+            " repetition and one of the other setting (D_inter), " + std::to_string(o.ks_resamples) +
+            " resamples at every level (participant, repetition, moving blocks of " +
+            std::to_string(o.ks_block_length) + " samples of the series kept at every " +
+            std::to_string(o.ks_stride) + "th sample). Significant (bold) when the ranges do not overlap.";
+  if (!o.ks) {
+    s.intro = "Not computed (--no-ks).";
+    return s;
+  }
+  Table t;
+  t.header = {"Task", "Hand", "Quantity", "Setting", "Participants", "D_intra 95%", "D_inter 95%", "Significant",
+              "Note"};
+  for (const auto& r : a.ks) {
+    if (r.result) {
+      const auto& x = *r.result;
+      t.rows.push_back({{r.task}, {hand_name(r.hand)}, {r.quantity}, {r.setting}, {std::to_string(x.participants_used)},
+                        {num(x.intra.low, "%.3f") + " - " + num(x.intra.high, "%.3f")},
+                        {num(x.inter.low, "%.3f") + " - " + num(x.inter.high, "%.3f")},
+                        {x.significant ? "yes" : "no", x.significant}, {r.note}});
+    } else {
+      t.rows.push_back({{r.task}, {hand_name(r.hand)}, {r.quantity}, {r.setting}, {"0"}, {"N/A"}, {"N/A"}, {""},
+                        {r.note}});
+    }
+  }
+  s.tables.push_back(std::move(t));
+  return s;
+}
+
+// ---------------------------------------------------------------------------
+// Figures
+// ---------------------------------------------------------------------------
+class FigureBuilder {
+ public:
+  FigureBuilder(const StudyAnalysis& a, const ReportOptions& o) : a_(a), o_(o) {}
+
+  GnuplotScript& script() { return script_; }
+
+  // Figures 3-4 / 3-5: CDFs of |F| and |v| per participant, hand and setting;
+  // repetitions weigh equally (the thesis resampled each to the same count).
+  Section cdfs(bool force) {
+    Section s;
+    s.title = force ? "Figure 3-4: CDFs of tool-tip force" : "Figure 3-5: CDFs of tool-tip speed";
+    s.intro = std::string("Cumulative distribution of ") +
+              (force ? "|F| (samples with |F| >= the contact threshold)" : "|v|") +
+              " in the task window, the repetitions of a setting pooled with equal weight. Axes are the same "
+              "within a task.";
+    for (const auto& task : a_.tasks) {
+      // Same x range on every plot of a task (as in the thesis): the largest 99th percentile.
+      double x_max = 0.0;
+      std::vector<std::tuple<std::string, int, std::vector<std::pair<std::string, std::vector<double>>>>> plots;
+      for (const auto& participant : a_.participants) {
+        for (int hand = 0; hand < 2; ++hand) {
+          std::vector<std::pair<std::string, std::vector<double>>> curves;
+          for (const auto& setting : a_.settings) {
+            std::vector<double> pooled;
+            for (const auto& t : a_.trials) {
+              if (t.task != task || t.participant != participant || t.setting != setting) continue;
+              const auto& q = force ? t.force_quantiles_N[static_cast<std::size_t>(hand)]
+                                    : t.speed_quantiles_m_per_s[static_cast<std::size_t>(hand)];
+              pooled.insert(pooled.end(), q.begin(), q.end());
+            }
+            if (pooled.empty()) continue;
+            std::sort(pooled.begin(), pooled.end());
+            x_max = std::max(x_max, percentile_sorted(pooled, 99.0, a_.options.percentile_method));
+            curves.emplace_back(setting, std::move(pooled));
+          }
+          if (!curves.empty()) plots.emplace_back(participant, hand, std::move(curves));
+        }
+      }
+      for (auto& [participant, hand, curves] : plots) {
+        std::ostringstream data;
+        std::ostringstream plot;
+        plot << "plot ";
+        for (std::size_t c = 0; c < curves.size(); ++c) {
+          const auto& pooled = curves[c].second;
+          const std::size_t points = std::max<std::size_t>(o_.cdf_curve_points, 2);
+          for (std::size_t i = 0; i < points; ++i) {
+            const double p = static_cast<double>(i) / static_cast<double>(points - 1);
+            data << percentile_sorted(pooled, 100.0 * p, a_.options.percentile_method) << ' ' << p << '\n';
+          }
+          data << "\n\n";
+          plot << (c ? ", " : "") << "$" << block_name() << " index " << c << " with lines lw 2 title "
+               << gnuplot_quote(setting_abbreviation(curves[c].first));
+        }
+        const std::string name = block_name();
+        script_.add_datablock(name, data.str());
+        const std::string file = std::string("cdf_") + (force ? "force_" : "speed_") + slug(task) + "_" +
+                                 slug(participant) + "_" + hand_name(hand) + ".svg";
+        std::ostringstream cmd;
+        cmd << "set title " << gnuplot_quote(task + ", " + participant + ", " + hand_name(hand) + " hand") << "\n"
+            << "set xlabel " << gnuplot_quote(force ? "|F| [N]" : "|v| [m/s]") << "\n"
+            << "set ylabel 'cumulative probability'\nset yrange [0:1]\nset xrange [0:" << (x_max > 0 ? x_max : 1)
+            << "]\nset key right bottom\nset grid\n"
+            << plot.str() << "\n";
+        add(s, file, cmd.str(),
+            std::string(force ? "Force" : "Speed") + " CDF: " + task + ", " + participant + ", " + hand_name(hand) +
+                " hand.");
+        ++block_;
+      }
+    }
+    return s;
+  }
+
+  // Figures 3-6 to 3-10: each repetition's value, grouped by participant and setting.
+  Section repetitions() {
+    Section s;
+    s.title = "Figures 3-6 to 3-10: values per repetition";
+    s.intro = "Each point is one repetition; groups are participants, colours settings.";
+    for (const auto& task : a_.tasks) {
+      for (Measure m : kAllMeasures) {
+        for (int hand = measure_per_hand(m) ? 0 : -1; hand < (measure_per_hand(m) ? 2 : 0); ++hand) {
+          std::vector<std::string> group_names;
+          std::ostringstream data;
+          std::ostringstream plot;
+          plot << "plot ";
+          const double width = static_cast<double>(a_.settings.size() + 1);
+          for (const auto& participant : a_.participants) {
+            const bool did = std::any_of(a_.trials.begin(), a_.trials.end(), [&](const TrialRecord& t) {
+              return t.task == task && t.participant == participant;
+            });
+            if (did) group_names.push_back(participant);
+          }
+          std::size_t datasets = 0;
+          for (std::size_t si = 0; si < a_.settings.size(); ++si) {
+            std::size_t rows = 0;
+            for (std::size_t g = 0; g < group_names.size(); ++g) {
+              for (const auto& t : a_.trials) {
+                if (t.task != task || t.participant != group_names[g] || t.setting != a_.settings[si]) continue;
+                const double v = t.value(m, std::max(hand, 0));
+                if (!std::isfinite(v)) continue;
+                data << static_cast<double>(g) * width + static_cast<double>(si) + 1.0 << ' ' << v << '\n';
+                ++rows;
+              }
+            }
+            if (rows == 0) continue;
+            data << "\n\n";
+            plot << (datasets ? ", " : "") << "$" << block_name() << " index " << datasets
+                 << " with points pt 7 ps 0.7 title " << gnuplot_quote(setting_abbreviation(a_.settings[si]));
+            ++datasets;
+          }
+          if (datasets == 0) continue;
+          std::ostringstream tics;
+          for (std::size_t g = 0; g < group_names.size(); ++g) {
+            tics << (g ? ", " : "") << gnuplot_quote(group_names[g]) << " "
+                 << static_cast<double>(g) * width + width / 2.0;
+          }
+          script_.add_datablock(block_name(), data.str());
+          const std::string hand_text = hand < 0 ? "" : std::string(", ") + hand_name(hand) + " hand";
+          std::ostringstream cmd;
+          cmd << "set title " << gnuplot_quote(task + ": " + measure_label(m) + hand_text) << "\n"
+              << "set ylabel " << gnuplot_quote(std::string(measure_label(m)) + " [" + measure_unit(m) + "]") << "\n"
+              << "set xtics (" << tics.str() << ")\nset xrange [0:" << static_cast<double>(group_names.size()) * width
+              << "]\nset key outside right\nset grid y\n"
+              << plot.str() << "\n";
+          add(s, std::string("reps_") + measure_column(m) + "_" + slug(task) + (hand < 0 ? "" : std::string("_") + hand_name(hand)) + ".svg",
+              cmd.str(), std::string(measure_label(m)) + " per repetition, " + task + hand_text + ".");
+          ++block_;
+        }
+      }
+    }
+    return s;
+  }
+
+  // Figures 3-11 to 3-13: box plots, whiskers to 3 × IQR.
+  Section boxes() {
+    Section s;
+    s.title = "Figures 3-11 to 3-13: box plots";
+    s.intro = "Boxes span the 25th to 75th percentile around the median; whiskers reach the most extreme values "
+              "within 3 x IQR of the box; '+' marks values beyond.";
+    for (Measure m : {Measure::kForceMedian, Measure::kForceP95}) {
+      std::vector<std::pair<std::string, std::vector<double>>> groups;
+      for (const auto& task : a_.tasks) {
+        for (int hand = 0; hand < 2; ++hand) {
+          std::vector<double> v;
+          for (const auto& t : a_.trials)
+            if (t.task == task && std::isfinite(t.value(m, hand))) v.push_back(t.value(m, hand));
+          if (!v.empty()) groups.emplace_back(task + "\n" + hand_name(hand), std::move(v));
+        }
+      }
+      box_plot(s, groups, m, std::string("box_") + measure_column(m) + "_hands.svg",
+               std::string(measure_label(m)) + ": left versus right hand, all participants and settings.");
+    }
+    std::vector<std::pair<std::string, std::vector<double>>> groups;
+    for (const auto& task : a_.tasks) {
+      for (const auto& participant : a_.participants) {
+        std::vector<double> v;
+        for (const auto& t : a_.trials) {
+          const double x = t.value(Measure::kCompletionTime, 0);
+          if (t.task == task && t.participant == participant && std::isfinite(x)) v.push_back(x);
+        }
+        if (!v.empty()) groups.emplace_back(task + "\n" + participant, std::move(v));
+      }
+    }
+    box_plot(s, groups, Measure::kCompletionTime, "box_completion_time_participants.svg",
+             "Completion times compared between participants, all settings.");
+    return s;
+  }
+
+  // Figures 3-15 to 3-17: measure against trial number, with the least-squares line.
+  Section correlations() {
+    Section s;
+    s.title = "Figures 3-15 to 3-17: measures against trial number";
+    std::vector<const CorrelationRow*> rows;
+    for (const auto& r : a_.correlations)
+      if (r.result && std::abs(r.result->r) >= o_.correlation_plot_min_abs_r) rows.push_back(&r);
+    std::stable_sort(rows.begin(), rows.end(), [](const CorrelationRow* x, const CorrelationRow* y) {
+      return std::abs(x->result->r) > std::abs(y->result->r);
+    });
+    const std::size_t shown = std::min(rows.size(), o_.max_correlation_plots);
+    s.intro = "Correlations with |r| >= " + num(o_.correlation_plot_min_abs_r) + " (the thesis' reporting threshold): " +
+              std::to_string(rows.size()) + (shown < rows.size() ? ", the strongest " + std::to_string(shown) + " shown" : "") +
+              ". The line is the least-squares trend; markers show the setting.";
+    for (std::size_t i = 0; i < shown; ++i) {
+      const CorrelationRow& r = *rows[i];
+      std::ostringstream data;
+      std::ostringstream plot;
+      plot << "plot ";
+      std::size_t datasets = 0;
+      for (const auto& setting : a_.settings) {
+        std::size_t n = 0;
+        for (std::size_t k = 0; k < r.values.size(); ++k) {
+          if (r.settings[k] != setting) continue;
+          data << r.trial_numbers[k] << ' ' << r.values[k] << '\n';
+          ++n;
+        }
+        if (n == 0) continue;
+        data << "\n\n";
+        plot << (datasets ? ", " : "") << "$" << block_name() << " index " << datasets << " with points pt "
+             << (datasets % 6 + 4) << " ps 1 title " << gnuplot_quote(setting_abbreviation(setting));
+        ++datasets;
+      }
+      // Least-squares line through the points: slope Sxy/Sxx.
+      const double nx = static_cast<double>(r.values.size());
+      double mx = 0, my = 0;
+      for (std::size_t k = 0; k < r.values.size(); ++k) {
+        mx += r.trial_numbers[k] / nx;
+        my += r.values[k] / nx;
+      }
+      double sxy = 0, sxx = 0;
+      for (std::size_t k = 0; k < r.values.size(); ++k) {
+        sxy += (r.trial_numbers[k] - mx) * (r.values[k] - my);
+        sxx += (r.trial_numbers[k] - mx) * (r.trial_numbers[k] - mx);
+      }
+      const double slope = sxx > 0 ? sxy / sxx : 0.0;
+      const auto [lo, hi] = std::minmax_element(r.trial_numbers.begin(), r.trial_numbers.end());
+      data << *lo << ' ' << my + slope * (*lo - mx) << '\n' << *hi << ' ' << my + slope * (*hi - mx) << '\n';
+      plot << ", $" << block_name() << " index " << datasets << " with lines lw 2 lc rgb 'black' title 'trend'";
+      script_.add_datablock(block_name(), data.str());
+      const std::string what = std::string(measure_label(r.measure)) + " vs trial number: " + r.participant + ", " +
+                               r.task + ", " + correlation_hand(r) + " hand";
+      std::ostringstream cmd;
+      cmd << "set title " << gnuplot_quote(what + "\n(R = " + num(r.result->r, "%.2f") + ", P = " + format_p(r.result->p) + ")")
+          << "\nset xlabel 'trial number'\nset ylabel "
+          << gnuplot_quote(std::string(measure_label(r.measure)) + " [" + measure_unit(r.measure) + "]")
+          << "\nset key outside right\nset grid\n"
+          << plot.str() << "\n";
+      add(s, "corr_" + std::to_string(i + 1) + ".svg", cmd.str(), what + ".");
+      ++block_;
+    }
+    return s;
+  }
+
+  // Appendix I figures: the 95% ranges of D_intra (black) and D_inter (red).
+  Section ks() {
+    Section s;
+    s.title = "Appendix I figures: KS intervals";
+    s.intro = "Per row, black: 95% range of D within the control setting; red: between the control and the "
+              "setting named. Non-overlapping ranges indicate a difference.";
+    for (const auto& task : a_.tasks) {
+      for (const char* quantity : {"force", "speed"}) {
+        std::ostringstream data;
+        std::ostringstream tics;
+        std::size_t row = 0;
+        for (const auto& r : a_.ks) {
+          if (r.task != task || r.quantity != quantity || !r.result) continue;
+          const auto& x = *r.result;
+          data << x.intra.low << ' ' << x.intra.high << ' ' << x.inter.low << ' ' << x.inter.high << ' ' << row << '\n';
+          tics << (row ? ", " : "") << gnuplot_quote(std::string(hand_name(r.hand)) + " " + setting_abbreviation(r.setting))
+               << ' ' << row;
+          ++row;
+        }
+        if (row == 0) continue;
+        script_.add_datablock(block_name(), data.str());
+        std::ostringstream cmd;
+        cmd << "set title " << gnuplot_quote(task + ": KS D, " + quantity) << "\nset xlabel 'D'\nset xrange [0:1]\n"
+            << "set yrange [-1:" << row << "]\nset ytics (" << tics.str() << ")\nset key below horizontal\nset grid x\n"
+            << "plot $" << block_name() << " using 1:($5+0.15):($2-$1):(0) with vectors nohead lw 3 lc rgb 'black' "
+            << "title 'D intra (control)', $" << block_name()
+            << " using 3:($5-0.15):($4-$3):(0) with vectors nohead lw 3 lc rgb 'red' title 'D inter'\n";
+        add(s, "ks_" + std::string(quantity) + "_" + slug(task) + ".svg", cmd.str(),
+            "KS 95% ranges, " + std::string(quantity) + ", " + task + ".", 640,
+            std::max(260, 90 + 22 * static_cast<int>(row)));
+        ++block_;
+      }
+    }
+    return s;
+  }
+
+ private:
+  std::string block_name() const { return "d" + std::to_string(block_); }
+
+  void add(Section& s, const std::string& file, const std::string& commands, const std::string& caption,
+           int width = 640, int height = 420) {
+    script_.add_plot(file, commands, width, height);
+    s.figures.push_back({"figures/" + file, caption});
+  }
+
+  void box_plot(Section& s, const std::vector<std::pair<std::string, std::vector<double>>>& groups, Measure m,
+                const std::string& file, const std::string& caption) {
+    const std::string title = caption.substr(0, caption.find(':'));
+    if (groups.empty()) return;
+    std::ostringstream boxes;
+    std::ostringstream outliers;
+    std::ostringstream tics;
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      const BoxStats b = box_stats(groups[g].second, 3.0, a_.options.percentile_method);
+      const double x = static_cast<double>(g + 1);
+      boxes << x << ' ' << b.q1 << ' ' << b.whisker_low << ' ' << b.whisker_high << ' ' << b.q3 << ' ' << b.median
+            << '\n';
+      for (double v : b.outliers) outliers << x << ' ' << v << '\n';
+      tics << (g ? ", " : "") << gnuplot_quote(groups[g].first) << ' ' << x;
+    }
+    // gnuplot cannot plot an empty datablock: a point outside the range stands in.
+    if (outliers.str().empty()) outliers << "-1 0\n";
+    const std::string b = block_name();
+    script_.add_datablock(b, boxes.str());
+    ++block_;
+    const std::string o = block_name();
+    script_.add_datablock(o, outliers.str());
+    ++block_;
+    std::ostringstream cmd;
+    cmd << "set title " << gnuplot_quote(title) << "\nset ylabel "
+        << gnuplot_quote(std::string(measure_label(m)) + " [" + measure_unit(m) + "]") << "\nset xtics (" << tics.str()
+        << ")\nset xrange [0.3:" << static_cast<double>(groups.size()) + 0.7 << "]\nset boxwidth 0.5\nset grid y\n"
+        << "plot $" << b << " using 1:2:3:4:5 with candlesticks whiskerbars 0.5 lc rgb 'black' fs empty notitle, $" << b
+        << " using 1:6:6:6:6 with candlesticks lc rgb 'red' lw 2 notitle, $" << o
+        << " using 1:2 with points pt 1 ps 1 lc rgb 'black' notitle\n";
+    add(s, file, cmd.str(), caption, std::max(480, 90 * static_cast<int>(groups.size()) + 160), 440);
+  }
+
+  const StudyAnalysis& a_;
+  const ReportOptions& o_;
+  GnuplotScript script_;
+  std::size_t block_ = 0;
+};
+
+}  // namespace
+
+ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& out_dir, const ReportOptions& options) {
+  // Before writing anything: a missing gnuplot must not leave half a report.
+  std::filesystem::path gnuplot;
+  if (options.plots) gnuplot = find_gnuplot();
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir / "figures", ec);
+  if (ec) throw DataError("cannot create the report directory '" + (out_dir / "figures").string() + "': " + ec.message());
+
+  std::vector<Section> sections;
+  sections.push_back(summary_section(a));
+  sections.push_back(friedman_section(a));
+  int number = 5;
+  for (const auto& task : a.tasks) sections.push_back(pairwise_section(a, task, number++));
+  sections.push_back(whole_design_section(a));
+  sections.push_back(correlation_section(a));
+  sections.push_back(ks_section(a));
+
+  ReportFiles files;
+  if (options.plots) {
+    FigureBuilder figures(a, options);
+    sections.push_back(figures.cdfs(true));
+    sections.push_back(figures.cdfs(false));
+    sections.push_back(figures.repetitions());
+    sections.push_back(figures.boxes());
+    sections.push_back(figures.correlations());
+    if (a.options.ks) sections.push_back(figures.ks());
+    run_gnuplot(figures.script(), out_dir / "figures", gnuplot);
+    for (const auto& s : sections)
+      for (const auto& f : s.figures) files.figures.push_back(out_dir / f.file);
+  }
+
+  const std::string title = "HapticLab study report: " + a.study_name;
+  files.html = out_dir / "report.html";
+  files.markdown = out_dir / "report.md";
+  write_file(files.html, render_html(title, sections, out_dir));
+  write_file(files.markdown, render_markdown(title, sections));
+  return files;
+}
+
+}  // namespace hapticlab::analysis

@@ -1,0 +1,211 @@
+#pragma once
+// The thesis' analysis of a whole study database (3.3.5, 3.3.7, 3.4.2,
+// Appendix I):
+//
+//   study DB ─► per trial: task window (events) + per hand: metrics (samples)
+//            ─► per participant × task × measure: Friedman across settings,
+//               hands as blocks, repetitions as replicates      (Table 3.4)
+//            ─► per task × measure: control vs each other setting, Friedman
+//               over participant × hand blocks, Šidák level       (3.5, 3.6)
+//            ─► per task × measure: all participants at once (Friedman,
+//               Durbin or Skillings–Mack on per-cell medians)    (beyond thesis)
+//            ─► per participant × task × hand × measure: Pearson r against
+//               the trial number                                  (Table 3.7)
+//            ─► per task × hand × {force, speed} × setting: KS with the
+//               moving block bootstrap                           (Appendix I)
+//
+// Only complete trials are analysed by default; aborted ones are counted and
+// left out (include_aborted takes them in). Planned or running trials have no
+// data to analyse and are only counted.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/metrics/trial_metrics.h"
+#include "analysis/stats/correlation.h"
+#include "analysis/stats/ks_bootstrap.h"
+#include "analysis/stats/percentile.h"
+#include "analysis/stats/test_result.h"
+
+namespace hapticlab::db {
+class StudyDb;
+}
+
+namespace hapticlab::analysis {
+
+enum class Measure { kForceMedian, kForceP95, kCompletionTime, kSpeedMedian, kPathLength };
+inline constexpr std::array<Measure, 5> kAllMeasures = {Measure::kForceMedian, Measure::kForceP95,
+                                                        Measure::kCompletionTime, Measure::kSpeedMedian,
+                                                        Measure::kPathLength};
+// "force_median_N", "force_p95_N", "completion_time_s", ... (CSV column names).
+const char* measure_column(Measure m);
+// "50p force", "95p force", "Time", "50p velocity", "Path length" (Table 3.4 headings).
+const char* measure_label(Measure m);
+// "N", "s", "m/s", "m".
+const char* measure_unit(Measure m);
+// Completion time belongs to the trial, the others to one hand.
+bool measure_per_hand(Measure m);
+
+// "left" (instrument 0), "right" (instrument 1).
+const char* hand_name(int hand);
+
+struct AnalysisOptions {
+  std::optional<std::int64_t> study_id;  // required when the DB holds several studies
+  PercentileMethod percentile_method = PercentileMethod::kMatlab;
+  bool include_aborted = false;
+  double alpha = 0.05;               // per-participant and family-wise level, in (0, 1)
+  std::string control_setting;       // empty: the setting named like "High Fidelity"
+  double min_force_N = kMinContactForce_N;
+  // Kolmogorov–Smirnov with the moving block bootstrap (Appendix I).
+  bool ks = true;
+  std::size_t ks_resamples = 1000;   // m, >= 1 (the thesis used 1000)
+  std::size_t ks_stride = 50;        // keep every k-th sample of a series (speed)
+  std::size_t ks_block_length = 10;  // in kept samples, >= 1
+  std::uint64_t seed = 1;
+  std::size_t cdf_points = 101;      // quantiles kept per trial and hand for the CDF plots, >= 2
+
+  // Throws DataError naming the field, its value and the allowed range.
+  void validate() const;
+};
+
+// One trial and both hands' measures.
+struct TrialRecord {
+  std::int64_t trial_id = 0;
+  std::string participant;
+  std::string task;
+  std::string setting;
+  int repetition = 0;
+  int block = 0;
+  int position = 0;  // trial number in the participant's schedule (3.4.2.2)
+  std::string status;
+  std::optional<TaskWindow> window;
+  std::string problem;  // why the measures are missing, if they are
+  std::array<HandMetrics, 2> hands{};
+  // Quantiles of |F| and |v| (cdf_points, p = 0..100 evenly), empty
+  // when the hand had none; time-order series decimated by ks_stride for the
+  // KS bootstrap.
+  std::array<std::vector<double>, 2> force_quantiles_N;
+  std::array<std::vector<double>, 2> speed_quantiles_m_per_s;
+  std::array<std::vector<double>, 2> force_series_N;
+  std::array<std::vector<double>, 2> speed_series_m_per_s;
+
+  // The measure's value for a hand (ignored for completion time); NaN when missing.
+  double value(Measure m, int hand) const;
+};
+
+struct TrialCounts {
+  std::size_t analysed = 0;           // trials whose data entered the analysis
+  std::size_t complete = 0;           // status complete
+  std::size_t aborted_excluded = 0;   // left out (default)
+  std::size_t aborted_included = 0;   // taken in with include_aborted
+  std::size_t not_run = 0;            // planned or running: no data
+  std::size_t without_window = 0;     // analysed, but no task window (measures missing)
+};
+
+// A test that may not be possible; `note` says why when result is empty.
+struct OptionalTest {
+  std::optional<TestResult> result;
+  std::string note;
+  std::size_t replicates = 0;        // per cell after balancing (Friedman)
+  std::size_t dropped = 0;           // observations dropped to balance replicates
+  std::vector<std::string> settings; // settings that entered the test
+};
+
+// Table 3.4 (hand == -1: hands as blocks; 0 / 1: that hand alone).
+struct FriedmanRow {
+  std::string participant;
+  std::string task;
+  Measure measure = Measure::kForceMedian;
+  int hand = -1;
+  OptionalTest test;
+};
+
+// Tables 3.5 / 3.6: one cell.
+struct PairwiseCell {
+  std::string task;
+  std::string setting;  // compared with the control
+  Measure measure = Measure::kForceMedian;
+  std::optional<double> p;
+  std::optional<double> statistic;
+  std::size_t blocks = 0;
+  std::size_t participants = 0;  // the number in brackets in the thesis
+  bool significant = false;      // p < Šidák level
+  bool gated = false;            // no participant's Table 3.4 test was significant
+  std::string note;
+};
+
+struct WholeDesignRow {
+  std::string task;
+  Measure measure = Measure::kForceMedian;
+  OptionalTest test;  // result.method says which test fitted the design
+};
+
+struct CorrelationRow {
+  std::string participant;
+  std::string task;
+  Measure measure = Measure::kForceMedian;
+  int hand = -1;  // -1 for completion time (both hands)
+  std::optional<CorrelationResult> result;
+  std::string note;
+  std::vector<double> trial_numbers;  // x, for the scatter plot
+  std::vector<double> values;         // y
+  std::vector<std::string> settings;  // per point
+};
+
+struct KsRow {
+  std::string task;
+  int hand = 0;
+  std::string quantity;  // "force" or "speed"
+  std::string setting;
+  std::optional<KsBootstrapResult> result;  // d_intra / d_inter cleared to keep it small
+  std::string note;
+};
+
+struct StudyAnalysis {
+  AnalysisOptions options;
+  std::filesystem::path db_path;
+  std::int64_t study_id = 0;
+  std::string study_name;
+  std::string control;                    // the control setting's name
+  std::vector<std::string> tasks;         // in schedule order
+  std::vector<std::string> participants;  // in schedule order
+  std::vector<std::string> settings;      // study order, control first
+  std::vector<TrialRecord> trials;        // analysed trials, by participant then position
+  TrialCounts counts;
+  double sidak_level = 0.0;
+  std::size_t sidak_m = 0;
+  std::vector<FriedmanRow> friedman;      // hands as blocks, then per hand
+  std::vector<PairwiseCell> pairwise;
+  std::vector<WholeDesignRow> whole_design;
+  std::vector<CorrelationRow> correlations;
+  std::vector<KsRow> ks;
+};
+
+// Reads the study (options.study_id, or the only one) and runs everything.
+// Throws DataError for invalid options, no or several studies without an id,
+// or an unknown control; db errors propagate as db::DbError.
+StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options);
+
+// Opens `db_path` read-only-in-spirit (no recovery, quick integrity check),
+// then analyze_study. Throws DataError naming the path if it does not exist.
+StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const AnalysisOptions& options);
+
+// Runs the statistics on records already computed (analyze_study calls it;
+// tests can feed hand-made records). Fills every table of `analysis`.
+void run_statistics(StudyAnalysis& analysis);
+
+// Short label for a setting in plots: initials of multi-word names
+// ("No Force Feedback" -> "NFF", "Inertia + Backlash" -> "I+B"), else the name.
+std::string setting_abbreviation(const std::string& name);
+
+// p-value as the thesis prints it: 2 significant digits, scientific below 1e-3.
+std::string format_p(double p);
+
+// Tables 3.4–3.6 (plus the trial counts) as plain text for a terminal.
+std::string format_headline_tables(const StudyAnalysis& analysis);
+
+}  // namespace hapticlab::analysis

@@ -1,0 +1,120 @@
+#include "app/analyze_command.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "analysis/report/gnuplot.h"
+#include "analysis/report/report.h"
+#include "analysis/stats/data_error.h"
+#include "analysis/study/metrics_csv.h"
+#include "analysis/study/study_analysis.h"
+
+namespace hapticlab::app {
+namespace an = hapticlab::analysis;
+
+namespace {
+
+struct AnalyzeOptions {
+  std::string db;
+  std::string out;
+  std::int64_t study = -1;
+  std::string percentile_method = "matlab";
+  bool include_aborted = false;
+  std::string control;
+  double alpha = 0.05;
+  double min_force_mN = 1.0;
+  bool no_ks = false;
+  std::size_t ks_resamples = 1000;
+  std::size_t ks_stride = 50;
+  std::size_t ks_block = 10;
+  std::uint64_t seed = 1;
+  bool no_plots = false;
+  bool quiet = false;
+};
+
+void run_analyze(const AnalyzeOptions& o) {
+  an::AnalysisOptions options;
+  if (o.study >= 0) options.study_id = o.study;
+  options.percentile_method = an::parse_percentile_method(o.percentile_method);
+  options.include_aborted = o.include_aborted;
+  options.control_setting = o.control;
+  options.alpha = o.alpha;
+  options.min_force_N = o.min_force_mN * 1e-3;
+  options.ks = !o.no_ks;
+  options.ks_resamples = o.ks_resamples;
+  options.ks_stride = o.ks_stride;
+  options.ks_block_length = o.ks_block;
+  options.seed = o.seed;
+  options.validate();
+
+  an::ReportOptions report;
+  report.plots = !o.no_plots;
+  // Fail on a missing gnuplot before minutes of analysis, not after.
+  if (report.plots) an::find_gnuplot();
+
+  const an::StudyAnalysis analysis = an::analyze_study_file(o.db, options);
+  const std::filesystem::path out(o.out);
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) throw an::DataError("--out is '" + o.out + "', but it cannot be created: " + ec.message());
+  an::write_metrics_csv(analysis, out / "metrics.csv");
+  const an::ReportFiles files = an::write_report(analysis, out, report);
+  if (!o.quiet) std::fputs(an::format_headline_tables(analysis).c_str(), stdout);
+  std::printf("\nwrote %s, %s, %s and %zu figure(s) in %s\n", (out / "metrics.csv").c_str(), files.html.c_str(),
+              files.markdown.c_str(), files.figures.size(), (out / "figures").c_str());
+}
+
+}  // namespace
+
+void add_analyze_command(CLI::App& app) {
+  auto opt = std::make_shared<AnalyzeOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "analyze",
+      "Analyse a study database the thesis' way: per-trial metrics (completion time, median and 95th "
+      "percentile tip force, median tip speed, path length), Friedman per participant (Table 3.4), "
+      "control vs each setting at the Sidak level (Tables 3.5/3.6), Durbin / Skillings-Mack over all "
+      "participants, trial-number correlations (Table 3.7), KS with the moving block bootstrap "
+      "(Appendix I). Writes DIR/metrics.csv, DIR/report.html (self-contained), DIR/report.md and "
+      "DIR/figures/*.svg (drawn by gnuplot), and prints Tables 3.4-3.6.");
+  cmd->add_option("--db", opt->db, "Study database (SQLite) to read; it is never modified")->required();
+  cmd->add_option("--out", opt->out, "Directory for metrics.csv, report.html, report.md and figures/ (created)")
+      ->required();
+  cmd->add_option("--study", opt->study, "Study id, required when the database holds more than one study");
+  cmd->add_option("--percentile-method", opt->percentile_method,
+                  "Percentile definition for every median, 95th percentile and quartile: matlab (MATLAB "
+                  "prctile, Hyndman-Fan type 5, the thesis' tool), r7 (R/numpy default), r6, nearest")
+      ->capture_default_str();
+  cmd->add_flag("--include-aborted", opt->include_aborted,
+                "Analyse aborted trials too (by default they are left out and counted in the report)");
+  cmd->add_option("--control", opt->control,
+                  "Control setting for the pairwise and KS comparisons (default: the setting named like "
+                  "'High Fidelity')");
+  cmd->add_option("--alpha", opt->alpha,
+                  "Significance level, in (0, 1): per-participant tests at alpha, pairwise ones at the Sidak "
+                  "level 1-(1-alpha)^(1/m), m = number of settings - 1")
+      ->capture_default_str();
+  cmd->add_option("--min-force-mN", opt->min_force_mN,
+                  "Contact threshold: samples with |F| below it (in mN, >= 0) are left out of the force "
+                  "percentiles (thesis: 1 mN)")
+      ->capture_default_str();
+  cmd->add_flag("--no-ks", opt->no_ks, "Skip the Kolmogorov-Smirnov bootstrap (Appendix I)");
+  cmd->add_option("--ks-resamples", opt->ks_resamples, "KS bootstrap resamples per comparison, >= 1 (thesis: 1000)")
+      ->capture_default_str();
+  cmd->add_option("--ks-stride", opt->ks_stride,
+                  "Keep every k-th sample (k >= 1) of each force and speed series for the KS bootstrap; 50 "
+                  "turns a 1 kHz log into 20 Hz, 1200-2400 samples per 1-2 minute trial")
+      ->capture_default_str();
+  cmd->add_option("--ks-block", opt->ks_block,
+                  "Moving block length in kept samples, >= 1 (10 at stride 50 and 1 kHz = 0.5 s); should "
+                  "cover the series' autocorrelation")
+      ->capture_default_str();
+  cmd->add_option("--seed", opt->seed, "Seed of the KS bootstrap; same seed and data, same result")
+      ->capture_default_str();
+  cmd->add_flag("--no-plots", opt->no_plots, "Write the report without figures (gnuplot not needed)");
+  cmd->add_flag("--quiet", opt->quiet, "Do not print the headline tables");
+  cmd->callback([opt] { run_analyze(*opt); });
+}
+
+}  // namespace hapticlab::app

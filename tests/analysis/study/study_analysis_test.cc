@@ -1,0 +1,273 @@
+#include "analysis/study/study_analysis.h"
+
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "analysis/io/long_csv.h"
+#include "analysis/stats/block_table.h"
+#include "analysis/stats/data_error.h"
+#include "analysis/stats/friedman.h"
+#include "analysis/study/metrics_csv.h"
+#include "study/synthetic_study_db.h"
+
+namespace hapticlab::analysis {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::trial_force_N;
+
+constexpr double kTolerance = 1e-9;
+
+class StudyAnalysisTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    db_path_ = dir_.path() / "study.db";
+    testing::build_synthetic_study(db_path_);
+  }
+  StudyAnalysis analyze(AnalysisOptions options = {}) {
+    options.ks_block_length = 2;  // the synthetic series are 5-6 samples long
+    options.ks_stride = 1;
+    options.ks_resamples = 200;
+    return analyze_study_file(db_path_, options);
+  }
+  testing::ScratchDir dir_;
+  std::filesystem::path db_path_;
+};
+
+const TrialRecord& find_trial(const StudyAnalysis& a, const std::string& participant, const std::string& setting,
+                              int rep) {
+  for (const auto& t : a.trials)
+    if (t.participant == participant && t.setting == setting && t.repetition == rep) return t;
+  throw std::runtime_error("no such trial");
+}
+
+TEST_F(StudyAnalysisTest, CountsAbortedAndUnrunTrials) {
+  const StudyAnalysis a = analyze();
+  EXPECT_EQ(a.counts.analysed, 10u);
+  EXPECT_EQ(a.counts.complete, 10u);
+  EXPECT_EQ(a.counts.aborted_excluded, 1u);
+  EXPECT_EQ(a.counts.aborted_included, 0u);
+  EXPECT_EQ(a.counts.not_run, 1u);
+  EXPECT_EQ(a.counts.without_window, 0u);
+  EXPECT_EQ(a.control, "High Fidelity");
+  EXPECT_EQ(a.settings, (std::vector<std::string>{"High Fidelity", "No Force Feedback", "Cogging"}));
+  EXPECT_EQ(a.participants, (std::vector<std::string>{"P1", "P2"}));
+  for (const auto& t : a.trials) EXPECT_EQ(t.status, "complete");
+}
+
+TEST_F(StudyAnalysisTest, IncludeAbortedTakesThemIn) {
+  AnalysisOptions o;
+  o.include_aborted = true;
+  const StudyAnalysis a = analyze(o);
+  EXPECT_EQ(a.counts.analysed, 11u);
+  EXPECT_EQ(a.counts.aborted_included, 1u);
+  EXPECT_EQ(a.counts.aborted_excluded, 0u);
+  // P1's Cogging now has 3 repetitions against 2: balancing drops one per hand.
+  for (const auto& r : a.friedman) {
+    if (r.participant == "P1" && r.hand == -1 && r.measure == Measure::kForceP95) {
+      EXPECT_EQ(r.test.replicates, 2u);
+      EXPECT_EQ(r.test.dropped, 2u);
+    }
+  }
+}
+
+// The measures match the hand-worked values of synthetic_study_db.h.
+TEST_F(StudyAnalysisTest, MetricsMatchHandWorkedValues) {
+  const StudyAnalysis a = analyze();
+  const TrialRecord& t = find_trial(a, "P1", "No Force Feedback", 2);
+  const double f = trial_force_N(1, 1, 2);
+  ASSERT_TRUE(t.window.has_value());
+  EXPECT_NEAR(t.window->start_s, 0.25, kTolerance);
+  EXPECT_NEAR(t.window->end_s, 0.875, kTolerance);
+  EXPECT_NEAR(t.value(Measure::kCompletionTime, 0), 0.625, kTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceMedian, 0), 3 * f, kTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceP95, 0), 5 * f, kTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceMedian, 1), 1.5 * f, kTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceP95, 1), 2.5 * f, kTolerance);
+  EXPECT_NEAR(t.value(Measure::kSpeedMedian, 0), 4.5 / 64, kTolerance);
+  EXPECT_NEAR(t.value(Measure::kPathLength, 1), 2 * 45.0 / 1024, kTolerance);
+  EXPECT_EQ(t.hands[0].samples, 6u);
+  EXPECT_EQ(t.hands[0].force_samples, 5u);
+}
+
+// Table 3.4 for P1, 95th percentile force: hands are blocks, repetitions
+// replicates, i.e. MATLAB friedman(X, 2) with X rows (left rep 1, left rep 2,
+// right rep 1, right rep 2) and columns HF, NFF, Cogging.
+TEST_F(StudyAnalysisTest, FriedmanPerParticipantUsesHandsAsBlocks) {
+  const StudyAnalysis a = analyze();
+  std::vector<std::vector<double>> x;
+  for (double hand_scale : {5.0, 2.5})
+    for (int rep = 1; rep <= 2; ++rep)
+      x.push_back({hand_scale * trial_force_N(1, 0, rep), hand_scale * trial_force_N(1, 1, rep),
+                   hand_scale * trial_force_N(1, 2, rep)});
+  const TestResult expected = friedman_test(BlockTable::from_matrix(x, 2));
+  bool found = false;
+  for (const auto& r : a.friedman) {
+    if (r.participant != "P1" || r.hand != -1 || r.measure != Measure::kForceP95) continue;
+    found = true;
+    ASSERT_TRUE(r.test.result.has_value()) << r.test.note;
+    EXPECT_NEAR(r.test.result->p, expected.p, 1e-12);
+    EXPECT_NEAR(r.test.result->statistic, expected.statistic, 1e-12);
+    EXPECT_EQ(r.test.result->blocks, 2u);
+    EXPECT_EQ(r.test.replicates, 2u);
+  }
+  EXPECT_TRUE(found);
+  // Completion time is the same everywhere: all ties, p = 1.
+  for (const auto& r : a.friedman)
+    if (r.measure == Measure::kCompletionTime && r.test.result) {
+      EXPECT_DOUBLE_EQ(r.test.result->p, 1.0);
+    }
+}
+
+// Tables 3.5/3.6: HF vs NFF over the 4 participant × hand blocks of P1 and
+// P2; HF vs Cogging only P1's 2 blocks.
+TEST_F(StudyAnalysisTest, PairwiseAgainstControl) {
+  const StudyAnalysis a = analyze();
+  EXPECT_EQ(a.sidak_m, 2u);
+  EXPECT_NEAR(a.sidak_level, 1 - std::sqrt(0.95), 1e-12);
+  std::vector<std::vector<double>> x;
+  for (int p = 1; p <= 2; ++p)
+    for (double hand_scale : {3.0, 1.5})
+      for (int rep = 1; rep <= 2; ++rep)
+        x.push_back({hand_scale * trial_force_N(p, 0, rep), hand_scale * trial_force_N(p, 1, rep)});
+  const TestResult expected = friedman_test(BlockTable::from_matrix(x, 2));
+  int seen = 0;
+  for (const auto& c : a.pairwise) {
+    if (c.measure != Measure::kForceMedian) continue;
+    ++seen;
+    if (c.setting == "No Force Feedback") {
+      EXPECT_EQ(c.participants, 2u);
+      EXPECT_EQ(c.blocks, 4u);
+      ASSERT_TRUE(c.p.has_value());
+      EXPECT_NEAR(*c.p, expected.p, 1e-12);
+      EXPECT_EQ(c.significant, *c.p < a.sidak_level);
+    } else {
+      EXPECT_EQ(c.setting, "Cogging");
+      EXPECT_EQ(c.participants, 1u);
+      EXPECT_EQ(c.blocks, 2u);
+    }
+  }
+  EXPECT_EQ(seen, 2);
+}
+
+// P2 lacks Cogging: the whole design is incomplete and not a BIBD, so
+// Skillings–Mack is used.
+TEST_F(StudyAnalysisTest, WholeDesignPicksSkillingsMack) {
+  const StudyAnalysis a = analyze();
+  ASSERT_EQ(a.whole_design.size(), 5u);
+  for (const auto& r : a.whole_design) {
+    if (r.measure == Measure::kForceP95) {
+      ASSERT_TRUE(r.test.result.has_value()) << r.test.note;
+      EXPECT_EQ(r.test.result->method, "Skillings-Mack");
+      EXPECT_EQ(r.test.result->blocks, 4u);
+    }
+  }
+}
+
+// Force rises with the repetition, and repetitions come in trial order: a
+// positive correlation; completion time is constant, so it has none.
+TEST_F(StudyAnalysisTest, TrialNumberCorrelations) {
+  const StudyAnalysis a = analyze();
+  bool force_seen = false;
+  bool time_seen = false;
+  for (const auto& r : a.correlations) {
+    if (r.participant != "P1") continue;
+    if (r.measure == Measure::kForceP95 && r.hand == 0) {
+      force_seen = true;
+      ASSERT_TRUE(r.result.has_value()) << r.note;
+      EXPECT_GT(r.result->r, 0.0);
+      EXPECT_EQ(r.result->n, 6u);
+    }
+    if (r.measure == Measure::kCompletionTime) {
+      time_seen = true;
+      EXPECT_EQ(r.hand, -1);
+      EXPECT_FALSE(r.result.has_value());
+      EXPECT_FALSE(r.note.empty());
+    }
+  }
+  EXPECT_TRUE(force_seen);
+  EXPECT_TRUE(time_seen);
+}
+
+TEST_F(StudyAnalysisTest, KsComparisonsForEveryHandQuantityAndSetting) {
+  const StudyAnalysis a = analyze();
+  EXPECT_EQ(a.ks.size(), 1u * 2 * 2 * 2);  // task × hand × {force, speed} × 2 settings
+  for (const auto& r : a.ks) {
+    ASSERT_TRUE(r.result.has_value()) << r.note;
+    EXPECT_LE(r.result->intra.low, r.result->intra.high);
+    EXPECT_GE(r.result->inter.low, 0.0);
+    EXPECT_LE(r.result->inter.high, 1.0);
+  }
+}
+
+TEST_F(StudyAnalysisTest, MetricsCsvOneRowPerTrialAndHand) {
+  const StudyAnalysis a = analyze();
+  std::ostringstream out;
+  write_metrics_csv(a, out);
+  const LongCsv csv = LongCsv::parse(out.str(), "metrics.csv");
+  ASSERT_EQ(csv.row_count(), 20u);
+  for (const char* column : {"participant", "task", "setting", "repetition", "trial_number", "hand",
+                             "completion_time_s", "force_median_N", "force_p95_N", "speed_median_m_per_s",
+                             "path_length_m"}) {
+    EXPECT_NO_THROW(csv.column(column)) << column;
+  }
+  int checked = 0;
+  for (std::size_t row = 0; row < csv.row_count(); ++row) {
+    if (csv.text(row, csv.column("participant")) != "P2" || csv.text(row, csv.column("setting")) != "High Fidelity" ||
+        csv.text(row, csv.column("repetition")) != "1" || csv.text(row, csv.column("hand")) != "right")
+      continue;
+    ++checked;
+    const double f = trial_force_N(2, 0, 1);
+    EXPECT_NEAR(csv.number(row, csv.column("force_p95_N")), 2.5 * f, 1e-7);
+    EXPECT_NEAR(csv.number(row, csv.column("completion_time_s")), 0.625, 1e-9);
+    EXPECT_NEAR(csv.number(row, csv.column("path_length_m")), 45.0 / 1024, 1e-9);
+    EXPECT_EQ(csv.text(row, csv.column("task")), "dissection");
+    // P2's schedule interleaves: rep 1 runs NFF (position 1), then HF (2).
+    EXPECT_EQ(csv.text(row, csv.column("trial_number")), "2");
+  }
+  EXPECT_EQ(checked, 1);
+}
+
+TEST_F(StudyAnalysisTest, HeadlineTablesShowThesisLayout) {
+  const std::string text = format_headline_tables(analyze());
+  EXPECT_THAT(text, HasSubstr("Table 3.4"));
+  EXPECT_THAT(text, HasSubstr("Table 3.5"));
+  EXPECT_THAT(text, HasSubstr("dissection P1"));
+  EXPECT_THAT(text, HasSubstr("No Force Feedback (2)"));
+  EXPECT_THAT(text, HasSubstr("Cogging (1)"));
+  EXPECT_THAT(text, HasSubstr("aborted left out: 1"));
+}
+
+TEST_F(StudyAnalysisTest, ErrorsNameTheProblem) {
+  EXPECT_THAT([&] { (void)analyze_study_file(dir_.path() / "missing.db", {}); },
+              ::testing::ThrowsMessage<DataError>(HasSubstr("missing.db")));
+  AnalysisOptions o;
+  o.control_setting = "Nope";
+  EXPECT_THAT([&] { (void)analyze(o); }, ::testing::ThrowsMessage<DataError>(HasSubstr("'High Fidelity'")));
+  AnalysisOptions bad;
+  bad.alpha = 1.5;
+  EXPECT_THAT([&] { (void)analyze_study_file(db_path_, bad); },
+              ::testing::ThrowsMessage<DataError>(HasSubstr("alpha is 1.5")));
+  AnalysisOptions wrong_study;
+  wrong_study.study_id = 99;
+  EXPECT_THAT([&] { (void)analyze(wrong_study); }, ::testing::ThrowsMessage<DataError>(HasSubstr("synthetic")));
+}
+
+TEST(FormatTest, PValuesLikeTheThesis) {
+  EXPECT_EQ(format_p(0.10), "0.1");
+  EXPECT_EQ(format_p(0.0071), "0.0071");
+  EXPECT_EQ(format_p(6.3e-5), "6E-5");
+  EXPECT_EQ(format_p(9.6e-5), "1E-4");
+  EXPECT_EQ(format_p(1.0), "1");
+  EXPECT_EQ(setting_abbreviation("No Force Feedback"), "NFF");
+  EXPECT_EQ(setting_abbreviation("Inertia + Backlash"), "I+B");
+  EXPECT_EQ(setting_abbreviation("Cogging"), "Cogging");
+}
+
+}  // namespace
+}  // namespace hapticlab::analysis
