@@ -121,6 +121,25 @@ TEST(ProtocolExamplesTest, PilotCompleteDesign) {
   EXPECT_DOUBLE_EQ(p.settings[2].settings.engine.translation.friction.dynamic_level, 0.9);
 }
 
+TEST(ProtocolExamplesTest, QuickThesisIsTheAsRunDesignWithTwoRepetitions) {
+  const Protocol full = load_protocol_file(kDir / "thesis_as_run.json");
+  const Protocol quick = load_protocol_file(kDir / "thesis_quick.json");
+  EXPECT_EQ(quick.repetitions_of(Task::kDissection), 2);
+  EXPECT_EQ(quick.repetitions_of(Task::kClip), 2);
+  EXPECT_EQ(quick.seed, full.seed);
+  ASSERT_EQ(quick.participants.size(), full.participants.size());
+  for (std::size_t i = 0; i < quick.participants.size(); ++i) {
+    EXPECT_EQ(quick.participants[i].code, full.participants[i].code);
+    EXPECT_EQ(quick.participants[i].tasks, full.participants[i].tasks);
+    EXPECT_EQ(quick.participants[i].training_trials, full.participants[i].training_trials);
+  }
+  EXPECT_EQ(quick.design.assignments, full.design.assignments);
+  // 5 settings x (2 + 2) for S1 and S2, 5 x 2 for S3 (dissection only).
+  std::size_t trials = 0;
+  for (const auto& p : make_study_plan(quick).participants) trials += p.trials.size();
+  EXPECT_EQ(trials, 50u);
+}
+
 TEST(ProtocolExamplesTest, EveryShippedProtocolLoadsAndPlans) {
   int count = 0;
   for (const auto& entry : std::filesystem::directory_iterator(kDir)) {
@@ -129,7 +148,7 @@ TEST(ProtocolExamplesTest, EveryShippedProtocolLoadsAndPlans) {
     EXPECT_FALSE(plan.participants.empty()) << entry.path();
     ++count;
   }
-  EXPECT_EQ(count, 3);
+  EXPECT_EQ(count, 4);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete
 }
 
 }  // namespace
