@@ -6,11 +6,18 @@
 
 #include "app/bench_engine.h"
 #include "app/engine_demo.h"
+#include "app/study_demo.h"
 #include "app/engine_replay.h"
 #include "app/settings_check.h"
 #include "app/sim_run.h"
 #include "app/stats_command.h"
+#include "app/analyze_command.h"
+#include "app/bench_analyze.h"
+#include "app/study_command.h"
+#include "app/session_command.h"
 #include "app/bench_loop.h"
+#include "app/export_command.h"
+#include "app/bench_db.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"HapticLab: make a high-end haptic device feel like inexpensive hardware, "
@@ -18,11 +25,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", HAPTICLAB_VERSION_STRING);
 
-  hapticlab::app::add_demo_command(app);
+  hapticlab::app::add_study_demo_command(app);
 
   CLI::App* engine = app.add_subcommand("engine", "Run the degradation engine offline");
   engine->require_subcommand(1);
   hapticlab::app::add_engine_replay_command(*engine);
+  hapticlab::app::add_engine_demo_command(*engine);
 
   CLI::App* settings = app.add_subcommand("settings", "Work with settings files");
   settings->require_subcommand(1);
@@ -32,12 +40,18 @@ int main(int argc, char** argv) {
   sim->require_subcommand(1);
   hapticlab::app::add_sim_run_command(*sim);
 
+  hapticlab::app::add_study_command(app);
+  hapticlab::app::add_session_command(app);
   hapticlab::app::add_stats_command(app);
+  hapticlab::app::add_analyze_command(app);
+  hapticlab::app::add_export_command(app);
 
   CLI::App* bench = app.add_subcommand("bench", "Measure performance");
   bench->require_subcommand(1);
   hapticlab::app::add_bench_engine_command(*bench);
   hapticlab::app::add_bench_loop_commands(*bench);
+  hapticlab::app::add_bench_analyze_command(*bench);
+  hapticlab::app::add_bench_db_command(*bench);
 
   if (argc == 1) {
     std::fputs(app.help().c_str(), stdout);

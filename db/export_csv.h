@@ -15,8 +15,9 @@
 // events: trial_id,participant,task,setting,repetition,t_s,type,instrument,index,detail
 //
 // Numbers are the shortest text that reads back to the stored value:
-// float64 channels (t_s, dt_s) exactly, float32 channels to the float32
-// they were stored as. Text fields are quoted when they need it (RFC 4180).
+// float64 channels (t_s, dt_s) exactly as doubles; float32 channels exactly
+// when read as float32 (read as double they give the short decimal, within
+// the codec's 2^-24 relative precision, e.g. "0.0001"). Text fields are quoted when they need it (RFC 4180).
 // Each file is written to "<name>.tmp" and renamed when complete.
 //
 // Study export adds trials.csv: one row per trial with its plan, status,

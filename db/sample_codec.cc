@@ -35,26 +35,8 @@ double* float_channel(InstrumentSample& s, std::size_t channel) noexcept {
   if (k < 20) return &s.displayed_force_N[k - 17];
   return &s.joint_force[k - 20];
 }
-double float_channel(const InstrumentSample& s, std::size_t channel) noexcept {
-  return *float_channel(const_cast<InstrumentSample&>(s), channel);
-}
 constexpr std::size_t kFirstFloat = 2, kEndFloat = 25;
 constexpr std::size_t kEngineStatus = 25, kDeviceStatus = 26, kInContact = 27;
-
-void put_le(std::vector<std::byte>& out, std::uint64_t bits, int bytes) {
-  for (int i = 0; i < bytes; ++i) out.push_back(static_cast<std::byte>(bits >> (8 * i)));
-}
-
-// Writes one channel: `bits(i)` gives sample i's stored bit pattern.
-template <typename Bits>
-void put_channel(std::vector<std::byte>& out, std::size_t n, int bytes, Bits bits) {
-  bool constant = true;
-  const std::uint64_t first = bits(0);
-  for (std::size_t i = 1; i < n && constant; ++i) constant = bits(i) == first;
-  out.push_back(static_cast<std::byte>(constant ? kConstant : kPerUpdate));
-  const std::size_t values = constant ? 1 : n;
-  for (std::size_t i = 0; i < values; ++i) put_le(out, bits(i), bytes);
-}
 
 class Reader {
  public:
@@ -115,14 +97,72 @@ void decode_into(Reader& r, std::size_t count, StoredSample* s) {
 
 }  // namespace
 
-float to_stored_float(double value) noexcept {
-  // A double beyond float's range converts with undefined behaviour; such
-  // a value is stored as infinity of its sign.
+namespace {
+// A double beyond float's range converts with undefined behaviour; such a
+// value is stored as infinity of its sign. Inline here: the encoder calls
+// it 23 times per update.
+inline float stored_float(double value) noexcept {
   constexpr double kMax = std::numeric_limits<float>::max();
   if (value > kMax) return std::numeric_limits<float>::infinity();
   if (value < -kMax) return -std::numeric_limits<float>::infinity();
   return static_cast<float>(value);  // NaN and in-range values
 }
+}  // namespace
+
+float to_stored_float(double value) noexcept { return stored_float(value); }
+
+namespace {
+
+constexpr std::size_t kNumFloat = kEndFloat - kFirstFloat;
+
+// One update's float32 channels in blob order, as stored bit patterns.
+// Spelled out (not looked up per channel) because the encoder runs this
+// for every update on the logging rate's critical path.
+inline void float_bits(const InstrumentSample& v, std::uint32_t* out) noexcept {
+  std::size_t k = 0;
+  const auto put = [&](double x) { out[k++] = std::bit_cast<std::uint32_t>(stored_float(x)); };
+  for (double x : v.raw_position) put(x);
+  for (double x : v.degraded_position) put(x);
+  for (double x : v.tip_position_m) put(x);
+  for (double x : v.tip_velocity_m_per_s) put(x);
+  for (double x : v.ve_force_N) put(x);
+  for (double x : v.displayed_force_N) put(x);
+  for (double x : v.joint_force) put(x);
+}
+
+// Appends to a buffer sized for the worst case up front (the encoder is on
+// the logging rate's critical path: no per-byte push_back).
+class Writer {
+ public:
+  explicit Writer(std::size_t capacity) : out_(capacity) {}
+  void byte(std::uint8_t v) noexcept { out_[pos_++] = static_cast<std::byte>(v); }
+  // Little-endian, `bytes` of `bits` (the machines we run on are
+  // little-endian; the loop spells it out so the format does not depend on it).
+  void le(std::uint64_t bits, int bytes) noexcept {
+    for (int i = 0; i < bytes; ++i) out_[pos_++] = static_cast<std::byte>(bits >> (8 * i));
+  }
+  std::vector<std::byte> take() {
+    out_.resize(pos_);
+    return std::move(out_);
+  }
+
+ private:
+  std::vector<std::byte> out_;
+  std::size_t pos_ = 0;
+};
+
+// One channel from its values' stored bit patterns, update i's at
+// bits[i * stride]: tag, then one value (all equal) or all of them.
+template <typename Bits>
+void put_bits(Writer& w, const Bits* bits, std::size_t n, int bytes, std::size_t stride = 1) {
+  bool constant = true;
+  for (std::size_t i = 1; i < n && constant; ++i) constant = bits[i * stride] == bits[0];
+  w.byte(constant ? kConstant : kPerUpdate);
+  const std::size_t values = constant ? 1 : n;
+  for (std::size_t i = 0; i < values; ++i) w.le(static_cast<std::uint64_t>(bits[i * stride]), bytes);
+}
+
+}  // namespace
 
 std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
   if (s.empty() || s.size() > kMaxChunkUpdates)
@@ -133,11 +173,15 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
       throw std::invalid_argument("encode_chunk(): ticks must be consecutive; tick " + std::to_string(s[i].tick) +
                                   " follows " + std::to_string(s[i - 1].tick));
   const std::size_t n = s.size();
-  std::vector<std::byte> out;
-  out.reserve(1 + kChunkChannels + n * 117);
-  out.push_back(static_cast<std::byte>(kChunkFormat));
+  // Worst case: format, 28 tags, every channel per update, t_s's 8 bytes.
+  constexpr std::size_t kBytesPerUpdate = 8 + 8 + 4 * (kEndFloat - kFirstFloat) + 4 + 4 + 1;
+  Writer w(1 + kChunkChannels + n * kBytesPerUpdate);
+  w.byte(kChunkFormat);
+  std::vector<std::uint64_t> bits64(n);
+  std::vector<std::uint32_t> bits32(n);
 
-  put_channel(out, n, 8, [&](std::size_t i) { return std::bit_cast<std::uint64_t>(s[i].dt_s); });
+  for (std::size_t i = 0; i < n; ++i) bits64[i] = std::bit_cast<std::uint64_t>(s[i].dt_s);
+  put_bits(w, bits64.data(), n, 8);
 
   // t_s: when every t is the previous t plus this dt, bit for bit (the
   // usual case with the virtual clock), t[0] alone restores the rest.
@@ -145,22 +189,25 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
   for (std::size_t i = 1; i < n && running_sum; ++i)
     running_sum = std::bit_cast<std::uint64_t>(s[i - 1].t_s + s[i].dt_s) == std::bit_cast<std::uint64_t>(s[i].t_s);
   if (running_sum) {
-    out.push_back(static_cast<std::byte>(kRunningSum));
-    put_le(out, std::bit_cast<std::uint64_t>(s[0].t_s), 8);
+    w.byte(kRunningSum);
+    w.le(std::bit_cast<std::uint64_t>(s[0].t_s), 8);
   } else {
-    put_channel(out, n, 8, [&](std::size_t i) { return std::bit_cast<std::uint64_t>(s[i].t_s); });
+    for (std::size_t i = 0; i < n; ++i) bits64[i] = std::bit_cast<std::uint64_t>(s[i].t_s);
+    put_bits(w, bits64.data(), n, 8);
   }
 
-  for (std::size_t c = kFirstFloat; c < kEndFloat; ++c)
-    put_channel(out, n, 4, [&](std::size_t i) {
-      return std::uint64_t{std::bit_cast<std::uint32_t>(to_stored_float(float_channel(s[i].value, c)))};
-    });
-  put_channel(out, n, 4, [&](std::size_t i) { return std::uint64_t{s[i].value.engine_status}; });
-  put_channel(out, n, 4, [&](std::size_t i) {
-    return std::uint64_t{std::bit_cast<std::uint32_t>(s[i].device_status)};
-  });
-  put_channel(out, n, 1, [&](std::size_t i) { return std::uint64_t{s[i].value.in_contact ? 1u : 0u}; });
-  return out;
+  // Float channels: converted update by update into an n x 23 table, then
+  // written column by column.
+  std::vector<std::uint32_t> table(n * kNumFloat);
+  for (std::size_t i = 0; i < n; ++i) float_bits(s[i].value, &table[i * kNumFloat]);
+  for (std::size_t c = 0; c < kNumFloat; ++c) put_bits(w, &table[c], n, 4, kNumFloat);
+  for (std::size_t i = 0; i < n; ++i) bits32[i] = s[i].value.engine_status;
+  put_bits(w, bits32.data(), n, 4);
+  for (std::size_t i = 0; i < n; ++i) bits32[i] = std::bit_cast<std::uint32_t>(s[i].device_status);
+  put_bits(w, bits32.data(), n, 4);
+  for (std::size_t i = 0; i < n; ++i) bits32[i] = s[i].value.in_contact ? 1u : 0u;
+  put_bits(w, bits32.data(), n, 1);
+  return w.take();
 }
 
 void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob,

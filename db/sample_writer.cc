@@ -1,14 +1,12 @@
 #include "db/sample_writer.h"
 
+#include <time.h>
+
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace hapticlab::db {
-
-struct SampleWriter::OpenChunk {
-  std::vector<StoredSample> samples;
-  std::int64_t row_id = 0;  // 0: not in the database yet
-};
 
 SampleWriter::SampleWriter(const std::filesystem::path& db_path, std::int64_t trial_id,
                            SpscQueue<LoopSample>& samples, SpscQueue<TaskEvent>& events,
@@ -20,7 +18,7 @@ SampleWriter::SampleWriter(const std::filesystem::path& db_path, std::int64_t tr
   if (config.chunk_updates < 1 || config.chunk_updates > kMaxChunkUpdates)
     throw std::invalid_argument("SampleWriter(): chunk_updates is " + std::to_string(config.chunk_updates) +
                                 ", must be 1.." + std::to_string(kMaxChunkUpdates));
-  if (config.pop_batch < 1) throw std::invalid_argument("SampleWriter(): pop_batch must be >= 1");
+  if (config.pop_batch < 1) throw std::invalid_argument("SampleWriter(): pop_batch is 0, must be >= 1");
 
   OpenOptions options;
   options.integrity = OpenOptions::Integrity::kSkip;  // the runner's own open checked it
@@ -30,9 +28,15 @@ SampleWriter::SampleWriter(const std::filesystem::path& db_path, std::int64_t tr
   if (trial.status != TrialStatus::kRunning)
     throw DbError(db_->path() + ": SampleWriter: trial " + std::to_string(trial_id) + " is " +
                   to_string(trial.status) + ", start it (StudyDb::start_trial) before writing samples");
+  // Everything the thread needs is allocated here, once: the chunk
+  // buffers it fills and the ones it cycles through under a flood.
   batch_.resize(config.pop_batch);
-  chunks_ = std::make_unique<OpenChunk[]>(2);
-  for (int i = 0; i < 2; ++i) chunks_[i].samples.reserve(config.chunk_updates);
+  for (int k = 0; k < 2; ++k) {
+    open_[k].instrument = k;
+    open_[k].samples.reserve(config.chunk_updates);
+  }
+  full_.reserve(kMaxPendingChunks + 2);
+  spare_.reserve(kMaxPendingChunks + 2);
   thread_ = std::thread([this] { run(); });
 }
 
@@ -51,6 +55,7 @@ SampleWriterStats SampleWriter::stats() const noexcept {
   s.commits = commits_.load(std::memory_order_relaxed);
   s.missing_updates = missing_.load(std::memory_order_relaxed);
   s.discarded = discarded_.load(std::memory_order_relaxed);
+  s.thread_cpu_s = thread_cpu_s_.load(std::memory_order_relaxed);
   return s;
 }
 
@@ -60,16 +65,15 @@ void SampleWriter::run() noexcept {
     // stopped, so a pass that then finds both queues empty has seen all.
     const bool stopping = stop_.load(std::memory_order_acquire);
     bool idle = true;
-    try {
-      if (error_ == nullptr) {
-        const std::uint64_t before = updates_.load(std::memory_order_relaxed) + events_stored_.load(std::memory_order_relaxed);
-        drain_once();
-        idle = updates_.load(std::memory_order_relaxed) + events_stored_.load(std::memory_order_relaxed) == before;
-        if (tx_ && std::chrono::steady_clock::now() - tx_began_ >= config_.commit_interval) flush_and_commit();
+    if (error_ == nullptr) {
+      try {
+        idle = drain_once() == 0;
+        // Checked on every pass, idle or not, so data that arrived just
+        // before the producer went quiet is still committed on time.
+        if (commit_due()) flush_and_commit();
+      } catch (...) {
+        error_ = std::current_exception();
       }
-    } catch (...) {
-      error_ = std::current_exception();
-      tx_.reset();  // rolls back the failed batch
     }
     if (error_ != nullptr) {
       // Keep the queues moving (see header) and count what is lost.
@@ -89,31 +93,36 @@ void SampleWriter::run() noexcept {
       flush_and_commit();
     } catch (...) {
       error_ = std::current_exception();
-      tx_.reset();
     }
   }
+  timespec cpu{};
+  if (::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &cpu) == 0)
+    thread_cpu_s_.store(static_cast<double>(cpu.tv_sec) + 1e-9 * static_cast<double>(cpu.tv_nsec),
+                        std::memory_order_relaxed);
 }
 
 // One bulk of each queue per call, so the commit check stays timely under
-// a flood.
-void SampleWriter::drain_once() {
+// a flood. Returns how many items it popped. Samples first, then events:
+// the loop queues an update's events before its sample, so in this order
+// every event up to the last popped sample is in hand, and a commit never
+// holds a sample without the events that led up to it.
+std::size_t SampleWriter::drain_once() {
+  const std::size_t n = samples_.pop_bulk(batch_.data(), batch_.size());
   TaskEvent events[64];
-  {
-    const std::size_t n = samples_.pop_bulk(batch_.data(), batch_.size());
-    const std::size_t m = events_.pop_bulk(events, 64);
-    if (n + m == 0) return;
-    if (!tx_) {
-      tx_ = std::make_unique<Transaction>(db_->connection());
-      tx_began_ = std::chrono::steady_clock::now();
-    }
-    for (std::size_t i = 0; i < n; ++i) store_sample(batch_[i]);
-    for (std::size_t i = 0; i < m; ++i) {
-      const TaskEvent& e = events[i];
-      db_->add_event({trial_id_, e.t_s, to_string(e.type), e.instrument, e.index, {}});
-    }
-    updates_.fetch_add(n, std::memory_order_relaxed);
-    events_stored_.fetch_add(m, std::memory_order_relaxed);
+  const std::size_t m = events_.pop_bulk(events, 64);
+  if (n + m == 0) return 0;
+  if (!pending_) {
+    pending_ = true;
+    pending_since_ = std::chrono::steady_clock::now();
   }
+  for (std::size_t i = 0; i < m; ++i) {
+    const TaskEvent& e = events[i];
+    pending_events_.push_back({trial_id_, e.t_s, to_string(e.type), e.instrument, e.index, {}});
+  }
+  pending_task_events_ += m;
+  for (std::size_t i = 0; i < n; ++i) store_sample(batch_[i]);
+  pending_updates_ += n;
+  return n + m;
 }
 
 void SampleWriter::store_sample(const LoopSample& sample) {
@@ -124,43 +133,77 @@ void SampleWriter::store_sample(const LoopSample& sample) {
                     " (ticks must increase)");
     const std::uint64_t missing = sample.tick - last_tick_ - 1;
     missing_.fetch_add(missing, std::memory_order_relaxed);
-    db_->add_event({trial_id_, sample.t_s, "samples_missing", -1, static_cast<std::int64_t>(missing),
-                    "updates " + std::to_string(last_tick_ + 1) + ".." + std::to_string(sample.tick - 1) +
-                        " never reached the writer (sample queue full)"});
+    pending_events_.push_back({trial_id_, sample.t_s, "samples_missing", -1, static_cast<std::int64_t>(missing),
+                               "updates " + std::to_string(last_tick_ + 1) + ".." + std::to_string(sample.tick - 1) +
+                                   " never reached the writer (sample queue full)"});
   }
   have_tick_ = true;
   last_tick_ = sample.tick;
   last_t_s_ = sample.t_s;
   for (int k = 0; k < 2; ++k) {
-    OpenChunk& c = chunks_[k];
+    OpenChunk& c = open_[k];
     // A chunk holds consecutive ticks only: a gap closes it.
-    if (!c.samples.empty() && c.samples.back().tick + 1 != sample.tick) write_chunk(k, false);
+    if (!c.samples.empty() && c.samples.back().tick + 1 != sample.tick) close_chunk(k);
     c.samples.push_back({sample.tick, sample.t_s, sample.dt_s, sample.device_status,
                          sample.instrument[static_cast<std::size_t>(k)]});
-    if (c.samples.size() >= config_.chunk_updates) write_chunk(k, false);
+    if (c.samples.size() >= config_.chunk_updates) close_chunk(k);
   }
 }
 
-void SampleWriter::write_chunk(int instrument, bool keep_open) {
-  OpenChunk& c = chunks_[instrument];
-  if (!c.samples.empty()) {
-    if (c.row_id == 0) c.row_id = db_->insert_chunk(trial_id_, instrument, c.samples);
-    else db_->update_chunk(c.row_id, c.samples);
+// The open chunk is complete: park it for the next commit and start a new
+// one in a recycled buffer.
+void SampleWriter::close_chunk(int instrument) {
+  OpenChunk& c = open_[instrument];
+  OpenChunk done;
+  done.instrument = instrument;
+  done.row_id = c.row_id;
+  done.samples = std::move(c.samples);
+  full_.push_back(std::move(done));
+  c.row_id = 0;
+  if (!spare_.empty()) {
+    c.samples = std::move(spare_.back());
+    spare_.pop_back();
+  } else {
+    c.samples = std::vector<StoredSample>();
+    c.samples.reserve(config_.chunk_updates);
   }
-  if (!keep_open) {
-    c.samples.clear();
-    c.row_id = 0;
-  }
+}
+
+void SampleWriter::write_chunk(OpenChunk& c) {
+  if (c.samples.empty()) return;
+  if (c.row_id == 0) c.row_id = db_->insert_chunk(trial_id_, c.instrument, c.samples);
+  else db_->update_chunk(c.row_id, c.samples);
+}
+
+bool SampleWriter::commit_due() const noexcept {
+  if (!pending_) return false;
+  return full_.size() >= kMaxPendingChunks ||
+         std::chrono::steady_clock::now() - pending_since_ >= config_.commit_interval;
 }
 
 void SampleWriter::flush_and_commit() {
-  if (!tx_) return;
-  // Partial chunks go in now (and are rewritten as they grow) so a crash
-  // loses at most one commit interval.
-  for (int k = 0; k < 2; ++k) write_chunk(k, true);
-  tx_->commit();
-  tx_.reset();
+  if (!pending_) return;
+  Transaction tx(db_->connection());
+  for (OpenChunk& c : full_) write_chunk(c);
+  // Partial chunks go in too (and are rewritten in place as they grow), so
+  // a crash loses at most one commit interval.
+  for (OpenChunk& c : open_) write_chunk(c);
+  for (const EventRow& e : pending_events_) db_->add_event(e);
+  tx.commit();
+
+  // Committed: account for it and recycle the closed chunks' buffers.
+  updates_.fetch_add(pending_updates_, std::memory_order_relaxed);
+  events_stored_.fetch_add(pending_task_events_, std::memory_order_relaxed);
   commits_.fetch_add(1, std::memory_order_relaxed);
+  for (OpenChunk& c : full_) {
+    c.samples.clear();
+    spare_.push_back(std::move(c.samples));
+  }
+  full_.clear();
+  pending_events_.clear();
+  pending_updates_ = 0;
+  pending_task_events_ = 0;
+  pending_ = false;
 }
 
 void SampleWriter::finish(const TrialOutcome& outcome) {

@@ -9,13 +9,16 @@
 //   events ──► event rows;  every commit_interval: COMMIT
 //
 // The producer is never blocked: this thread only pops, and sleeps
-// idle_poll when both queues are empty (the loop does not signal).
+// idle_poll when both queues are empty (the loop does not signal, since a
+// real-time thread must not make system calls to wake another).
 //
-// Durability: data popped from the queue is committed at most
-// commit_interval after the transaction holding it began; the open chunk
-// is written at every commit and rewritten in place while it grows, so a
+// Durability: data popped from the queue waits in memory and is committed
+// at most commit_interval after the first of it was popped (sooner under a
+// flood, when kMaxPendingChunks chunks have filled); the open chunk is
+// written at every commit and rewritten in place while it grows, so a
 // killed process loses about the last commit_interval of samples (plus
-// what was still in the queue) and chunks stay full-sized.
+// what was still in the queue) and chunks stay full-sized. Each commit is
+// one short transaction, so other connections can write in between.
 //
 // Drops are never silent. A tick that jumps forward (the loop dropped
 // updates in between) is logged at once as a "samples_missing" event with
@@ -46,11 +49,22 @@
 
 namespace hapticlab::db {
 
+// Full chunks (per both instruments) held before a commit is forced, which
+// bounds the writer's memory when the queue is flooded.
+inline constexpr std::size_t kMaxPendingChunks = 16;
+
 struct SampleWriterConfig {
-  std::chrono::milliseconds commit_interval{100};  // > 0
+  // > 0. Popped data is committed at most this long after it was popped,
+  // so a killed process loses about this much plus what was still queued;
+  // 50 ms leaves margin under the 100 ms for a loaded machine.
+  std::chrono::milliseconds commit_interval{50};
   std::size_t chunk_updates = 1000;                // updates per chunk and instrument, 1..kMaxChunkUpdates
   std::size_t pop_batch = 1024;                    // LoopSamples popped at once, >= 1
-  std::chrono::microseconds idle_poll{1000};       // sleep when both queues are empty
+  // Sleep when both queues are empty. At 1 kHz the queues hold seconds, so
+  // a few ms costs nothing but wakes the writer (and disturbs the loop's
+  // core) 5x less often than 1 ms; it adds at most this much to what a
+  // crash can lose (commit_interval + idle_poll, 55 ms by default).
+  std::chrono::microseconds idle_poll{5000};
 };
 
 struct TrialOutcome {
@@ -63,11 +77,14 @@ struct TrialOutcome {
 
 // Counters, readable from any thread while the writer runs.
 struct SampleWriterStats {
-  std::uint64_t updates = 0;          // LoopSamples stored (2 instrument-samples each)
-  std::uint64_t events = 0;           // TaskEvents stored
+  std::uint64_t updates = 0;          // LoopSamples committed (2 instrument-samples each)
+  std::uint64_t events = 0;           // TaskEvents committed
   std::uint64_t commits = 0;
   std::uint64_t missing_updates = 0;  // sum of tick jumps seen
   std::uint64_t discarded = 0;        // LoopSamples popped after a database error
+  // CPU time the writer thread used [s], set when the thread ends (0 while
+  // it runs): what logging costs, independent of what else the machine does.
+  double thread_cpu_s = 0.0;
 };
 
 class SampleWriter {
@@ -94,11 +111,19 @@ class SampleWriter {
   std::int64_t trial_id() const noexcept { return trial_id_; }
 
  private:
-  struct OpenChunk;
+  // Consecutive updates of one instrument, and the row holding them once
+  // they have been written (0: not yet).
+  struct OpenChunk {
+    int instrument = 0;
+    std::vector<StoredSample> samples;
+    std::int64_t row_id = 0;
+  };
   void run() noexcept;
-  void drain_once();
+  std::size_t drain_once();
   void store_sample(const LoopSample& sample);
-  void write_chunk(int instrument, bool keep_open);
+  void close_chunk(int instrument);
+  void write_chunk(OpenChunk& chunk);
+  bool commit_due() const noexcept;
   void flush_and_commit();
   void stop_thread() noexcept;
 
@@ -107,12 +132,20 @@ class SampleWriter {
   SpscQueue<TaskEvent>& events_;
   const SampleWriterConfig config_;
   std::unique_ptr<StudyDb> db_;  // used by the thread, then by finish() after join
-  std::unique_ptr<OpenChunk[]> chunks_;  // one per instrument
-  std::vector<LoopSample> batch_;        // pop_bulk target
+  std::vector<LoopSample> batch_;  // pop_bulk target
 
-  // Thread state.
-  std::unique_ptr<Transaction> tx_;
-  std::chrono::steady_clock::time_point tx_began_;
+  // Thread state. What was popped waits here, in memory, for the next
+  // commit, which writes it all in one short transaction: the write lock
+  // is held for milliseconds, not for the whole commit interval, so the
+  // runner's own connection can write (an operator note) mid-trial.
+  OpenChunk open_[2];                     // growing chunk per instrument
+  std::vector<OpenChunk> full_;           // chunks closed since the last commit
+  std::vector<std::vector<StoredSample>> spare_;  // emptied buffers, reused
+  std::vector<EventRow> pending_events_;
+  std::uint64_t pending_updates_ = 0;     // LoopSamples popped since the last commit
+  std::uint64_t pending_task_events_ = 0;  // TaskEvents among pending_events_
+  bool pending_ = false;                  // anything to commit
+  std::chrono::steady_clock::time_point pending_since_;
   bool have_tick_ = false;
   std::uint64_t last_tick_ = 0;
   double last_t_s_ = 0.0;
@@ -120,6 +153,7 @@ class SampleWriter {
 
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> updates_{0}, events_stored_{0}, commits_{0}, missing_{0}, discarded_{0};
+  std::atomic<double> thread_cpu_s_{0.0};
   std::thread thread_;
   bool finished_ = false;
 };

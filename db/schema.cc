@@ -109,9 +109,42 @@ INSERT INTO loop_timing (trial_id, dropped_samples)
 ALTER TABLE trial DROP COLUMN dropped_samples;
 )sql";
 
+// Version 3: an aborted trial is re-queued as a planned copy at the same
+// position, so (participant, position) is unique only among trials that are
+// not aborted. SQLite cannot drop a table constraint, so trial is rebuilt
+// (the documented 12-step procedure: migrate() turns foreign keys off around
+// the transaction and runs foreign_key_check before committing).
+constexpr const char* kV3 = R"sql(
+CREATE TABLE trial_v3 (
+  id             INTEGER PRIMARY KEY,
+  participant_id INTEGER NOT NULL REFERENCES participant (id),
+  task           TEXT NOT NULL,
+  setting_id     INTEGER NOT NULL REFERENCES setting (id),
+  repetition     INTEGER NOT NULL,
+  block          INTEGER NOT NULL,
+  position       INTEGER NOT NULL,
+  status         TEXT NOT NULL DEFAULT 'planned'
+                 CHECK (status IN ('planned', 'running', 'complete', 'aborted')),
+  session_id     INTEGER REFERENCES session (id),
+  started_unix_s REAL,
+  ended_unix_s   REAL,
+  abort_reason   TEXT
+);
+INSERT INTO trial_v3 (id, participant_id, task, setting_id, repetition, block, position, status, session_id,
+                      started_unix_s, ended_unix_s, abort_reason)
+  SELECT id, participant_id, task, setting_id, repetition, block, position, status, session_id,
+         started_unix_s, ended_unix_s, abort_reason FROM trial;
+DROP TABLE trial;
+ALTER TABLE trial_v3 RENAME TO trial;
+CREATE UNIQUE INDEX trial_live_position ON trial (participant_id, position) WHERE status <> 'aborted';
+CREATE INDEX trial_by_participant ON trial (participant_id, status, position, id);
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
+    {3, "trial: (participant, position) unique among trials not aborted, so an aborted trial can be re-queued",
+     kV3},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 
@@ -137,6 +170,36 @@ int version_or_refuse(Database& db) {
   return static_cast<int>(version);
 }
 
+// Foreign keys off for the lifetime of the guard. The pragma is a no-op
+// inside a transaction, so the guard must be made before BEGIN and dropped
+// after COMMIT or ROLLBACK.
+class ForeignKeysOff {
+ public:
+  explicit ForeignKeysOff(Database& db) : db_(db) { db_.exec("PRAGMA foreign_keys = OFF"); }
+  ~ForeignKeysOff() {
+    try {
+      db_.exec("PRAGMA foreign_keys = ON");
+    } catch (...) {
+      // Destructors do not throw; a connection that cannot run a pragma
+      // fails its next statement anyway.
+    }
+  }
+  ForeignKeysOff(const ForeignKeysOff&) = delete;
+  ForeignKeysOff& operator=(const ForeignKeysOff&) = delete;
+
+ private:
+  Database& db_;
+};
+
+// Rebuilding a table (step 3) must not leave a child row pointing nowhere.
+void check_foreign_keys(Database& db, int found) {
+  Statement s = db.prepare("PRAGMA foreign_key_check");
+  if (s.step())
+    throw DbError(db.path() + ": migration from schema version " + std::to_string(found) +
+                  " left a broken reference (table " + s.column_text(0) + " row " + std::to_string(s.column_int64(1)) +
+                  " -> " + s.column_text(2) + "), database left at version " + std::to_string(found));
+}
+
 }  // namespace
 
 std::span<const Migration> migrations() { return kMigrations; }
@@ -145,6 +208,7 @@ int check_schema_version(Database& db) { return version_or_refuse(db); }
 
 int migrate(Database& db) {
   if (version_or_refuse(db) == kSchemaVersion) return kSchemaVersion;
+  ForeignKeysOff fk_off(db);
   Transaction tx(db);
   // Read again under the write lock: another process may have migrated
   // the file between the first look and BEGIN IMMEDIATE.
@@ -160,6 +224,7 @@ int migrate(Database& db) {
                     e.sqlite_code());
     }
   }
+  check_foreign_keys(db, found);
   db.exec("PRAGMA user_version = " + std::to_string(kSchemaVersion));
   db.exec("PRAGMA application_id = " + std::to_string(kApplicationId));
   tx.commit();

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <cstring>
+#include <fstream>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -65,6 +67,24 @@ TrialRow read_trial(const Statement& s) {
   return r;
 }
 
+// Every SQLite 3 file starts with these 16 bytes (fileformat2.html, 1.3).
+// SQLite itself would only say "file is not a database" from whichever
+// pragma came first; this says which file and what was expected. An empty
+// or missing file is fine: it becomes a new database.
+void refuse_non_sqlite_file(const std::filesystem::path& path) {
+  static constexpr char kMagic[16] = {'S', 'Q', 'L', 'i', 't', 'e', ' ', 'f', 'o', 'r', 'm', 'a', 't', ' ', '3', '\0'};
+  if (path == ":memory:") return;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return;  // missing: created, or refused by the open with its own message
+  char head[sizeof kMagic] = {};
+  in.read(head, sizeof head);
+  const auto got = static_cast<std::size_t>(in.gcount());
+  if (got == 0) return;
+  if (got < sizeof head || std::memcmp(head, kMagic, sizeof head) != 0)
+    throw DbError(path.string() + ": not an SQLite database file (it does not start with \"SQLite format 3\"); "
+                  "expected a HapticLab study database, as made by `hapticlab study create`");
+}
+
 }  // namespace
 
 const char* to_string(TrialStatus status) noexcept {
@@ -104,13 +124,17 @@ double unix_now_s() noexcept {
 
 StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
     : db_(path, options.read_only ? Database::Mode::kReadOnly : Database::Mode::kReadWriteCreate) {
+  refuse_non_sqlite_file(path);
+  // The check comes before anything else reads the schema, so a damaged
+  // file is reported as damaged, with SQLite's findings, and not as the
+  // failure of whichever statement happened to trip over it first.
+  check_integrity(options.integrity);
   if (!options.read_only) {
-    // journal_mode cannot change inside a transaction, so it comes first.
-    // In-memory databases answer "memory" and stay so.
+    // journal_mode cannot change inside a transaction, so it comes before
+    // the migration. In-memory databases answer "memory" and stay so.
     db_.exec("PRAGMA journal_mode = WAL");
     db_.exec("PRAGMA synchronous = NORMAL");
   }
-  check_integrity(options.integrity);
   if (options.read_only) {
     version_found_ = check_schema_version(db_);
     if (version_found_ != kSchemaVersion)
@@ -336,7 +360,7 @@ TrialRow StudyDb::trial(std::int64_t id) {
 
 std::vector<TrialRow> StudyDb::trials(std::optional<std::int64_t> study_id) {
   Statement s = db_.prepare(std::string("SELECT ") + kTrialColumns +
-                            "WHERE ?1 IS NULL OR p.study_id = ?1 ORDER BY p.study_id, p.code, t.position");
+                            "WHERE ?1 IS NULL OR p.study_id = ?1 ORDER BY p.study_id, p.code, t.position, t.id");
   bind_opt(s, 1, study_id);
   std::vector<TrialRow> out;
   while (s.step()) out.push_back(read_trial(s));
@@ -345,10 +369,27 @@ std::vector<TrialRow> StudyDb::trials(std::optional<std::int64_t> study_id) {
 
 std::optional<std::int64_t> StudyDb::next_planned_trial(std::int64_t participant_id) {
   Statement s = db_.prepare(
-      "SELECT id FROM trial WHERE participant_id = ?1 AND status = 'planned' ORDER BY position LIMIT 1");
+      "SELECT id FROM trial WHERE participant_id = ?1 AND status = 'planned' ORDER BY position, id LIMIT 1");
   s.bind(1, participant_id);
   if (!s.step()) return std::nullopt;
   return s.column_int64(0);
+}
+
+std::int64_t StudyDb::requeue_trial(std::int64_t trial_id) {
+  const TrialRow t = trial(trial_id);
+  if (t.status != TrialStatus::kAborted)
+    throw DbError(db_.path() + ": requeue_trial: trial " + std::to_string(trial_id) + " is " + to_string(t.status) +
+                  ", only an aborted trial can be re-queued");
+  // One live (not aborted) trial per position: a second re-queue of the
+  // same slot would run it twice.
+  Statement live = db_.prepare(
+      "SELECT id, status FROM trial WHERE participant_id = ?1 AND position = ?2 AND status <> 'aborted'");
+  live.bind(1, t.participant_id).bind(2, std::int64_t{t.position});
+  if (live.step())
+    throw DbError(db_.path() + ": requeue_trial: position " + std::to_string(t.position) + " of participant " +
+                  t.participant_code + " already holds trial " + std::to_string(live.column_int64(0)) + " (" +
+                  live.column_text(1) + "); trial " + std::to_string(trial_id) + " is not re-queued twice");
+  return add_trial(t);
 }
 
 // --- events and loop timing

@@ -2,11 +2,12 @@
 // StudyDb: typed access to a study database (tables in db/README.md).
 //
 // Opening a file, in this order:
-//   1. WAL journal, synchronous = NORMAL: a committed transaction survives
+//   0. A file that is not SQLite at all is refused, naming it.
+//   1. PRAGMA integrity_check (or quick_check); a damaged file is refused
+//      with SQLite's findings.
+//   2. WAL journal, synchronous = NORMAL: a committed transaction survives
 //      a killed process (not necessarily a power cut in its last instant),
 //      and readers never block the writer.
-//   2. PRAGMA integrity_check (or quick_check); a damaged file is refused
-//      with SQLite's findings.
 //   3. Migration to the current schema version (schema.h), all or nothing.
 //   4. Recovery: a trial left 'running' (the runner crashed or was killed)
 //      becomes 'aborted' with reason kInterruptedReason, its samples kept;
@@ -170,9 +171,17 @@ class StudyDb {
   // not running or `status` is neither.
   void end_trial(std::int64_t trial_id, TrialStatus status, std::string_view abort_reason = {});
   TrialRow trial(std::int64_t id);
-  // All trials (of one study, if given), by participant then position.
+  // All trials (of one study, if given), by participant, position, then id.
   std::vector<TrialRow> trials(std::optional<std::int64_t> study_id = std::nullopt);
+  // The participant's next trial to run: the planned one earliest in the
+  // schedule; of two at one position (a re-queued copy), the lower id.
   std::optional<std::int64_t> next_planned_trial(std::int64_t participant_id);
+  // Re-queues an aborted trial: a planned copy of its plan at the same
+  // position, so it runs again in its place in the schedule; returns the
+  // copy's id. The aborted trial keeps its samples and status. Throws
+  // DbError if the trial is not aborted or its position already holds a
+  // trial that is not aborted (planned, running or complete).
+  std::int64_t requeue_trial(std::int64_t trial_id);
 
   // --- events and loop timing
   void add_event(const EventRow& event);

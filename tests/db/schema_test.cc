@@ -1,5 +1,7 @@
 #include "db/schema.h"
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,19 @@ std::vector<std::string> tables(Database& db) {
   std::vector<std::string> out;
   Statement s = db.prepare("SELECT name FROM sqlite_schema WHERE type = 'table' ORDER BY name");
   while (s.step()) out.push_back(s.column_text(0));
+  return out;
+}
+
+// Every table and index as SQLite stores its definition, whitespace removed.
+std::vector<std::string> schema_sql(Database& db) {
+  std::vector<std::string> out;
+  Statement s = db.prepare("SELECT type, name, coalesce(sql, '') FROM sqlite_schema ORDER BY type, name");
+  while (s.step()) {
+    // Without whitespace: the hand-made version 1 is laid out differently.
+    std::string sql = s.column_text(2);
+    std::erase_if(sql, [](char c) { return c == ' ' || c == '\n' || c == '\t'; });
+    out.push_back(s.column_text(0) + " " + s.column_text(1) + ": " + sql);
+  }
   return out;
 }
 
@@ -61,14 +76,41 @@ TEST(Schema, ReopeningDoesNotMigrateAgain) {
 TEST(Schema, NewerVersionIsRefusedNamingTheVersions) {
   testing::TempDir dir;
   const auto path = dir.file("future.db");
-  { StudyDb db(path); db.connection().exec("PRAGMA user_version = 3"); }
-  try {
-    StudyDb db(path);
-    FAIL() << "opened a version 3 database";
-  } catch (const DbError& e) {
-    EXPECT_THAT(e.what(), AllOf(HasSubstr(path.string()), HasSubstr("version 3"), HasSubstr("newer"),
-                                HasSubstr("supports (2)")));
+  const std::string future = std::to_string(kSchemaVersion + 1);
+  { StudyDb db(path); db.connection().exec("PRAGMA user_version = " + future); }
+  for (const bool read_only : {false, true}) {
+    OpenOptions options;
+    options.read_only = read_only;
+    try {
+      StudyDb db(path, options);
+      FAIL() << "opened a version " << future << " database";
+    } catch (const DbError& e) {
+      EXPECT_THAT(e.what(), AllOf(HasSubstr(path.string()), HasSubstr("version " + future), HasSubstr("newer"),
+                                  HasSubstr("supports (" + std::to_string(kSchemaVersion) + ")")));
+    }
   }
+  // Refused without a change: the file still says what it said.
+  Database raw(path);
+  EXPECT_EQ(raw.pragma_int("user_version"), kSchemaVersion + 1);
+}
+
+TEST(Schema, NonSqliteFileIsRefusedNamingTheFile) {
+  testing::TempDir dir;
+  const auto path = dir.file("notes.db");
+  const std::string text = "participant,force_N\nP01,1.5\n" + std::string(2000, 'x');
+  std::ofstream(path, std::ios::binary) << text;
+  for (const bool read_only : {false, true}) {
+    OpenOptions options;
+    options.read_only = read_only;
+    try {
+      StudyDb db(path, options);
+      FAIL() << "opened a CSV file as a study database";
+    } catch (const DbError& e) {
+      EXPECT_THAT(e.what(), AllOf(HasSubstr(path.string()), HasSubstr("not an SQLite database")));
+    }
+  }
+  // ... and left it alone.
+  EXPECT_EQ(std::filesystem::file_size(path), text.size());
 }
 
 TEST(Schema, ForeignDatabaseIsRefused) {
@@ -152,7 +194,7 @@ TEST(Schema, MigratesAVersion1DatabaseKeepingItsData) {
 
   StudyDb db(path);
   EXPECT_EQ(db.schema_version_found(), 1);
-  EXPECT_EQ(db.connection().pragma_int("user_version"), 2);
+  EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
 
   // The data survived.
   const StudyRow study = db.study(1);
@@ -188,10 +230,66 @@ TEST(Schema, MigratesAVersion1DatabaseKeepingItsData) {
   db.add_training(training);
   EXPECT_EQ(db.training(1).size(), 1u);
 
-  // And the migrated layout is exactly the fresh one.
+  // And the migrated layout is exactly the fresh one, indexes included.
   StudyDb fresh(dir.file("fresh.db"));
   for (const std::string& table : tables(fresh.connection()))
     EXPECT_EQ(columns(db.connection(), table), columns(fresh.connection(), table)) << table;
+  EXPECT_EQ(schema_sql(db.connection()), schema_sql(fresh.connection()));
+  EXPECT_EQ(db.connection().pragma_int("foreign_keys"), 1) << "migration turns foreign keys back on";
+}
+
+// Version 2 built by running only migrations 1 and 2 (as a version 2
+// HapticLab did), holding an aborted trial and the data hanging off it.
+TEST(Schema, MigratesAVersion2DatabaseAndAllowsRequeueingAbortedTrials) {
+  testing::TempDir dir;
+  const auto path = dir.file("v2.db");
+  std::vector<StoredSample> samples = some_samples();
+  {
+    Database db(path);
+    for (const Migration& m : migrations().first(2)) db.exec(m.sql);
+    db.exec("PRAGMA user_version = 2; PRAGMA application_id = 1212956994;");
+    db.exec(R"sql(
+      INSERT INTO study VALUES (1, 's', '{}', ')sql" + sha256_hex("{}") + R"sql(', '5', '0.1.0', '2024-01-01T00:00:00.000Z');
+      INSERT INTO participant VALUES (1, 1, 'P01');
+      INSERT INTO setting VALUES (1, 1, 'No FFB', '{}');
+      INSERT INTO session VALUES (1, 1, 1.7e9, NULL, 'sim', 'wall', 'interrupted');
+      INSERT INTO trial VALUES (1, 1, 'clip', 1, 1, 1, 1, 'complete', 1, 1.7e9, 1.7e9 + 60, NULL);
+      INSERT INTO trial VALUES (2, 1, 'clip', 1, 2, 1, 2, 'aborted', 1, 1.7e9 + 61, NULL, 'operator abort');
+      INSERT INTO trial VALUES (3, 1, 'clip', 1, 3, 1, 3, 'planned', NULL, NULL, NULL, NULL);
+      INSERT INTO loop_timing (trial_id, count, p99_period_s, dropped_samples) VALUES (2, 900, 0.00105, 4);
+      INSERT INTO event VALUES (1, 2, 0.5, 'contact_start', 1, 0, NULL);
+    )sql");
+    db.prepare("INSERT INTO sample_chunk VALUES (1, 2, 1, 10, 50, ?1, ?2)")
+        .bind(1, samples[0].t_s).bind_blob(2, encode_chunk(samples)).run();
+    // Version 2 could not hold the re-queued copy at the aborted trial's position.
+    EXPECT_THROW(db.exec("INSERT INTO trial (participant_id, task, setting_id, repetition, block, position) "
+                         "VALUES (1, 'clip', 1, 2, 1, 2)"),
+                 DbError);
+  }
+
+  StudyDb db(path);
+  EXPECT_EQ(db.schema_version_found(), 2);
+  EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
+  // Rows, references and ids survived the rebuild of trial.
+  EXPECT_EQ(db.trial(1).status, TrialStatus::kComplete);
+  EXPECT_EQ(db.trial(2).abort_reason, "operator abort");
+  EXPECT_EQ(db.trial(2).setting_name, "No FFB");
+  ASSERT_EQ(db.samples(2, 1).size(), samples.size());
+  EXPECT_EQ(db.samples(2, 1).back().t_s, samples.back().t_s);
+  EXPECT_EQ(db.events(2).at(0).type, "contact_start");
+  EXPECT_EQ(db.loop_timing(2)->timing->p99_period_s, 0.00105);
+  EXPECT_EQ(db.loop_timing(2)->dropped_samples, 4u);
+  Statement fk = db.connection().prepare("PRAGMA foreign_key_check");
+  EXPECT_FALSE(fk.step()) << "a row points nowhere after the migration";
+
+  // Now the aborted trial re-queues in place and runs before position 3.
+  const std::int64_t copy = db.requeue_trial(2);
+  EXPECT_EQ(db.trial(copy).position, 2);
+  EXPECT_EQ(db.trial(copy).status, TrialStatus::kPlanned);
+  EXPECT_EQ(db.next_planned_trial(1), copy);
+  // Foreign keys are enforced again on this connection.
+  EXPECT_THROW(db.connection().exec("INSERT INTO event (trial_id, t_s, type, instrument) VALUES (99, 0, 'x', -1)"),
+               DbError);
 }
 
 TEST(Schema, FailedMigrationLeavesTheFileAsItWas) {

@@ -80,6 +80,50 @@ TEST(StudyDb, TrialLifecycleAndSchedule) {
   EXPECT_FALSE(db.next_planned_trial(p).has_value());
 }
 
+TEST(StudyDb, AbortedTrialIsRequeuedInPlaceAndRunsBeforeLaterPositions) {
+  StudyDb db(":memory:");
+  const std::int64_t study = db.add_study({"s", "{}", 1, "v"});
+  const std::int64_t p = db.add_participant(study, "P01");
+  const std::int64_t hf = db.add_setting_json(study, "High Fidelity", "{}");
+  const std::int64_t t1 = db.add_trial({p, "clip", hf, 1, 1, 1});
+  const std::int64_t t2 = db.add_trial({p, "clip", hf, 2, 1, 2});
+  const std::int64_t session = db.begin_session(p, "sim", "wall");
+  EXPECT_THROW(db.requeue_trial(t1), DbError) << "a planned trial is already queued";
+
+  db.start_trial(t1, session);
+  db.end_trial(t1, TrialStatus::kAborted, "operator abort");
+  const std::int64_t copy = db.requeue_trial(t1);
+  EXPECT_GT(copy, t2);
+  // The copy has the larger id but the earlier position: it runs first.
+  EXPECT_EQ(db.next_planned_trial(p), copy);
+  const TrialRow c = db.trial(copy);
+  EXPECT_EQ(c.status, TrialStatus::kPlanned);
+  EXPECT_EQ(c.position, 1);
+  EXPECT_EQ(c.repetition, 1);
+  EXPECT_EQ(c.task, "clip");
+  EXPECT_EQ(c.setting_id, hf);
+  EXPECT_FALSE(c.session_id.has_value());
+  EXPECT_EQ(db.trial(t1).status, TrialStatus::kAborted) << "the aborted original is kept as it was";
+  try {
+    db.requeue_trial(t1);
+    FAIL() << "re-queued the same trial twice";
+  } catch (const DbError& e) {
+    EXPECT_THAT(e.what(), AllOf(HasSubstr("position 1"), HasSubstr("trial " + std::to_string(copy))));
+  }
+
+  // Aborted again: the copy of the copy still comes before position 2, and
+  // the schedule lists the slot's attempts in the order they were made.
+  db.start_trial(copy, session);
+  db.end_trial(copy, TrialStatus::kAborted, "device fault");
+  const std::int64_t copy2 = db.requeue_trial(copy);
+  EXPECT_EQ(db.next_planned_trial(p), copy2);
+  std::vector<std::int64_t> order;
+  for (const TrialRow& t : db.trials(study)) order.push_back(t.id);
+  EXPECT_EQ(order, (std::vector<std::int64_t>{t1, copy, copy2, t2}));
+  // Two live trials at one position are refused by the schema itself.
+  EXPECT_THROW(db.add_trial({p, "clip", hf, 1, 1, 1}), DbError);
+}
+
 TEST(StudyDb, LoopTimingAndEvents) {
   StudyDb db(":memory:");
   const std::int64_t trial = testing::make_trial(db);

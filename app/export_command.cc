@@ -1,0 +1,106 @@
+#include "app/export_command.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "db/export_csv.h"
+#include "db/study_db.h"
+
+namespace hapticlab::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ExportOptions {
+  std::string db;
+  std::optional<std::int64_t> trial;
+  std::string format;
+  std::string out;
+};
+
+// "1..12", or the ids listed when they are not contiguous (re-queued
+// trials and several studies leave gaps only rarely; a short list helps).
+std::string trial_range(const std::vector<db::TrialRow>& trials) {
+  if (trials.empty()) return "the database holds no trials";
+  std::int64_t lo = trials.front().id, hi = lo;
+  for (const db::TrialRow& t : trials) {
+    lo = std::min(lo, t.id);
+    hi = std::max(hi, t.id);
+  }
+  if (static_cast<std::size_t>(hi - lo + 1) == trials.size())
+    return "trial ids are " + std::to_string(lo) + ".." + std::to_string(hi);
+  std::string ids;
+  for (const db::TrialRow& t : trials) ids += (ids.empty() ? "" : ", ") + std::to_string(t.id);
+  return "trial ids are " + ids;
+}
+
+void run_export(const ExportOptions& opt) {
+  if (opt.format != "csv")
+    throw std::runtime_error("--format: '" + opt.format + "' is not a supported format; allowed: csv");
+  if (!fs::is_regular_file(opt.db))
+    throw std::runtime_error("--db: '" + opt.db + "' " +
+                             (fs::exists(opt.db) ? "is not a file" : "does not exist") +
+                             "; give a study database made by `hapticlab study create`");
+
+  // Read-only and no recovery: exporting must not abort a trial that a
+  // session is running right now, nor migrate someone's file.
+  db::OpenOptions options;
+  options.read_only = true;
+  options.recover = false;
+  options.integrity = db::OpenOptions::Integrity::kQuick;
+  db::StudyDb db(opt.db, options);
+
+  std::vector<fs::path> files;
+  if (opt.trial) {
+    const std::vector<db::TrialRow> trials = db.trials();
+    bool found = false;
+    for (const db::TrialRow& t : trials) found = found || t.id == *opt.trial;
+    if (!found)
+      throw std::runtime_error("--trial: no trial " + std::to_string(*opt.trial) + " in " + opt.db + "; " +
+                               trial_range(trials));
+    files = db::export_trial_csv(db, *opt.trial, opt.out);
+  } else {
+    const std::vector<db::StudyRow> studies = db.studies();
+    if (studies.empty())
+      throw std::runtime_error("--db: " + opt.db + " holds no study (run `hapticlab study create` first)");
+    for (const db::StudyRow& s : studies) {
+      // One study per file is the rule; should there be more, each gets a
+      // folder so their trials.csv do not overwrite each other.
+      const fs::path dir = studies.size() == 1 ? fs::path(opt.out) : fs::path(opt.out) / ("study" + std::to_string(s.id));
+      const std::vector<fs::path> written = db::export_study_csv(db, s.id, dir);
+      files.insert(files.end(), written.begin(), written.end());
+    }
+  }
+  std::printf("%s: exported %s as csv: %zu files in %s\n", opt.db.c_str(),
+              opt.trial ? ("trial " + std::to_string(*opt.trial)).c_str() : "every started trial",
+              files.size(), opt.out.c_str());
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+void add_export_command(CLI::App& app) {
+  auto opt = std::make_shared<ExportOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "export",
+      "Export samples and events from a study database: one trial, or every started trial of the "
+      "study plus trials.csv (plan, status, times, loop timing, drops). Read-only: safe while a "
+      "session runs.");
+  cmd->add_option("--db", opt->db, "Study database (FILE.db)")->required();
+  cmd->add_option("--trial", opt->trial, "Trial id (as in `hapticlab study show`); default: the whole study");
+  cmd->add_option("--format", opt->format, "Output format; allowed: csv")->required();
+  cmd->add_option("--out", opt->out,
+                  "Output folder, created if needed. Per trial <participant>_<task>_<setting>_rep<r>_trial<id>"
+                  "_samples.csv (one row per update per instrument, SI units in the column names) and "
+                  "_events.csv; each file is written to NAME.tmp and renamed when complete")
+      ->required();
+  cmd->callback([opt] { run_export(*opt); });
+}
+
+}  // namespace hapticlab::app

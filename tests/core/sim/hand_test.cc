@@ -1,0 +1,270 @@
+// One simulated hand: minimum-jerk reaching (Flash & Hogan 1985), the
+// tip impedance turned into joint couplings, the cue delay line, and force
+// regulation that trusts the felt force only while it agrees with what is
+// seen.
+//
+// Noise is switched off (motor_noise_m = visual_noise = 0) so every number
+// below follows from the equations in hand.h.
+#include "core/sim/hand.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/engine/joint_transform.h"
+#include "core/sim/workspace.h"
+
+namespace hapticlab {
+namespace {
+
+constexpr double kDt_s = 1e-3;
+constexpr int kRight = 1;
+
+HandParams quiet() {
+  HandParams p;
+  p.motor_noise_m = 0.0;
+  p.visual_noise = 0.0;
+  return p;
+}
+
+// Minimum-jerk position fraction s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ and its peak rate
+// ds/dτ at τ = 1/2: 30·(1/4)·(1/4) = 1.875.
+double min_jerk(double tau) { return tau * tau * tau * (10.0 - 15.0 * tau + 6.0 * tau * tau); }
+constexpr double kMinJerkPeakRate = 1.875;
+
+struct Trace {
+  std::vector<double> t_s;
+  std::vector<Eigen::Vector3d> base_m;
+  std::vector<HandCouplings> couplings;
+};
+
+// Steps a hand through a reach from `from` to `to` over duration_s (plus
+// 0.1 s), showing the tip exactly at the aim so no visual correction starts.
+Trace reach_trace(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double duration_s) {
+  Hand hand;
+  hand.init(kRight, quiet(), from, 42);
+  hand.reach(to, 0.0, duration_s);
+  Trace trace;
+  const DeviceJoints q{};
+  const DeviceJoints felt{};
+  const int n = static_cast<int>(std::lround((duration_s + 0.1) / kDt_s));
+  for (int k = 0; k <= n; ++k) {
+    const double t = k * kDt_s;
+    HandCouplings out;
+    hand.step(t, kDt_s, q, felt, -0.01, to, out);
+    trace.t_s.push_back(t);
+    trace.base_m.push_back(hand.base());
+    trace.couplings.push_back(out);
+  }
+  return trace;
+}
+
+TEST(CueDelayTest, ReturnsTheCueFromTheDelayAgo) {
+  // Fed every 1 ms (the loop rate) with the time itself, the line keeps one
+  // value per slot of nominally 5 ms (the slot's latest), so a delay d
+  // returns a value d ± one slot old. Measured at 1 kHz over 100 s: 40 ms
+  // gives ages of 36..48 ms, 160 ms gives 156..192 ms — a slot re-anchors
+  // at each advance (next = t + 5 ms) and often lasts 6 updates, so long
+  // delays run up to 20 % late (mean 172 ms for 160 ms). Bounds: one slot
+  // early, and the measured lateness plus 1 ms.
+  CueDelay delay;
+  delay.reset(-1.0);
+  double min_age[2] = {1.0, 1.0}, max_age[2] = {0.0, 0.0};
+  const double delays[2] = {0.040, 0.160};
+  double t = 0.0;
+  for (int k = 0; k <= 5000; ++k) {
+    t = k * 1e-3;
+    delay.push(t, t);
+    EXPECT_EQ(delay.delayed(0.0), t) << "the latest value";
+    if (k < 300) continue;
+    for (int j = 0; j < 2; ++j) {
+      const double age = t - delay.delayed(delays[j]);
+      min_age[j] = std::min(min_age[j], age);
+      max_age[j] = std::max(max_age[j], age);
+    }
+  }
+  EXPECT_GE(min_age[0], 0.035 - 1e-9);
+  EXPECT_LE(max_age[0], 0.049 + 1e-9);
+  EXPECT_GE(min_age[1], 0.155 - 1e-9);
+  EXPECT_LE(max_age[1], 0.193 + 1e-9);
+  // Before the first push lies the reset value; the 128 slots hold 0.64 s
+  // at least, and beyond them the oldest slot is returned.
+  CueDelay fresh;
+  fresh.reset(-1.0);
+  for (int k = 0; k <= 300; ++k) fresh.push(k * 1e-3, 1.0);
+  EXPECT_EQ(fresh.delayed(0.100), 1.0);
+  EXPECT_EQ(fresh.delayed(0.400), -1.0);
+  EXPECT_EQ(fresh.delayed(100.0), -1.0);
+}
+
+TEST(HandTest, ReachFollowsTheMinimumJerkPathFromStartToTarget) {
+  const Eigen::Vector3d from(0.03, 0.01, -0.09), to(0.0, -0.005, -0.112);
+  const double T = 0.6;
+  const Trace tr = reach_trace(from, to, T);
+  constexpr double kTol_m = 1e-12;
+  EXPECT_LT((tr.base_m.front() - from).norm(), kTol_m);
+  for (std::size_t k = 0; k < tr.t_s.size(); ++k) {
+    const double tau = std::min(tr.t_s[k] / T, 1.0);
+    EXPECT_LT((tr.base_m[k] - (from + min_jerk(tau) * (to - from))).norm(), kTol_m) << tr.t_s[k];
+  }
+  // Half way in time is half way in space; the end is the target, held.
+  EXPECT_LT((tr.base_m[300] - 0.5 * (from + to)).norm(), kTol_m);
+  EXPECT_LT((tr.base_m[600] - to).norm(), kTol_m);
+  EXPECT_LT((tr.base_m.back() - to).norm(), kTol_m);
+}
+
+TEST(HandTest, ReachSpeedIsBellShapedWithTheMinimumJerkPeak) {
+  const Eigen::Vector3d from(0.03, 0.01, -0.09), to(0.0, -0.005, -0.112);
+  const double T = 0.6;
+  const double D = (to - from).norm();
+  const Trace tr = reach_trace(from, to, T);
+  // Speed from central differences of the base path.
+  std::vector<double> speed(tr.t_s.size(), 0.0);
+  for (std::size_t k = 1; k + 1 < tr.t_s.size(); ++k)
+    speed[k] = (tr.base_m[k + 1] - tr.base_m[k - 1]).norm() / (2.0 * kDt_s);
+  const double peak = kMinJerkPeakRate * D / T;
+  // Central-difference error at the peak ≈ h²/6·|x'''| = h²/6·60·D/T³, ~1e-5
+  // of the peak here; 1e-4 leaves room.
+  const double tol = 1e-4 * peak;
+  EXPECT_NEAR(speed[300], peak, tol);
+  // Starts and ends at rest (ds/dτ = 30τ²(1−τ)² is ~3e-5 of the peak one
+  // step in), symmetric about the middle, rising then falling.
+  EXPECT_LT(speed[1], 1e-3 * peak);
+  EXPECT_LT(speed[599], 1e-3 * peak);
+  EXPECT_NEAR(speed[650], 0.0, 1e-15);
+  for (int k = 1; k < 300; ++k) {
+    EXPECT_NEAR(speed[static_cast<std::size_t>(k)], speed[static_cast<std::size_t>(600 - k)], tol) << k;
+    EXPECT_GT(speed[static_cast<std::size_t>(k + 1)], speed[static_cast<std::size_t>(k)]) << k;
+  }
+}
+
+TEST(HandTest, JointReferencesPutTheToolTipOnTheBasePathWithMatchingRates) {
+  const Eigen::Vector3d from(0.03, 0.01, -0.09), to(-0.01, -0.008, -0.112);
+  const double T = 0.5;
+  const Trace tr = reach_trace(from, to, T);
+  const double k_tip = quiet().stiffness_N_per_m;
+  for (std::size_t k = 1; k + 1 < tr.t_s.size(); k += 25) {
+    const HandCouplings& c = tr.couplings[k];
+    // The joint references are the inverse kinematics of the base point.
+    const JointVector q(c[kJointInsertion].reference_position, c[kJointPitch].reference_position,
+                        c[kJointYaw].reference_position);
+    EXPECT_LT((tip_world(kRight, q) - tr.base_m[k]).norm(), 1e-12) << tr.t_s[k];
+    // Their velocities are the time derivatives of those references
+    // (central differences, error ~1e-5 of the peak joint rate).
+    for (int j : {kJointInsertion, kJointPitch, kJointYaw}) {
+      const auto uj = static_cast<std::size_t>(j);
+      const double rate = (tr.couplings[k + 1][uj].reference_position -
+                           tr.couplings[k - 1][uj].reference_position) / (2.0 * kDt_s);
+      const double scale = j == kJointInsertion ? 0.1 : 1.0;  // m/s vs rad/s at the peak
+      EXPECT_NEAR(c[uj].reference_velocity, rate, 1e-4 * scale) << "joint " << j << " t " << tr.t_s[k];
+    }
+    // Tip stiffness k through the lever L: k on insertion, k·L² on pitch and
+    // k·(L·cos pitch)² on yaw (a tip displaced by L·δθ pulls back k·L·δθ).
+    const double L = q[0];
+    EXPECT_DOUBLE_EQ(c[kJointInsertion].stiffness, k_tip);
+    EXPECT_NEAR(c[kJointPitch].stiffness, k_tip * L * L, 1e-12);
+    EXPECT_NEAR(c[kJointYaw].stiffness, k_tip * std::pow(L * std::cos(q[1]), 2), 1e-12);
+  }
+}
+
+// A tool pointing straight down 110 mm, pressing along −z.
+struct Press {
+  Hand hand;
+  const Eigen::Vector3d into = -Eigen::Vector3d::UnitZ();
+  JointVector q = joints_for_tip(kRight, Eigen::Vector3d(0.05, 0.0, -0.11));
+  DeviceJoints q_device{q[0], q[1], q[2], 0.0, 0.3};
+  Eigen::Vector3d tip = tip_world(kRight, q);
+  double t_s = 0.0;
+
+  explicit Press(double target_N, double believed_k) {
+    hand.init(kRight, quiet(), tip, 7);
+    hand.press(into, target_N, believed_k);
+  }
+  // The hand feels `felt_N` of tissue reaction and sees `seen_depth_m`.
+  void run(double seconds, double felt_N, double seen_depth_m) {
+    // Handle force equal and opposite to a tissue force felt_N along −into.
+    const JointVector jf = world_to_joint(q, felt_N * into);
+    const DeviceJoints felt{jf[0], jf[1], jf[2], 0.0, 0.0};
+    const int n = static_cast<int>(std::lround(seconds / kDt_s));
+    for (int k = 0; k < n; ++k) {
+      HandCouplings out;
+      hand.step(t_s, kDt_s, q_device, felt, seen_depth_m, tip, out);
+      t_s += kDt_s;
+    }
+  }
+};
+
+TEST(HandTest, PressStartsWhereHandAndTissueInSeriesGiveTheTargetForce) {
+  // x = F·(1/k_hand + 1/k_tissue) = 0.5 N · (1/600 + 1/220) m/N.
+  Press p(0.5, 220.0);
+  EXPECT_NEAR(p.hand.press_offset_m(), 0.5 * (1.0 / 600.0 + 1.0 / 220.0), 1e-15);
+  EXPECT_TRUE(p.hand.pressing());
+}
+
+TEST(HandTest, FeelingNothingTheHandPushesInAtTheRegulationRateUpToItsLimit) {
+  // Estimate 0 (nothing felt, nothing seen): the offset grows at
+  // F / (k·τ) = 0.5 / (600 · 0.15) = 5.56 mm/s, linearly, until the 20 mm cap.
+  Press p(0.5, 220.0);
+  const double x0 = p.hand.press_offset_m();
+  p.run(1.0, 0.0, 0.0);
+  EXPECT_EQ(p.hand.estimated_force_N(), 0.0);
+  EXPECT_NEAR(p.hand.press_offset_m(), x0 + 1.0 * 0.5 / (600.0 * 0.15), 1e-12);
+  p.run(3.0, 0.0, 0.0);
+  EXPECT_EQ(p.hand.press_offset_m(), 0.020);
+}
+
+TEST(HandTest, FeltAndSeenForceAtTheTargetHoldThePressSteady) {
+  // Felt 0.5 N; seen indentation d with 0.75 · 220 N/m · d = 0.5 N. The
+  // felt cue is averaged over 0.3 s, so for the first second it lags the
+  // seen one and the hand trusts it less; once it has caught up the cues
+  // agree (ratio 1), the agreement relaxes back to 1 (time constant 0.5 s),
+  // the felt cue's weight to 0.9, the estimate to the target, and the
+  // offset stops. After 5 s both lags are below e^-9 of their start
+  // (deficits ~1e-4): weight and estimate within 1e-3, and the offset
+  // drifts less than (F − estimate)/(k·τ) ≈ 1e-3 N / 90 N/m/s ≈ 1e-5 m/s.
+  const double F = 0.5, k_t = 220.0;
+  Press p(F, k_t);
+  const double seen = F / (0.75 * k_t);
+  p.run(5.0, F, seen);
+  const double x5 = p.hand.press_offset_m();
+  EXPECT_NEAR(p.hand.estimated_force_N(), F, 1e-3);
+  EXPECT_NEAR(p.hand.haptic_weight(), 0.9, 1e-3);
+  p.run(1.0, F, seen);
+  EXPECT_NEAR(p.hand.press_offset_m(), x5, 1e-5);
+  EXPECT_NEAR(p.hand.estimated_force_N(), F, 1e-4);
+}
+
+TEST(HandTest, WithoutFeltForceTheHandFallsBackOnVision) {
+  // Seeing 0.5 N worth of indentation but feeling nothing, the agreement
+  // decays as (1 − dt/0.5 s)^n once the visual delay has passed: after 3 s
+  // about e^−5.7 = 0.003, the felt cue's weight 0.9·0.003² ≈ 1e-5. The
+  // estimate is then the visual one.
+  const double F = 0.5, k_t = 220.0;
+  Press p(F, k_t);
+  const double seen = F / (0.75 * k_t);
+  p.run(3.0, 0.0, seen);
+  EXPECT_LT(p.hand.haptic_weight(), 1e-4);
+  EXPECT_GT(p.hand.haptic_weight(), 1e-7);
+  EXPECT_NEAR(p.hand.estimated_force_N(), F, 1e-4 * F);
+}
+
+TEST(HandTest, GripMovesLinearlyToItsTargetAngle) {
+  Hand hand;
+  hand.init(kRight, quiet(), Eigen::Vector3d(0.05, 0.0, -0.1), 1);
+  hand.grip_to(0.0, 0.0, 0.2);  // from the open 0.3 rad
+  const DeviceJoints q{};
+  for (int k = 0; k <= 300; ++k) {
+    const double t = k * kDt_s;
+    HandCouplings out;
+    hand.step(t, kDt_s, q, q, -0.01, Eigen::Vector3d(0.05, 0.0, -0.1), out);
+    const double expected = t < 0.2 ? 0.3 * (1.0 - t / 0.2) : 0.0;
+    EXPECT_NEAR(out[kJointGrip].reference_position, expected, 1e-12) << t;
+    EXPECT_NEAR(out[kJointGrip].reference_velocity, t < 0.2 ? -0.3 / 0.2 : 0.0, 1e-12) << t;
+  }
+  EXPECT_TRUE(hand.grip_done(0.2));
+}
+
+}  // namespace
+}  // namespace hapticlab
