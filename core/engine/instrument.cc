@@ -128,6 +128,9 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
     const ToolPose shown = tool_pose(out.degraded_position);
     out.tip_offset_m = tip_offset(pose, shown);
     out.orientation_offset = orientation_offset(pose, shown);
+    out.degraded_tip_m = tip_position(shown);
+  } else {
+    out.degraded_tip_m = tip_position(pose);
   }
 
   if (!out.displayed_force_N.allFinite() || !out.joint_force.allFinite() ||
@@ -137,6 +140,9 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
     out.displayed_force_N.setZero();
     out.joint_force.setZero();
     out.degraded_position = in.position;
+    out.degraded_tip_m = tip_position(pose);
+    out.tip_offset_m.setZero();
+    out.orientation_offset.setIdentity();
     out.status |= kFaultNonFiniteState;
   }
   last_degraded_ = out.degraded_position;

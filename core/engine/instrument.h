@@ -43,6 +43,10 @@ struct InstrumentOutput {
   Eigen::Vector3d displayed_force_N = Eigen::Vector3d::Zero();  // for the device, world frame
   JointVector joint_force = JointVector::Zero();  // insertion N, pitch N·m, yaw N·m (commanded)
   JointVector degraded_position = JointVector::Zero();  // for the VE
+  // Tip of degraded_position in the instrument's pivot frame [m]
+  // (tip_position(degraded_position)): the trigonometry is done here once,
+  // so callers placing the tool in their VE need not redo it.
+  Eigen::Vector3d degraded_tip_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d tip_offset_m = Eigen::Vector3d::Zero();          // eq. 2.20
   Eigen::Matrix3d orientation_offset = Eigen::Matrix3d::Identity();  // eq. 2.21
   std::uint32_t status = 0;                                         // StatusFlag bits

@@ -27,7 +27,8 @@ Eigen::Vector3d tip_position(const JointVector& q) noexcept {
 }
 
 ToolPose tool_pose(const JointVector& q) noexcept {
-  return {tool_orientation(q[1], q[2]), q[0], std::cos(q[1])};
+  const Eigen::Matrix3d r = tool_orientation(q[1], q[2]);
+  return {r, q[0], r(1, 1)};  // r(1,1) = cos(pitch)
 }
 
 JointVector world_to_joint(const ToolPose& pose, const Eigen::Vector3d& f) noexcept {

@@ -41,6 +41,10 @@ ToolPose tool_pose(const JointVector& q) noexcept;
 Eigen::Matrix3d tool_orientation(double pitch_rad, double yaw_rad) noexcept;
 Eigen::Vector3d insertion_direction(double pitch_rad, double yaw_rad) noexcept;
 Eigen::Vector3d tip_position(const JointVector& q) noexcept;
+// insertion·d_in from a pose already computed.
+inline Eigen::Vector3d tip_position(const ToolPose& pose) noexcept {
+  return -pose.insertion_m * pose.orientation.col(2);
+}
 
 // World tip force [N] => (insertion force N, pitch torque N·m, yaw torque N·m).
 JointVector world_to_joint(const ToolPose& pose, const Eigen::Vector3d& force_N) noexcept;

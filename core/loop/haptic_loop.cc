@@ -61,8 +61,10 @@ HapticLoop::HapticLoop(Device& device, Engine& engine, VirtualEnvironment& ve, C
       schedule_(std::move(schedule)),
       config_(config),
       agent_(agent),
-      samples_(config.sample_queue_capacity),
-      events_(config.event_queue_capacity) {}
+      // Nothing is ever pushed when samples are not published: a full-size
+      // queue would only cost its zeroing (megabytes) per loop.
+      samples_(config.publish_samples ? config.sample_queue_capacity : 1),
+      events_(config.publish_samples ? config.event_queue_capacity : 1) {}
 
 HapticLoop::~HapticLoop() {
   request_stop();
@@ -158,6 +160,8 @@ StopReason HapticLoop::loop_body() {
       joints[kJointInsertion] = q[0];
       joints[kJointPitch] = q[1];
       joints[kJointYaw] = q[2];
+      ve_in.tip_m[static_cast<std::size_t>(i)] =
+          kTrocarPosition_m[static_cast<std::size_t>(i)] + engine_out[static_cast<std::size_t>(i)].degraded_tip_m;
     }
     ve_.step(ve_in, ve_out, events);
 
@@ -184,7 +188,7 @@ StopReason HapticLoop::loop_body() {
     const double alpha = dt_s / (dt_s + 1.0 / (2.0 * std::numbers::pi * kTipVelocityCutoff_Hz));
     for (int i = 0; i < 2; ++i) {
       const auto ui = static_cast<std::size_t>(i);
-      const Eigen::Vector3d tip = tip_world(i, engine_out[ui].degraded_position);
+      const Eigen::Vector3d& tip = ve_in.tip_m[ui];
       if (!first && dt_s > 0.0) tip_velocity[ui] += alpha * ((tip - tip_prev[ui]) / dt_s - tip_velocity[ui]);
       tip_prev[ui] = tip;
     }

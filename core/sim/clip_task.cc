@@ -20,7 +20,7 @@ void ClipTask::step(const VeInput& in, VeOutput& out, EventBuffer& events) noexc
   for (int i = 0; i < 2; ++i) {
     const auto ui = static_cast<std::size_t>(i);
     const auto& j = in.joints[ui];
-    const Eigen::Vector3d tip = tip_world(i, JointVector(j[kJointInsertion], j[kJointPitch], j[kJointYaw]));
+    const Eigen::Vector3d& tip = in.tip_m[ui];
     const Eigen::Vector3d v = tools_.tip_velocity(i, tip, in.dt_s);
     const double grip = j[kJointGrip];
 

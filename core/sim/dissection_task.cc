@@ -87,7 +87,7 @@ void DissectionTask::step(const VeInput& in, VeOutput& out, EventBuffer& events)
   for (int i = 0; i < 2; ++i) {
     const auto ui = static_cast<std::size_t>(i);
     const auto& j = in.joints[ui];
-    tip[ui] = tip_world(i, JointVector(j[kJointInsertion], j[kJointPitch], j[kJointYaw]));
+    tip[ui] = in.tip_m[ui];
     const Eigen::Vector3d v = tools_.tip_velocity(i, tip[ui], in.dt_s);
     cell[ui] = cell_at(tip[ui].x(), tip[ui].y());
     const bool covered = cell[ui] >= 0 && !removed(cell[ui]);

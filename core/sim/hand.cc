@@ -130,10 +130,9 @@ void Hand::grip_to(double angle_rad, double t_s, double duration_s) noexcept {
   grip_end_s_ = t_s + std::max(duration_s, 0.02);
 }
 
-void Hand::feel_device(const DeviceJoints& q, const DeviceJoints& device_force, double dt_s) noexcept {
-  const JointVector qj(q[kJointInsertion], q[kJointPitch], q[kJointYaw]);
+void Hand::feel_device(const ToolPose& pose, const DeviceJoints& device_force, double dt_s) noexcept {
   const JointVector f(device_force[kJointInsertion], device_force[kJointPitch], device_force[kJointYaw]);
-  const Eigen::Vector3d tip_N = joint_to_world(qj, f, kMinArm_m);
+  const Eigen::Vector3d tip_N = joint_to_world(pose, f, kMinArm_m);
   felt_mean_N_ += std::min(1.0, dt_s / kDisturbanceMeanTime_s) * (tip_N - felt_mean_N_);
   const double deviation2 = (tip_N - felt_mean_N_).squaredNorm();
   disturbance_var_N2_ += std::min(1.0, dt_s / kDisturbanceWindow_s) * (deviation2 - disturbance_var_N2_);
@@ -142,7 +141,7 @@ void Hand::feel_device(const DeviceJoints& q, const DeviceJoints& device_force, 
   stiffening_ += std::min(1.0, dt_s / kStiffenTime_s) * (wanted - stiffening_);
 }
 
-void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoints& felt,
+void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoints& felt,
                 double seen_depth_m, const Eigen::Vector3d& seen_tip_m, HandCouplings& out) noexcept {
   // Base path (minimum jerk).
   if (t_s >= reach_end_s_) {
@@ -167,11 +166,10 @@ void Hand::step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoin
     visual_bias_ += -b * visual_bias_ + params_.visual_noise * std::sqrt(2.0 * b) * rng_.normal();
   }
 
-  const JointVector qj(q[kJointInsertion], q[kJointPitch], q[kJointYaw]);
   const double k = params_.stiffness_N_per_m * stiffening_;
   if (pressing_) {
     const JointVector reaction(-felt[kJointInsertion], -felt[kJointPitch], -felt[kJointYaw]);
-    const Eigen::Vector3d felt_tip = joint_to_world(qj, reaction, kMinArm_m);
+    const Eigen::Vector3d felt_tip = joint_to_world(pose, reaction, kMinArm_m);
     const double felt_N = std::max(0.0, -into_.dot(felt_tip));
     felt_smooth_N_ += std::min(1.0, dt_s / kFeltSmoothing_s) * (felt_N - felt_smooth_N_);
     felt_cue_.push(t_s, felt_smooth_N_);

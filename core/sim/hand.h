@@ -25,6 +25,7 @@
 
 #include "core/common/random.h"
 #include "core/device/sim_device.h"
+#include "core/engine/joint_transform.h"
 
 namespace hapticlab {
 
@@ -96,15 +97,27 @@ class Hand {
   // Before step(): the force the device's motors put on the handle
   // (SimDevice::motor_force), which the arm braces against when it varies
   // unpredictably (impedance adaptation).
-  void feel_device(const DeviceJoints& q, const DeviceJoints& device_force, double dt_s) noexcept;
+  // `pose` is tool_pose of the device joints (insertion, pitch, yaw), shared
+  // by both calls of an update.
+  void feel_device(const ToolPose& pose, const DeviceJoints& device_force, double dt_s) noexcept;
+  void feel_device(const DeviceJoints& q, const DeviceJoints& device_force, double dt_s) noexcept {
+    feel_device(pose_of(q), device_force, dt_s);
+  }
   // `q` the instrument's joints as the hand feels them (device), `felt` the
   // force the hand exerts on the handle (SimDevice::hand_force), `seen_depth_m`
   // how far the tool visibly indents the tissue along the press direction.
   // `seen_tip_m` is where the tool tip shows in the VE: the hand steers it
   // onto the aim point visually, which is how a person makes up for
   // backlash, cogging and friction that push the tool off course.
-  void step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoints& felt,
+  void step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoints& felt,
             double seen_depth_m, const Eigen::Vector3d& seen_tip_m, HandCouplings& out) noexcept;
+  void step(double t_s, double dt_s, const DeviceJoints& q, const DeviceJoints& felt,
+            double seen_depth_m, const Eigen::Vector3d& seen_tip_m, HandCouplings& out) noexcept {
+    step(t_s, dt_s, pose_of(q), felt, seen_depth_m, seen_tip_m, out);
+  }
+  static ToolPose pose_of(const DeviceJoints& q) noexcept {
+    return tool_pose(JointVector(q[kJointInsertion], q[kJointPitch], q[kJointYaw]));
+  }
 
  private:
   int instrument_ = 0;

@@ -94,11 +94,7 @@ double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexc
 
 void Participant::act(const LoopTickView& view) noexcept {
   const double t = view.t_s;
-  for (int i = 0; i < 2; ++i) {
-    const auto& j = view.ve_input.joints[static_cast<std::size_t>(i)];
-    tip_[static_cast<std::size_t>(i)] =
-        tip_world(i, JointVector(j[kJointInsertion], j[kJointPitch], j[kJointYaw]));
-  }
+  tip_ = view.ve_input.tip_m;
   if (!started_) {
     started_ = true;
     const int dominant = traits_.right_handed ? kRight : kLeft;
@@ -123,8 +119,9 @@ void Participant::act(const LoopTickView& view) noexcept {
   for (int i = 0; i < 2; ++i) {
     const auto ui = static_cast<std::size_t>(i);
     HandCouplings couplings;
-    hands_[ui].feel_device(view.reading.position[ui], device_.motor_force(i), view.dt_s);
-    hands_[ui].step(t, view.dt_s, view.reading.position[ui], device_.hand_force(i),
+    const ToolPose pose = Hand::pose_of(view.reading.position[ui]);
+    hands_[ui].feel_device(pose, device_.motor_force(i), view.dt_s);
+    hands_[ui].step(t, view.dt_s, pose, device_.hand_force(i),
                     seen_depth(i, tip_[ui]), tip_[ui], couplings);
     device_.set_hand(i, couplings);
   }

@@ -32,6 +32,9 @@ struct VeInput {
   // Per instrument: insertion/pitch/yaw as degraded by the engine, twist and
   // grip as read from the device (the engine does not degrade them).
   std::array<DeviceJoints, 2> joints{};
+  // Per instrument: the tool tip in the VE world frame [m] from the degraded
+  // joints (tip_world of joints), worked out once by whoever fills joints.
+  std::array<Eigen::Vector3d, 2> tip_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
 };
 
 struct VeOutput {

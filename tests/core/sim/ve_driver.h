@@ -29,6 +29,7 @@ struct VeDriver {
       const auto ui = static_cast<std::size_t>(i);
       const JointVector q = joints_for_tip(i, tip[ui]);
       in.joints[ui] = {q[0], q[1], q[2], 0.0, grip[ui]};
+      in.tip_m[ui] = tip_world(i, q);
     }
     EventBuffer buffer;
     out = VeOutput{};
