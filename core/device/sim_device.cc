@@ -226,7 +226,12 @@ void SimDevice::advance_to(double t_s) noexcept {
   const int n = std::max(
       1, static_cast<int>(std::ceil(gap_s / params_.max_substep_s * (1.0 - 1e-9))));
   const double h_s = gap_s / n;
-  const double thermal_alpha = -std::expm1(-h_s / params_.thermal_time_constant_s);
+  if (h_s != thermal_h_s_ || params_.thermal_time_constant_s != thermal_tau_s_) {
+    thermal_h_s_ = h_s;
+    thermal_tau_s_ = params_.thermal_time_constant_s;
+    thermal_alpha_ = -std::expm1(-h_s / params_.thermal_time_constant_s);
+  }
+  const double thermal_alpha = thermal_alpha_;
   const double start_s = time_s_;
   for (int k = 1; k <= n; ++k) {
     const double end_s = (k == n) ? t_s : start_s + k * h_s;

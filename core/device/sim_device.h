@@ -170,6 +170,9 @@ class SimDevice final : public Device {
   bool configured_ = false;
   bool active_ = false;
   double time_s_ = 0.0;
+  // Motor heating factor of the last sub-step length and time constant: at a
+  // steady rate they repeat exactly, and expm1() was ~1 % of a simulated update.
+  double thermal_h_s_ = 0.0, thermal_tau_s_ = 0.0, thermal_alpha_ = 0.0;
   DeviceStatus fault_ = DeviceStatus::kOk;
   double fault_time_s_ = std::numeric_limits<double>::infinity();
   int rejected_hand_updates_ = 0;

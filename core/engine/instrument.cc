@@ -55,7 +55,8 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   }
   const LoopEmulation& loop = settings_.loop;
   ve = ve_force_delay_.step(ve, in.dt_s, loop.force_latency_s, loop.hold_rate_Hz);
-  const ToolPose pose = tool_pose(in.position);
+  out.measured_pose = tool_pose(in.position);
+  const ToolPose& pose = out.measured_pose;
   const JointVector ve_joint = world_to_joint(pose, ve);
 
   // dt policy: how many sub-steps of which length. A dt below 1/2000 s (or
@@ -90,8 +91,11 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
 
   // per DOF chains, sub-stepped along the straight line from the last position
   const double sub_dt = dt / substeps;
-  const ButterworthCoefficients filter =
-      sub_dt > 0.0 ? butterworth_lowpass_1st(kVelocityCutoff_Hz, sub_dt) : ButterworthCoefficients{};
+  if (sub_dt > 0.0 && sub_dt != filter_dt_s_) {
+    filter_ = butterworth_lowpass_1st(kVelocityCutoff_Hz, sub_dt);
+    filter_dt_s_ = sub_dt;
+  }
+  const ButterworthCoefficients filter = sub_dt > 0.0 ? filter_ : ButterworthCoefficients{};
   JointVector command = JointVector::Zero();
   JointVector degraded = in.position;
   for (int i = 1; i <= substeps; ++i) {

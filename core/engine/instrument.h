@@ -47,6 +47,10 @@ struct InstrumentOutput {
   // (tip_position(degraded_position)): the trigonometry is done here once,
   // so callers placing the tool in their VE need not redo it.
   Eigen::Vector3d degraded_tip_m = Eigen::Vector3d::Zero();
+  // tool_pose(in.position): the pose of the measured joints, for callers that
+  // need it too (the simulated hand holding the same device). Valid unless
+  // status has kFaultNonFiniteInput or kFaultInvalidArgument.
+  ToolPose measured_pose{Eigen::Matrix3d::Identity(), 0.0, 1.0};
   Eigen::Vector3d tip_offset_m = Eigen::Vector3d::Zero();          // eq. 2.20
   Eigen::Matrix3d orientation_offset = Eigen::Matrix3d::Identity();  // eq. 2.21
   std::uint32_t status = 0;                                         // StatusFlag bits
@@ -73,6 +77,10 @@ class Instrument {
   bool needs_resync_ = true;
   bool anchored_ = false;      // false until the first finite update
   double deferred_dt_s_ = 0.0;  // time of updates too short to advance the models
+  // Butterworth coefficients of the last sub-step length: at a steady rate
+  // dt repeats exactly, and tan() was a few percent of an update.
+  double filter_dt_s_ = 0.0;
+  ButterworthCoefficients filter_;
 };
 
 }  // namespace hapticlab

@@ -93,6 +93,7 @@ void Hand::init(int instrument, const HandParams& params, const Eigen::Vector3d&
   seen_cue_.reset(0.0);
   for (int k = 0; k < 3; ++k) seen_tip_cue_[static_cast<std::size_t>(k)].reset(start_tip_m[k]);
   visual_bias_ = params_.visual_noise * rng_.normal();
+  visual_scale_ = params_.visual_force_gain * std::exp(visual_bias_);
   tremor_m_.setZero();
   next_noise_s_ = 0.0;
   correction_m_.setZero();
@@ -164,6 +165,7 @@ void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoint
     for (int k = 0; k < 3; ++k) tremor_m_[k] += -a * tremor_m_[k] + s * rng_.normal();
     const double b = std::min(1.0, h_s / kVisualDrift_s);
     visual_bias_ += -b * visual_bias_ + params_.visual_noise * std::sqrt(2.0 * b) * rng_.normal();
+    visual_scale_ = params_.visual_force_gain * std::exp(visual_bias_);
   }
 
   const double k = params_.stiffness_N_per_m * stiffening_;
@@ -177,7 +179,7 @@ void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoint
     const double h = felt_cue_.delayed(params_.haptic_delay_s);
     const double seen_depth = seen_cue_.delayed(params_.visual_delay_s);
     seen_depth_m_ = seen_depth;
-    const double v = seen_depth > 0.0 ? params_.visual_force_gain * std::exp(visual_bias_) *
+    const double v = seen_depth > 0.0 ? visual_scale_ *
                                             believed_stiffness_N_per_m_ * seen_depth
                                       : 0.0;
     if (v > 0.1) {

@@ -142,6 +142,7 @@ class Hand {
   double haptic_weight_ = 0.9;
   CueDelay felt_cue_, seen_cue_;
   double visual_bias_ = 0.0;   // slowly varying log error of the visual estimate
+  double visual_scale_ = 1.0;  // visual_force_gain·exp(visual_bias_), updated with it
   Eigen::Vector3d tremor_m_ = Eigen::Vector3d::Zero();
   std::array<CueDelay, 3> seen_tip_cue_;
   Eigen::Vector3d correction_m_ = Eigen::Vector3d::Zero();  // visual aim correction
