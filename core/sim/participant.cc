@@ -78,6 +78,32 @@ double Participant::reach_time(int hand, const Eigen::Vector3d& from, const Eige
   return (kFittsA_s + kFittsB_s * std::log2(d / width_m + 1.0)) * time_factor_[static_cast<std::size_t>(hand)];
 }
 
+bool Participant::release(int h, double t, bool entering, double lift_m,
+                          double open_grip_s) noexcept {
+  Hand& hand = hands_[static_cast<std::size_t>(h)];
+  const bool opens_grip = open_grip_s > 0.0;
+  if (entering) {
+    hand.stop_press();
+    if (opens_grip) hand.grip_to(kGripOpenTarget_rad, t, open_grip_s);
+    hand.reach(hand.base() + Eigen::Vector3d(0, 0, lift_m), t,
+               0.3 * time_factor_[static_cast<std::size_t>(h)]);
+    return false;
+  }
+  return hand.reach_done(t) && (!opens_grip || hand.grip_done(t));
+}
+
+bool Participant::retract(int h, double t, bool entering) noexcept {
+  Hand& hand = hands_[static_cast<std::size_t>(h)];
+  if (entering) {
+    const Eigen::Vector3d& trocar = kTrocarPosition_m[static_cast<std::size_t>(h)];
+    const Eigen::Vector3d out = trocar + 0.012 * (hand.base() - trocar).normalized();
+    hand.stop_press();
+    hand.reach(out, t, reach_time(h, hand.base(), out, 0.01));
+    return false;
+  }
+  return hand.reach_done(t);
+}
+
 double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexcept {
   if (dissection_ != nullptr) {
     const auto& g = dissection_->grasp();
@@ -209,23 +235,13 @@ void Participant::act_dissection(double t) noexcept {
         break;
       }
       case Phase::kRelease:
-        if (entering) {
-          hand.stop_press();
-          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.005), t, 0.3 * time_factor_[kRight]);
-        } else if (hand.reach_done(t)) {
+        if (release(kRight, t, entering, 0.005, kNoGripChange)) {
           if (done) { HL_ENTER(kRight, Phase::kRetract); }
           else { burn_index_ = -1; HL_ENTER(kRight, Phase::kApproach); }
         }
         break;
       case Phase::kRetract:
-        if (entering) {
-          const Eigen::Vector3d out = kTrocarPosition_m[kRight] +
-              0.012 * (hand.base() - kTrocarPosition_m[kRight]).normalized();
-          hand.stop_press();
-          hand.reach(out, t, reach_time(kRight, hand.base(), out, 0.01));
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kRight, Phase::kDone);
-        }
+        if (retract(kRight, t, entering)) HL_ENTER(kRight, Phase::kDone);
         break;
       case Phase::kDone:
         break;
@@ -286,22 +302,11 @@ void Participant::act_dissection(double t) noexcept {
           HL_ENTER(kLeft, Phase::kRelease);
         break;
       case Phase::kRelease:
-        if (entering) {
-          hand.stop_press();
-          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
-          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.006), t, 0.3 * time_factor_[kLeft]);
-        } else if (hand.reach_done(t) && hand.grip_done(t)) {
+        if (release(kLeft, t, entering, 0.006, 0.2))
           HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
-        }
         break;
       case Phase::kRetract:
-        if (entering) {
-          const Eigen::Vector3d out = kTrocarPosition_m[kLeft] +
-              0.012 * (hand.base() - kTrocarPosition_m[kLeft]).normalized();
-          hand.reach(out, t, reach_time(kLeft, hand.base(), out, 0.01));
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kLeft, Phase::kDone);
-        }
+        if (retract(kLeft, t, entering)) HL_ENTER(kLeft, Phase::kDone);
         break;
       case Phase::kDone:
         break;
@@ -356,22 +361,11 @@ void Participant::act_clip(double t) noexcept {
           HL_ENTER(kLeft, Phase::kRelease);
         break;
       case Phase::kRelease:
-        if (entering) {
-          hand.stop_press();
-          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
-          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.006), t, 0.3 * time_factor_[kLeft]);
-        } else if (hand.reach_done(t) && hand.grip_done(t)) {
+        if (release(kLeft, t, entering, 0.006, 0.2))
           HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
-        }
         break;
       case Phase::kRetract:
-        if (entering) {
-          const Eigen::Vector3d out = kTrocarPosition_m[kLeft] +
-              0.012 * (hand.base() - kTrocarPosition_m[kLeft]).normalized();
-          hand.reach(out, t, reach_time(kLeft, hand.base(), out, 0.01));
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kLeft, Phase::kDone);
-        }
+        if (retract(kLeft, t, entering)) HL_ENTER(kLeft, Phase::kDone);
         break;
       case Phase::kDone:
         break;
@@ -434,22 +428,11 @@ void Participant::act_clip(double t) noexcept {
         }
         break;
       case Phase::kRelease:
-        if (entering) {
-          hand.stop_press();
-          hand.grip_to(kGripOpenTarget_rad, t, 0.25);
-          hand.reach(hand.base() + Eigen::Vector3d(0, 0, 0.008), t, 0.3 * time_factor_[kRight]);
-        } else if (hand.reach_done(t) && hand.grip_done(t)) {
+        if (release(kRight, t, entering, 0.008, 0.25))
           HL_ENTER(kRight, done ? Phase::kRetract : Phase::kApproach);
-        }
         break;
       case Phase::kRetract:
-        if (entering) {
-          const Eigen::Vector3d out = kTrocarPosition_m[kRight] +
-              0.012 * (hand.base() - kTrocarPosition_m[kRight]).normalized();
-          hand.reach(out, t, reach_time(kRight, hand.base(), out, 0.01));
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kRight, Phase::kDone);
-        }
+        if (retract(kRight, t, entering)) HL_ENTER(kRight, Phase::kDone);
         break;
       case Phase::kDone:
         break;

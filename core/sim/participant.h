@@ -68,6 +68,13 @@ class Participant final : public LoopAgent {
   double reach_time(int hand, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                     double width_m) const noexcept;
   double seen_depth(int hand, const Eigen::Vector3d& tip) const noexcept;
+  // Phase steps both tasks share; each returns true once the hand is there.
+  // release: stop pressing and lift by lift_m, opening the grip over
+  // open_grip_s (kNoGripChange: leave it); retract: withdraw to 12 mm inside
+  // the trocar.
+  static constexpr double kNoGripChange = -1.0;
+  bool release(int hand, double t_s, bool entering, double lift_m, double open_grip_s) noexcept;
+  bool retract(int hand, double t_s, bool entering) noexcept;
 
   ParticipantTraits traits_;
   SimDevice& device_;
