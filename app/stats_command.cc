@@ -218,9 +218,13 @@ void run_pairwise(const PairwiseOptions& opt) {
       std::fflush(stdout);
     }
     for (const auto& c : comparisons) {
-      json e = {{"treatment", c.treatment}, {"n_blocks", c.n_blocks},
+      json e = {{"treatment", c.treatment},
                 {"statistic", c.statistic ? json(*c.statistic) : json(nullptr)},
-                {"p", c.p ? json(*c.p) : json(nullptr)}, {"significant", c.significant}};
+                {"df", c.df ? json(*c.df) : json(nullptr)},
+                {"p", c.p ? json(*c.p) : json(nullptr)},
+                {"n", c.n_observations},
+                {"n_blocks", c.n_blocks},
+                {"significant", c.significant}};
       j["comparisons"].push_back(std::move(e));
       if (!opt.common.json) {
         std::printf("%-24s %7zu %12s %12s  %s\n", c.treatment.c_str(), c.n_blocks,

@@ -19,7 +19,7 @@ struct StudyOptions {
   std::string protocol;
   std::string db;
   bool json = false;
-  bool schedule = false;
+  bool summary = false;
 };
 
 void create(const StudyOptions& opt) {
@@ -54,7 +54,7 @@ void show(const StudyOptions& opt) {
   if (opt.json) {
     std::printf("%s\n", sessions::study_progress_json(progress).dump(2).c_str());
   } else {
-    std::fputs(sessions::format_study_progress(progress, opt.schedule).c_str(), stdout);
+    std::fputs(sessions::format_study_progress(progress, !opt.summary).c_str(), stdout);
   }
 }
 
@@ -77,11 +77,11 @@ void add_study_command(CLI::App& app) {
   c->callback([opt] { create(*opt); });
 
   CLI::App* s = study->add_subcommand(
-      "show", "Print the study, each participant's progress and (with --schedule) the full schedule. "
+      "show", "Print the study, the full schedule with each trial's status, and each participant's progress. "
               "Operator view: names the settings. Safe while a session runs.");
   s->add_option("--db", opt->db, "Study database")->required();
   s->add_flag("--json", opt->json, "Machine-readable output: study, participants, trials with status");
-  s->add_flag("--schedule", opt->schedule, "Also list every trial in schedule order");
+  s->add_flag("--summary", opt->summary, "Only the study and each participant's progress, without the schedule");
   s->callback([opt] { show(*opt); });
 }
 

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/common/random.h"
+#include "core/sim/task_event.h"
 #include "protocols/rng.h"
 
 namespace hapticlab::sessions {
@@ -247,6 +248,12 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           std::this_thread::sleep_for(std::chrono::milliseconds(2));
         }
         loop.join();
+      }
+      if (loop.stop_reason() == StopReason::kStopRequested) {
+        // The operator's action is part of the trial's record, at the loop
+        // time it took effect, next to the VE's events.
+        db.add_event({trial.id, loop.elapsed_s(), to_string(TaskEventType::kOperatorAbort), -1, 0,
+                      "operator stopped the session"});
       }
       outcome.dropped_samples = loop.dropped_samples();
       outcome.dropped_events = loop.dropped_events();

@@ -45,6 +45,8 @@ std::vector<PairwiseComparison> pairwise_friedman_vs_control(const BlockTable& t
       const TestResult r = friedman_test(pair);
       cmp.p = r.p;
       cmp.statistic = r.statistic;
+      cmp.df = r.df;
+      cmp.n_observations = r.observations;
       cmp.significant = r.p < level;
     }
     out.push_back(std::move(cmp));

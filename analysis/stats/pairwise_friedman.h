@@ -17,7 +17,9 @@ struct PairwiseComparison {
   std::string treatment;        // compared with the control
   std::optional<double> p;      // nullopt: no block holds both ("N/A" in the thesis)
   std::optional<double> statistic;
+  std::optional<double> df;     // 1 (two treatments) when tested
   std::size_t n_blocks = 0;     // blocks that entered the test
+  std::size_t n_observations = 0;  // values in those blocks, both cells, all replicates
   bool significant = false;     // p < sidak_level
 };
 

@@ -117,12 +117,19 @@ TEST_F(StatsCommandTest, PairwiseJsonHasNullForNoData) {
   ASSERT_EQ(j.at("comparisons").size(), 2u);
   EXPECT_EQ(j["comparisons"][0]["treatment"], "NoFFB");
   EXPECT_EQ(j["comparisons"][0]["n_blocks"].get<int>(), 2);
+  // 2 blocks, HiFi < NoFFB in both: rank sums 2 and 4, statistic
+  // 12/(2·2·3)·(2² + 4²) − 3·2·3 = 2 on 1 df, from 4 values.
+  EXPECT_NEAR(j["comparisons"][0]["statistic"].get<double>(), 2.0, 1e-12);
+  EXPECT_EQ(j["comparisons"][0]["df"].get<double>(), 1.0);
+  EXPECT_EQ(j["comparisons"][0]["n"].get<int>(), 4);
   EXPECT_EQ(j["comparisons"][1]["n_blocks"].get<int>(), 1);
 
   const auto k = nlohmann::json::parse(
       run({"stats", "pairwise", "--csv", write_file("q.csv", "b,t,v\n1,HiFi,1\n1,A,2\n2,HiFi,1\n2,A,2\n3,B,4\n3,C,5\n").string(),
            "--block", "b", "--treatment", "t", "--value", "v", "--control", "HiFi", "--json"}));
   EXPECT_TRUE(k["comparisons"][1]["p"].is_null());
+  EXPECT_TRUE(k["comparisons"][1]["df"].is_null());
+  EXPECT_EQ(k["comparisons"][1]["n"].get<int>(), 0);
   EXPECT_EQ(k["comparisons"][1]["n_blocks"].get<int>(), 0);
 }
 

@@ -18,6 +18,7 @@
 
 #include <gtest/gtest.h>
 
+#include "app/cli_process.h"
 #include "db/study_db.h"
 #include "protocols/protocol_json.h"
 #include "protocols/schedule.h"
@@ -36,17 +37,7 @@ fs::path fresh_dir(const std::string& name) {
 }
 
 // Runs the binary with `args`; returns its exit status and output.
-std::pair<int, std::string> run(const std::string& args) {
-  const std::string command = kBinary.string() + " " + args + " 2>&1";
-  std::FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return {-1, "popen failed"};
-  std::string out;
-  char buffer[4096];
-  std::size_t n;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) out.append(buffer, n);
-  const int status = ::pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+std::pair<int, std::string> run(const std::string& args) { return testing::run_cli(kBinary.string(), args); }
 
 std::string slurp(const fs::path& path) {
   std::ifstream in(path);

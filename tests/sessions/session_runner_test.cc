@@ -160,6 +160,11 @@ TEST_F(SessionFixture, OperatorStopAbortsKeepsSamplesAndRequeues) {
   open.recover = false;
   db::StudyDb db(db_path_, open);
   EXPECT_GT(db.sample_count(aborted.id, 0), 100u);  // ~0.4 s at 1 kHz, kept
+  const auto events = db.events(aborted.id);
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.back().type, "operator_abort");
+  EXPECT_EQ(events.back().instrument, -1);
+  EXPECT_GE(events.back().t_s, 0.1);  // after the 100+ samples above
 
   // Running again starts with the re-queued copy.
   SessionOptions again = options_for("A1");

@@ -35,6 +35,23 @@ TEST(FriedmanTest, RoundingTimesMatchesR) {
   EXPECT_EQ(r.observations, 66u);
 }
 
+// scipy: friedmanchisquare(before, immediately_after, five_min_after), the
+// pulse rates of 7 students (Sprent & Smeeton 6.3.2, scipy's documentation):
+//   statistic 10.57142857142857, pvalue 0.005063414171757498
+// No ties, so the statistic is the rational 74/7; p from chi-square df 2 is
+// exp(-37/7), which Boost must give to a few ulps.
+TEST(FriedmanTest, PulseRatesMatchScipy) {
+  const std::vector<std::vector<double>> pulse = {
+      {72, 120, 76}, {96, 120, 95}, {88, 132, 104}, {92, 120, 96},
+      {74, 101, 84}, {76, 96, 72},  {82, 112, 76}};
+  const TestResult r = friedman_test(BlockTable::from_matrix(pulse));
+  EXPECT_NEAR(r.statistic, 10.57142857142857, kExactTolerance);
+  EXPECT_EQ(r.df, 2.0);
+  EXPECT_NEAR(r.p, 0.005063414171757498, 1e-15);
+  EXPECT_EQ(r.blocks, 7u);
+  EXPECT_EQ(r.observations, 21u);
+}
+
 // Hand-worked, 3 blocks × 3 treatments with ties:
 //   block 1: 1, 2, 3  -> ranks 1,   2,   3
 //   block 2: 2, 2, 5  -> ranks 1.5, 1.5, 3     (one pair tied: 2³−2 = 6)
