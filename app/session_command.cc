@@ -1,8 +1,11 @@
 #include "app/session_command.h"
 
+#include <atomic>
 #include <cstdio>
+#include <iostream>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
@@ -10,6 +13,8 @@
 
 namespace hapticlab::app {
 namespace {
+
+constexpr int kMaxTrainingTrials = 1000;
 
 struct SessionCommandOptions {
   std::string db;
@@ -21,7 +26,19 @@ struct SessionCommandOptions {
   int training_trials = -1;  // -1: the protocol's
   int max_trials = -1;       // -1: all
   bool blind = false;
+  bool training_until_enter = false;
 };
+
+// Counts the operator's Enter presses on stdin, for training the operator
+// ends. End of input counts once too: nobody is left to press Enter. The
+// thread is detached because a read from a terminal cannot be interrupted;
+// it blocks harmlessly until the process exits.
+void count_enter_presses(std::atomic<int>& presses) {
+  std::thread([&presses] {
+    for (std::string line; std::getline(std::cin, line);) presses.fetch_add(1, std::memory_order_release);
+    presses.fetch_add(1, std::memory_order_release);
+  }).detach();
+}
 
 std::string trial_label(const sessions::SessionProgress& p, bool blind) {
   std::string s = p.participant + " trial " + std::to_string(p.trial_number) + "/" + std::to_string(p.trial_count) +
@@ -39,6 +56,13 @@ int run(const SessionCommandOptions& opt) {
   options.max_trial_s = opt.max_trial_s;
   if (opt.training_trials >= 0) options.training_trials = opt.training_trials;
   if (opt.max_trials >= 0) options.max_trials = opt.max_trials;
+  // Static: the detached reader may outlive this function's frame.
+  static std::atomic<int> enter_presses{0};
+  if (opt.training_until_enter) {
+    if (opt.training_trials < 0) options.training_trials = kMaxTrainingTrials;
+    options.training_ends = &enter_presses;
+    count_enter_presses(enter_presses);
+  }
 
   InterruptFlag interrupt;
   options.stop = &interrupt.flag();
@@ -48,7 +72,8 @@ int run(const SessionCommandOptions& opt) {
     const double done = p.trial_count > 0 ? static_cast<double>(p.trial_number - 1) / p.trial_count : 0.0;
     switch (p.phase) {
       case Phase::kTraining:
-        line.print(p.participant + ": training (" + p.task + ")");
+        line.print(p.participant + ": training (" + p.task + ")" +
+                   (opt.training_until_enter ? " - press Enter to end it after the current trial" : ""));
         break;
       case Phase::kTrialStarted:
         line.update(done, trial_label(p, opt.blind), p.elapsed_s, p.eta_s);
@@ -111,8 +136,12 @@ void add_session_command(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--training-trials", opt->training_trials,
-                  "Simulated training trials per task before its first trial, 0..1000 (default: the protocol's)")
-      ->check(CLI::Range(0, 1000));
+                  "Simulated training trials per task before its first trial, 0..1000 (default: the protocol's; "
+                  "with --training-until-enter the most it may last, default 1000)")
+      ->check(CLI::Range(0, kMaxTrainingTrials));
+  cmd->add_flag("--training-until-enter", opt->training_until_enter,
+                "The operator ends each task's training: trials repeat until Enter is pressed (or stdin ends), "
+                "as with a real participant, who practises until the operator judges them ready");
   cmd->add_option("--max-trials", opt->max_trials, "Run at most this many trials, then stop (default: all)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--blind", opt->blind,

@@ -188,6 +188,10 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     // Training: before this session's first trial of a task. Unlogged
     // sample by sample (it is not analysed); its length and count are kept.
     if (training_per_task > 0 && trained.insert(trial.task).second) {
+      // Taken before the training is announced, so an end the operator
+      // gives as soon as it shows counts.
+      const int ends_before =
+          options.training_ends != nullptr ? options.training_ends->load(std::memory_order_acquire) : 0;
       SessionProgress p;
       p.phase = SessionProgress::Phase::kTraining;
       p.trial_number = complete + 1;
@@ -200,7 +204,11 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       row.started_unix_s = db::unix_now_s();
       double trained_s = 0.0;
       int done = 0;
-      for (int k = 0; k < training_per_task && !stop_requested(options); ++k) {
+      const auto operator_ended = [&] {
+        return options.training_ends != nullptr &&
+               options.training_ends->load(std::memory_order_acquire) != ends_before;
+      };
+      for (int k = 0; k < training_per_task && !stop_requested(options) && !(k > 0 && operator_ended()); ++k) {
         SimTrialConfig c = base_config(trial.task, control,
                                        Random::derive(who, protocols::fnv1a64("training:" + trial.task)).next_u64() +
                                            static_cast<std::uint64_t>(k),

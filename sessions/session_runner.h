@@ -57,6 +57,13 @@ struct SessionOptions {
   // Simulated training trials per task before the first scheduled trial of
   // that task in this session; nullopt: the protocol's training_trials.
   std::optional<int> training_trials;
+  // Training the operator ends, as with a real participant, who practises
+  // until the operator judges them ready: when set, each task's training
+  // repeats trials until this counter has moved on from its value when the
+  // training started (e.g. the operator pressed Enter), checked after each
+  // trial, so at least one trial runs. training_trials (or the protocol's)
+  // still caps it. May be null: then training is the fixed number of trials.
+  const std::atomic<int>* training_ends = nullptr;
   // Run at most this many scheduled trials, then close the session (the
   // rest stays planned). nullopt: the whole remaining schedule.
   std::optional<int> max_trials;

@@ -133,6 +133,32 @@ TEST_F(SessionFixture, TrainingIsRecordedButNotScheduled) {
   EXPECT_EQ(trials_of(db_path_, "B2").size(), 4u);
 }
 
+// Training the operator ends: trials repeat until the counter moves on from
+// its value when the training started, checked after each trial; the
+// training_trials cap still holds.
+TEST_F(SessionFixture, OperatorEndsTrainingAfterTheCurrentTrial) {
+  std::atomic<int> ends{7};  // pressed before: not an end of this training
+  SessionOptions o = options_for("A1");
+  o.training_trials = 3;
+  o.training_ends = &ends;
+  o.max_trials = 1;
+  const SessionResult capped = run_session(db_path_, o);
+  EXPECT_EQ(capped.training_trials, 3);
+
+  // A press while the first training trial is about to run (on_progress
+  // reports the training just before it): training ends after that trial.
+  o.on_progress = [&](const SessionProgress& p) {
+    if (p.phase == SessionProgress::Phase::kTraining) ends.fetch_add(1);
+  };
+  const SessionResult ended = run_session(db_path_, o);
+  EXPECT_EQ(ended.training_trials, 1);
+  EXPECT_EQ(ended.trials_complete, 1);
+  db::StudyDb db(db_path_);
+  const auto training = db.training(ended.session_id);
+  ASSERT_EQ(training.size(), 1u);
+  EXPECT_EQ(training[0].trials, 1);
+}
+
 TEST_F(SessionFixture, OperatorStopAbortsKeepsSamplesAndRequeues) {
   std::atomic<bool> stop{false};
   SessionOptions o = options_for("A1");
