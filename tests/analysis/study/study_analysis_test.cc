@@ -1,6 +1,8 @@
 #include "analysis/study/study_analysis.h"
 
 #include <cmath>
+#include <map>
+#include <stdexcept>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -167,6 +169,79 @@ TEST_F(StudyAnalysisTest, WholeDesignPicksSkillingsMack) {
       EXPECT_EQ(r.test.result->blocks, 4u);
     }
   }
+}
+
+// A study's records made by hand, for the designs the synthetic database
+// does not have: `design` lists each participant's settings. Values are
+// distinct everywhere (no ties), two repetitions per cell.
+StudyAnalysis hand_made(const std::vector<std::pair<std::string, std::vector<std::string>>>& design) {
+  StudyAnalysis a;
+  a.options.ks = false;
+  a.control = "HF";
+  a.tasks = {"clip"};
+  a.settings = {"HF", "A", "B"};
+  const std::map<std::string, double> base = {{"HF", 1.0}, {"A", 1.5}, {"B", 2.2}};
+  int who = 0;
+  for (const auto& [participant, settings] : design) {
+    a.participants.push_back(participant);
+    int position = 0;
+    for (int rep = 1; rep <= 2; ++rep) {
+      for (const std::string& setting : settings) {
+        TrialRecord t;
+        t.participant = participant;
+        t.task = "clip";
+        t.setting = setting;
+        t.repetition = rep;
+        t.position = ++position;
+        t.status = "complete";
+        t.window = TaskWindow{0.0, 60.0 + position};
+        for (int h = 0; h < 2; ++h) {
+          HandMetrics& m = t.hands[static_cast<std::size_t>(h)];
+          const double v = base.at(setting) + 0.1 * h + 0.01 * who + 0.001 * rep;
+          m.force_median_N = v / 2;
+          m.force_p95_N = v;
+          m.speed_median_m_per_s = 0.01 * v;
+          m.path_length_m = 0.5 * v;
+        }
+        a.trials.push_back(t);
+      }
+    }
+    ++who;
+  }
+  run_statistics(a);
+  return a;
+}
+
+const WholeDesignRow& p95_row(const StudyAnalysis& a) {
+  for (const auto& r : a.whole_design)
+    if (r.measure == Measure::kForceP95) return r;
+  throw std::runtime_error("no whole-design row for p95 force");
+}
+
+// Everyone did every setting: the classic Friedman over participant × hand
+// blocks (per-cell medians). Every block ranks HF < A < B: rank sums 6, 12,
+// 18 over 6 blocks, statistic 12/(6·3·4)·(36 + 144 + 324) − 3·6·4 = 12.
+TEST(WholeDesignTest, CompleteDesignUsesFriedman) {
+  const StudyAnalysis a = hand_made({{"P1", {"HF", "A", "B"}}, {"P2", {"HF", "A", "B"}}, {"P3", {"HF", "A", "B"}}});
+  const WholeDesignRow& r = p95_row(a);
+  ASSERT_TRUE(r.test.result.has_value()) << r.test.note;
+  EXPECT_EQ(r.test.result->method.rfind("Friedman", 0), 0u) << r.test.result->method;
+  EXPECT_EQ(r.test.result->blocks, 6u);
+  EXPECT_NEAR(r.test.result->statistic, 12.0, kTolerance);
+}
+
+// Pairs of 3 settings, each pair once per participant, both hands: a
+// balanced incomplete block design (t = 3, k = 2, b = 6, r = 4, λ = 2), so
+// Durbin. In every block the lower setting ranks 1: HF gets 1 four times,
+// B gets 2 four times, A half each: rank sums 4, 6, 8. Durbin's
+// T = 12(t−1)/(r·t·(k−1)(k+1)) · Σ(R − r(k+1)/2)² = 24/36 · (4 + 0 + 4) = 16/3.
+TEST(WholeDesignTest, BalancedIncompleteDesignUsesDurbin) {
+  const StudyAnalysis a = hand_made({{"P1", {"HF", "A"}}, {"P2", {"HF", "B"}}, {"P3", {"A", "B"}}});
+  const WholeDesignRow& r = p95_row(a);
+  ASSERT_TRUE(r.test.result.has_value()) << r.test.note;
+  EXPECT_EQ(r.test.result->method.rfind("Durbin", 0), 0u) << r.test.result->method;
+  EXPECT_EQ(r.test.result->blocks, 6u);
+  EXPECT_NEAR(r.test.result->statistic, 16.0 / 3.0, kTolerance);
 }
 
 // Force rises with the repetition, and repetitions come in trial order: a
