@@ -1,8 +1,11 @@
 #include "analysis/report/report.h"
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -53,6 +56,65 @@ TEST_F(ReportTest, TablesOnlyWithoutGnuplot) {
     EXPECT_THAT(s, HasSubstr("1 aborted trial(s) were left out"));
     EXPECT_THAT(s, HasSubstr("No Force Feedback (2)"));
   }
+}
+
+// The cells of the Markdown table row that starts with `label`.
+std::vector<std::string> md_row(const std::string& md, const std::string& label) {
+  std::istringstream lines(md);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("| " + label + " |", 0) != 0) continue;
+    std::vector<std::string> cells;
+    std::istringstream parts(line.substr(1));
+    for (std::string cell; std::getline(parts, cell, '|');) {
+      const auto b = cell.find_first_not_of(' ');
+      const auto e = cell.find_last_not_of(' ');
+      cells.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
+    }
+    return cells;
+  }
+  return {};
+}
+
+// Table 3.5's layout: a row per setting, a column per measure in the
+// thesis' order, each cell the analysis' p (bold when significant, in
+// parentheses when no Table 3.4 test was), N/A without shared blocks.
+TEST_F(ReportTest, PairwiseTableCellsAreTheAnalysisResults) {
+  ReportOptions o;
+  o.plots = false;
+  const std::string md = slurp(write_report(analysis_, dir_.path() / "out", o).markdown);
+  const auto header = md_row(md, analysis_.control + " compared to:");
+  ASSERT_EQ(header.size(), 6u) << md;
+  for (std::size_t k = 0; k < kAllMeasures.size(); ++k) EXPECT_EQ(header[k + 1], measure_label(kAllMeasures[k]));
+
+  const auto row = md_row(md, "No Force Feedback (2)");
+  ASSERT_EQ(row.size(), 6u) << md;
+  int checked = 0;
+  for (const auto& c : analysis_.pairwise) {
+    if (c.setting != "No Force Feedback") continue;
+    const std::size_t k = static_cast<std::size_t>(
+        std::find(kAllMeasures.begin(), kAllMeasures.end(), c.measure) - kAllMeasures.begin());
+    const std::string& cell = row[k + 1];
+    if (!c.p) {
+      EXPECT_EQ(cell, "N/A");
+    } else {
+      EXPECT_EQ(c.significant, cell.rfind("**", 0) == 0) << cell;
+      EXPECT_EQ(c.gated, cell.find('(') != std::string::npos) << cell;
+      // The printed p ("0.0092", "5E-4"), stripped of its marks, is the
+      // analysis' p within half a unit of its last printed digit.
+      std::string digits;
+      for (char ch : cell)
+        if (ch != '*' && ch != '(' && ch != ')') digits += ch;
+      const auto e = digits.find('E');
+      const std::string mantissa = digits.substr(0, e);
+      const auto point = mantissa.find('.');
+      const int decimals = point == std::string::npos ? 0 : static_cast<int>(mantissa.size() - point - 1);
+      const int exponent = e == std::string::npos ? 0 : std::stoi(digits.substr(e + 1));
+      const double half_unit = 0.5 * std::pow(10.0, exponent - decimals);
+      EXPECT_NEAR(std::stod(digits), *c.p, half_unit * (1.0 + 1e-9)) << cell;
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 5);
 }
 
 // Every figure the report lists exists as an SVG, sits inline in the HTML
