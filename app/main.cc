@@ -9,6 +9,7 @@
 #include "app/study_demo.h"
 #include "app/engine_replay.h"
 #include "app/settings_check.h"
+#include "app/sim_replay.h"
 #include "app/sim_run.h"
 #include "app/stats_command.h"
 #include "app/analyze_command.h"
@@ -39,6 +40,7 @@ int main(int argc, char** argv) {
   CLI::App* sim = app.add_subcommand("sim", "Simulated rig: participant, workstation and tasks");
   sim->require_subcommand(1);
   hapticlab::app::add_sim_run_command(*sim);
+  hapticlab::app::add_sim_replay_command(*sim);
 
   hapticlab::app::add_study_command(app);
   hapticlab::app::add_session_command(app);

@@ -14,6 +14,7 @@ const char* to_string(StopReason reason) noexcept {
     case StopReason::kMaxDuration: return "max_duration";
     case StopReason::kStopRequested: return "stop_requested";
     case StopReason::kDeviceFault: return "device_fault";
+    case StopReason::kEndOfData: return "end_of_data";
   }
   return "unknown";
 }
@@ -136,6 +137,10 @@ StopReason HapticLoop::loop_body() {
     }
 
     const DeviceStatus read_status = device_.read(reading);
+    if (read_status == DeviceStatus::kEndOfData) {
+      finish(StopReason::kEndOfData);
+      return StopReason::kEndOfData;
+    }
     if (read_status != DeviceStatus::kOk || !finite(reading)) {
       const DeviceStatus reported =
           read_status != DeviceStatus::kOk ? read_status : DeviceStatus::kNonFiniteReading;

@@ -14,7 +14,9 @@
 // and counted (dropped_samples(), dropped_events()), never silently.
 //
 // Faults: a device read that fails or returns a non-finite value writes zero
-// forces, records the fault and ends the loop (StopReason::kDeviceFault).
+// forces, records the fault and ends the loop (StopReason::kDeviceFault). A
+// replay that runs out of recording (kEndOfData) ends it the same way but as
+// StopReason::kEndOfData, with the device status left kOk.
 
 #include <array>
 #include <atomic>
@@ -40,6 +42,7 @@ enum class StopReason : std::uint8_t {
   kMaxDuration,     // LoopConfig::max_duration_s elapsed
   kStopRequested,   // request_stop() (operator abort, Ctrl-C)
   kDeviceFault,     // a device read or write failed, or returned non-finite values
+  kEndOfData,       // a replay device ran out of recording: a normal end, not a fault
 };
 const char* to_string(StopReason reason) noexcept;
 

@@ -29,32 +29,47 @@ SimRig::SimRig(const SimTrialConfig& config) {
   RateSchedule schedule = config.thesis_rate ? RateSchedule::thesis_wander(config.trial_seed)
                                              : RateSchedule::fixed(config.rate_Hz);
 
-  // The simulated workstation. Sub-steps of 1 ms are plenty for a hand of a
-  // few hundred N/m on a few hundred grams (ω·h < 0.05) and keep a 1 kHz
-  // loop at one physics step per update.
-  SimDeviceParams device_params;
-  device_params.max_substep_s = 1e-3;
-  device_ = std::make_unique<SimDevice>(device_params);
   std::array<JointVector, kNumInstruments> start{};
-  for (int i = 0; i < 2; ++i) {
-    const DeviceJoints pose = Participant::start_pose(i);
-    device_->set_position(i, pose);
+  const auto set_start = [&](int i, const DeviceJoints& pose) {
     start[static_cast<std::size_t>(i)] = JointVector(pose[kJointInsertion], pose[kJointPitch], pose[kJointYaw]);
+  };
+  if (config.replay) {
+    if (config.replay->empty()) throw std::invalid_argument("replay: the recording has no frames");
+    // Throws std::invalid_argument naming a bad frame.
+    device_ = std::make_unique<ReplayDevice>(*config.replay);
+    for (int i = 0; i < 2; ++i) set_start(i, config.replay->front().position[static_cast<std::size_t>(i)]);
+  } else {
+    // The simulated workstation. Sub-steps of 1 ms are plenty for a hand of
+    // a few hundred N/m on a few hundred grams (ω·h < 0.05) and keep a 1 kHz
+    // loop at one physics step per update.
+    SimDeviceParams device_params;
+    device_params.max_substep_s = 1e-3;
+    auto sim = std::make_unique<SimDevice>(device_params);
+    for (int i = 0; i < 2; ++i) {
+      const DeviceJoints pose = Participant::start_pose(i);
+      sim->set_position(i, pose);
+      set_start(i, pose);
+    }
+    sim_device_ = sim.get();
+    device_ = std::move(sim);
   }
   DeviceConfig device_config;
   device_config.nominal_rate_Hz = std::clamp(1.0 / schedule.nominal_period_s(), 150.0, 2000.0);
   device_config.seed = config.trial_seed;
   if (device_->configure(device_config) != DeviceStatus::kOk)
-    throw std::invalid_argument("rate_Hz: the simulated device refused the loop rate");
-  if (config.inject_fault) device_->inject_fault(config.inject_fault->first, config.inject_fault->second);
+    throw std::invalid_argument("rate_Hz: the " + std::string(device_->name()) + " device refused the loop rate");
+  if (config.inject_fault && sim_device_ != nullptr)
+    sim_device_->inject_fault(config.inject_fault->first, config.inject_fault->second);
 
   engine_ = std::make_unique<Engine>(config.settings, start);
   if (config.task == TaskKind::kDissection) ve_ = std::make_unique<DissectionTask>(config.trial_seed);
   else ve_ = std::make_unique<ClipTask>(config.trial_seed);
 
-  const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed);
-  participant_ = std::make_unique<Participant>(
-      traits, ParticipantTrial{config.trial_seed, config.practice_trials}, *device_, *ve_);
+  if (sim_device_ != nullptr) {
+    const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed);
+    participant_ = std::make_unique<Participant>(
+        traits, ParticipantTrial{config.trial_seed, config.practice_trials}, *sim_device_, *ve_);
+  }
 
   if (config.clock == ClockKind::kVirtual) clock_ = std::make_unique<VirtualClock>();
   else clock_ = std::make_unique<WallClock>();

@@ -1,7 +1,9 @@
 #pragma once
 // Runs one simulated trial end to end: the sim device held by a simulated
 // participant, the degradation engine, a simulated task VE and the haptic
-// loop, with the virtual or the wall clock.
+// loop, with the virtual or the wall clock. Or, with a recording in
+// `replay`, the replay device plays a recorded motion (no participant)
+// through the engine and the VE: the same motion under another setting.
 //
 // The loop runs on its own thread; samples and events are handed to the
 // caller's sink on the calling thread as they arrive. With the virtual
@@ -12,6 +14,7 @@
 #include <memory>
 #include <optional>
 
+#include "core/device/replay_device.h"
 #include "core/device/sim_device.h"
 #include "core/engine/engine.h"
 #include "core/loop/haptic_loop.h"
@@ -41,6 +44,12 @@ struct SimTrialConfig {
   // Fault injection for tests: from this simulated time on, the device read
   // fails with this status. nullopt: no fault.
   std::optional<std::pair<DeviceStatus, double>> inject_fault;
+  // Set: replay these frames (ReplayDevice) instead of the simulated device
+  // and participant; the loop ends with StopReason::kEndOfData after the
+  // last frame unless the task completes first (stop_when_complete) or
+  // max_duration_s passes. participant_seed, practice_trials and
+  // inject_fault are then unused; trial_seed still lays out the task.
+  std::shared_ptr<const std::vector<ReplayFrame>> replay;
 };
 
 struct SimTrialResult {
@@ -67,13 +76,16 @@ class SimRig {
   ~SimRig();
 
   HapticLoop& loop() noexcept { return *loop_; }
-  SimDevice& device() noexcept { return *device_; }
+  Device& device() noexcept { return *device_; }
+  // The simulated device and participant; null when replaying.
+  SimDevice* sim_device() noexcept { return sim_device_; }
+  const Participant* participant() const noexcept { return participant_.get(); }
   Engine& engine() noexcept { return *engine_; }
   VirtualEnvironment& ve() noexcept { return *ve_; }
-  const Participant& participant() const noexcept { return *participant_; }
 
  private:
-  std::unique_ptr<SimDevice> device_;
+  std::unique_ptr<Device> device_;
+  SimDevice* sim_device_ = nullptr;  // device_ when it is the simulated one
   std::unique_ptr<Engine> engine_;
   std::unique_ptr<VirtualEnvironment> ve_;
   std::unique_ptr<Participant> participant_;

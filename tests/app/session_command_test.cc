@@ -1,8 +1,11 @@
-// `study create`, `study show` and `session run` through the real binary:
-// what the operator sees, and that a blind session never names a setting.
+// `study create`, `study show`, `session run` and `sim replay` through the
+// real binary: what the operator sees, that a blind session never names a
+// setting, and that a logged trial replays.
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -10,6 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "app/cli_process.h"
+#include "app/csv_rows.h"
+#include "db/study_db.h"
 
 namespace hapticlab {
 namespace {
@@ -82,6 +87,95 @@ TEST_F(SessionCommandTest, BlindSessionNeverNamesTheSettingTheOperatorViewDoes) 
   const auto [status3, summary] = testing::run_cli(kBinary, "study show --summary --db " + db_);
   ASSERT_EQ(status3, 0);
   EXPECT_THAT(summary, HasSubstr("S1                  20        3        0        0       17"));
+}
+
+double magnitude(const std::map<std::string, std::string>& row, const std::string& prefix) {
+  double s = 0.0;
+  for (const char* axis : {"x", "y", "z"}) {
+    const double v = std::stod(row.at(prefix + axis + "_N"));
+    s += v * v;
+  }
+  return std::sqrt(s);
+}
+
+// A trial a session logged, replayed through its own setting and task
+// layout, gives back the VE forces it recorded: the database holds the raw
+// positions as float32 (at most 6 nm on a 0.1 m insertion), which against
+// tissue of at most a few kN/m is a few µN; 1e-4 N leaves room for the
+// contact dynamics. Replayed through No Force Feedback, the same motion
+// meets the same tissue but the device displays nothing.
+TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
+  const auto [status, out] = testing::run_cli(
+      kBinary, "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 1");
+  ASSERT_EQ(status, 0) << out;
+  std::int64_t trial = 0;
+  {
+    db::OpenOptions open;
+    open.read_only = true;
+    db::StudyDb db(db_, open);
+    for (const auto& t : db.trials())
+      if (t.status == db::TrialStatus::kComplete) trial = t.id;
+  }
+  ASSERT_GT(trial, 0);
+
+  const fs::path replay_csv = dir_ / "replay.csv";
+  const auto [status2, summary] = testing::run_cli(
+      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --output " + replay_csv.string());
+  ASSERT_EQ(status2, 0) << summary;
+  EXPECT_THAT(summary, HasSubstr("end_of_data"));
+  EXPECT_THAT(summary, HasSubstr("task complete"));
+
+  const auto [status3, exported] = testing::run_cli(
+      kBinary, "export --db " + db_ + " --trial " + std::to_string(trial) + " --format csv --out " +
+                   (dir_ / "export").string());
+  ASSERT_EQ(status3, 0) << exported;
+  fs::path samples_csv;
+  for (const auto& e : fs::directory_iterator(dir_ / "export"))
+    if (e.path().string().ends_with("_samples.csv")) samples_csv = e.path();
+  ASSERT_FALSE(samples_csv.empty());
+
+  const auto recorded = testing::read_csv_rows(samples_csv);  // a row per instrument and update
+  const auto replayed = testing::read_csv_rows(replay_csv);   // a row per update, both instruments
+  ASSERT_EQ(recorded.size(), 2 * replayed.size());
+  double worst_N = 0.0, peak_N = 0.0;
+  for (const auto& r : recorded) {
+    const std::size_t tick = std::stoul(r.at("tick"));
+    ASSERT_LT(tick, replayed.size());
+    const std::string side = r.at("instrument") == "0" ? "left_" : "right_";
+    const double f_N = magnitude(r, "ve_force_");
+    worst_N = std::max(worst_N, std::abs(f_N - magnitude(replayed[tick], side + "ve_force_")));
+    peak_N = std::max(peak_N, f_N);
+  }
+  EXPECT_GT(peak_N, 0.1);  // the trial touched tissue
+  EXPECT_LT(worst_N, 1e-4);
+
+  const fs::path no_ffb_csv = dir_ / "no_ffb.csv";
+  const auto [status4, summary4] = testing::run_cli(
+      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --settings " +
+                   std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/no_force_feedback.json --output " +
+                   no_ffb_csv.string());
+  ASSERT_EQ(status4, 0) << summary4;
+  EXPECT_THAT(summary4, HasSubstr("through No Force Feedback"));
+  double ve_peak_N = 0.0, displayed_peak_N = 0.0;
+  for (const auto& row : testing::read_csv_rows(no_ffb_csv)) {
+    for (const std::string side : {"left_", "right_"}) {
+      ve_peak_N = std::max(ve_peak_N, magnitude(row, side + "ve_force_"));
+      displayed_peak_N = std::max(displayed_peak_N, magnitude(row, side + "displayed_force_"));
+    }
+  }
+  EXPECT_GT(ve_peak_N, 0.1);
+  EXPECT_EQ(displayed_peak_N, 0.0);
+}
+
+TEST_F(SessionCommandTest, ReplayNamesWhatIsMissing) {
+  const auto [status, out] =
+      testing::run_cli(kBinary, "sim replay --db " + db_ + " --trial 1 --output " + (dir_ / "x.csv").string());
+  EXPECT_NE(status, 0);
+  EXPECT_THAT(out, HasSubstr("no stored samples"));
+  const auto [status2, out2] = testing::run_cli(kBinary, "sim replay --db " + db_ + " --output x.csv");
+  EXPECT_NE(status2, 0);
+  EXPECT_THAT(out2, HasSubstr("--trial"));
+  EXPECT_FALSE(fs::exists(dir_ / "x.csv"));
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "app/cli_process.h"
+#include "app/csv_rows.h"
 #include "db/study_db.h"
 #include "protocols/protocol_json.h"
 #include "protocols/schedule.h"
@@ -44,38 +45,6 @@ std::string slurp(const fs::path& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-std::vector<std::map<std::string, std::string>> read_csv(const fs::path& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::vector<std::string> header;
-  std::vector<std::map<std::string, std::string>> rows;
-  auto split = [](const std::string& l) {
-    std::vector<std::string> cells;
-    std::string cell;
-    bool quoted = false;
-    for (char c : l) {
-      if (c == '"') quoted = !quoted;
-      else if (c == ',' && !quoted) {
-        cells.push_back(cell);
-        cell.clear();
-      } else {
-        cell += c;
-      }
-    }
-    cells.push_back(cell);
-    return cells;
-  };
-  if (!std::getline(in, line)) return rows;
-  header = split(line);
-  while (std::getline(in, line)) {
-    const auto cells = split(line);
-    std::map<std::string, std::string> row;
-    for (std::size_t k = 0; k < header.size() && k < cells.size(); ++k) row[header[k]] = cells[k];
-    rows.push_back(row);
-  }
-  return rows;
 }
 
 // What the shipped quick protocol plans.
@@ -107,7 +76,7 @@ void expect_consistent_outputs(const fs::path& out) {
   EXPECT_EQ(db_codes, planned_codes);
   EXPECT_EQ(complete, planned_trials);  // every planned slot done exactly once
 
-  const auto rows = read_csv(out / "metrics.csv");
+  const auto rows = testing::read_csv_rows(out / "metrics.csv");
   EXPECT_EQ(rows.size(), 2 * complete);  // one row per trial and hand
   std::set<std::string> csv_codes, csv_trials;
   for (const auto& r : rows) {

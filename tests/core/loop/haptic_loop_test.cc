@@ -548,6 +548,31 @@ TEST_P(ReplayThroughLoopTest, EveryUpdateSeesItsRecordedFrameBitForBit) {
   EXPECT_EQ(mismatches, 0) << "of " << 2 * samples.size() << " instrument readings";
 }
 
+// The end of a recording is the normal end of a replay: zero forces, the
+// loop stops with kEndOfData after the last frame, and the device status
+// stays ok (a fault would make a session re-queue the trial).
+TEST(HapticLoopTest, ReplayEndsWithEndOfDataNotAFault) {
+  std::vector<ReplayFrame> frames(300);
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    frames[k].t_s = static_cast<double>(k) / 1000.0;
+    for (auto& q : frames[k].position) q = {0.1, 0.0, 0.0, 0.0, 0.0};
+  }
+  ReplayDevice device(frames);
+  ASSERT_EQ(device.configure({}), DeviceStatus::kOk);
+  Engine engine(EngineSettings{});
+  RecordingVe ve;  // a nonzero force: the command is nonzero until the end
+  VirtualClock clock;
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(1000.0), short_run(1.5));
+  EXPECT_EQ(loop.run(), StopReason::kEndOfData);
+  EXPECT_EQ(loop.device_status(), DeviceStatus::kOk);
+  EXPECT_STREQ(to_string(StopReason::kEndOfData), "end_of_data");
+  const std::vector<LoopSample> samples = drain(loop);
+  EXPECT_GE(samples.size(), 299u);
+  EXPECT_LE(samples.size(), 301u);
+  for (const auto& f : device.last_command().force)
+    for (double v : f) EXPECT_EQ(v, 0.0);
+}
+
 INSTANTIATE_TEST_SUITE_P(RecordingStart, ReplayThroughLoopTest, ::testing::Values(0.0, 100.0),
                          [](const auto& info) { return info.param == 0.0 ? "AtZero" : "At100s"; });
 

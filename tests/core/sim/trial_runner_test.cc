@@ -261,7 +261,7 @@ TEST_P(TrialRunnerFaultTest, StopsTheForcesAndReportsTheFault) {
   EXPECT_LT(rig.loop().elapsed_s(), t_fault_s);
   EXPECT_GT(rig.loop().elapsed_s(), t_fault_s - 0.0015);
   for (int i = 0; i < 2; ++i)
-    for (double f : rig.device().motor_force(i)) EXPECT_EQ(f, 0.0);
+    for (double f : rig.sim_device()->motor_force(i)) EXPECT_EQ(f, 0.0);
   DeviceReading reading;
   EXPECT_EQ(rig.device().read(reading), DeviceStatus::kNotActive);
 }

@@ -1,0 +1,150 @@
+#include "app/sim_replay.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "app/temp_output_file.h"
+#include "core/io/loop_sample_csv.h"
+#include "core/settings/settings_json.h"
+#include "core/sim/trial_runner.h"
+#include "db/replay_frames.h"
+#include "db/study_db.h"
+#include "sessions/session_runner.h"
+
+namespace hapticlab::app {
+namespace {
+
+struct SimReplayOptions {
+  std::string db;
+  std::optional<std::int64_t> trial;
+  std::string csv;
+  std::string task;
+  std::string settings;
+  std::optional<std::uint64_t> trial_seed;
+  double rate_Hz = 1000.0;
+  std::string output;
+};
+
+// What to replay, resolved from the options: the motion, the task and its
+// layout seed, and the setting.
+struct Recording {
+  std::vector<ReplayFrame> frames;
+  std::string task;
+  std::uint64_t trial_seed = 1;
+  NamedSettings settings;
+  std::string what;  // for the summary line
+};
+
+Recording from_database(const SimReplayOptions& opt) {
+  db::OpenOptions open;
+  open.read_only = true;  // a session may be running
+  open.integrity = db::OpenOptions::Integrity::kQuick;
+  db::StudyDb db(opt.db, open);
+  Recording r;
+  // The study holding the trial: its seed gives the simulated trial's task
+  // layout exactly as the session runner derived it.
+  for (const db::StudyRow& study : db.studies()) {
+    for (const db::TrialRow& t : db.trials(study.id)) {
+      if (t.id != *opt.trial) continue;
+      r.frames = db::load_replay_frames(db, t.id);  // throws for a trial without samples
+      r.task = t.task;
+      r.trial_seed = opt.trial_seed.value_or(
+          sessions::trial_seed(sessions::participant_seed(study.seed, t.participant_code), t.id));
+      r.settings = opt.settings.empty() ? db.setting(t.setting_id) : load_settings_file(opt.settings);
+      r.what = "trial " + std::to_string(t.id) + " (" + t.participant_code + ", " + t.task + ", recorded with " +
+               t.setting_name + ")";
+      return r;
+    }
+  }
+  throw std::invalid_argument("--trial: " + std::to_string(*opt.trial) + " is not a trial in " + opt.db);
+}
+
+Recording from_csv(const SimReplayOptions& opt) {
+  if (opt.task.empty()) throw std::invalid_argument("--task: required with --csv (dissection or clip)");
+  if (opt.settings.empty()) throw std::invalid_argument("--settings: required with --csv");
+  Recording r;
+  r.frames = load_replay_frames_from_trajectory_csv(opt.csv);
+  r.task = opt.task;
+  r.trial_seed = opt.trial_seed.value_or(1);
+  r.settings = load_settings_file(opt.settings);
+  r.what = opt.csv;
+  return r;
+}
+
+int run(const SimReplayOptions& opt) {
+  if (opt.db.empty() == opt.csv.empty())
+    throw std::invalid_argument("give either --db with --trial, or --csv with --task and --settings");
+  if (!opt.db.empty() && !opt.trial) throw std::invalid_argument("--trial: required with --db");
+  Recording rec = opt.db.empty() ? from_csv(opt) : from_database(opt);
+
+  SimTrialConfig config;
+  config.task = parse_task_kind(rec.task);
+  config.settings = rec.settings.engine;
+  config.trial_seed = rec.trial_seed;
+  config.rate_Hz = opt.rate_Hz;
+  // The whole recording, and a little more: the loop ends at its last frame.
+  const double recording_s = rec.frames.back().t_s - rec.frames.front().t_s;
+  config.max_duration_s = recording_s + 1.0;
+  config.stop_when_complete = false;
+  config.replay = std::make_shared<const std::vector<ReplayFrame>>(std::move(rec.frames));
+
+  TempOutputFile file{std::filesystem::path(opt.output)};
+  LoopSampleCsvWriter writer(file.stream());
+  SimTrialSink sink;
+  sink.on_event = [&](const TaskEvent& e) { writer.add_event(e); };
+  sink.on_sample = [&](const LoopSample& s) { writer.write(s); };
+  const SimTrialResult r = run_sim_trial(config, sink);
+  file.commit();
+
+  std::printf("replayed %s through %s: %.2f s of %.2f s recorded (%s), task %s, %llu samples, "
+              "peak VE force left %.2f N right %.2f N%s -> %s\n",
+              rec.what.c_str(), rec.settings.name.c_str(), r.duration_s, recording_s, to_string(r.stop_reason),
+              r.task_complete ? "complete" : "not complete", static_cast<unsigned long long>(r.samples),
+              r.peak_ve_force_N[0], r.peak_ve_force_N[1], r.dropped_samples > 0 ? " (SAMPLES DROPPED)" : "",
+              opt.output.c_str());
+  if (r.stop_reason == StopReason::kDeviceFault) {
+    std::fprintf(stderr, "hapticlab sim replay: the recording has a bad reading: %s\n", to_string(r.device_status));
+    return 3;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_sim_replay_command(CLI::App& sim) {
+  auto opt = std::make_shared<SimReplayOptions>();
+  CLI::App* cmd = sim.add_subcommand(
+      "replay",
+      "Play a recorded motion (a trial in a study database, or an engine trajectory CSV) through the "
+      "degradation engine and a task VE, with no participant: the same hand motion under another "
+      "setting. Writes every loop update to a CSV file (the columns of `sim run`) and prints a "
+      "summary. The positions are replayed open loop: the recorded hand does not react to the new "
+      "forces. Exit status 0 when the recording was played, 3 when it holds a non-finite reading.");
+  cmd->add_option("--db", opt->db, "Study database holding the recorded trial")->check(CLI::ExistingFile);
+  cmd->add_option("--trial", opt->trial, "Trial id in --db (hapticlab study show / export list them)");
+  cmd->add_option("--csv", opt->csv, "Engine trajectory CSV instead of a database trial (docs/engine.md)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--task", opt->task, "Task VE for --csv: dissection or clip (a database trial knows its own)")
+      ->check(CLI::IsMember({"dissection", "clip"}));
+  cmd->add_option("--settings", opt->settings,
+                  "Engine settings file to replay through (default for a database trial: its own setting)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--trial-seed", opt->trial_seed,
+                  "Task layout seed (default for a database trial: the one its simulated session used; "
+                  "for --csv: 1)");
+  cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
+      ->check(CLI::Range(150.0, 2000.0))
+      ->capture_default_str();
+  cmd->add_option("--output", opt->output, "CSV file to write (one row per loop update)")->required();
+  cmd->callback([opt] {
+    const int status = run(*opt);
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+}
+
+}  // namespace hapticlab::app
