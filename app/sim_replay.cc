@@ -8,8 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "app/temp_output_file.h"
-#include "core/io/loop_sample_csv.h"
+#include "app/sim_run.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
 #include "db/replay_frames.h"
@@ -93,13 +92,7 @@ int run(const SimReplayOptions& opt) {
   config.stop_when_complete = false;
   config.replay = std::make_shared<const std::vector<ReplayFrame>>(std::move(rec.frames));
 
-  TempOutputFile file{std::filesystem::path(opt.output)};
-  LoopSampleCsvWriter writer(file.stream());
-  SimTrialSink sink;
-  sink.on_event = [&](const TaskEvent& e) { writer.add_event(e); };
-  sink.on_sample = [&](const LoopSample& s) { writer.write(s); };
-  const SimTrialResult r = run_sim_trial(config, sink);
-  file.commit();
+  const SimTrialResult r = run_sim_trial_to_csv(config, opt.output);
 
   std::printf("replayed %s through %s: %.2f s of %.2f s recorded (%s), task %s, %llu samples, "
               "peak VE force left %.2f N right %.2f N%s -> %s\n",

@@ -24,6 +24,21 @@ struct SimRunOptions {
   std::string output;
 };
 
+}  // namespace
+
+SimTrialResult run_sim_trial_to_csv(const SimTrialConfig& config, const std::filesystem::path& output) {
+  TempOutputFile file{output};
+  LoopSampleCsvWriter writer(file.stream());
+  SimTrialSink sink;
+  sink.on_event = [&](const TaskEvent& e) { writer.add_event(e); };
+  sink.on_sample = [&](const LoopSample& s) { writer.write(s); };
+  const SimTrialResult r = run_sim_trial(config, sink);
+  file.commit();
+  return r;
+}
+
+namespace {
+
 int run(const SimRunOptions& opt) {
   SimTrialConfig config;
   config.task = parse_task_kind(opt.task);
@@ -37,13 +52,7 @@ int run(const SimRunOptions& opt) {
   config.thesis_rate = opt.thesis_rate;
   config.max_duration_s = opt.max_duration_s;
 
-  TempOutputFile file{std::filesystem::path(opt.output)};
-  LoopSampleCsvWriter writer(file.stream());
-  SimTrialSink sink;
-  sink.on_event = [&](const TaskEvent& e) { writer.add_event(e); };
-  sink.on_sample = [&](const LoopSample& s) { writer.write(s); };
-  const SimTrialResult r = run_sim_trial(config, sink);
-  file.commit();
+  const SimTrialResult r = run_sim_trial_to_csv(config, opt.output);
 
   std::printf("%s, %s, participant %llu: %s after %.2f s (%s clock), %llu samples, "
               "peak force left %.2f N right %.2f N%s -> %s\n",

@@ -1,7 +1,17 @@
 #pragma once
+#include <filesystem>
+
 #include <CLI/CLI.hpp>
 
+#include "core/sim/trial_runner.h"
+
 namespace hapticlab::app {
+// Runs the trial and writes every loop update with its events to `output`
+// (the `sim run` columns, core/io/loop_sample_csv.h). The file appears only
+// once complete. Throws what run_sim_trial throws, or for a file that cannot
+// be written.
+SimTrialResult run_sim_trial_to_csv(const SimTrialConfig& config, const std::filesystem::path& output);
+
 // `hapticlab sim run --task dissection|clip --settings FILE [--participant-seed N]
 //  [--trial-seed N] [--practice N] [--clock virtual|wall] [--rate-hz 1000]
 //  [--thesis-rate] [--max-duration-s S] --output FILE.csv`
