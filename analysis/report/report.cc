@@ -300,6 +300,10 @@ Section pairwise_section(const StudyAnalysis& a, const std::string& task, int nu
     }
     t.rows.push_back(std::move(row));
   }
+  for (const auto& c : a.pairwise) {
+    if (c.task != task || c.note.empty()) continue;
+    t.note += c.setting + " " + measure_label(c.measure) + ": " + c.note + ". ";
+  }
   s.tables.push_back(std::move(t));
   return s;
 }

@@ -525,18 +525,50 @@ void run_statistics(StudyAnalysis& a) {
           cells[{p.block, p.setting}].push_back(p.value);
           add_unique(blocks, p.block);
         }
-        BlockTable table;
-        table.treatment_names = {a.control, setting};
-        std::set<std::string> participants;
+        // The replicated Friedman test needs the same number of repetitions
+        // in every cell. A time-out or a hand without contact leaves a cell
+        // short, so balance: every block keeps its first r repetitions per
+        // setting, with r chosen to keep the most observations (on a tie,
+        // the most blocks); a block with fewer than r is left out.
+        std::vector<std::pair<std::string, std::size_t>> usable;  // block, repetitions in both cells
+        std::size_t available = 0;
         for (const auto& b : blocks) {
           auto c = cells.find({b, a.control});
           auto s = cells.find({b, setting});
           if (c == cells.end() || s == cells.end()) continue;
-          const std::size_t r = std::min(c->second.size(), s->second.size());
+          usable.emplace_back(b, std::min(c->second.size(), s->second.size()));
+          available += c->second.size() + s->second.size();
+        }
+        std::size_t r = 0, best_kept = 0;
+        for (const auto& [block, reps] : usable) {
+          std::size_t blocks_with = 0;
+          for (const auto& other : usable) blocks_with += other.second >= reps ? 1 : 0;
+          const std::size_t kept = 2 * reps * blocks_with;
+          if (kept > best_kept || (kept == best_kept && reps < r)) {
+            best_kept = kept;
+            r = reps;
+          }
+        }
+        BlockTable table;
+        table.treatment_names = {a.control, setting};
+        std::set<std::string> participants;
+        std::size_t blocks_left_out = 0;
+        for (const auto& [b, reps] : usable) {
+          if (reps < r) {
+            ++blocks_left_out;
+            continue;
+          }
+          const auto& c = cells.at({b, a.control});
+          const auto& s = cells.at({b, setting});
           table.block_names.push_back(b);
-          table.cells.push_back({std::vector<double>(c->second.begin(), c->second.begin() + static_cast<std::ptrdiff_t>(r)),
-                                 std::vector<double>(s->second.begin(), s->second.begin() + static_cast<std::ptrdiff_t>(r))});
+          table.cells.push_back({std::vector<double>(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(r)),
+                                 std::vector<double>(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(r))});
           participants.insert(b.substr(0, b.find('/')));
+        }
+        if (best_kept < available) {
+          cell.note = "balanced to " + std::to_string(r) + " repetition(s) per cell: " +
+                      std::to_string(available - best_kept) + " observation(s) dropped" +
+                      (blocks_left_out > 0 ? ", " + std::to_string(blocks_left_out) + " block(s) left out" : "");
         }
         cell.blocks = table.block_names.size();
         cell.participants = participants.size();

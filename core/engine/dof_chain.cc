@@ -62,7 +62,7 @@ DofOutput DofChain::step(const AxisSettings& s, double position, double ve_force
   const double v = velocity_.update(x, dt_s, filter);
   last_position_ = x;
   // F_ve => F_ves
-  const double f_ves = s.saturation.enabled ? saturate(ve_force, s.saturation.level) : ve_force;
+  const double f_ves = axis_ve_force(s, ve_force);
 
   DofOutput out;
   double motor_position = x;
@@ -80,17 +80,21 @@ DofOutput DofChain::step(const AxisSettings& s, double position, double ve_force
     if (at_wall) on_mass.stiffness = 0.0;
     out.force = backlash_.step(s.inertia, s.backlash, x, v, on_mass, dt_s);
     out.position = backlash_.limited_position(x, gap);
+    out.ve_coupled = true;
     motor_position = backlash_.mass().position();
   } else {
     // (F_ves, x_q, v) => F
-    out.force = f_ves;
-    if (s.cogging.enabled) out.force += cogging_force(s.cogging, x).force;
-    if (s.friction.enabled) out.force += friction_.step(s.friction, x, v).force;
-    if (s.inertia.enabled) out.force += inertia_.step(s.inertia, x, v, dt_s);
+    if (s.cogging.enabled) out.model_force += cogging_force(s.cogging, x).force;
+    if (s.friction.enabled) out.model_force += friction_.step(s.friction, x, v).force;
+    if (s.inertia.enabled) out.model_force += inertia_.step(s.inertia, x, v, dt_s);
+    out.force = f_ves + out.model_force;
     out.position = x;
   }
   // F => F·ripple(motor position)
-  if (s.cogging.enabled) out.force *= ripple_gain(s.cogging, motor_position);
+  if (s.cogging.enabled) {
+    out.ripple = ripple_gain(s.cogging, motor_position);
+    out.force *= out.ripple;
+  }
   return out;
 }
 

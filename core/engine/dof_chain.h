@@ -21,6 +21,7 @@
 #include "core/models/backlash.h"
 #include "core/models/friction.h"
 #include "core/models/inertia.h"
+#include "core/models/saturation.h"
 #include "core/models/velocity_filter.h"
 #include "core/settings/axis_settings.h"
 
@@ -29,7 +30,20 @@ namespace hapticlab {
 struct DofOutput {
   double force = 0.0;     // [F] commanded on this axis, before the device limit
   double position = 0.0;  // [X] degraded position for the VE
+  // How `force` depends on this step's (saturated) VE force F_ves, so that a
+  // newer VE force can replace it after the step (Instrument::refresh_forces):
+  // force = (F_ves + model_force)·ripple, up to rounding. Not so when
+  // ve_coupled: with backlash and inertia F_ves moved the mass, so another
+  // F_ves would have changed the state, not just the force.
+  double model_force = 0.0;  // [F] cogging + friction + inertia
+  double ripple = 1.0;       // cogging ripple gain
+  bool ve_coupled = false;
 };
+
+// F_ve => F_ves: the VE force on this axis after the axis' saturation.
+inline double axis_ve_force(const AxisSettings& s, double ve_force) noexcept {
+  return s.saturation.enabled ? saturate(ve_force, s.saturation.level) : ve_force;
+}
 
 class DofChain {
  public:

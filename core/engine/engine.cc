@@ -36,4 +36,9 @@ InstrumentOutput Engine::update(int instrument, const InstrumentInput& in) noexc
   return instruments_[instrument].step(in);
 }
 
+void Engine::refresh_forces(int instrument, const Eigen::Vector3d& ve_force_N, InstrumentOutput& out) noexcept {
+  if (instrument < 0 || instrument >= kNumInstruments) return;
+  instruments_[instrument].refresh_forces(ve_force_N, out);
+}
+
 }  // namespace hapticlab

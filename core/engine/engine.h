@@ -29,6 +29,10 @@ class Engine {
   // Real-time thread. instrument is 0 or 1 (other values return a zero force
   // with kFaultInvalidArgument set).
   InstrumentOutput update(int instrument, const InstrumentInput& in) noexcept;
+  // Real-time thread, right after update(instrument, ...): the VE force for
+  // this update's degraded positions replaces the one update() was given
+  // (Instrument::refresh_forces). Ignored for an invalid instrument.
+  void refresh_forces(int instrument, const Eigen::Vector3d& ve_force_N, InstrumentOutput& out) noexcept;
 
   // Control thread. Validates first (throws SettingsError, and nothing
   // changes, if a field is out of range), then publishes.

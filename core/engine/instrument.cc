@@ -40,6 +40,7 @@ void Instrument::resync(const JointVector& q) noexcept {
 
 InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   InstrumentOutput out;
+  refreshable_ = false;
   // guard: a non-finite value never reaches a motor
   if (!std::isfinite(in.dt_s) || !finite(in.position) || !finite(in.ve_force_N)) {
     out.status = kFaultNonFiniteInput;
@@ -107,23 +108,12 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
       const DofOutput d = chains_[a].step(settings_.axis(a), x, ve_joint[a], sub_dt, filter);
       command[a] = d.force;
       degraded[a] = d.position;
+      last_dof_[static_cast<std::size_t>(a)] = d;
     }
   }
   if (dt > 0.0) last_position_ = in.position;  // a deferred update keeps the start point
 
-  // device limit, per axis, last
-  for (int a = 0; a < kNumAxes; ++a) {
-    const double limit = settings_.device_limit(a);
-    if (std::abs(command[a]) > limit) {
-      command[a] = saturate(command[a], limit);
-      out.status |= kForceLimited;
-    }
-  }
-  out.joint_force = command;
-  // The VE's own force passes to the tip exactly; only what the degradations
-  // changed goes back through the moment arms, whose floor near the trocar
-  // would otherwise distort the VE force there.
-  out.displayed_force_N = ve + joint_to_world(pose, command - ve_joint, settings_.min_moment_arm_m);
+  finish_forces(ve, ve_joint, command, out);
 
   // degraded joints => delayed/held => VE, with display offsets
   out.degraded_position =
@@ -150,7 +140,55 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
     out.status |= kFaultNonFiniteState;
   }
   last_degraded_ = out.degraded_position;
+  refreshable_ = (out.status & kFaultNonFiniteState) == 0 && loop.force_latency_s == 0.0 &&
+                 loop.hold_rate_Hz == 0.0;
   return out;
+}
+
+void Instrument::finish_forces(const Eigen::Vector3d& ve, const JointVector& ve_joint, JointVector command,
+                               InstrumentOutput& out) const noexcept {
+  // device limit, per axis, last
+  out.status &= ~static_cast<std::uint32_t>(kForceLimited);
+  for (int a = 0; a < kNumAxes; ++a) {
+    const double limit = settings_.device_limit(a);
+    if (std::abs(command[a]) > limit) {
+      command[a] = saturate(command[a], limit);
+      out.status |= kForceLimited;
+    }
+  }
+  out.joint_force = command;
+  // The VE's own force passes to the tip exactly; only what the degradations
+  // changed goes back through the moment arms, whose floor near the trocar
+  // would otherwise distort the VE force there.
+  out.displayed_force_N = ve + joint_to_world(out.measured_pose, command - ve_joint, settings_.min_moment_arm_m);
+}
+
+void Instrument::refresh_forces(const Eigen::Vector3d& ve_force_N, InstrumentOutput& out) noexcept {
+  if (!refreshable_) return;
+  refreshable_ = false;  // once per step
+  if (!finite(ve_force_N)) {
+    out.joint_force.setZero();
+    out.displayed_force_N.setZero();
+    out.status |= kFaultNonFiniteInput;
+    needs_resync_ = true;
+    return;
+  }
+  Eigen::Vector3d ve = ve_force_N;
+  if (settings_.tip_force_saturation.enabled) {
+    ve = clip_magnitude(ve, settings_.tip_force_saturation.limit_N);
+  }
+  const JointVector ve_joint = world_to_joint(out.measured_pose, ve);
+  JointVector command;
+  for (int a = 0; a < kNumAxes; ++a) {
+    const DofOutput& d = last_dof_[static_cast<std::size_t>(a)];
+    command[a] = d.ve_coupled ? d.force : (axis_ve_force(settings_.axis(a), ve_joint[a]) + d.model_force) * d.ripple;
+  }
+  finish_forces(ve, ve_joint, command, out);
+  if (!out.displayed_force_N.allFinite() || !out.joint_force.allFinite()) {
+    out.joint_force.setZero();
+    out.displayed_force_N.setZero();
+    out.status |= kFaultNonFiniteState;
+  }
 }
 
 }  // namespace hapticlab

@@ -62,11 +62,28 @@ class Instrument {
 
   InstrumentOutput step(const InstrumentInput& in) noexcept;
 
+  // The second half of a loop that runs device => engine => VE => engine =>
+  // device: `out` is this update's step() result, computed with the VE
+  // force the VE gave for the previous positions; `ve_force_N` is what the
+  // VE just computed for out.degraded_position. Replaces that force in
+  // out.joint_force and out.displayed_force_N, as if step() had been given
+  // it, so the VE force reaches the device in the same update. Exact where
+  // the VE force only adds to the chain's force (everything but backlash
+  // with inertia, whose mass the previous force already moved: those axes
+  // keep step()'s force). Does nothing when force latency or hold emulation
+  // is on (they define the VE force's timing themselves) or when step()
+  // faulted. A non-finite ve_force_N zeroes the forces and sets
+  // kFaultNonFiniteInput. Must follow the step() that produced `out`.
+  void refresh_forces(const Eigen::Vector3d& ve_force_N, InstrumentOutput& out) noexcept;
+
   // Takes effect from the next step; see DofChain::on_settings_change.
   void apply_settings(const EngineSettings& settings) noexcept;
 
  private:
   void resync(const JointVector& q) noexcept;
+  // Device limit per axis, then the displayed tip force (eq. 2.19).
+  void finish_forces(const Eigen::Vector3d& ve, const JointVector& ve_joint, JointVector command,
+                     InstrumentOutput& out) const noexcept;
 
   EngineSettings settings_;
   std::array<DofChain, kNumAxes> chains_;
@@ -81,6 +98,9 @@ class Instrument {
   // dt repeats exactly, and tan() was a few percent of an update.
   double filter_dt_s_ = 0.0;
   ButterworthCoefficients filter_;
+  // The last sub-step's chain outputs, for refresh_forces.
+  std::array<DofOutput, kNumAxes> last_dof_{};
+  bool refreshable_ = false;
 };
 
 }  // namespace hapticlab

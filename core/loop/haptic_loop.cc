@@ -169,6 +169,12 @@ StopReason HapticLoop::loop_body() {
           kTrocarPosition_m[static_cast<std::size_t>(i)] + engine_out[static_cast<std::size_t>(i)].degraded_tip_m;
     }
     ve_.step(ve_in, ve_out, events);
+    // engine again: the force the VE just computed for these positions goes
+    // to the device in this update, not the next.
+    for (int i = 0; i < 2; ++i) {
+      const auto ui = static_cast<std::size_t>(i);
+      engine_.refresh_forces(i, ve_out.tip_force_N[ui], engine_out[ui]);
+    }
 
     if (agent_ != nullptr) agent_->act(LoopTickView{t_s, dt_s, reading, engine_out, ve_in, ve_out});
 

@@ -1,12 +1,16 @@
 #pragma once
-// The haptic loop: read device -> engine -> VE -> (participant) -> write
-// device, once per update, on a dedicated thread.
+// The haptic loop: read device -> engine -> VE -> engine -> (participant) ->
+// write device, once per update, on a dedicated thread.
 //
-// The engine takes the device positions together with the VE's most recent
-// tip force, returns the degraded positions and the force to display; the VE
-// then steps on the degraded positions, and its new force enters the next
-// update (one update of VE latency, as in any VE that computes forces from
-// the positions it was last sent).
+// The engine steps its models on the device positions and returns the
+// degraded positions; the VE steps on those; then the engine puts the VE's
+// new tip force through the force side of its chains (Engine::
+// refresh_forces), so the device displays it in the same update. Two cases
+// keep the previous update's VE force instead (one update of VE latency):
+// axes with backlash and inertia, whose virtual mass the VE force drives
+// (the models step once per update, with the force they had), and the loop
+// emulation of force latency or hold, which sets the VE force's timing
+// itself.
 //
 // Real-time rules: after start() the loop thread does not allocate, lock or
 // do I/O. Samples and events leave through lock-free single-producer queues

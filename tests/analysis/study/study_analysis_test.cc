@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <sstream>
 #include <string>
@@ -174,7 +175,8 @@ TEST_F(StudyAnalysisTest, WholeDesignPicksSkillingsMack) {
 // A study's records made by hand, for the designs the synthetic database
 // does not have: `design` lists each participant's settings. Values are
 // distinct everywhere (no ties), two repetitions per cell.
-StudyAnalysis hand_made(const std::vector<std::pair<std::string, std::vector<std::string>>>& design) {
+StudyAnalysis hand_made(const std::vector<std::pair<std::string, std::vector<std::string>>>& design,
+                        const std::set<std::string>& missing = {}) {
   StudyAnalysis a;
   a.options.ks = false;
   a.control = "HF";
@@ -187,6 +189,8 @@ StudyAnalysis hand_made(const std::vector<std::pair<std::string, std::vector<std
     int position = 0;
     for (int rep = 1; rep <= 2; ++rep) {
       for (const std::string& setting : settings) {
+        // "P2 A 2": that participant's second repetition at A timed out.
+        if (missing.count(participant + " " + setting + " " + std::to_string(rep))) continue;
         TrialRecord t;
         t.participant = participant;
         t.task = "clip";
@@ -242,6 +246,41 @@ TEST(WholeDesignTest, BalancedIncompleteDesignUsesDurbin) {
   EXPECT_EQ(r.test.result->method.rfind("Durbin", 0), 0u) << r.test.result->method;
   EXPECT_EQ(r.test.result->blocks, 6u);
   EXPECT_NEAR(r.test.result->statistic, 16.0 / 3.0, kTolerance);
+}
+
+const PairwiseCell& pairwise_p95(const StudyAnalysis& a, const std::string& setting) {
+  for (const auto& c : a.pairwise)
+    if (c.setting == setting && c.measure == Measure::kForceP95) return c;
+  throw std::runtime_error("no pairwise cell for " + setting);
+}
+
+// One trial short (a time-out) must not make a comparison N/A: the blocks
+// are balanced to equal repetitions, keeping the most observations.
+// P1 and P2 have 2 repetitions at HF and A; P3 lost its second A: per hand,
+// r = 2 keeps 2·2·4 = 16 values (P3 left out), r = 1 keeps 1·2·6 = 12.
+TEST(PairwiseBalanceTest, ATrialShortLeavesOutTheShortBlockWhenThatKeepsMore) {
+  const StudyAnalysis a = hand_made({{"P1", {"HF", "A"}}, {"P2", {"HF", "A"}}, {"P3", {"HF", "A"}}}, {"P3 A 2"});
+  const PairwiseCell& c = pairwise_p95(a, "A");
+  ASSERT_TRUE(c.p.has_value()) << c.note;
+  EXPECT_EQ(c.blocks, 4u);
+  EXPECT_EQ(c.participants, 2u);
+  // Dropped: P3's 2 + 1 values per hand.
+  EXPECT_EQ(c.note, "balanced to 2 repetition(s) per cell: 6 observation(s) dropped, 2 block(s) left out");
+  // What is left is exactly the study without P3.
+  const StudyAnalysis without_p3 = hand_made({{"P1", {"HF", "A"}}, {"P2", {"HF", "A"}}});
+  EXPECT_DOUBLE_EQ(*c.p, *pairwise_p95(without_p3, "A").p);
+}
+
+// With two participants, one short: r = 1 keeps 1·2·4 = 8 of the 14
+// values, r = 2 keeps 2·2·2 = 8 too; the tie goes to more blocks (both
+// participants), dropping P1's second repetitions and P2's second HF.
+TEST(PairwiseBalanceTest, OnATieMoreBlocksWin) {
+  const StudyAnalysis a = hand_made({{"P1", {"HF", "A"}}, {"P2", {"HF", "A"}}}, {"P2 A 2"});
+  const PairwiseCell& c = pairwise_p95(a, "A");
+  ASSERT_TRUE(c.p.has_value()) << c.note;
+  EXPECT_EQ(c.blocks, 4u);
+  EXPECT_EQ(c.participants, 2u);
+  EXPECT_EQ(c.note, "balanced to 1 repetition(s) per cell: 6 observation(s) dropped");
 }
 
 // Force rises with the repetition, and repetitions come in trial order: a

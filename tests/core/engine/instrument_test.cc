@@ -1,6 +1,7 @@
 // One instrument, 3 DOF: safety, dt policy and integration of the chains.
 #include "core/engine/instrument.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -54,6 +55,80 @@ TEST(InstrumentTest, NonFiniteInputGivesZeroForceAndRecovers) {
     EXPECT_TRUE(out.displayed_force_N.allFinite());
     EXPECT_LT(out.joint_force[0], 2.0);
   }
+}
+
+// refresh_forces puts a newer VE force through the force side of the
+// chains: given the force step() had, it changes nothing (to rounding);
+// given another, the result is what step() would have given with it, for
+// every setting whose chains only add to the VE force. Two instruments
+// stepped identically, one given F_a then refreshed with F_b, the other
+// given F_b: same forces. Backlash + inertia keeps step()'s force.
+class RefreshForcesTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(RefreshForcesTest, ANewerVeForceGivesWhatStepWouldHaveGiven) {
+  const EngineSettings s = load_example(GetParam());
+  Instrument refreshed(s, hand(0)), direct(s, hand(0));
+  double t = 0.0;
+  double worst_N = 0.0;
+  for (int i = 0; i < 3000; ++i) {
+    t += 1e-3;
+    // The VE force of this update (what a tissue would push back with),
+    // and an older one that differs from it.
+    const Eigen::Vector3d f_new(0.4 * std::sin(3.0 * t), -0.3 + 0.2 * std::cos(2.0 * t), 0.8 * std::sin(t));
+    const Eigen::Vector3d f_old = 0.7 * f_new + Eigen::Vector3d(0.05, -0.02, 0.1);
+    InstrumentOutput a = refreshed.step({1e-3, hand(t), f_old});
+    refreshed.refresh_forces(f_new, a);
+    const InstrumentOutput b = direct.step({1e-3, hand(t), f_new});
+    ASSERT_EQ(a.degraded_position, b.degraded_position);  // positions never see the VE force
+    worst_N = std::max(worst_N, (a.displayed_force_N - b.displayed_force_N).norm());
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.joint_force[k], b.joint_force[k], 1e-12) << "update " << i;
+    EXPECT_EQ(a.status & kForceLimited, b.status & kForceLimited);
+  }
+  EXPECT_LT(worst_N, 1e-12) << GetParam();
+}
+
+INSTANTIATE_TEST_SUITE_P(ThesisSettings, RefreshForcesTest,
+                         ::testing::Values("high_fidelity", "no_force_feedback", "friction", "cogging", "inertia",
+                                           "force_saturation"));
+
+TEST(InstrumentTest, RefreshKeepsBacklashForcesAndIsOffWithLoopEmulation) {
+  // Backlash with inertia: the previous VE force moved the mass; the axes
+  // keep step()'s force.
+  {
+    Instrument inst(load_example("inertia_backlash"), hand(0));
+    double t = 0.0;
+    for (int i = 0; i < 500; ++i) {
+      t += 1e-3;
+      InstrumentOutput out = inst.step({1e-3, hand(t), {0.2, 0.1, 0.3}});
+      const JointVector before = out.joint_force;
+      inst.refresh_forces({-0.5, 0.4, -0.9}, out);
+      EXPECT_EQ(out.joint_force, before);
+    }
+  }
+  // Force latency emulated: the VE force's timing is the emulation's.
+  {
+    EngineSettings s = load_example("high_fidelity");
+    s.loop.force_latency_s = 0.005;
+    Instrument inst(s, hand(0));
+    double t = 0.0;
+    for (int i = 0; i < 100; ++i) {
+      t += 1e-3;
+      InstrumentOutput out = inst.step({1e-3, hand(t), {0.2, 0.1, 0.3}});
+      const InstrumentOutput before = out;
+      inst.refresh_forces({-0.5, 0.4, -0.9}, out);
+      EXPECT_EQ(out.joint_force, before.joint_force);
+      EXPECT_EQ(out.displayed_force_N, before.displayed_force_N);
+    }
+  }
+}
+
+TEST(InstrumentTest, RefreshWithANonFiniteVeForceZeroesTheForce) {
+  Instrument inst(load_example("friction"), hand(0));
+  InstrumentOutput out = inst.step({1e-3, hand(1e-3), {0.2, 0.1, 0.3}});
+  inst.refresh_forces({0.0, std::numeric_limits<double>::quiet_NaN(), 0.0}, out);
+  EXPECT_EQ(out.displayed_force_N, Eigen::Vector3d::Zero());
+  EXPECT_EQ(out.joint_force, JointVector::Zero());
+  EXPECT_TRUE(out.status & kFaultNonFiniteInput);
 }
 
 TEST(InstrumentTest, JointCommandsNeverExceedTheDeviceLimitWhateverTheParameters) {

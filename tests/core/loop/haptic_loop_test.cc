@@ -185,7 +185,7 @@ EngineSettings load_example(const std::string& name) {
 
 // --- order of operations
 
-TEST(HapticLoopTest, VeGetsDegradedPositionsAndDeviceGetsEngineForceWithOneUpdateOfVeLatency) {
+TEST(HapticLoopTest, VeGetsDegradedPositionsAndDeviceGetsTheVeForceOfTheSameUpdate) {
   ScriptedDevice device;
   Engine engine(EngineSettings{}, {JointVector(0.10, 0.0, -0.15), JointVector(0.10, 0.0, -0.15)});
   RecordingVe ve;
@@ -217,16 +217,15 @@ TEST(HapticLoopTest, VeGetsDegradedPositionsAndDeviceGetsEngineForceWithOneUpdat
       // High fidelity: the degraded joints are the device's.
       for (int a = 0; a < 3; ++a) EXPECT_NEAR(in.degraded_position[a], raw[a], 1e-12);
 
-      // The VE's force of update n is logged with update n...
+      // The VE's force of update n is logged with update n, and the engine
+      // (device -> engine -> VE -> engine -> device) displays it in update
+      // n too: High Fidelity passes it through exactly.
       const Eigen::Vector3d f_now = ve.outputs[n].tip_force_N[ui];
       EXPECT_EQ(in.ve_force_N, (Vec3{f_now.x(), f_now.y(), f_now.z()}));
-      // ...but reaches the engine (and the hand) only at update n + 1.
-      const Eigen::Vector3d f_prev =
-          n == 0 ? Eigen::Vector3d::Zero() : ve.outputs[n - 1].tip_force_N[ui];
       const JointVector q(raw[kJointInsertion], raw[kJointPitch], raw[kJointYaw]);
-      const JointVector expected = world_to_joint(q, f_prev);
+      const JointVector expected = world_to_joint(q, f_now);
       for (int a = 0; a < 3; ++a) EXPECT_NEAR(in.joint_force[a], expected[a], kForceTolerance) << a;
-      for (int a = 0; a < 3; ++a) EXPECT_NEAR(in.displayed_force_N[a], f_prev[a], 1e-9) << a;
+      for (int a = 0; a < 3; ++a) EXPECT_EQ(in.displayed_force_N[a], f_now[a]) << a;
 
       // Engine -> device: the command is the engine's joint force, the grip
       // gets the VE's grip torque, the unactuated twist nothing.
