@@ -1,6 +1,7 @@
 // The C API: a thin shell over hapticlab::Engine. No exception crosses it.
 #include "hapticlab/hapticlab.h"
 
+#include <array>
 #include <cstdio>
 #include <exception>
 #include <memory>
@@ -14,6 +15,9 @@
 struct hl_engine {
   explicit hl_engine(const hapticlab::EngineSettings& s) : engine(s) {}
   hapticlab::Engine engine;
+  // Each instrument's last update() result: refresh_forces needs its pose and
+  // status, which hl_output does not carry in the engine's form.
+  std::array<hapticlab::InstrumentOutput, hapticlab::kNumInstruments> last{};
 };
 
 namespace {
@@ -45,6 +49,18 @@ hl_engine* create(Load load, char* error, size_t error_size) {
   return nullptr;
 }
 
+void copy_forces(const hapticlab::InstrumentOutput& r, hl_output* out) {
+  for (int i = 0; i < 3; ++i) out->displayed_force_N[i] = r.displayed_force_N[i];
+  out->insertion_force_N = r.joint_force[hapticlab::kInsertion];
+  out->pitch_torque_Nm = r.joint_force[hapticlab::kPitch];
+  out->yaw_torque_Nm = r.joint_force[hapticlab::kYaw];
+  out->status = r.status;
+}
+
+bool valid_instrument(int instrument) {
+  return instrument >= 0 && instrument < hapticlab::kNumInstruments;
+}
+
 }  // namespace
 
 extern "C" {
@@ -72,8 +88,7 @@ int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_o
   if (out == nullptr) return HL_ERROR_INVALID_ARGUMENT;
   *out = hl_output{};
   out->orientation_offset[0] = out->orientation_offset[4] = out->orientation_offset[8] = 1.0;
-  if (engine == nullptr || in == nullptr || instrument < 0 ||
-      instrument >= hapticlab::kNumInstruments) {
+  if (engine == nullptr || in == nullptr || !valid_instrument(instrument)) {
     out->status = HL_FAULT_INVALID_ARGUMENT;
     return HL_ERROR_INVALID_ARGUMENT;
   }
@@ -81,19 +96,27 @@ int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_o
   input.dt_s = in->dt_s;
   input.position = {in->insertion_m, in->pitch_rad, in->yaw_rad};
   input.ve_force_N = {in->ve_force_N[0], in->ve_force_N[1], in->ve_force_N[2]};
-  const hapticlab::InstrumentOutput r = engine->engine.update(instrument, input);
+  hapticlab::InstrumentOutput& r = engine->last[static_cast<std::size_t>(instrument)];
+  r = engine->engine.update(instrument, input);
+  copy_forces(r, out);
   for (int i = 0; i < 3; ++i) {
-    out->displayed_force_N[i] = r.displayed_force_N[i];
     out->tip_offset_m[i] = r.tip_offset_m[i];
     for (int j = 0; j < 3; ++j) out->orientation_offset[3 * i + j] = r.orientation_offset(i, j);
   }
-  out->insertion_force_N = r.joint_force[hapticlab::kInsertion];
-  out->pitch_torque_Nm = r.joint_force[hapticlab::kPitch];
-  out->yaw_torque_Nm = r.joint_force[hapticlab::kYaw];
   out->degraded_insertion_m = r.degraded_position[hapticlab::kInsertion];
   out->degraded_pitch_rad = r.degraded_position[hapticlab::kPitch];
   out->degraded_yaw_rad = r.degraded_position[hapticlab::kYaw];
-  out->status = r.status;
+  return HL_OK;
+}
+
+int hl_engine_refresh_forces(hl_engine* engine, int instrument, const double ve_force_N[3],
+                             hl_output* out) {
+  if (engine == nullptr || ve_force_N == nullptr || out == nullptr || !valid_instrument(instrument)) {
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  hapticlab::InstrumentOutput& r = engine->last[static_cast<std::size_t>(instrument)];
+  engine->engine.refresh_forces(instrument, {ve_force_N[0], ve_force_N[1], ve_force_N[2]}, r);
+  copy_forces(r, out);
   return HL_OK;
 }
 

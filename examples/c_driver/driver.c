@@ -5,7 +5,8 @@
  * This stand-in "driver" has a fake device (a hand moving the left
  * instrument in and out) and a fake VE (a soft tissue surface 12 cm deep).
  * Per update it: reads the device, measures dt, asks the engine to degrade,
- * hands the degraded positions to the VE, and commands the displayed force.
+ * hands the degraded positions to the VE, puts the VE's force for them
+ * through the engine, and commands the displayed force.
  *
  *   usage: hapticlab_c_driver SETTINGS.json [seconds]
  */
@@ -50,8 +51,13 @@ int main(int argc, char** argv) {
 
     hl_output out;
     if (hl_engine_update(engine, 0, &in, &out) != HL_OK) return 1;
-    if (out.status & HL_FAULT_MASK) ++faults;
     degraded_m = out.degraded_insertion_m; /* -> VE */
+    /* The VE steps on the new degraded pose; its force reaches the device in
+     * this update rather than the next. */
+    double ve_now_N[3];
+    ve_force(degraded_m, ve_now_N);
+    if (hl_engine_refresh_forces(engine, 0, ve_now_N, &out) != HL_OK) return 1;
+    if (out.status & HL_FAULT_MASK) ++faults;
     /* -> device: command out.displayed_force_N (world) or the joint values. */
     const double f = sqrt(out.displayed_force_N[0] * out.displayed_force_N[0] +
                           out.displayed_force_N[1] * out.displayed_force_N[1] +

@@ -84,10 +84,101 @@ static void test_friction_from_example_file(void) {
   hl_engine_destroy(NULL); /* allowed, like free() */
 }
 
+static double max_force_difference(const hl_output* a, const hl_output* b) {
+  double d = fabs(a->insertion_force_N - b->insertion_force_N);
+  d = fmax(d, fabs(a->pitch_torque_Nm - b->pitch_torque_Nm));
+  d = fmax(d, fabs(a->yaw_torque_Nm - b->yaw_torque_Nm));
+  for (int i = 0; i < 3; ++i) d = fmax(d, fabs(a->displayed_force_N[i] - b->displayed_force_N[i]));
+  return d;
+}
+
+/* Where the degradations only add to the VE force, update(F_old) followed by
+ * refresh_forces(F_new) must display what update(F_new) displays: two engines
+ * in lockstep over the same motion, one told a stale force first. 1e-12 N is
+ * rounding of the same sums (forces are ~1 N). */
+static void test_refresh_forces_matches_update(const char* file) {
+  char error[512];
+  char path[512];
+  snprintf(path, sizeof path, "%s/%s", HAPTICLAB_EXAMPLES_DIR, file);
+  hl_engine* refreshed = hl_engine_create_from_file(path, error, sizeof error);
+  hl_engine* direct = hl_engine_create_from_file(path, error, sizeof error);
+  CHECK(refreshed != NULL && direct != NULL, "create %s failed: %s", file, error);
+  if (refreshed == NULL || direct == NULL) return;
+  double worst = 0.0, largest = 0.0;
+  for (int i = 0; i < 2000; ++i) {
+    const double t = 0.001 * i;
+    hl_input in;
+    memset(&in, 0, sizeof in);
+    in.dt_s = 0.001;
+    in.insertion_m = 0.12 + 0.03 * sin(2.0 * t);
+    in.pitch_rad = 0.3 * sin(1.3 * t);
+    in.yaw_rad = 0.2 * cos(0.7 * t);
+    const double ve_new[3] = {0.4 * sin(3.0 * t), -0.3, 0.8 * cos(2.0 * t)};
+    hl_input stale = in;
+    stale.ve_force_N[0] = 0.5;
+    stale.ve_force_N[1] = 0.1 * i;
+    stale.ve_force_N[2] = -0.7;
+    memcpy(in.ve_force_N, ve_new, sizeof ve_new);
+    hl_output a, b;
+    CHECK(hl_engine_update(refreshed, 1, &stale, &a) == HL_OK, "update failed");
+    CHECK(hl_engine_refresh_forces(refreshed, 1, ve_new, &a) == HL_OK, "refresh failed");
+    CHECK(hl_engine_update(direct, 1, &in, &b) == HL_OK, "update failed");
+    worst = fmax(worst, max_force_difference(&a, &b));
+    largest = fmax(largest, fabs(b.displayed_force_N[2]));
+    CHECK(a.status == b.status, "%s update %d: status %u vs %u", file, i, a.status, b.status);
+  }
+  CHECK(worst < 1e-12, "%s: refreshed force differs by %g N", file, worst);
+  CHECK(largest > 0.3, "%s: the VE force never reached the device (%g N)", file, largest);
+  hl_engine_destroy(refreshed);
+  hl_engine_destroy(direct);
+}
+
+static void test_refresh_forces_edge_cases(void) {
+  char error[512];
+  hl_engine* e = hl_engine_create("{\"name\": \"High Fidelity\"}", error, sizeof error);
+  CHECK(e != NULL, "create failed: %s", error);
+  if (e == NULL) return;
+  hl_input in;
+  hl_output out;
+  memset(&in, 0, sizeof in);
+  in.dt_s = 0.001;
+  in.insertion_m = 0.1;
+  in.ve_force_N[2] = 0.2;
+  CHECK(hl_engine_update(e, 0, &in, &out) == HL_OK, "update failed");
+  const double ve[3] = {0.0, 0.0, 0.6};
+  CHECK(hl_engine_refresh_forces(e, 0, ve, &out) == HL_OK, "refresh failed");
+  CHECK(out.displayed_force_N[2] == 0.6, "high fidelity shows %g N, not the new 0.6 N",
+        out.displayed_force_N[2]);
+  /* Only once per update: a second call keeps the first result. */
+  const double other[3] = {0.0, 0.0, 1.5};
+  CHECK(hl_engine_refresh_forces(e, 0, other, &out) == HL_OK, "refresh failed");
+  CHECK(out.displayed_force_N[2] == 0.6, "second refresh changed the force to %g N",
+        out.displayed_force_N[2]);
+  /* Non-finite VE force: zero force and the fault flag. */
+  CHECK(hl_engine_update(e, 0, &in, &out) == HL_OK, "update failed");
+  const double bad[3] = {0.0, NAN, 0.1};
+  CHECK(hl_engine_refresh_forces(e, 0, bad, &out) == HL_OK, "refresh failed");
+  CHECK(out.status & HL_FAULT_NON_FINITE_INPUT, "status %u", out.status);
+  CHECK(out.displayed_force_N[0] == 0 && out.displayed_force_N[1] == 0 &&
+            out.displayed_force_N[2] == 0, "force not zero");
+  /* Bad calls leave out alone. */
+  out.insertion_force_N = 42.0;
+  CHECK(hl_engine_refresh_forces(e, 2, ve, &out) == HL_ERROR_INVALID_ARGUMENT, "instrument 2");
+  CHECK(hl_engine_refresh_forces(NULL, 0, ve, &out) == HL_ERROR_INVALID_ARGUMENT, "null engine");
+  CHECK(hl_engine_refresh_forces(e, 0, NULL, &out) == HL_ERROR_INVALID_ARGUMENT, "null force");
+  CHECK(hl_engine_refresh_forces(e, 0, ve, NULL) == HL_ERROR_INVALID_ARGUMENT, "null out");
+  CHECK(out.insertion_force_N == 42.0, "a bad call wrote to out");
+  hl_engine_destroy(e);
+}
+
 int main(void) {
   CHECK(strlen(hl_version()) > 0, "no version");
   test_bad_settings_give_a_message();
   test_friction_from_example_file();
+  test_refresh_forces_matches_update("friction.json");
+  test_refresh_forces_matches_update("cogging.json");
+  test_refresh_forces_matches_update("force_saturation.json");
+  test_refresh_forces_edge_cases();
   if (failures) {
     fprintf(stderr, "c_api_test: %d check(s) failed\n", failures);
     return 1;

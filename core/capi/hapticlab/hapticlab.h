@@ -100,6 +100,33 @@ HL_API int hl_engine_update(hl_engine* engine, int instrument, const hl_input* i
                             hl_output* out);
 
 /*
+ * Optional second half of an update, for drivers that run read device ->
+ * engine -> VE -> engine -> write device: after hl_engine_update() gave the
+ * degraded positions and the VE computed its force for them, this puts that
+ * force through the degradations, so the device displays it in the same
+ * update instead of the next. Without it, in->ve_force_N of the next
+ * hl_engine_update() is the only way the VE force reaches the device (one
+ * update later), which is also correct, just 1/rate later.
+ *
+ * `out` must be what hl_engine_update() returned for this instrument in this
+ * update: its forces, joint commands and status are replaced; positions and
+ * offsets stay. Call it at most once per update, before the next
+ * hl_engine_update() of the instrument; a second call, or one after a faulted
+ * update, writes the update's forces back unchanged.
+ *
+ * Exact where a degradation only adds to the VE force. Axes with backlash and
+ * inertia together keep the force hl_engine_update() was given (the mass was
+ * already moved by it), and with force latency or hold emulation the whole
+ * call changes nothing (they set the VE force's timing themselves).
+ * A non-finite ve_force_N zeroes the force and sets HL_FAULT_NON_FINITE_INPUT.
+ * Returns HL_OK, or HL_ERROR_INVALID_ARGUMENT for a null pointer or a bad
+ * instrument index (then *out is untouched). Real-time safe like
+ * hl_engine_update().
+ */
+HL_API int hl_engine_refresh_forces(hl_engine* engine, int instrument,
+                                    const double ve_force_N[3], hl_output* out);
+
+/*
  * Replaces the settings of a running engine. The text is validated first; on
  * any error nothing changes and HL_ERROR_SETTINGS is returned with a message.
  */
