@@ -27,7 +27,7 @@ struct ParticipantTraits {
   double force_level = 1.0;            // scales the forces it aims for, ~0.7..1.4
   double consistency = 0.12;           // log-sd of trial-to-trial variation
   double hand_stiffness_N_per_m = 600.0;
-  double visual_force_gain = 0.75;     // < 1: forces seen as smaller than they are
+  double visual_force_gain = 0.65;     // < 1: forces seen as smaller than they are
   double haptic_delay_s = 0.04;
   double visual_delay_s = 0.16;
   bool right_handed = true;            // the right tool (cautery, clip applier) in the dominant hand
