@@ -124,6 +124,11 @@ double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexc
 
 void Participant::act(const LoopTickView& view) noexcept {
   const double t = view.t_s;
+  // A microsecond of slack: loop times are sums of dt and land a rounding
+  // error either side of the period; the loop's shortest update is 500 µs.
+  if (started_ && t - last_control_s_ < kControlPeriod_s - 1e-6) return;
+  const double dt_s = started_ ? t - last_control_s_ : view.dt_s;
+  last_control_s_ = t;
   tip_ = view.ve_input.tip_m;
   if (!started_) {
     started_ = true;
@@ -155,8 +160,8 @@ void Participant::act(const LoopTickView& view) noexcept {
     const ToolPose pose = (engine.status & (kFaultNonFiniteInput | kFaultInvalidArgument)) == 0
                               ? engine.measured_pose
                               : Hand::pose_of(view.reading.position[ui]);
-    hands_[ui].feel_device(pose, device_.motor_force(i), view.dt_s);
-    hands_[ui].step(t, view.dt_s, pose, device_.hand_force(i),
+    hands_[ui].feel_device(pose, device_.motor_force(i), dt_s);
+    hands_[ui].step(t, dt_s, pose, device_.hand_force(i),
                     seen_depth(i, tip_[ui]), tip_[ui], couplings);
     device_.set_hand(i, couplings);
   }

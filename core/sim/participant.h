@@ -50,6 +50,12 @@ class Participant final : public LoopAgent {
   Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, SimDevice& device,
               const VirtualEnvironment& task);
 
+  // Runs the participant's sensorimotor control at its own rate,
+  // kControlPeriod_s (the cue sampling period), whatever the loop rate: a
+  // person's commands are slow next to the haptic loop. Between calls the
+  // device extrapolates the hand's reference with its velocity, and the
+  // hand's spring–damper keeps acting at every device sub-step.
+  static constexpr double kControlPeriod_s = CueDelay::kPeriod_s;
   void act(const LoopTickView& view) noexcept override;
 
   // The start pose of both instruments: tools retracted in their trocars,
@@ -97,6 +103,7 @@ class Participant final : public LoopAgent {
   int clip_index_ = 0;
   int clips_seen_missed_ = 0;
   bool started_ = false;
+  double last_control_s_ = 0.0;  // loop time of the last control update
 };
 
 }  // namespace hapticlab
