@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/settings/settings_json.h"
+#include "core/sim/dissection_task.h"
 #include "core/sim/trial_runner.h"
 #include "core/sim/workspace.h"
 
@@ -120,6 +121,47 @@ TEST(ParticipantTest, PracticeMakesTheSamePersonFasterOnTheSameTrial) {
     ratio_sum += duration_s[1] / duration_s[0];
   }
   EXPECT_LT(ratio_sum / kPeople, 0.9);
+}
+
+TEST(ParticipantTest, ControlUpdatesEvery5MillisecondsWhateverTheLoopRate) {
+  // During the first reach the hand's base reference moves on every control
+  // update and only then (the first update places it at the tool tip). Over
+  // the first 100 ms that is t = 0, 5, ..., 95 ms at 1 and 2 kHz (20 moves),
+  // and every update at 150 Hz, whose 6.7 ms period is longer than the
+  // control period (15).
+  struct Case {
+    double rate_Hz;
+    int expected_moves;
+  };
+  for (const Case c : {Case{1000.0, 20}, Case{2000.0, 20}, Case{150.0, 15}}) {
+    SimDevice device;
+    for (int i = 0; i < 2; ++i) device.set_position(i, Participant::start_pose(i));
+    const DissectionTask task(7);
+    Participant participant(ParticipantTraits::sample(3), ParticipantTrial{7, 0}, device, task);
+    const DeviceReading reading{};
+    const std::array<InstrumentOutput, 2> engine{};
+    VeInput ve_input;
+    for (int i = 0; i < 2; ++i) {
+      const DeviceJoints q = Participant::start_pose(i);
+      ve_input.tip_m[static_cast<std::size_t>(i)] = tip_world(i, JointVector(q[0], q[1], q[2]));
+    }
+    const VeOutput ve_output;
+    const double dt_s = 1.0 / c.rate_Hz;
+    int moves = 0;
+    Eigen::Vector3d last = participant.hand(1).base();
+    for (int k = 0; k * dt_s < 0.1 - 1e-9; ++k) {
+      participant.act({k * dt_s, dt_s, reading, engine, ve_input, ve_output});
+      const Eigen::Vector3d base = participant.hand(1).base();
+      if (base != last) {
+        ++moves;
+        EXPECT_LT(std::fmod(k * dt_s + 1e-9, Participant::kControlPeriod_s),
+                  c.rate_Hz > 200.0 ? 2e-9 : 1.0)
+            << c.rate_Hz << " Hz: moved between control updates, at t = " << k * dt_s;
+      }
+      last = base;
+    }
+    EXPECT_EQ(moves, c.expected_moves) << c.rate_Hz << " Hz";
+  }
 }
 
 }  // namespace
