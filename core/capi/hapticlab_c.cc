@@ -18,6 +18,9 @@ struct hl_engine {
   // Each instrument's last update() result: refresh_forces needs its pose and
   // status, which hl_output does not carry in the engine's form.
   std::array<hapticlab::InstrumentOutput, hapticlab::kNumInstruments> last{};
+  // Set by a successful update, cleared by a failed one and by the refresh:
+  // a refresh must never revive the forces of an earlier update.
+  std::array<bool, hapticlab::kNumInstruments> refreshable{};
 };
 
 namespace {
@@ -85,6 +88,8 @@ hl_engine* hl_engine_create_from_file(const char* path, char* error, size_t erro
 }
 
 int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_output* out) {
+  if (engine != nullptr && valid_instrument(instrument))
+    engine->refreshable[static_cast<std::size_t>(instrument)] = false;
   if (out == nullptr) return HL_ERROR_INVALID_ARGUMENT;
   *out = hl_output{};
   out->orientation_offset[0] = out->orientation_offset[4] = out->orientation_offset[8] = 1.0;
@@ -98,6 +103,7 @@ int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_o
   input.ve_force_N = {in->ve_force_N[0], in->ve_force_N[1], in->ve_force_N[2]};
   hapticlab::InstrumentOutput& r = engine->last[static_cast<std::size_t>(instrument)];
   r = engine->engine.update(instrument, input);
+  engine->refreshable[static_cast<std::size_t>(instrument)] = true;
   copy_forces(r, out);
   for (int i = 0; i < 3; ++i) {
     out->tip_offset_m[i] = r.tip_offset_m[i];
@@ -114,7 +120,13 @@ int hl_engine_refresh_forces(hl_engine* engine, int instrument, const double ve_
   if (engine == nullptr || ve_force_N == nullptr || out == nullptr || !valid_instrument(instrument)) {
     return HL_ERROR_INVALID_ARGUMENT;
   }
-  hapticlab::InstrumentOutput& r = engine->last[static_cast<std::size_t>(instrument)];
+  const auto i = static_cast<std::size_t>(instrument);
+  if (!engine->refreshable[i]) return HL_OK;  // nothing to refresh: out stays as it is
+  engine->refreshable[i] = false;
+  hapticlab::InstrumentOutput& r = engine->last[i];
+  // The engine itself declines (and leaves r as update() made it) when the
+  // update faulted or loop emulation owns the VE force's timing; copying r
+  // back then writes the update's own forces.
   engine->engine.refresh_forces(instrument, {ve_force_N[0], ve_force_N[1], ve_force_N[2]}, r);
   copy_forces(r, out);
   return HL_OK;

@@ -61,13 +61,16 @@ void CueDelay::reset(double value) noexcept {
 }
 
 void CueDelay::push(double t_s, double value) noexcept {
-  if (t_s < next_t_s_) {
+  if (t_s < next_t_s_ - kTimeSlack_s) {
     values_[static_cast<std::size_t>(head_)] = value;  // latest value of the current slot
     return;
   }
   head_ = (head_ + 1) % kSize;
   values_[static_cast<std::size_t>(head_)] = value;
-  next_t_s_ = t_s + kPeriod_s;
+  // On the grid, so slots stay 5 ms long at any push rate that divides it;
+  // a push rate slower than the grid restarts it at each push.
+  next_t_s_ += kPeriod_s;
+  if (next_t_s_ <= t_s + kTimeSlack_s) next_t_s_ = t_s + kPeriod_s;
 }
 
 double CueDelay::delayed(double delay_s) const noexcept {
@@ -157,9 +160,10 @@ void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoint
 
   // Slow noise: tremor/drift of the hand and drift of the visual estimate,
   // updated at the cue rate (200 Hz) since they are slow anyway.
-  if (t_s >= next_noise_s_) {
+  if (t_s >= next_noise_s_ - kTimeSlack_s) {
     const double h_s = CueDelay::kPeriod_s;
-    next_noise_s_ = t_s + h_s;
+    next_noise_s_ += h_s;
+    if (next_noise_s_ <= t_s + kTimeSlack_s) next_noise_s_ = t_s + h_s;
     const double a = std::min(1.0, h_s / kTremorTime_s);
     const double s = params_.motor_noise_m * std::sqrt(2.0 * a);
     for (int k = 0; k < 3; ++k) tremor_m_[k] += -a * tremor_m_[k] + s * rng_.normal();

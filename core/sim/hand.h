@@ -42,8 +42,15 @@ struct HandParams {
   double visual_servo_time_s = 0.35;  // time constant of steering the seen tip onto the aim
 };
 
-// A fixed-size delay line sampled every 5 ms: the value of a cue as the
-// brain gets it some 40–300 ms later. No allocation.
+// Loop times are sums of dt, so a time meant to land on a grid point (every
+// 5 ms here) can fall a rounding error short of it; schedules compare with
+// this slack. The loop's shortest update is 500 µs.
+inline constexpr double kTimeSlack_s = 1e-6;
+
+// A fixed-size delay line sampled on a 5 ms grid: the value of a cue as the
+// brain gets it some 40–300 ms later. A slot holds the latest value pushed
+// in it and advances at the first push at or after each grid point. No
+// allocation.
 class CueDelay {
  public:
   static constexpr double kPeriod_s = 0.005;

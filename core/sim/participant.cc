@@ -124,11 +124,11 @@ double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexc
 
 void Participant::act(const LoopTickView& view) noexcept {
   const double t = view.t_s;
-  // A microsecond of slack: loop times are sums of dt and land a rounding
-  // error either side of the period; the loop's shortest update is 500 µs.
-  if (started_ && t - last_control_s_ < kControlPeriod_s - 1e-6) return;
+  if (started_ && t < next_control_s_ - kTimeSlack_s) return;
   const double dt_s = started_ ? t - last_control_s_ : view.dt_s;
   last_control_s_ = t;
+  next_control_s_ += kControlPeriod_s;
+  if (next_control_s_ <= t + kTimeSlack_s) next_control_s_ = t + kControlPeriod_s;
   tip_ = view.ve_input.tip_m;
   if (!started_) {
     started_ = true;

@@ -50,11 +50,13 @@ class Participant final : public LoopAgent {
   Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, SimDevice& device,
               const VirtualEnvironment& task);
 
-  // Runs the participant's sensorimotor control at its own rate,
-  // kControlPeriod_s (the cue sampling period), whatever the loop rate: a
-  // person's commands are slow next to the haptic loop. Between calls the
-  // device extrapolates the hand's reference with its velocity, and the
-  // hand's spring–damper keeps acting at every device sub-step.
+  // Runs the participant's sensorimotor control on its own grid, every
+  // kControlPeriod_s (the cue sampling period): at the first loop update at
+  // or after each grid point, so 200 Hz on average at any loop rate above
+  // it, and every update at slower rates. A person's commands are slow next
+  // to the haptic loop. Between control updates the device extrapolates the
+  // hand's reference with its velocity, and the hand's spring–damper keeps
+  // acting at every device sub-step.
   static constexpr double kControlPeriod_s = CueDelay::kPeriod_s;
   void act(const LoopTickView& view) noexcept override;
 
@@ -104,6 +106,7 @@ class Participant final : public LoopAgent {
   int clips_seen_missed_ = 0;
   bool started_ = false;
   double last_control_s_ = 0.0;  // loop time of the last control update
+  double next_control_s_ = 0.0;  // the next grid point
 };
 
 }  // namespace hapticlab

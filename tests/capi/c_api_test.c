@@ -149,11 +149,19 @@ static void test_refresh_forces_edge_cases(void) {
   CHECK(hl_engine_refresh_forces(e, 0, ve, &out) == HL_OK, "refresh failed");
   CHECK(out.displayed_force_N[2] == 0.6, "high fidelity shows %g N, not the new 0.6 N",
         out.displayed_force_N[2]);
-  /* Only once per update: a second call keeps the first result. */
+  /* Only once per update: a second call leaves out alone. */
   const double other[3] = {0.0, 0.0, 1.5};
+  out.displayed_force_N[1] = 42.0;
   CHECK(hl_engine_refresh_forces(e, 0, other, &out) == HL_OK, "refresh failed");
-  CHECK(out.displayed_force_N[2] == 0.6, "second refresh changed the force to %g N",
-        out.displayed_force_N[2]);
+  CHECK(out.displayed_force_N[2] == 0.6 && out.displayed_force_N[1] == 42.0,
+        "second refresh wrote %g, %g N", out.displayed_force_N[1], out.displayed_force_N[2]);
+  /* A failed update is never refreshed back to life, even when the update
+   * before it was not refreshed. */
+  CHECK(hl_engine_update(e, 0, &in, &out) == HL_OK, "update failed");
+  CHECK(hl_engine_update(e, 0, NULL, &out) == HL_ERROR_INVALID_ARGUMENT, "null input");
+  CHECK(hl_engine_refresh_forces(e, 0, ve, &out) == HL_OK, "refresh failed");
+  CHECK(out.displayed_force_N[2] == 0.0 && (out.status & HL_FAULT_INVALID_ARGUMENT),
+        "refresh after a failed update: %g N, status %u", out.displayed_force_N[2], out.status);
   /* Non-finite VE force: zero force and the fault flag. */
   CHECK(hl_engine_update(e, 0, &in, &out) == HL_OK, "update failed");
   const double bad[3] = {0.0, NAN, 0.1};

@@ -15,8 +15,9 @@
  * patient; at pitch = yaw = 0 the instrument points along -z. A positive
  * insertion force pushes toward larger insertion. See docs/engine.md.
  *
- * Threads: hl_engine_update() must be called from one thread (the haptic
- * loop); it never allocates, locks, blocks or does I/O. hl_engine_set_settings()
+ * Threads: hl_engine_update() and hl_engine_refresh_forces() must be called
+ * from one thread (the haptic loop); they never allocate, lock, block or do
+ * I/O. hl_engine_set_settings()
  * may be called from any other thread; the change takes effect between two
  * updates. Create and destroy from a non-real-time thread.
  */
@@ -110,18 +111,20 @@ HL_API int hl_engine_update(hl_engine* engine, int instrument, const hl_input* i
  *
  * `out` must be what hl_engine_update() returned for this instrument in this
  * update: its forces, joint commands and status are replaced; positions and
- * offsets stay. Call it at most once per update, before the next
- * hl_engine_update() of the instrument; a second call, or one after a faulted
- * update, writes the update's forces back unchanged.
+ * offsets stay. It works once per successful hl_engine_update(): a second
+ * call, or one after an hl_engine_update() that returned an error, leaves
+ * *out untouched and does not look at ve_force_N. After an update whose
+ * status has a fault bit, the update's zero force is written back.
  *
  * Exact where a degradation only adds to the VE force. Axes with backlash and
  * inertia together keep the force hl_engine_update() was given (the mass was
- * already moved by it), and with force latency or hold emulation the whole
- * call changes nothing (they set the VE force's timing themselves).
- * A non-finite ve_force_N zeroes the force and sets HL_FAULT_NON_FINITE_INPUT.
+ * already moved by it), and with force latency or hold emulation the update's
+ * forces are written back unchanged (the emulation sets the VE force's
+ * timing itself). Otherwise a non-finite ve_force_N zeroes the force and sets
+ * HL_FAULT_NON_FINITE_INPUT.
  * Returns HL_OK, or HL_ERROR_INVALID_ARGUMENT for a null pointer or a bad
- * instrument index (then *out is untouched). Real-time safe like
- * hl_engine_update().
+ * instrument index (then *out is untouched). Call it on the thread that calls
+ * hl_engine_update(); it is real-time safe like hl_engine_update().
  */
 HL_API int hl_engine_refresh_forces(hl_engine* engine, int instrument,
                                     const double ve_force_N[3], hl_output* out);

@@ -62,20 +62,19 @@ Trace reach_trace(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double
 }
 
 TEST(CueDelayTest, ReturnsTheCueFromTheDelayAgo) {
-  // Fed every 1 ms (the loop rate) with the time itself, the line keeps one
-  // value per slot of nominally 5 ms (the slot's latest), so a delay d
-  // returns a value d ± one slot old. Measured at 1 kHz over 100 s: 40 ms
-  // gives ages of 36..48 ms, 160 ms gives 156..192 ms — a slot re-anchors
-  // at each advance (next = t + 5 ms) and often lasts 6 updates, so long
-  // delays run up to 20 % late (mean 172 ms for 160 ms). Bounds: one slot
-  // early, and the measured lateness plus 1 ms.
+  // Fed every 1 ms (the loop rate) with the time itself, as a running sum of
+  // dt like the loop's clock, the line keeps one value per 5 ms slot (the
+  // slot's latest, pushed 4 ms into it), so a delay d = 5·b ms returns a
+  // value between d − 4 ms and d old: d exactly right after the 4 ms push,
+  // and 4 ms less at the start of the next slot. Slots stay on the grid even
+  // where the summed time falls a rounding error short of a grid point.
   CueDelay delay;
   delay.reset(-1.0);
   double min_age[2] = {1.0, 1.0}, max_age[2] = {0.0, 0.0};
   const double delays[2] = {0.040, 0.160};
   double t = 0.0;
   for (int k = 0; k <= 5000; ++k) {
-    t = k * 1e-3;
+    if (k > 0) t += 1e-3;
     delay.push(t, t);
     EXPECT_EQ(delay.delayed(0.0), t) << "the latest value";
     if (k < 300) continue;
@@ -85,10 +84,21 @@ TEST(CueDelayTest, ReturnsTheCueFromTheDelayAgo) {
       max_age[j] = std::max(max_age[j], age);
     }
   }
-  EXPECT_GE(min_age[0], 0.035 - 1e-9);
-  EXPECT_LE(max_age[0], 0.049 + 1e-9);
-  EXPECT_GE(min_age[1], 0.155 - 1e-9);
-  EXPECT_LE(max_age[1], 0.193 + 1e-9);
+  EXPECT_NEAR(min_age[0], 0.036, 1e-9);
+  EXPECT_NEAR(max_age[0], 0.040, 1e-9);
+  EXPECT_NEAR(min_age[1], 0.156, 1e-9);
+  EXPECT_NEAR(max_age[1], 0.160, 1e-9);
+  // Pushed once per slot (the participant's 5 ms control), every push is a
+  // slot of its own: one slot back is the previous push.
+  CueDelay every_slot;
+  every_slot.reset(-1.0);
+  double t5 = 0.0, previous = -1.0;
+  for (int k = 0; k <= 2000; ++k) {
+    if (k > 0) t5 += CueDelay::kPeriod_s;
+    every_slot.push(t5, static_cast<double>(k));
+    ASSERT_EQ(every_slot.delayed(CueDelay::kPeriod_s), previous) << "push " << k << " at " << t5;
+    previous = static_cast<double>(k);
+  }
   // Before the first push lies the reset value; the 128 slots hold 0.64 s
   // at least, and beyond them the oldest slot is returned.
   CueDelay fresh;

@@ -126,14 +126,17 @@ TEST(ParticipantTest, PracticeMakesTheSamePersonFasterOnTheSameTrial) {
 TEST(ParticipantTest, ControlUpdatesEvery5MillisecondsWhateverTheLoopRate) {
   // During the first reach the hand's base reference moves on every control
   // update and only then (the first update places it at the tool tip). Over
-  // the first 100 ms that is t = 0, 5, ..., 95 ms at 1 and 2 kHz (20 moves),
-  // and every update at 150 Hz, whose 6.7 ms period is longer than the
-  // control period (15).
+  // the first 100 ms that is t = 0, 5, ..., 95 ms at 1 and 2 kHz (20
+  // moves); at 500 Hz the first update at or after each grid point, t = 0,
+  // 6, 10, 16, ... ms (20); and every update at 150 Hz, whose 6.7 ms period
+  // is longer than the control period (15).
   struct Case {
     double rate_Hz;
     int expected_moves;
+    bool on_grid;  // the loop period divides the control period
   };
-  for (const Case c : {Case{1000.0, 20}, Case{2000.0, 20}, Case{150.0, 15}}) {
+  for (const Case c : {Case{1000.0, 20, true}, Case{2000.0, 20, true}, Case{500.0, 20, false},
+                       Case{150.0, 15, false}}) {
     SimDevice device;
     for (int i = 0; i < 2; ++i) device.set_position(i, Participant::start_pose(i));
     const DissectionTask task(7);
@@ -149,14 +152,16 @@ TEST(ParticipantTest, ControlUpdatesEvery5MillisecondsWhateverTheLoopRate) {
     const double dt_s = 1.0 / c.rate_Hz;
     int moves = 0;
     Eigen::Vector3d last = participant.hand(1).base();
-    for (int k = 0; k * dt_s < 0.1 - 1e-9; ++k) {
-      participant.act({k * dt_s, dt_s, reading, engine, ve_input, ve_output});
+    // The loop's time is a running sum of dt, which lands a rounding error
+    // either side of the grid points.
+    double t_s = 0.0;
+    for (int k = 0; t_s < 0.1 - 1e-9; ++k, t_s += dt_s) {
+      participant.act({t_s, dt_s, reading, engine, ve_input, ve_output});
       const Eigen::Vector3d base = participant.hand(1).base();
       if (base != last) {
         ++moves;
-        EXPECT_LT(std::fmod(k * dt_s + 1e-9, Participant::kControlPeriod_s),
-                  c.rate_Hz > 200.0 ? 2e-9 : 1.0)
-            << c.rate_Hz << " Hz: moved between control updates, at t = " << k * dt_s;
+        EXPECT_LT(std::fmod(t_s + 1e-9, Participant::kControlPeriod_s), c.on_grid ? 2e-9 : 1.0)
+            << c.rate_Hz << " Hz: moved between control updates, at t = " << t_s << " (update " << k << ")";
       }
       last = base;
     }
