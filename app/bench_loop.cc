@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/data_paths.h"
+#include "core/loop/stall_probe.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
 
@@ -18,7 +19,10 @@ EngineSettings shipped(const char* name) {
   return load_settings_file(default_settings_dir() / (std::string(name) + ".json")).engine;
 }
 
-void bench_wall_loop(double seconds, double rate_Hz, bool json) {
+void bench_wall_loop(double seconds, double rate_Hz, double probe_s, bool json) {
+  // The machine's own stalls first, on the same clock and core type: a loop
+  // cannot beat them, so its jitter is read against them.
+  const StallProbeResult probe = probe_s > 0.0 ? probe_stalls(probe_s) : StallProbeResult{};
   SimTrialConfig c;
   c.task = TaskKind::kDissection;
   c.settings = shipped("all_degradations");
@@ -39,13 +43,22 @@ void bench_wall_loop(double seconds, double rate_Hz, bool json) {
                         {"p99_period_us", t.p99_period_s * 1e6}, {"max_period_us", t.max_period_s * 1e6},
                         {"mean_period_us", t.mean_period_s * 1e6},
                         {"p99_jitter_us", t.p99_period_s * 1e6 - nominal_us},
-                        {"overruns", t.overruns},    {"dropped_samples", r.dropped_samples}};
+                        {"overruns", t.overruns},    {"dropped_samples", r.dropped_samples},
+                        {"machine_probe_s", probe_s},
+                        {"machine_windows", probe.windows},
+                        {"machine_windows_with_stall_over_100us", probe.windows_with_stall},
+                        {"machine_max_stall_us", probe.max_stall_s * 1e6}};
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
   std::printf("hapticlab bench loop: wall clock, %.0f Hz, %.1f s, full simulated rig "
               "(sim device, all degradations, dissection VE, simulated participant, samples queued)\n",
               rate_Hz, seconds);
+  if (probe_s > 0.0) {
+    std::printf("machine, before the loop: a bare thread spinning on the clock for %.1f s was stalled > 100 us "
+                "in %.2f %% of 1 ms windows (max %.0f us): stalls the loop below cannot avoid\n",
+                probe_s, 100.0 * probe.stalled_fraction(), probe.max_stall_s * 1e6);
+  }
   std::printf("updates %llu, period p50 %.1f us, p99 %.1f us, max %.1f us, mean %.2f us\n",
               static_cast<unsigned long long>(t.count), t.p50_period_s * 1e6, t.p99_period_s * 1e6,
               t.max_period_s * 1e6, t.mean_period_s * 1e6);
@@ -117,6 +130,7 @@ void add_bench_loop_commands(CLI::App& bench) {
   struct LoopOpts {
     double seconds = 10.0;
     double rate_Hz = 1000.0;
+    double probe_s = 5.0;
     bool json = false;
   };
   auto lo = std::make_shared<LoopOpts>();
@@ -129,8 +143,13 @@ void add_bench_loop_commands(CLI::App& bench) {
   loop->add_option("--rate-hz", lo->rate_Hz, "Loop rate [Hz], 150..2000")
       ->check(CLI::Range(150.0, 2000.0))
       ->capture_default_str();
+  loop->add_option("--probe-s", lo->probe_s,
+                   "Before the loop, spin a bare thread this long [s] and report how often the machine "
+                   "itself stalled it > 100 us (0: skip)")
+      ->check(CLI::Range(0.0, 600.0))
+      ->capture_default_str();
   loop->add_flag("--json", lo->json, "Machine-readable output");
-  loop->callback([lo] { bench_wall_loop(lo->seconds, lo->rate_Hz, lo->json); });
+  loop->callback([lo] { bench_wall_loop(lo->seconds, lo->rate_Hz, lo->probe_s, lo->json); });
 
   struct SimOpts {
     double simulated_s = 60.0;
