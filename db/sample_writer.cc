@@ -229,6 +229,10 @@ void SampleWriter::finish(const TrialOutcome& outcome) {
     db_->add_event({trial_id_, last_t_s_, "events_dropped", -1, static_cast<std::int64_t>(outcome.dropped_events),
                     "the haptic loop's event queue was full: " + std::to_string(outcome.dropped_events) +
                         " task events were not logged"});
+  for (EventRow e : outcome.closing_events) {
+    e.trial_id = trial_id_;
+    db_->add_event(e);
+  }
   db_->end_trial(trial_id_, outcome.status, outcome.abort_reason);
   tx.commit();
 }

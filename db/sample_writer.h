@@ -73,6 +73,10 @@ struct TrialOutcome {
   std::uint64_t dropped_samples = 0;            // HapticLoop::dropped_samples()
   std::uint64_t dropped_events = 0;             // HapticLoop::dropped_events()
   LoopTimingSummary timing;                     // HapticLoop::timing()
+  // Events the caller adds to the trial's record (an operator's stop), in the
+  // closing transaction: after every event the loop queued, so at an equal
+  // time they sort last, and together with the status. trial_id is set here.
+  std::vector<EventRow> closing_events;
 };
 
 // Counters, readable from any thread while the writer runs.

@@ -259,9 +259,10 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       }
       if (loop.stop_reason() == StopReason::kStopRequested) {
         // The operator's action is part of the trial's record, at the loop
-        // time it took effect, next to the VE's events.
-        db.add_event({trial.id, loop.elapsed_s(), to_string(TaskEventType::kOperatorAbort), -1, 0,
-                      "operator stopped the session"});
+        // time it took effect, after the VE's events of that update (the
+        // writer may still hold them now).
+        outcome.closing_events.push_back({trial.id, loop.elapsed_s(), to_string(TaskEventType::kOperatorAbort), -1,
+                                          0, "operator stopped the session"});
       }
       outcome.dropped_samples = loop.dropped_samples();
       outcome.dropped_events = loop.dropped_events();

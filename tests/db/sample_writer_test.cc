@@ -163,6 +163,30 @@ TEST(SampleWriter, TickGapIsLoggedAtOnceAndDropCountsAtFinish) {
   EXPECT_TRUE(t.ended_unix_s.has_value());
 }
 
+TEST(SampleWriter, ClosingEventsComeAfterEveryQueuedEventOfTheSameTime) {
+  // The session runner's operator_abort, at the loop time of the last
+  // update: an event the loop queued in that same update, still in the queue
+  // when finish() is called, must not sort after it.
+  Fixture f;
+  SampleWriter writer(f.path, f.trial, f.samples, f.events);
+  for (std::uint64_t t = 0; t < 10; ++t) push(f.samples, testing::make_sample(t));
+  const double last_s = testing::make_sample(9).t_s;
+  push(f.events, TaskEvent{last_s, TaskEventType::kInsertionPassed, 1, 0});
+  TrialOutcome outcome;
+  outcome.status = TrialStatus::kAborted;
+  outcome.abort_reason = "operator stopped the session";
+  outcome.closing_events.push_back({0, last_s, "operator_abort", -1, 0, "operator stopped the session"});
+  writer.finish(outcome);
+
+  StudyDb db(f.path);
+  const std::vector<EventRow> events = db.events(f.trial);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].type, "insertion_passed_20mm");
+  EXPECT_EQ(events[1].type, "operator_abort");
+  EXPECT_EQ(events[1].t_s, last_s);
+  EXPECT_EQ(db.trial(f.trial).status, TrialStatus::kAborted);
+}
+
 TEST(SampleWriter, DataIsCommittedWithinTheIntervalWithoutFinish) {
   Fixture f;
   SampleWriter writer(f.path, f.trial, f.samples, f.events);
