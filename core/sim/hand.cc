@@ -61,16 +61,13 @@ void CueDelay::reset(double value) noexcept {
 }
 
 void CueDelay::push(double t_s, double value) noexcept {
-  if (t_s < next_t_s_ - kTimeSlack_s) {
+  if (!slots_.due(t_s)) {
     values_[static_cast<std::size_t>(head_)] = value;  // latest value of the current slot
     return;
   }
   head_ = (head_ + 1) % kSize;
   values_[static_cast<std::size_t>(head_)] = value;
-  // On the grid, so slots stay 5 ms long at any push rate that divides it;
-  // a push rate slower than the grid restarts it at each push.
-  next_t_s_ += kPeriod_s;
-  if (next_t_s_ <= t_s + kTimeSlack_s) next_t_s_ = t_s + kPeriod_s;
+  slots_.advance(t_s);
 }
 
 double CueDelay::delayed(double delay_s) const noexcept {
@@ -98,7 +95,7 @@ void Hand::init(int instrument, const HandParams& params, const Eigen::Vector3d&
   visual_bias_ = params_.visual_noise * rng_.normal();
   visual_scale_ = params_.visual_force_gain * std::exp(visual_bias_);
   tremor_m_.setZero();
-  next_noise_s_ = 0.0;
+  noise_grid_ = ControlGrid(CueDelay::kPeriod_s);
   correction_m_.setZero();
   felt_mean_N_.setZero();
   felt_smooth_N_ = 0.0;
@@ -160,10 +157,9 @@ void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoint
 
   // Slow noise: tremor/drift of the hand and drift of the visual estimate,
   // updated at the cue rate (200 Hz) since they are slow anyway.
-  if (t_s >= next_noise_s_ - kTimeSlack_s) {
-    const double h_s = CueDelay::kPeriod_s;
-    next_noise_s_ += h_s;
-    if (next_noise_s_ <= t_s + kTimeSlack_s) next_noise_s_ = t_s + h_s;
+  if (noise_grid_.due(t_s)) {
+    noise_grid_.advance(t_s);
+    const double h_s = noise_grid_.period_s();
     const double a = std::min(1.0, h_s / kTremorTime_s);
     const double s = params_.motor_noise_m * std::sqrt(2.0 * a);
     for (int k = 0; k < 3; ++k) tremor_m_[k] += -a * tremor_m_[k] + s * rng_.normal();

@@ -26,6 +26,7 @@
 #include "core/common/random.h"
 #include "core/device/sim_device.h"
 #include "core/engine/joint_transform.h"
+#include "core/sim/control_grid.h"
 
 namespace hapticlab {
 
@@ -42,11 +43,6 @@ struct HandParams {
   double visual_servo_time_s = 0.35;  // time constant of steering the seen tip onto the aim
 };
 
-// Loop times are sums of dt, so a time meant to land on a grid point (every
-// 5 ms here) can fall a rounding error short of it; schedules compare with
-// this slack. The loop's shortest update is 500 µs.
-inline constexpr double kTimeSlack_s = 1e-6;
-
 // A fixed-size delay line sampled on a 5 ms grid: the value of a cue as the
 // brain gets it some 40–300 ms later. A slot holds the latest value pushed
 // in it and advances at the first push at or after each grid point. No
@@ -62,7 +58,7 @@ class CueDelay {
  private:
   std::array<double, kSize> values_{};
   int head_ = 0;
-  double next_t_s_ = 0.0;
+  ControlGrid slots_{kPeriod_s};
 };
 
 class Hand {
@@ -153,7 +149,7 @@ class Hand {
   Eigen::Vector3d tremor_m_ = Eigen::Vector3d::Zero();
   std::array<CueDelay, 3> seen_tip_cue_;
   Eigen::Vector3d correction_m_ = Eigen::Vector3d::Zero();  // visual aim correction
-  double next_noise_s_ = 0.0;
+  ControlGrid noise_grid_{CueDelay::kPeriod_s};
   // impedance adaptation
   Eigen::Vector3d felt_mean_N_ = Eigen::Vector3d::Zero();
   double disturbance_var_N2_ = 0.0;

@@ -124,11 +124,10 @@ double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexc
 
 void Participant::act(const LoopTickView& view) noexcept {
   const double t = view.t_s;
-  if (started_ && t < next_control_s_ - kTimeSlack_s) return;
+  if (!control_.due(t)) return;  // the grid starts at 0, so the first update is always due
+  control_.advance(t);
   const double dt_s = started_ ? t - last_control_s_ : view.dt_s;
   last_control_s_ = t;
-  next_control_s_ += kControlPeriod_s;
-  if (next_control_s_ <= t + kTimeSlack_s) next_control_s_ = t + kControlPeriod_s;
   tip_ = view.ve_input.tip_m;
   if (!started_) {
     started_ = true;

@@ -106,7 +106,7 @@ class Participant final : public LoopAgent {
   int clips_seen_missed_ = 0;
   bool started_ = false;
   double last_control_s_ = 0.0;  // loop time of the last control update
-  double next_control_s_ = 0.0;  // the next grid point
+  ControlGrid control_{kControlPeriod_s};
 };
 
 }  // namespace hapticlab
