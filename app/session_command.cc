@@ -90,6 +90,10 @@ int run(const SessionCommandOptions& opt) {
   };
   const sessions::SessionResult r = sessions::run_session(opt.db, options);
   line.finish();
+  if (r.stale_session)
+    std::fprintf(stderr, "hapticlab session run: took over the lock of %s's previous session (%s), which had "
+                         "ended without releasing it\n",
+                 opt.participant.c_str(), r.stale_session->c_str());
   std::printf("session %lld of %s: %d trials run (%d complete, %d aborted), %d re-queued, %d still planned, "
               "%llu updates logged%s\n",
               static_cast<long long>(r.session_id), opt.participant.c_str(), r.trials_run, r.trials_complete,

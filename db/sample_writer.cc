@@ -24,6 +24,9 @@ SampleWriter::SampleWriter(const std::filesystem::path& db_path, std::int64_t tr
   options.integrity = OpenOptions::Integrity::kSkip;  // the runner's own open checked it
   options.recover = false;                            // our trial is running on purpose
   db_ = std::make_unique<StudyDb>(db_path, options);
+  // Short waits: a commit that loses the lock race is retried on the next
+  // pass (flush_and_commit) instead of holding up the draining.
+  db_->connection().set_busy_timeout(kBusyWaitPerTry);
   const TrialRow trial = db_->trial(trial_id);
   if (trial.status != TrialStatus::kRunning)
     throw DbError(db_->path() + ": SampleWriter: trial " + std::to_string(trial_id) + " is " +
@@ -36,6 +39,7 @@ SampleWriter::SampleWriter(const std::filesystem::path& db_path, std::int64_t tr
     open_[k].samples.reserve(config.chunk_updates);
   }
   full_.reserve(kMaxPendingChunks + 2);
+  uncommitted_rows_.reserve(kMaxPendingChunks + 4);
   spare_.reserve(kMaxPendingChunks + 2);
   thread_ = std::thread([this] { run(); });
 }
@@ -55,6 +59,7 @@ SampleWriterStats SampleWriter::stats() const noexcept {
   s.commits = commits_.load(std::memory_order_relaxed);
   s.missing_updates = missing_.load(std::memory_order_relaxed);
   s.discarded = discarded_.load(std::memory_order_relaxed);
+  s.busy_retries = busy_retries_.load(std::memory_order_relaxed);
   s.thread_cpu_s = thread_cpu_s_.load(std::memory_order_relaxed);
   return s;
 }
@@ -73,6 +78,7 @@ void SampleWriter::run() noexcept {
         if (commit_due()) flush_and_commit();
       } catch (...) {
         error_ = std::current_exception();
+        failed_.store(true, std::memory_order_release);
       }
     }
     if (error_ != nullptr) {
@@ -90,7 +96,9 @@ void SampleWriter::run() noexcept {
   }
   if (error_ == nullptr) {
     try {
-      flush_and_commit();
+      // Until it is in: a try that lost the lock race leaves it pending,
+      // and flush_and_commit throws once kBusyPatience has passed.
+      while (pending_) flush_and_commit();
     } catch (...) {
       error_ = std::current_exception();
     }
@@ -171,8 +179,12 @@ void SampleWriter::close_chunk(int instrument) {
 
 void SampleWriter::write_chunk(OpenChunk& c) {
   if (c.samples.empty()) return;
-  if (c.row_id == 0) c.row_id = db_->insert_chunk(trial_id_, c.instrument, c.samples);
-  else db_->update_chunk(c.row_id, c.samples);
+  if (c.row_id == 0) {
+    c.row_id = db_->insert_chunk(trial_id_, c.instrument, c.samples);
+    uncommitted_rows_.push_back(&c);
+  } else {
+    db_->update_chunk(c.row_id, c.samples);
+  }
 }
 
 bool SampleWriter::commit_due() const noexcept {
@@ -183,13 +195,35 @@ bool SampleWriter::commit_due() const noexcept {
 
 void SampleWriter::flush_and_commit() {
   if (!pending_) return;
-  Transaction tx(db_->connection());
-  for (OpenChunk& c : full_) write_chunk(c);
-  // Partial chunks go in too (and are rewritten in place as they grow), so
-  // a crash loses at most one commit interval.
-  for (OpenChunk& c : open_) write_chunk(c);
-  for (const EventRow& e : pending_events_) db_->add_event(e);
-  tx.commit();
+  // A chunk first inserted in a transaction that then fails gets a row id
+  // that was never committed: remember which to undo.
+  uncommitted_rows_.clear();
+  try {
+    Transaction tx(db_->connection());
+    for (OpenChunk& c : full_) write_chunk(c);
+    // Partial chunks go in too (and are rewritten in place as they grow), so
+    // a crash loses at most one commit interval.
+    for (OpenChunk& c : open_) write_chunk(c);
+    for (const EventRow& e : pending_events_) db_->add_event(e);
+    tx.commit();
+  } catch (const DbError& e) {
+    for (OpenChunk* c : uncommitted_rows_) c->row_id = 0;
+    if (!e.is_busy()) throw;
+    // Another connection (a second station's writer, a program holding a
+    // write transaction) has the lock. Everything stays pending, in memory,
+    // and the next pass tries again; meanwhile the queues keep draining,
+    // so losing the race never stalls the loop or aborts the trial.
+    const auto now = std::chrono::steady_clock::now();
+    if (!busy_since_) busy_since_ = now;
+    busy_retries_.fetch_add(1, std::memory_order_relaxed);
+    if (now - *busy_since_ >= kBusyPatience)
+      throw DbError(std::string(e.what()) + " (the database stayed locked by another connection for " +
+                        std::to_string(std::chrono::duration_cast<std::chrono::seconds>(now - *busy_since_).count()) +
+                        " s)",
+                    e.sqlite_code());
+    return;
+  }
+  busy_since_.reset();
 
   // Committed: account for it and recycle the closed chunks' buffers.
   updates_.fetch_add(pending_updates_, std::memory_order_relaxed);
@@ -218,6 +252,22 @@ void SampleWriter::finish(const TrialOutcome& outcome) {
                     std::to_string(discarded_.load()) + " later updates discarded)");
     }
   }
+  // The closing transaction waits out another connection's lock too (the
+  // loop has stopped, so blocking here costs nothing), within the same
+  // patience as the samples.
+  const auto first_try = std::chrono::steady_clock::now();
+  for (;;) {
+    try {
+      close_trial(outcome);
+      return;
+    } catch (const DbError& e) {
+      if (!e.is_busy() || std::chrono::steady_clock::now() - first_try >= kBusyPatience) throw;
+      busy_retries_.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+}
+
+void SampleWriter::close_trial(const TrialOutcome& outcome) {
   Transaction tx(db_->connection());
   db_->set_loop_timing(trial_id_, outcome.timing, outcome.dropped_samples, outcome.dropped_events);
   if (outcome.dropped_samples > 0)

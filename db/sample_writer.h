@@ -26,6 +26,10 @@
 // counts in loop_timing and, when non-zero, as "samples_dropped" /
 // "events_dropped" events.
 //
+// Concurrency: a commit that finds the database locked by another
+// connection is retried (kBusyWaitPerTry, kBusyPatience below); losing the
+// lock race never aborts a trial.
+//
 // Errors: if the database fails (disk full, ...), the thread keeps popping
 // and discards what it pops, so a producer that waits on a full queue (the
 // virtual clock) is not stalled; finish() then throws the first error with
@@ -37,6 +41,7 @@
 #include <exception>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -52,6 +57,14 @@ namespace hapticlab::db {
 // Full chunks (per both instruments) held before a commit is forced, which
 // bounds the writer's memory when the queue is flooded.
 inline constexpr std::size_t kMaxPendingChunks = 16;
+
+// Another connection holding the write lock (a second station, a program
+// in a write transaction) makes a commit wait up to kBusyWaitPerTry, then
+// the writer goes back to draining and tries again on its next pass, with
+// everything kept in memory. Only a lock held for kBusyPatience in all is
+// an error: at 1 kHz that is 60 s of samples, ~12 MB, waiting in memory.
+inline constexpr std::chrono::milliseconds kBusyWaitPerTry{200};
+inline constexpr std::chrono::seconds kBusyPatience{60};
 
 struct SampleWriterConfig {
   // > 0. Popped data is committed at most this long after it was popped,
@@ -86,6 +99,7 @@ struct SampleWriterStats {
   std::uint64_t commits = 0;
   std::uint64_t missing_updates = 0;  // sum of tick jumps seen
   std::uint64_t discarded = 0;        // LoopSamples popped after a database error
+  std::uint64_t busy_retries = 0;     // commits retried because another connection held the lock
   // CPU time the writer thread used [s], set when the thread ends (0 while
   // it runs): what logging costs, independent of what else the machine does.
   double thread_cpu_s = 0.0;
@@ -112,6 +126,9 @@ class SampleWriter {
   void finish(const TrialOutcome& outcome);
 
   SampleWriterStats stats() const noexcept;
+  // True once the database has failed (disk full, ...): from then on what
+  // the loop produces is discarded, so the caller should end the trial.
+  bool failed() const noexcept { return failed_.load(std::memory_order_acquire); }
   std::int64_t trial_id() const noexcept { return trial_id_; }
 
  private:
@@ -129,6 +146,7 @@ class SampleWriter {
   void write_chunk(OpenChunk& chunk);
   bool commit_due() const noexcept;
   void flush_and_commit();
+  void close_trial(const TrialOutcome& outcome);
   void stop_thread() noexcept;
 
   const std::int64_t trial_id_;
@@ -154,10 +172,14 @@ class SampleWriter {
   std::uint64_t last_tick_ = 0;
   double last_t_s_ = 0.0;
   std::exception_ptr error_;
+  std::vector<OpenChunk*> uncommitted_rows_;  // chunks given a row id by the current transaction
+  std::optional<std::chrono::steady_clock::time_point> busy_since_;  // first failed try of the pending data
 
   std::atomic<bool> stop_{false};
-  std::atomic<std::uint64_t> updates_{0}, events_stored_{0}, commits_{0}, missing_{0}, discarded_{0};
+  std::atomic<std::uint64_t> updates_{0}, events_stored_{0}, commits_{0}, missing_{0}, discarded_{0},
+      busy_retries_{0};
   std::atomic<double> thread_cpu_s_{0.0};
+  std::atomic<bool> failed_{false};
   std::thread thread_;
   bool finished_ = false;
 };

@@ -42,6 +42,15 @@ Database::Database(const std::filesystem::path& path, Mode mode) : path_(path.st
   exec("PRAGMA foreign_keys = ON");
 }
 
+bool DbError::is_busy() const noexcept {
+  const int primary = sqlite_code_ & 0xff;
+  return primary == SQLITE_BUSY || primary == SQLITE_LOCKED;
+}
+
+void Database::set_busy_timeout(std::chrono::milliseconds timeout) {
+  sqlite3_busy_timeout(db_, static_cast<int>(timeout.count()));
+}
+
 Database::~Database() {
   // sqlite3_close_v2 defers the close until stray statements are finalized;
   // with RAII statements there are none, but it never fails either way.

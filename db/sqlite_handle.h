@@ -14,6 +14,7 @@
 // mode lets them, one writer at a time; the busy timeout makes the second
 // wait instead of failing).
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -34,6 +35,10 @@ class DbError : public std::runtime_error {
   // The SQLite result code (SQLITE_CORRUPT, SQLITE_BUSY, ...), 0 when the
   // error did not come from SQLite.
   int sqlite_code() const noexcept { return sqlite_code_; }
+  // Another connection held the lock for longer than the busy timeout
+  // (SQLITE_BUSY or SQLITE_LOCKED, any extended code): the same work may
+  // succeed when tried again; nothing was written.
+  bool is_busy() const noexcept;
 
  private:
   int sqlite_code_;
@@ -56,6 +61,10 @@ class Database {
   // Runs one or more statements that return no rows we need.
   void exec(std::string_view sql);
   Statement prepare(std::string_view sql);
+
+  // How long a statement waits for another connection's lock before it
+  // fails with SQLITE_BUSY (5 s unless changed).
+  void set_busy_timeout(std::chrono::milliseconds timeout);
 
   // PRAGMA that returns one integer (user_version, page_count, ...).
   std::int64_t pragma_int(std::string_view pragma);

@@ -4,16 +4,19 @@
 #include <cstdio>
 #include <ctime>
 #include <cstring>
-#include <fstream>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
+#include <sqlite3.h>
 
 #include "db/schema.h"
+#include "db/session_lock.h"
 #include "db/sha256.h"
 
 namespace hapticlab::db {
 namespace {
+
+}  // namespace
 
 std::string iso8601_utc_now() {
   const auto now = std::chrono::system_clock::now();
@@ -26,6 +29,8 @@ std::string iso8601_utc_now() {
                 tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms));
   return buf;
 }
+
+namespace {
 
 std::optional<double> opt_double(const Statement& s, int c) {
   if (s.is_null(c)) return std::nullopt;
@@ -67,22 +72,25 @@ TrialRow read_trial(const Statement& s) {
   return r;
 }
 
-// Every SQLite 3 file starts with these 16 bytes (fileformat2.html, 1.3).
-// SQLite itself would only say "file is not a database" from whichever
-// pragma came first; this says which file and what was expected. An empty
-// or missing file is fine: it becomes a new database.
-void refuse_non_sqlite_file(const std::filesystem::path& path) {
-  static constexpr char kMagic[16] = {'S', 'Q', 'L', 'i', 't', 'e', ' ', 'f', 'o', 'r', 'm', 'a', 't', ' ', '3', '\0'};
-  if (path == ":memory:") return;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return;  // missing: created, or refused by the open with its own message
-  char head[sizeof kMagic] = {};
-  in.read(head, sizeof head);
-  const auto got = static_cast<std::size_t>(in.gcount());
-  if (got == 0) return;
-  if (got < sizeof head || std::memcmp(head, kMagic, sizeof head) != 0)
-    throw DbError(path.string() + ": not an SQLite database file (it does not start with \"SQLite format 3\"); "
-                  "expected a HapticLab study database, as made by `hapticlab study create`");
+// A file that is not SQLite at all: SQLite itself would only say "file is
+// not a database" from whichever statement came first; this says which
+// file and what was expected. Asked through the connection, never by
+// opening the file ourselves: on Linux, closing any descriptor of the file
+// drops every POSIX lock this process holds on it, SQLite's included, and
+// another connection (this process's sample writer, another program) would
+// then delete the WAL under a live session. An empty or new file passes:
+// it becomes a new database.
+void refuse_non_sqlite_file(Database& db) {
+  try {
+    db.prepare("SELECT count(*) FROM sqlite_master").step();
+  } catch (const DbError& e) {
+    // Anything else (a damaged page) is the integrity check's to report,
+    // with SQLite's findings.
+    if ((e.sqlite_code() & 0xff) != SQLITE_NOTADB) return;
+    throw DbError(db.path() + ": not an SQLite database file (it does not start with \"SQLite format 3\"); "
+                  "expected a HapticLab study database, as made by `hapticlab study create`",
+                  e.sqlite_code());
+  }
 }
 
 }  // namespace
@@ -124,7 +132,7 @@ double unix_now_s() noexcept {
 
 StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
     : db_(path, options.read_only ? Database::Mode::kReadOnly : Database::Mode::kReadWriteCreate) {
-  refuse_non_sqlite_file(path);
+  refuse_non_sqlite_file(db_);
   // The check comes before anything else reads the schema, so a damaged
   // file is reported as damaged, with SQLite's findings, and not as the
   // failure of whichever statement happened to trip over it first.
@@ -168,15 +176,41 @@ void StudyDb::check_integrity(OpenOptions::Integrity level) {
                   " problem(s), the database file is damaged: " + findings);
 }
 
+// Only participants with no live session: their lock is free, so whatever
+// they left running belongs to a process that is gone. The lock is held
+// while their rows change, so a session that starts meanwhile waits.
 void StudyDb::recover() {
+  std::vector<std::int64_t> participants;
+  {
+    Statement q = db_.prepare(
+        "SELECT participant_id FROM trial WHERE status = 'running' "
+        "UNION SELECT participant_id FROM session WHERE status = 'open'");
+    while (q.step()) participants.push_back(q.column_int64(0));
+  }
+  if (participants.empty() || db_.path() == ":memory:") return;
+  for (std::int64_t id : participants) {
+    std::optional<SessionLock> lock = SessionLock::try_acquire(db_.path(), id, "recovery");
+    if (!lock) continue;  // live (or a read-only folder: nothing to recover from here)
+    const RecoveryReport r =
+        recover_participant(id, lock->stale_owner() ? lock->stale_owner()->abort_reason : std::string());
+    recovery_.trials_aborted += r.trials_aborted;
+    recovery_.sessions_interrupted += r.sessions_interrupted;
+  }
+}
+
+RecoveryReport StudyDb::recover_participant(std::int64_t participant_id, std::string_view reason) {
+  RecoveryReport report;
   Transaction tx(db_);
   Statement trials = db_.prepare(
-      "UPDATE trial SET status = 'aborted', abort_reason = ?1 WHERE status = 'running'");
-  trials.bind(1, kInterruptedReason).run();
-  recovery_.trials_aborted = db_.changes();
-  db_.exec("UPDATE session SET status = 'interrupted' WHERE status = 'open'");
-  recovery_.sessions_interrupted = db_.changes();
+      "UPDATE trial SET status = 'aborted', abort_reason = ?1 WHERE status = 'running' AND participant_id = ?2");
+  trials.bind(1, reason.empty() ? std::string_view(kInterruptedReason) : reason).bind(2, participant_id).run();
+  report.trials_aborted = db_.changes();
+  Statement sessions =
+      db_.prepare("UPDATE session SET status = 'interrupted' WHERE status = 'open' AND participant_id = ?1");
+  sessions.bind(1, participant_id).run();
+  report.sessions_interrupted = db_.changes();
   tx.commit();
+  return report;
 }
 
 // --- studies, participants, settings

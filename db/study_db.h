@@ -2,18 +2,20 @@
 // StudyDb: typed access to a study database (tables in db/README.md).
 //
 // Opening a file, in this order:
-//   0. A file that is not SQLite at all is refused, naming it.
+//   0. A file that is not SQLite at all is refused, naming it. Nothing here
+//      opens the file outside SQLite (see refuse_non_sqlite_file).
 //   1. PRAGMA integrity_check (or quick_check); a damaged file is refused
 //      with SQLite's findings.
 //   2. WAL journal, synchronous = NORMAL: a committed transaction survives
 //      a killed process (not necessarily a power cut in its last instant),
 //      and readers never block the writer.
 //   3. Migration to the current schema version (schema.h), all or nothing.
-//   4. Recovery: a trial left 'running' (the runner crashed or was killed)
-//      becomes 'aborted' with reason kInterruptedReason, its samples kept;
-//      a session left 'open' becomes 'interrupted'. Only the process that
-//      runs trials should recover: a monitor opening the file while a trial
-//      runs would abort it, so readers pass recover = false.
+//   4. Recovery of dead sessions only: a trial left 'running' by a session
+//      whose process is gone (crashed, killed) becomes 'aborted' with reason
+//      kInterruptedReason, its samples kept; a session left 'open' becomes
+//      'interrupted'. "Gone" is decided by the participant's SessionLock
+//      (session_lock.h), never by the rows, so opening the file while other
+//      sessions run (a second station, a monitor) leaves their trials alone.
 //
 // Times: *_unix_s are wall-clock seconds since 1970-01-01 UTC
 // (std::chrono::system_clock); t_s of samples and events is the haptic
@@ -122,7 +124,7 @@ struct LoopTimingRow {
 struct OpenOptions {
   enum class Integrity { kFull, kQuick, kSkip };
   Integrity integrity = Integrity::kFull;
-  bool recover = true;     // see the header comment
+  bool recover = true;     // of dead sessions only; see the header comment
   bool read_only = false;  // no migration and no recovery; the file must be current
 };
 
@@ -142,6 +144,11 @@ class StudyDb {
   int schema_version_found() const noexcept { return version_found_; }
   const RecoveryReport& recovery() const noexcept { return recovery_; }
   Database& connection() noexcept { return db_; }
+
+  // Recovery (step 4) of one participant, unconditionally: call it only
+  // while holding that participant's SessionLock. `reason` replaces
+  // kInterruptedReason when the caller knows better.
+  RecoveryReport recover_participant(std::int64_t participant_id, std::string_view reason = {});
   const std::string& path() const noexcept { return db_.path(); }
 
   // --- studies, participants, settings
@@ -210,5 +217,7 @@ class StudyDb {
 
 // Wall-clock now, seconds since 1970 UTC.
 double unix_now_s() noexcept;
+// Wall-clock now as ISO 8601 UTC with milliseconds: "2024-05-01T12:00:00.123Z".
+std::string iso8601_utc_now();
 
 }  // namespace hapticlab::db

@@ -9,7 +9,7 @@ build_dir=${1:-build}
 shift || true
 
 packages=(g++ make cmake pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
-          libgtest-dev libgmock-dev libsqlite3-dev libboost-math-dev
+          libgtest-dev libgmock-dev libsqlite3-dev sqlite3 libboost-math-dev
           libbenchmark-dev gnuplot-nox)
 missing=()
 for p in "${packages[@]}"; do

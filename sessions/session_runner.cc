@@ -12,12 +12,14 @@
 
 #include "core/common/random.h"
 #include "core/sim/task_event.h"
+#include "db/session_lock.h"
 #include "protocols/rng.h"
 
 namespace hapticlab::sessions {
 namespace {
 
 constexpr const char* kTimeLimitReason = "time limit";
+constexpr const char* kStorageFailureReason = "storage failure";
 
 using Clock = std::chrono::steady_clock;
 
@@ -80,15 +82,18 @@ std::vector<db::TrialRow> participant_trials(db::StudyDb& db, std::int64_t study
 
 // Re-queues every aborted trial whose slot has no planned, running or
 // complete trial: idempotent, so it also heals a crash between aborting a
-// trial and re-queuing it.
+// trial and re-queuing it. A slot that reached the time limit once is
+// closed, whatever happened to it before (an earlier attempt killed or
+// stopped by the operator) or after: one rule, whichever order.
 int requeue_aborted(db::StudyDb& db, const std::vector<db::TrialRow>& trials) {
   std::set<Slot> covered;
   for (const db::TrialRow& t : trials)
-    if (t.status != db::TrialStatus::kAborted) covered.insert(slot_of(t));
+    if (t.status != db::TrialStatus::kAborted || t.abort_reason.starts_with(kTimeLimitReason))
+      covered.insert(slot_of(t));
   int added = 0;
   db::Transaction tx(db.connection());
   for (const db::TrialRow& t : trials) {
-    if (t.status != db::TrialStatus::kAborted || t.abort_reason.starts_with(kTimeLimitReason)) continue;
+    if (t.status != db::TrialStatus::kAborted) continue;
     if (!covered.insert(slot_of(t)).second) continue;
     db.add_trial(static_cast<const db::TrialPlan&>(t));
     ++added;
@@ -113,7 +118,12 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   check_options(options);
   if (!std::filesystem::exists(db_path))
     throw std::runtime_error(db_path.string() + ": no such database (create it with `hapticlab study create`)");
-  db::StudyDb db(db_path);  // recovers a trial a crashed runner left running
+  // Recovery waits for the participant's lock (below): done at open, it
+  // would take a dead session's lock itself and the takeover would go
+  // unreported.
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(db_path, open);
   const std::vector<db::StudyRow> studies = db.studies();
   if (studies.empty()) throw std::runtime_error(db.path() + ": holds no study (run `hapticlab study create` first)");
   const db::StudyRow& study = studies.front();
@@ -127,7 +137,20 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
                              "'; its participants are" + codes);
   }
 
+  // One live session per participant (two stations may run two
+  // participants on one file). Refused here, before anything changes: a
+  // second session must not touch the first one's running trial.
+  db::SessionLock lock = db::SessionLock::acquire(db_path, *participant_id, options.participant);
   SessionResult result;
+  if (lock.stale_owner()) {
+    result.stale_session = lock.stale_owner()->describe();
+    if (!lock.stale_owner()->abort_reason.empty())
+      *result.stale_session += "; its last trial ended with: " + lock.stale_owner()->abort_reason;
+  }
+  // The open above recovered dead sessions it could lock; this one may have
+  // died in between, and now it is ours to recover.
+  db.recover_participant(*participant_id,
+                         lock.stale_owner() ? lock.stale_owner()->abort_reason : std::string());
   result.trials_requeued = requeue_aborted(db, participant_trials(db, study.id, *participant_id));
 
   const std::uint64_t who = participant_seed(study.seed, options.participant);
@@ -244,12 +267,15 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     db.start_trial(trial.id, result.session_id);
     ++result.trials_run;
     db::TrialOutcome outcome;
+    std::optional<std::string> storage_failure;  // the writer's error, once the trial is over
     {
       db::SampleWriter writer(db_path, trial.id, loop.samples(), loop.events(), options.writer);
       bool stopped = false;
       if (loop.start()) {
         while (loop.running()) {
-          if (!stopped && stop_requested(options)) {
+          // Storage failed: what the loop produces now is lost, so the
+          // trial ends here rather than running on unrecorded.
+          if (!stopped && (stop_requested(options) || writer.failed())) {
             loop.request_stop();
             stopped = true;
           }
@@ -286,8 +312,32 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           result.device_fault_reason = outcome.abort_reason;
           break;
       }
-      writer.finish(outcome);
+      try {
+        writer.finish(outcome);
+      } catch (const db::DbError& e) {
+        storage_failure = e.what();
+      }
       result.samples_logged += writer.stats().updates;
+    }
+    if (storage_failure) {
+      // The trial's real end, stored if the database takes this one short
+      // write, else left in the lock file for whoever recovers the trial:
+      // either way it is never recorded as a crash.
+      const std::string reason = std::string(kStorageFailureReason) + ": " + *storage_failure;
+      bool recorded = false;
+      try {
+        db.end_trial(trial.id, db::TrialStatus::kAborted, reason);
+        requeue_aborted(db, participant_trials(db, study.id, *participant_id));
+        db.end_session(result.session_id, db::SessionStatus::kInterrupted);
+        recorded = true;
+      } catch (const db::DbError&) {
+        lock.record_abort_reason(reason);
+      }
+      throw std::runtime_error(
+          "the study database could not be written, so the session stopped: " + *storage_failure + ". Trial " +
+          std::to_string(trial.id) + " was aborted with its samples up to then kept" +
+          (recorded ? " and re-queued" : "; the reason is recorded when the session is run again") +
+          ". Free disk space, then run the same command to continue.");
     }
     const double trial_sim_s = loop.elapsed_s();
     trial_wall_s += seconds_since(trial_start);

@@ -10,8 +10,9 @@
 // (interrupted, stopped by the operator, device fault) is re-queued as a
 // new planned copy at the same schedule position, so running the session
 // again continues with the first unfinished trial and never repeats a
-// complete one. A trial that hits the time limit is aborted but not
-// re-queued: running it again would most likely time out again.
+// complete one. A trial that hits the time limit is aborted and its slot
+// is not re-queued, even if an earlier attempt at that slot had been
+// killed or stopped: running it again would most likely time out again.
 //
 // Seeds (simulated participants): the participant's traits come from the
 // study seed and the participant code; each trial's variation from those and
@@ -88,10 +89,15 @@ struct SessionResult {
   bool device_fault = false;
   std::string device_fault_reason;
   std::uint64_t samples_logged = 0;  // instrument updates (LoopSamples) stored
+  // Set when this participant's previous session had died without
+  // releasing its lock (killed, crashed): who it was, for the operator.
+  std::optional<std::string> stale_session;
 };
 
-// Opens (and recovers) the database, runs the session, returns what
-// happened. Throws std::invalid_argument for bad options (naming them),
+// Opens (and recovers) the database, takes the participant's SessionLock
+// (db/session_lock.h), runs the session, returns what happened. Throws
+// std::invalid_argument for bad options (naming them), db::SessionBusyError
+// when the participant has a live session elsewhere (naming its pid),
 // std::runtime_error for an unknown participant or a database without a
 // study, db::DbError for a database failure.
 SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options);

@@ -308,5 +308,54 @@ TEST(SampleWriter, RefusesBadConfigurationAndATrialThatIsNotRunning) {
   EXPECT_THROW(SampleWriter(f.path, 999, f.samples, f.events), DbError);
 }
 
+// A second station's writer, or any program in a write transaction, can
+// hold the lock longer than one try waits (kBusyWaitPerTry). The writer
+// keeps draining into memory, tries again, and loses nothing; before, the
+// first SQLITE_BUSY discarded the rest of the trial.
+TEST(SampleWriter, ALockHeldByAnotherConnectionIsWaitedOutNotFatal) {
+  Fixture f;
+  SampleWriterConfig config;
+  config.commit_interval = 5ms;
+  SampleWriter writer(f.path, f.trial, f.samples, f.events, config);
+  Database other(f.path, Database::Mode::kReadWrite);
+  other.exec("BEGIN IMMEDIATE");
+  constexpr std::uint64_t kUpdates = 3000;  // > the queue's 256: it must drain while locked out
+  for (std::uint64_t t = 0; t < kUpdates; ++t) push(f.samples, testing::make_sample(t));
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (writer.stats().busy_retries < 3 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(5ms);
+  EXPECT_GE(writer.stats().busy_retries, 3u);
+  EXPECT_EQ(writer.stats().updates, 0u) << "nothing can be committed while the other holds the lock";
+  other.exec("COMMIT");
+  writer.finish({});
+  EXPECT_EQ(writer.stats().updates, kUpdates);
+  EXPECT_EQ(writer.stats().discarded, 0u);
+  StudyDb db(f.path);
+  EXPECT_EQ(db.trial(f.trial).status, TrialStatus::kComplete);
+  for (int k = 0; k < 2; ++k) {
+    const std::vector<StoredSample> got = db.samples(f.trial, k);
+    ASSERT_EQ(got.size(), kUpdates);
+    for (std::uint64_t t = 0; t < kUpdates; t += 97) expect_stored_equals(got[t], testing::make_sample(t), k);
+  }
+}
+
+// The closing transaction (status, timing) waits out a held lock too.
+TEST(SampleWriter, ClosingTransactionWaitsOutAHeldLock) {
+  Fixture f;
+  SampleWriter writer(f.path, f.trial, f.samples, f.events);
+  for (std::uint64_t t = 0; t < 10; ++t) push(f.samples, testing::make_sample(t));
+  Database other(f.path, Database::Mode::kReadWrite);
+  other.exec("BEGIN IMMEDIATE");
+  std::thread release([&] {
+    std::this_thread::sleep_for(4 * kBusyWaitPerTry);
+    other.exec("COMMIT");
+  });
+  EXPECT_NO_THROW(writer.finish({}));
+  release.join();
+  EXPECT_GE(writer.stats().busy_retries, 1u);
+  StudyDb db(f.path);
+  EXPECT_EQ(db.trial(f.trial).status, TrialStatus::kComplete);
+  EXPECT_EQ(db.sample_count(f.trial, 0), 10u);
+}
+
 }  // namespace
 }  // namespace hapticlab::db
