@@ -257,6 +257,49 @@ TEST_F(SessionFixture, KilledRunnerResumesAfterReopening) {
     }
 }
 
+// One rule for the time limit, whatever happened to the slot before: a
+// slot that reached it is not re-queued. Before, a slot whose earlier
+// attempt had been killed was re-queued after timing out (the killed
+// attempt, aborted but not by the limit, re-queued it), and one that had
+// not was not.
+TEST_F(SessionFixture, ATimedOutSlotIsNotRequeuedEvenIfAnEarlierAttemptWasKilled) {
+  std::int64_t killed = 0;
+  {
+    // What a runner killed mid-trial leaves, made directly.
+    db::OpenOptions open;
+    open.recover = false;
+    db::StudyDb db(db_path_, open);
+    const std::int64_t participant = *db.find_participant(db.studies().front().id, "A1");
+    killed = *db.next_planned_trial(participant);
+    db.start_trial(killed, db.begin_session(participant, "sim", "virtual"));
+  }
+  SessionOptions o = options_for("A1");
+  o.max_trial_s = 0.05;  // no simulated surgeon finishes a dissection in 50 ms
+  o.max_trials = 1;
+  const SessionResult r = run_session(db_path_, o);
+  EXPECT_EQ(r.trials_run, 1);
+  EXPECT_EQ(r.trials_aborted, 1);
+  const auto trials = trials_of(db_path_, "A1");
+  const db::TrialRow* first = nullptr;
+  for (const auto& t : trials)
+    if (t.id == killed) first = &t;
+  ASSERT_NE(first, nullptr);
+  EXPECT_EQ(first->abort_reason, db::kInterruptedReason);
+  int at_slot = 0, timed_out = 0, planned_at_slot = 0;
+  for (const auto& t : trials) {
+    if (t.position != first->position) continue;
+    ++at_slot;
+    if (t.abort_reason.starts_with("time limit")) ++timed_out;
+    if (t.status == TrialStatus::kPlanned) ++planned_at_slot;
+  }
+  EXPECT_EQ(at_slot, 2) << "the killed attempt and its timed-out re-run";
+  EXPECT_EQ(timed_out, 1);
+  EXPECT_EQ(planned_at_slot, 0) << "a timed-out slot is closed";
+  // Running again goes on with the next slot, not the timed-out one.
+  const SessionResult again = run_session(db_path_, o);
+  EXPECT_EQ(again.trials_requeued, 0);
+}
+
 TEST_F(SessionFixture, BadOptionsAndUnknownParticipantsAreNamed) {
   SessionOptions o = options_for("ZZ");
   try {
