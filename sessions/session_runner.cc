@@ -147,8 +147,9 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     if (!lock.stale_owner()->abort_reason.empty())
       *result.stale_session += "; its last trial ended with: " + lock.stale_owner()->abort_reason;
   }
-  // The open above recovered dead sessions it could lock; this one may have
-  // died in between, and now it is ours to recover.
+  // Whatever an earlier, dead session of this participant left running is
+  // ours to recover now that we hold its lock (with the cause it left in
+  // the lock file, if it could not store it).
   db.recover_participant(*participant_id,
                          lock.stale_owner() ? lock.stale_owner()->abort_reason : std::string());
   result.trials_requeued = requeue_aborted(db, participant_trials(db, study.id, *participant_id));
