@@ -4,7 +4,7 @@
 // faster to write than a row per sample.
 //
 // Layout, all numbers little-endian. A 5-byte header, the same for every
-// format, so a checksum can be verified without decoding (db check):
+// format, so a checksum can be verified without decoding:
 //
 //   byte 0          format: 1 = written with its checksum (this layout);
 //                   0 = written before schema version 4, checksum added by
