@@ -55,6 +55,11 @@ void run_analyze(const AnalyzeOptions& o) {
   if (report.plots) an::find_gnuplot();
 
   const an::StudyAnalysis analysis = an::analyze_study_file(o.db, options);
+  for (const an::TrialRecord& t : analysis.trials)
+    for (const std::string& c : t.damaged_chunks)
+      std::fprintf(stderr, "warning: left out damaged sample chunk: %s; trial %lld's measures are missing\n",
+                   c.c_str(), static_cast<long long>(t.trial_id));
+  if (analysis.counts.damaged_chunks > 0) std::fflush(stderr);
   const std::filesystem::path out(o.out);
   std::error_code ec;
   std::filesystem::create_directories(out, ec);

@@ -42,7 +42,7 @@ struct Recording {
 Recording from_database(const SimReplayOptions& opt) {
   db::OpenOptions open;
   open.read_only = true;  // a session may be running
-  open.integrity = db::OpenOptions::Integrity::kQuick;
+  open.integrity = db::OpenOptions::Integrity::kFull;  // quick_check misses a damaged index
   db::StudyDb db(opt.db, open);
   Recording r;
   // The study holding the trial: its seed gives the simulated trial's task

@@ -118,6 +118,14 @@ void put_sample(std::string& line, const StoredSample& s) {
   line += v.in_contact ? ",1" : ",0";
 }
 
+// Damaged chunks with nobody to report them to are an error.
+void refuse_unreported(const StudyDb& db, const std::vector<BadChunk>& bad) {
+  if (bad.empty()) return;
+  std::string list;
+  for (const BadChunk& c : bad) list += "; " + describe(c);
+  throw DbError(db.path() + ": " + std::to_string(bad.size()) + " damaged sample chunk(s)" + list);
+}
+
 std::filesystem::path trial_stem(const std::filesystem::path& dir, const TrialRow& t) {
   return dir / (slug(t.participant_code) + "_" + slug(t.task) + "_" + slug(t.setting_name) + "_rep" +
                 std::to_string(t.repetition) + "_trial" + std::to_string(t.id));
@@ -126,7 +134,8 @@ std::filesystem::path trial_stem(const std::filesystem::path& dir, const TrialRo
 }  // namespace
 
 std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t trial_id,
-                                                    const std::filesystem::path& out_dir) {
+                                                    const std::filesystem::path& out_dir,
+                                                    std::vector<BadChunk>* bad_chunks) {
   const TrialRow t = db.trial(trial_id);
   std::filesystem::create_directories(out_dir);
   const std::string stem = trial_stem(out_dir, t).string();
@@ -136,8 +145,12 @@ std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t tr
   line = "trial_id,participant,task,setting,repetition,instrument,tick";
   for (const char* name : kChannelNames) line += std::string(",") + name;
   samples.line(line);
-  const std::vector<StoredSample> left = db.samples(trial_id, 0);
-  const std::vector<StoredSample> right = db.samples(trial_id, 1);
+  std::vector<StoredSample> left, right;
+  std::vector<BadChunk> bad;
+  read_samples(db.connection(), trial_id, 0, left, bad);
+  read_samples(db.connection(), trial_id, 1, right, bad);
+  if (bad_chunks == nullptr) refuse_unreported(db, bad);
+  else bad_chunks->insert(bad_chunks->end(), bad.begin(), bad.end());
   // Merge by tick, left first within a tick.
   std::size_t i = 0, k = 0;
   while (i < left.size() || k < right.size()) {
@@ -172,7 +185,8 @@ std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t tr
 }
 
 std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t study_id,
-                                                    const std::filesystem::path& out_dir) {
+                                                    const std::filesystem::path& out_dir,
+                                                    std::vector<BadChunk>* bad_chunks) {
   std::filesystem::create_directories(out_dir);
   std::vector<std::filesystem::path> written;
   CsvFile index(out_dir / "trials.csv");
@@ -214,7 +228,7 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
     if (timing) put_number(line, timing->dropped_events);
     index.line(line);
     if (t.status != TrialStatus::kPlanned) {
-      const auto files = export_trial_csv(db, t.id, out_dir);
+      const auto files = export_trial_csv(db, t.id, out_dir, bad_chunks);
       written.insert(written.end(), files.begin(), files.end());
     }
   }

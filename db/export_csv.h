@@ -20,6 +20,11 @@
 // the codec's 2^-24 relative precision, e.g. "0.0001"). Text fields are quoted when they need it (RFC 4180).
 // Each file is written to "<name>.tmp" and renamed when complete.
 //
+// A damaged sample chunk (chunk_reader.h) is left out of the samples file
+// and appended to `bad_chunks`; the rest of the trial is exported. Without
+// a list to report them to (null), a damaged chunk throws DbError naming
+// them, so nothing is left out silently.
+//
 // Study export adds trials.csv: one row per trial with its plan, status,
 // times, abort reason, loop timing and drop counts.
 
@@ -27,6 +32,7 @@
 #include <filesystem>
 #include <vector>
 
+#include "db/chunk_reader.h"
 #include "db/study_db.h"
 
 namespace hapticlab::db {
@@ -34,11 +40,13 @@ namespace hapticlab::db {
 // Returns the files written. Throws DbError (unknown trial, database) or
 // std::runtime_error naming the file (cannot write).
 std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t trial_id,
-                                                    const std::filesystem::path& out_dir);
+                                                    const std::filesystem::path& out_dir,
+                                                    std::vector<BadChunk>* bad_chunks = nullptr);
 
 // Every trial of the study that has started (planned ones have no data),
 // plus trials.csv. Creates out_dir if needed.
 std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t study_id,
-                                                    const std::filesystem::path& out_dir);
+                                                    const std::filesystem::path& out_dir,
+                                                    std::vector<BadChunk>* bad_chunks = nullptr);
 
 }  // namespace hapticlab::db

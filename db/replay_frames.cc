@@ -5,11 +5,21 @@
 #include <limits>
 #include <string>
 
+#include "db/chunk_reader.h"
+
 namespace hapticlab::db {
 
 std::vector<ReplayFrame> load_replay_frames(StudyDb& db, std::int64_t trial_id) {
   db.trial(trial_id);  // throws, naming the trial, if there is none
-  const std::array<std::vector<StoredSample>, 2> stored = {db.samples(trial_id, 0), db.samples(trial_id, 1)};
+  std::array<std::vector<StoredSample>, 2> stored;
+  std::vector<BadChunk> bad;
+  for (int k = 0; k < 2; ++k) read_samples(db.connection(), trial_id, k, stored[static_cast<std::size_t>(k)], bad);
+  if (!bad.empty()) {
+    std::string list;
+    for (const BadChunk& c : bad) list += "; " + describe(c);
+    throw DbError(db.path() + ": trial " + std::to_string(trial_id) + " cannot be replayed: " +
+                  std::to_string(bad.size()) + " damaged sample chunk(s)" + list);
+  }
   if (stored[0].empty() && stored[1].empty())
     throw DbError(db.path() + ": trial " + std::to_string(trial_id) +
                   " has no stored samples, so there is nothing to replay (has it run?)");

@@ -25,8 +25,11 @@
 
 namespace hapticlab::db {
 
-// Throws DbError naming the file and trial if the trial does not exist or
-// has no stored samples (a planned trial: nothing to replay).
+// Throws DbError naming the file and trial if the trial does not exist,
+// has no stored samples (a planned trial: nothing to replay) or has a
+// damaged sample chunk (chunk_reader.h), each named with its instrument and
+// ticks. A damaged chunk is refused rather than left out: the replay would
+// hold that instrument still over the hole, a motion nobody made.
 std::vector<ReplayFrame> load_replay_frames(StudyDb& db, std::int64_t trial_id);
 
 }  // namespace hapticlab::db

@@ -1,7 +1,9 @@
 #include "db/sample_codec.h"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -21,6 +23,103 @@ const std::array<const char*, kChunkChannels> kChannelNames = {
     "engine_status",  "device_status",  "in_contact"};
 
 namespace {
+
+// CRC-32C, slicing by 8: eight 256-entry tables, so the loop takes 8 bytes
+// per step (about 8x a byte-wise CRC; see db/README.md for the rate).
+struct CrcTables {
+  std::uint32_t t[8][256];
+};
+constexpr CrcTables make_crc_tables() {
+  CrcTables c{};
+  for (std::uint32_t i = 0; i < 256; ++i) {
+    std::uint32_t r = i;
+    for (int k = 0; k < 8; ++k) r = (r >> 1) ^ (0x82F63B78u & (0u - (r & 1u)));
+    c.t[0][i] = r;
+  }
+  for (std::uint32_t i = 0; i < 256; ++i)
+    for (int k = 1; k < 8; ++k) c.t[k][i] = (c.t[k - 1][i] >> 8) ^ c.t[0][c.t[k - 1][i] & 0xFFu];
+  return c;
+}
+constexpr CrcTables kCrc = make_crc_tables();
+
+}  // namespace
+
+namespace {
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+// SSE 4.2 has CRC-32C as an instruction (the same polynomial): several
+// times the table's rate, chosen at run time so the binary still runs on a
+// CPU without it.
+__attribute__((target("sse4.2"))) std::uint32_t crc32c_sse42(std::uint32_t crc, const unsigned char* p,
+                                                             std::size_t n) noexcept {
+  std::uint64_t c = ~crc;
+  for (; n >= 8; p += 8, n -= 8) {
+    std::uint64_t word;
+    std::memcpy(&word, p, 8);  // little-endian: the instruction's byte order
+    c = __builtin_ia32_crc32di(c, word);
+  }
+  auto c32 = static_cast<std::uint32_t>(c);
+  for (; n > 0; ++p, --n) c32 = __builtin_ia32_crc32qi(c32, *p);
+  return ~c32;
+}
+const bool kHaveSse42 = __builtin_cpu_supports("sse4.2");
+#endif
+
+}  // namespace
+
+std::uint32_t crc32c(std::uint32_t crc, std::span<const std::byte> data) noexcept {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  if (kHaveSse42) return crc32c_sse42(crc, reinterpret_cast<const unsigned char*>(data.data()), data.size());
+#endif
+  return crc32c_portable(crc, data);
+}
+
+std::uint32_t crc32c_portable(std::uint32_t crc, std::span<const std::byte> data) noexcept {
+  const auto* p = reinterpret_cast<const unsigned char*>(data.data());
+  std::size_t n = data.size();
+  std::uint32_t c = ~crc;
+  while (n >= 8) {
+    const std::uint32_t lo = c ^ (std::uint32_t{p[0]} | std::uint32_t{p[1]} << 8 | std::uint32_t{p[2]} << 16 |
+                                  std::uint32_t{p[3]} << 24);
+    c = kCrc.t[7][lo & 0xFF] ^ kCrc.t[6][(lo >> 8) & 0xFF] ^ kCrc.t[5][(lo >> 16) & 0xFF] ^ kCrc.t[4][lo >> 24] ^
+        kCrc.t[3][p[4]] ^ kCrc.t[2][p[5]] ^ kCrc.t[1][p[6]] ^ kCrc.t[0][p[7]];
+    p += 8;
+    n -= 8;
+  }
+  while (n-- > 0) c = (c >> 8) ^ kCrc.t[0][(c ^ *p++) & 0xFF];
+  return ~c;
+}
+
+namespace {
+
+// The checksum of a chunk: its row's first tick and count, then the blob
+// without the checksum bytes (format byte, body).
+std::uint32_t chunk_crc(std::uint64_t first_tick, std::uint64_t count, std::byte format,
+                        std::span<const std::byte> body) noexcept {
+  std::array<std::byte, 17> head{};
+  for (int i = 0; i < 8; ++i) {
+    head[static_cast<std::size_t>(i)] = static_cast<std::byte>(first_tick >> (8 * i));
+    head[static_cast<std::size_t>(8 + i)] = static_cast<std::byte>(count >> (8 * i));
+  }
+  head[16] = format;
+  return crc32c(crc32c(0, head), body);
+}
+
+void put_crc(std::vector<std::byte>& blob, std::uint32_t crc) noexcept {
+  for (int i = 0; i < 4; ++i) blob[static_cast<std::size_t>(1 + i)] = static_cast<std::byte>(crc >> (8 * i));
+}
+
+std::uint32_t stored_crc(std::span<const std::byte> blob) noexcept {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < 4; ++i) v |= std::uint32_t{std::to_integer<std::uint8_t>(blob[1 + i])} << (8 * i);
+  return v;
+}
+
+std::string hex32(std::uint32_t v) {
+  char buf[11];
+  std::snprintf(buf, sizeof buf, "0x%08x", v);
+  return buf;
+}
 
 enum Tag : std::uint8_t { kPerUpdate = 0, kConstant = 1, kRunningSum = 2 };
 
@@ -42,7 +141,8 @@ class Reader {
  public:
   explicit Reader(std::span<const std::byte> blob) : blob_(blob) {}
   std::uint64_t get(int bytes) {
-    if (pos_ + static_cast<std::size_t>(bytes) > blob_.size()) throw std::runtime_error("sample chunk: blob too short");
+    if (pos_ + static_cast<std::size_t>(bytes) > blob_.size())
+      throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
     std::uint64_t v = 0;
     for (int i = 0; i < bytes; ++i) v |= std::uint64_t(std::to_integer<std::uint8_t>(blob_[pos_++])) << (8 * i);
     return v;
@@ -64,8 +164,8 @@ void get_values(Reader& r, std::uint8_t tag, std::size_t n, int bytes, std::size
   } else if (tag == kPerUpdate) {
     for (std::size_t i = 0; i < n; ++i) set(i, r.get(bytes));
   } else {
-    throw std::runtime_error(std::string("sample chunk: channel ") + kChannelNames[channel] + " has unknown tag " +
-                             std::to_string(tag));
+    throw ChunkError(ChunkError::Kind::kStructure,
+                     std::string("channel ") + kChannelNames[channel] + " has unknown tag " + std::to_string(tag));
   }
 }
 
@@ -173,10 +273,11 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
       throw std::invalid_argument("encode_chunk(): ticks must be consecutive; tick " + std::to_string(s[i].tick) +
                                   " follows " + std::to_string(s[i - 1].tick));
   const std::size_t n = s.size();
-  // Worst case: format, 28 tags, every channel per update, t_s's 8 bytes.
+  // Worst case: header, 28 tags, every channel per update, t_s's 8 bytes.
   constexpr std::size_t kBytesPerUpdate = 8 + 8 + 4 * (kEndFloat - kFirstFloat) + 4 + 4 + 1;
-  Writer w(1 + kChunkChannels + n * kBytesPerUpdate);
+  Writer w(kChunkHeaderBytes + kChunkChannels + n * kBytesPerUpdate);
   w.byte(kChunkFormat);
+  w.le(0, 4);  // the checksum, filled in below
   std::vector<std::uint64_t> bits64(n);
   std::vector<std::uint32_t> bits32(n);
 
@@ -207,19 +308,52 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
   put_bits(w, bits32.data(), n, 4);
   for (std::size_t i = 0; i < n; ++i) bits32[i] = s[i].value.in_contact ? 1u : 0u;
   put_bits(w, bits32.data(), n, 1);
-  return w.take();
+  std::vector<std::byte> blob = w.take();
+  put_crc(blob, chunk_crc(s[0].tick, n, blob[0], std::span(blob).subspan(kChunkHeaderBytes)));
+  return blob;
+}
+
+std::uint8_t verify_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob) {
+  if (blob.size() < kChunkHeaderBytes)
+    throw ChunkError(ChunkError::Kind::kStructure, std::to_string(blob.size()) + "-byte blob, shorter than the " +
+                                                       std::to_string(kChunkHeaderBytes) + "-byte header");
+  const std::uint32_t want = stored_crc(blob);
+  const std::uint32_t got = chunk_crc(first_tick, count, blob[0], blob.subspan(kChunkHeaderBytes));
+  if (got != want)
+    throw ChunkError(ChunkError::Kind::kChecksum, "checksum mismatch (stored CRC-32C " + hex32(want) +
+                                                      ", the data gives " + hex32(got) + "): the chunk is damaged");
+  const auto format = std::to_integer<std::uint8_t>(blob[0]);
+  if (format != kChunkFormat && format != kChunkFormatMigrated)
+    throw ChunkError(ChunkError::Kind::kUnknownFormat,
+                     "chunk format " + std::to_string(format) + " is not one this HapticLab reads (" +
+                         std::to_string(kChunkFormatMigrated) + ", " + std::to_string(kChunkFormat) +
+                         "); it was written by a newer HapticLab");
+  return format;
+}
+
+std::vector<std::byte> checksum_legacy_chunk(std::uint64_t first_tick, std::size_t count,
+                                             std::span<const std::byte> legacy_blob) {
+  std::vector<std::byte> blob(kChunkHeaderBytes + legacy_blob.size());
+  blob[0] = std::byte{kChunkFormatMigrated};
+  std::copy(legacy_blob.begin(), legacy_blob.end(), blob.begin() + kChunkHeaderBytes);
+  put_crc(blob, chunk_crc(first_tick, count, blob[0], legacy_blob));
+  return blob;
 }
 
 void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob,
                   std::vector<StoredSample>& out) {
+  const std::uint8_t format = verify_chunk(first_tick, count, blob);
   if (count == 0 || count > kMaxChunkUpdates)
-    throw std::runtime_error("sample chunk: count is " + std::to_string(count) + ", must be 1.." +
-                             std::to_string(kMaxChunkUpdates));
-  Reader r(blob);
-  const auto format = r.get(1);
-  if (format != kChunkFormat)
-    throw std::runtime_error("sample chunk: format " + std::to_string(format) + ", this HapticLab reads format " +
-                             std::to_string(kChunkFormat));
+    throw ChunkError(ChunkError::Kind::kStructure,
+                     "count is " + std::to_string(count) + ", must be 1.." + std::to_string(kMaxChunkUpdates));
+  Reader r(blob.subspan(kChunkHeaderBytes));
+  // Format 0 holds the old blob whole, its own format byte (1) first.
+  if (format == kChunkFormatMigrated) {
+    const auto legacy = r.get(1);
+    if (legacy != 1)
+      throw ChunkError(ChunkError::Kind::kStructure,
+                       "migrated chunk starts with format " + std::to_string(legacy) + ", expected 1");
+  }
   const std::size_t base = out.size();
   out.resize(base + count);
   StoredSample* s = out.data() + base;
@@ -233,8 +367,8 @@ void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const s
   }
   if (!r.at_end()) {
     out.resize(base);
-    throw std::runtime_error("sample chunk: " + std::to_string(blob.size()) + " bytes, more than " +
-                             std::to_string(count) + " samples use");
+    throw ChunkError(ChunkError::Kind::kStructure, std::to_string(blob.size()) + " bytes, more than " +
+                                                       std::to_string(count) + " samples use");
   }
 }
 

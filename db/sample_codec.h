@@ -3,10 +3,17 @@
 // packed into one BLOB (one row of sample_chunk), about 8x smaller and far
 // faster to write than a row per sample.
 //
-// Layout (format 1), all numbers little-endian:
+// Layout, all numbers little-endian. A 5-byte header, the same for every
+// format, so a checksum can be verified without decoding:
 //
-//   byte 0          format = 1
-//   then 28 channels, in the order of kChannelNames, each:
+//   byte 0          format: 1 = written with its checksum (this layout);
+//                   0 = written before schema version 4, checksum added by
+//                   the migration (see below); anything else is refused by
+//                   number (2 is reserved for a compressed body)
+//   bytes 1..4      CRC-32C (Castagnoli) of: first_tick as 8 bytes, count as
+//                   8 bytes (the row's columns: a changed tick or count is
+//                   caught too), byte 0, then the body (bytes 5..)
+//   body, format 1: 28 channels, in the order of kChannelNames, each:
 //     1 byte tag    0 = `count` values follow, one per update, in order
 //                   1 = one value follows, the same for every update
 //                   2 = (t_s only) one float64 t[0] follows; the rest are
@@ -26,6 +33,11 @@
 // value beyond float32's range is stored as ±infinity; NaN stays NaN. The
 // integer channels are exact.
 //
+// Format 0's body is a chunk blob as schema versions 1..3 wrote it: byte 1,
+// then the channels as above. Its checksum only vouches for the bytes since
+// the migration; damage done before it is caught only if it breaks the
+// structure (size, tags).
+//
 // The chunk's first tick and count are columns of the row, not part of the
 // blob; the ticks of a chunk are consecutive (first_tick + i).
 
@@ -33,6 +45,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "core/loop/loop_sample.h"
@@ -48,7 +62,9 @@ struct StoredSample {
   InstrumentSample value;  // units as in core/loop/loop_sample.h
 };
 
-inline constexpr std::uint8_t kChunkFormat = 1;
+inline constexpr std::uint8_t kChunkFormat = 1;        // what encode_chunk writes
+inline constexpr std::uint8_t kChunkFormatMigrated = 0;  // checksummed by the schema 4 migration
+inline constexpr std::size_t kChunkHeaderBytes = 5;     // format, CRC-32C
 inline constexpr std::size_t kChunkChannels = 28;
 // Most updates one chunk may hold (a damaged count never allocates more).
 inline constexpr std::size_t kMaxChunkUpdates = std::size_t{1} << 20;
@@ -59,11 +75,43 @@ extern const std::array<const char*, kChunkChannels> kChannelNames;
 // otherwise. Appends nothing: returns a fresh blob.
 std::vector<std::byte> encode_chunk(std::span<const StoredSample> samples);
 
-// Decodes a blob of `count` samples starting at `first_tick` and appends
-// them to `out`. Throws std::runtime_error if the blob is not format 1 or
-// its size does not match `count` (a damaged row is refused, never guessed).
+// Why a stored chunk cannot be used. Derives from std::runtime_error so
+// callers that only report it need nothing new.
+class ChunkError : public std::runtime_error {
+ public:
+  enum class Kind { kChecksum, kUnknownFormat, kStructure };
+  ChunkError(Kind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
+  Kind kind() const noexcept { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+// Checks the header and the checksum only (no decoding); returns the
+// format. Throws ChunkError: kStructure for a blob shorter than the header,
+// kChecksum for a mismatch (tried first: a damaged format byte is damage),
+// kUnknownFormat for a format other than 0 and 1 whose checksum is right
+// (a newer HapticLab wrote it).
+std::uint8_t verify_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob);
+
+// Verifies (as verify_chunk), decodes a blob of `count` samples starting at
+// `first_tick` and appends them to `out`. Throws ChunkError if the checksum,
+// format or structure is wrong, or the size does not match `count` (a
+// damaged row is refused, never guessed); `out` is then unchanged.
 void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob,
                   std::vector<StoredSample>& out);
+
+// A chunk blob of schema versions 1..3 as format 0: its bytes, unchanged,
+// behind a header whose checksum is computed now (the schema 4 migration).
+std::vector<std::byte> checksum_legacy_chunk(std::uint64_t first_tick, std::size_t count,
+                                             std::span<const std::byte> legacy_blob);
+
+// CRC-32C (Castagnoli, reflected polynomial 0x82F63B78), continuing from
+// `crc` (0 to start): crc32c(crc32c(0, a), b) == crc32c(0, a + b).
+// Uses the CPU's CRC32 instruction when it has one (x86-64 SSE 4.2), else
+// crc32c_portable (tables, slicing by 8); both give the same value.
+std::uint32_t crc32c(std::uint32_t crc, std::span<const std::byte> data) noexcept;
+std::uint32_t crc32c_portable(std::uint32_t crc, std::span<const std::byte> data) noexcept;
 
 // The value stored for a float32 channel: nearest float, ±inf beyond range.
 float to_stored_float(double value) noexcept;

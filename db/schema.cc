@@ -1,6 +1,10 @@
 #include "db/schema.h"
 
+#include <cstdint>
 #include <string>
+#include <vector>
+
+#include "db/sample_codec.h"
 
 namespace hapticlab::db {
 namespace {
@@ -140,11 +144,42 @@ CREATE UNIQUE INDEX trial_live_position ON trial (participant_id, position) WHER
 CREATE INDEX trial_by_participant ON trial (participant_id, status, position, id);
 )sql";
 
+// Version 4: every sample chunk blob carries a CRC-32C (sample_codec.h).
+// The blobs written before get theirs here, as format 0, which says that
+// the checksum dates from this migration and not from the writing: damage
+// done before it cannot be told from data. No table changes.
+constexpr const char* kV4 = "";
+
+void checksum_old_chunks(Database& db) {
+  // Row by row (ids first): a blob is rewritten while no statement is
+  // stepping over its table, and only one blob is in memory at a time.
+  std::vector<std::int64_t> ids;
+  {
+    Statement s = db.prepare("SELECT id FROM sample_chunk ORDER BY id");
+    while (s.step()) ids.push_back(s.column_int64(0));
+  }
+  Statement read = db.prepare("SELECT first_tick, count, data FROM sample_chunk WHERE id = ?1");
+  Statement write = db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1");
+  for (const std::int64_t id : ids) {
+    read.reset();
+    read.bind(1, id);
+    read.step();
+    const std::vector<std::byte> blob = checksum_legacy_chunk(
+        static_cast<std::uint64_t>(read.column_int64(0)), static_cast<std::size_t>(read.column_int64(1)),
+        read.column_blob(2));
+    write.reset();
+    write.bind(1, id).bind_blob(2, blob);
+    write.run();
+  }
+}
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
     {3, "trial: (participant, position) unique among trials not aborted, so an aborted trial can be re-queued",
      kV3},
+    {4, "sample_chunk.data: a CRC-32C in every chunk; chunks written before get theirs now (format 0)", kV4,
+     checksum_old_chunks},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 
@@ -217,6 +252,7 @@ int migrate(Database& db) {
     if (m.to_version <= found) continue;
     try {
       db.exec(m.sql);
+      if (m.convert != nullptr) m.convert(db);
     } catch (const DbError& e) {
       throw DbError(db.path() + ": migration to schema version " + std::to_string(m.to_version) + " (" +
                         m.description + ") failed, database left at version " + std::to_string(found) +

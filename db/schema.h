@@ -16,13 +16,16 @@
 
 namespace hapticlab::db {
 
-inline constexpr int kSchemaVersion = 3;
+inline constexpr int kSchemaVersion = 4;
 inline constexpr std::int32_t kApplicationId = 0x484C4142;  // "HLAB"
 
 struct Migration {
   int to_version;           // this step takes version to_version - 1 to to_version
   const char* description;  // one line, for messages and db/README.md
   const char* sql;          // run inside the migration transaction
+  // Run after `sql`, in the same transaction, for what SQL cannot do
+  // (version 4 computes every chunk's checksum); may be null.
+  void (*convert)(Database& db) = nullptr;
 };
 
 // Every step, in order; migrations()[i].to_version == i + 1.

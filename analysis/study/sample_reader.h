@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "analysis/metrics/trial_metrics.h"
+#include "db/chunk_reader.h"
 #include "db/sample_codec.h"
 
 namespace hapticlab::db {
@@ -19,12 +20,16 @@ namespace hapticlab::analysis {
 class HandSeriesReader {
  public:
   // Replaces `out` with the samples of (trial_id, instrument) in tick order.
-  // Throws db::DbError naming the trial, instrument and chunk for a damaged
-  // chunk.
+  // A damaged chunk (checksum, format, structure: db/chunk_reader.h) is left
+  // out and listed in bad_chunks(); throws db::DbError only for the database.
   void read(db::StudyDb& db, std::int64_t trial_id, int instrument, HandSeries& out);
+
+  // The chunks the last read() left out.
+  const std::vector<db::BadChunk>& bad_chunks() const noexcept { return bad_; }
 
  private:
   std::vector<db::StoredSample> chunk_;  // one decoded chunk, reused
+  std::vector<db::BadChunk> bad_;
 };
 
 }  // namespace hapticlab::analysis

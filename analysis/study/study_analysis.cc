@@ -185,9 +185,15 @@ TrialRecord read_trial(db::StudyDb& db, const db::TrialRow& row, const AnalysisO
   double trial_end_s = -std::numeric_limits<double>::infinity();
   for (std::size_t hand = 0; hand < 2; ++hand) {
     buffers.reader.read(db, row.id, static_cast<int>(hand), series[hand]);
+    for (const db::BadChunk& c : buffers.reader.bad_chunks()) rec.damaged_chunks.push_back(db::describe(c));
     if (series[hand].size() > 0) trial_end_s = std::max(trial_end_s, series[hand].t_s.back());
   }
   mark_missing(rec);
+  if (!rec.damaged_chunks.empty()) {
+    rec.problem =
+        std::to_string(rec.damaged_chunks.size()) + " damaged sample chunk(s) left out (hapticlab study check)";
+    return rec;
+  }
   if (series[0].size() == 0 && series[1].size() == 0) {
     rec.problem = "no samples logged";
     return rec;
@@ -309,6 +315,7 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
     a.trials.push_back(read_trial(db, row, options, buffers));
     ++a.counts.analysed;
     if (!a.trials.back().window) ++a.counts.without_window;
+    a.counts.damaged_chunks += a.trials.back().damaged_chunks.size();
   }
   run_statistics(a);
   return a;
@@ -321,7 +328,9 @@ StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const Ana
   }
   db::OpenOptions open;
   open.recover = false;  // reading must never abort a trial another process is running
-  open.integrity = db::OpenOptions::Integrity::kQuick;
+  // Full check: quick_check does not compare indexes with their tables, and
+  // a damaged index silently hides rows from the queries that use it.
+  open.integrity = db::OpenOptions::Integrity::kFull;
   db::StudyDb db(db_path, open);
   return analyze_study(db, options);
 }
@@ -706,7 +715,9 @@ std::string format_headline_tables(const StudyAnalysis& a) {
   out << "Trials analysed: " << c.analysed << " (" << c.complete << " complete";
   if (c.aborted_included > 0) out << ", " << c.aborted_included << " aborted included";
   out << "); aborted left out: " << c.aborted_excluded << "; not run: " << c.not_run
-      << "; without a task window: " << c.without_window << "\n";
+      << "; without a task window: " << c.without_window;
+  if (c.damaged_chunks > 0) out << " (" << c.damaged_chunks << " damaged sample chunk(s) left out)";
+  out << "\n";
   out << "Percentiles: " << percentile_method_name(a.options.percentile_method) << "; alpha = " << a.options.alpha
       << "; control: " << a.control << "\n\n";
 

@@ -84,6 +84,9 @@ struct TrialRecord {
   std::string status;
   std::optional<TaskWindow> window;
   std::string problem;  // why the measures are missing, if they are
+  // Sample chunks left out as damaged (db/chunk_reader.h describe()); the
+  // trial's measures are then missing: a hole would bias them silently.
+  std::vector<std::string> damaged_chunks;
   std::array<HandMetrics, 2> hands{};
   // Quantiles of |F| and |v| (cdf_points, p = 0..100 evenly), empty
   // when the hand had none; time-order series decimated by ks_stride for the
@@ -104,6 +107,7 @@ struct TrialCounts {
   std::size_t aborted_included = 0;   // taken in with include_aborted
   std::size_t not_run = 0;            // planned or running: no data
   std::size_t without_window = 0;     // analysed, but no task window (measures missing)
+  std::size_t damaged_chunks = 0;     // sample chunks left out as damaged (their trials are without window)
 };
 
 // A test that may not be possible; `note` says why when result is empty.

@@ -3,17 +3,32 @@
 // afterwards, and a LoopSample whose every channel depends on its tick.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "core/loop/loop_sample.h"
+#include "db/sample_codec.h"
 #include "db/study_db.h"
 
 namespace hapticlab::db::testing {
+
+// A chunk blob as schema versions 1..3 wrote it (format 1 before checksums):
+// byte 1, then the body that today follows the 5-byte header. For making
+// old files; the golden test in sample_codec_test.cc pins it to the old bytes.
+inline std::vector<std::byte> legacy_blob(std::span<const StoredSample> samples) {
+  const std::vector<std::byte> blob = encode_chunk(samples);
+  std::vector<std::byte> out(1 + blob.size() - kChunkHeaderBytes);
+  out[0] = std::byte{1};
+  std::copy(blob.begin() + static_cast<std::ptrdiff_t>(kChunkHeaderBytes), blob.end(), out.begin() + 1);
+  return out;
+}
 
 class TempDir {
  public:
@@ -39,6 +54,22 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Damage as a bad disk or a stray write would: one byte of chunk `chunk_id`'s
+// blob inverted, through SQLite (read, flip, write back), so the file stays
+// a valid database and only the checksum can tell.
+inline void flip_chunk_byte(Database& db, std::int64_t chunk_id, std::size_t offset) {
+  std::vector<std::byte> blob;
+  {
+    Statement read = db.prepare("SELECT data FROM sample_chunk WHERE id = ?1");
+    read.bind(1, chunk_id);
+    if (!read.step()) throw DbError("flip_chunk_byte: no chunk " + std::to_string(chunk_id));
+    const std::span<const std::byte> data = read.column_blob(0);
+    blob.assign(data.begin(), data.end());
+  }
+  blob.at(offset) ^= std::byte{0xFF};
+  db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1").bind(1, chunk_id).bind_blob(2, blob).run();
+}
 
 // Every channel distinct and varying with the tick, so a swapped channel,
 // instrument or order shows.

@@ -230,3 +230,37 @@ TEST(ExportCsv, UnknownTrialNamesIt) {
 
 }  // namespace
 }  // namespace hapticlab::db
+
+namespace hapticlab::db {
+namespace {
+
+// A flipped byte in one chunk (left instrument, ticks 40..64): its rows are
+// left out and the chunk is reported; never exported as wrong numbers.
+TEST(ExportCsv, DamagedChunkIsLeftOutAndReported) {
+  Study s;
+  testing::flip_chunk_byte(s.db.connection(), 2, 30);  // id 2: the complete trial's left ticks 40..64
+  const fs::path out = s.dir.file("out");
+  std::vector<BadChunk> bad;
+  const std::vector<fs::path> files = export_trial_csv(s.db, s.complete, out, &bad);
+  ASSERT_EQ(bad.size(), 1u);
+  EXPECT_EQ(bad[0].trial_id, s.complete);
+  EXPECT_EQ(bad[0].instrument, 0);
+  EXPECT_EQ(bad[0].first_tick, 40u);
+  EXPECT_EQ(bad[0].count, 25u);
+  EXPECT_THAT(describe(bad[0]), HasSubstr("left instrument (0), ticks 40..64: checksum mismatch"));
+
+  const std::vector<Row> rows = read_csv(files.at(0));
+  ASSERT_EQ(rows.size(), 1u + 40u + 65u) << "header, left 0..39, right 0..64";
+  const std::size_t instrument = column(rows[0], "instrument"), tick = column(rows[0], "tick");
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    EXPECT_FALSE(rows[i][instrument] == "0" && number<std::uint64_t>(rows[i][tick]) >= 40) << "row " << i;
+
+  // With nobody to report to, the export refuses and leaves no file.
+  const fs::path out2 = s.dir.file("out2");
+  EXPECT_THAT([&] { export_trial_csv(s.db, s.complete, out2); },
+              ::testing::ThrowsMessage<DbError>(HasSubstr("ticks 40..64: checksum mismatch")));
+  EXPECT_TRUE(fs::is_empty(out2));
+}
+
+}  // namespace
+}  // namespace hapticlab::db

@@ -14,6 +14,7 @@
 namespace hapticlab::db {
 namespace {
 
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 
 // What the database keeps of a device reading: the nearest float32 (the
@@ -123,4 +124,24 @@ TEST(ReplayFrames, ATrialWithoutSamplesIsRefusedNamingIt) {
 }
 
 }  // namespace
+// A damaged chunk is refused by name, not replayed as a held position.
+TEST(ReplayFrames, ADamagedChunkIsRefusedNamingItsTrialInstrumentAndTicks) {
+  StudyDb db(":memory:");
+  const std::int64_t trial = testing::make_trial(db);
+  for (int k = 0; k < 2; ++k) {
+    std::vector<StoredSample> samples;
+    for (std::uint64_t t = 0; t < 10; ++t) {
+      const LoopSample s = testing::make_sample(t);
+      samples.push_back({s.tick, s.t_s, s.dt_s, s.device_status, s.instrument[static_cast<std::size_t>(k)]});
+    }
+    db.insert_chunk(trial, k, samples);
+  }
+  ASSERT_EQ(load_replay_frames(db, trial).size(), 10u);
+  testing::flip_chunk_byte(db.connection(), 2, 12);  // the right instrument's chunk
+  EXPECT_THAT([&] { load_replay_frames(db, trial); },
+              ::testing::ThrowsMessage<DbError>(
+                  AllOf(HasSubstr("trial " + std::to_string(trial) + " cannot be replayed"),
+                        HasSubstr("right instrument (1), ticks 0..9: checksum mismatch"))));
+}
+
 }  // namespace hapticlab::db

@@ -1,13 +1,16 @@
 #include "db/schema.h"
 
 #include <filesystem>
+#include <algorithm>
 #include <fstream>
+#include <span>
 #include <string>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "db/chunk_reader.h"
 #include "db/sample_codec.h"
 #include "db/sha256.h"
 #include "db/study_db.h"
@@ -183,7 +186,7 @@ void fill_v1(Database& db) {
     INSERT INTO event VALUES (1, 1, 0.25, 'contact_start', 0, 0, NULL);
   )sql");
   const std::vector<StoredSample> samples = some_samples();
-  const std::vector<std::byte> blob = encode_chunk(samples);
+  const std::vector<std::byte> blob = testing::legacy_blob(samples);
   db.prepare("INSERT INTO sample_chunk VALUES (1, 1, 0, 10, 50, ?1, ?2)").bind(1, samples[0].t_s).bind_blob(2, blob).run();
 }
 
@@ -260,7 +263,7 @@ TEST(Schema, MigratesAVersion2DatabaseAndAllowsRequeueingAbortedTrials) {
       INSERT INTO event VALUES (1, 2, 0.5, 'contact_start', 1, 0, NULL);
     )sql");
     db.prepare("INSERT INTO sample_chunk VALUES (1, 2, 1, 10, 50, ?1, ?2)")
-        .bind(1, samples[0].t_s).bind_blob(2, encode_chunk(samples)).run();
+        .bind(1, samples[0].t_s).bind_blob(2, testing::legacy_blob(samples)).run();
     // Version 2 could not hold the re-queued copy at the aborted trial's position.
     EXPECT_THROW(db.exec("INSERT INTO trial (participant_id, task, setting_id, repetition, block, position) "
                          "VALUES (1, 'clip', 1, 2, 1, 2)"),
@@ -290,6 +293,64 @@ TEST(Schema, MigratesAVersion2DatabaseAndAllowsRequeueingAbortedTrials) {
   // Foreign keys are enforced again on this connection.
   EXPECT_THROW(db.connection().exec("INSERT INTO event (trial_id, t_s, type, instrument) VALUES (99, 0, 'x', -1)"),
                DbError);
+}
+
+// Version 3 (chunks without checksums) built by running migrations 1..3,
+// with two old chunks. The migration checksums them as format 0: they read
+// back unchanged, and damage done after it is caught.
+TEST(Schema, MigratesAVersion3DatabaseChecksummingItsChunks) {
+  testing::TempDir dir;
+  const auto path = dir.file("v3.db");
+  const std::vector<StoredSample> samples = some_samples();  // ticks 10..59
+  const std::vector<std::byte> old_left = testing::legacy_blob(samples);
+  {
+    Database db(path);
+    for (const Migration& m : migrations().first(3)) db.exec(m.sql);
+    db.exec("PRAGMA user_version = 3; PRAGMA application_id = 1212956994;");
+    db.exec(R"sql(
+      INSERT INTO study VALUES (1, 's', '{}', ')sql" + sha256_hex("{}") + R"sql(', '5', '0.2.0', '2024-01-01T00:00:00.000Z');
+      INSERT INTO participant VALUES (1, 1, 'P01');
+      INSERT INTO setting VALUES (1, 1, 'No FFB', '{}');
+      INSERT INTO session VALUES (1, 1, 1.7e9, 1.7e9 + 60, 'sim', 'virtual', 'closed');
+      INSERT INTO trial VALUES (1, 1, 'clip', 1, 1, 1, 1, 'complete', 1, 1.7e9, 1.7e9 + 60, NULL);
+    )sql");
+    Statement insert = db.prepare("INSERT INTO sample_chunk VALUES (?1, 1, ?2, 10, 50, ?3, ?4)");
+    insert.bind(1, std::int64_t{1}).bind(2, std::int64_t{0}).bind(3, samples[0].t_s).bind_blob(4, old_left).run();
+    insert.reset();
+    insert.bind(1, std::int64_t{2}).bind(2, std::int64_t{1}).bind(3, samples[0].t_s)
+        .bind_blob(4, testing::legacy_blob(samples)).run();
+  }
+
+  {
+    StudyDb db(path);
+    EXPECT_EQ(db.schema_version_found(), 3);
+    EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
+    Statement blob = db.connection().prepare("SELECT data FROM sample_chunk WHERE id = 1");
+    ASSERT_TRUE(blob.step());
+    const std::span<const std::byte> data = blob.column_blob(0);
+    ASSERT_EQ(data.size(), old_left.size() + kChunkHeaderBytes);
+    EXPECT_EQ(std::to_integer<int>(data[0]), kChunkFormatMigrated);
+    EXPECT_TRUE(std::equal(old_left.begin(), old_left.end(), data.begin() + kChunkHeaderBytes))
+        << "the old bytes are kept as they were";
+    const std::vector<StoredSample> left = db.samples(1, 0);
+    ASSERT_EQ(left.size(), samples.size());
+    EXPECT_EQ(left.front().tick, 10u);
+    EXPECT_EQ(left.back().t_s, samples.back().t_s);
+    const ChunkCheck check = check_all_chunks(db.connection());
+    EXPECT_EQ(check.chunks, 2u);
+    EXPECT_EQ(check.migrated_chunks, 2u);
+    EXPECT_TRUE(check.bad.empty());
+  }
+  // After the migration a flipped byte is caught.
+  {
+    Database db(path);
+    testing::flip_chunk_byte(db, 2, 20);
+    const ChunkCheck check = check_all_chunks(db);
+    ASSERT_EQ(check.bad.size(), 1u);
+    EXPECT_EQ(check.bad[0].trial_id, 1);
+    EXPECT_EQ(check.bad[0].instrument, 1);
+    EXPECT_EQ(check.bad[0].kind, ChunkError::Kind::kChecksum);
+  }
 }
 
 TEST(Schema, FailedMigrationLeavesTheFileAsItWas) {
