@@ -153,15 +153,24 @@ TEST(ParticipantTest, ControlUpdatesEvery5MillisecondsWhateverTheLoopRate) {
     int moves = 0;
     Eigen::Vector3d last = participant.hand(1).base();
     // The loop's time is a running sum of dt, which lands a rounding error
-    // either side of the grid points.
+    // either side of the grid points; 1e-9 s covers it. A control update is
+    // due at the first loop update at or after each grid point, i.e. when a
+    // grid point lies in (t − dt, t]; a loop slower than the grid acts at
+    // every update.
+    const double period_s = Participant::kControlPeriod_s;
+    const auto grid_index = [&](double t) { return std::floor((t + 1e-9) / period_s); };
     double t_s = 0.0;
     for (int k = 0; t_s < 0.1 - 1e-9; ++k, t_s += dt_s) {
       participant.act({t_s, dt_s, reading, engine, ve_input, ve_output});
       const Eigen::Vector3d base = participant.hand(1).base();
-      if (base != last) {
+      const bool moved = base != last;
+      const bool due = k == 0 || dt_s > period_s || grid_index(t_s) != grid_index(t_s - dt_s);
+      EXPECT_EQ(moved, due) << c.rate_Hz << " Hz, t = " << t_s << " (update " << k << ")";
+      if (moved) {
         ++moves;
-        EXPECT_LT(std::fmod(t_s + 1e-9, Participant::kControlPeriod_s), c.on_grid ? 2e-9 : 1.0)
-            << c.rate_Hz << " Hz: moved between control updates, at t = " << t_s << " (update " << k << ")";
+        if (c.on_grid) {
+          EXPECT_LT(std::fmod(t_s + 1e-9, period_s), 2e-9) << c.rate_Hz << " Hz: off the grid at t = " << t_s;
+        }
       }
       last = base;
     }
