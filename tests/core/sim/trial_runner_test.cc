@@ -19,6 +19,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "core/device/workstation_spec.h"
 #include "core/settings/settings_json.h"
@@ -179,6 +180,37 @@ TEST(TrialRunnerTest, AnotherParticipantOrTrialSeedGivesAnotherTrial) {
     EXPECT_GE(diff, 0);
     EXPECT_LT(diff, 1000);
   }
+}
+
+TEST(TrialRunnerTest, TheSimulationIsBlindToTheSettingsName) {
+  // The same physics under two names (and descriptions), loaded the way a
+  // study loads its settings files: every sample and event is identical,
+  // byte for byte. A participant model that read the name (or anything but
+  // the physics) would part the two runs.
+  const std::string path = std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/all_degradations.json";
+  const NamedSettings real = load_settings_file(path);
+  nlohmann::json renamed_json = settings_to_json(real);
+  renamed_json["name"] = "Setting B";
+  renamed_json["description"] = "a relabelled copy";
+  const NamedSettings renamed = settings_from_json(renamed_json, "renamed copy");
+  ASSERT_NE(real.name, renamed.name);
+
+  SimTrialConfig a = trial(TaskKind::kClip, "high_fidelity", 5, 21);
+  a.settings = real.engine;
+  SimTrialConfig b = a;
+  b.settings = renamed.engine;
+  const Recorded ra = record(a);
+  const Recorded rb = record(b);
+  ASSERT_TRUE(ra.result.task_complete);
+  ASSERT_GT(ra.samples.size(), 5000u);
+  EXPECT_EQ(ra.result.dropped_samples, 0u);
+  EXPECT_EQ(first_difference(ra, rb), -1);
+  ASSERT_EQ(ra.events.size(), rb.events.size());
+  for (std::size_t k = 0; k < ra.events.size(); ++k) EXPECT_TRUE(same_event(ra.events[k], rb.events[k])) << k;
+  // The comparison can tell: the cogging amplitude one ulp higher, same name, parts the runs.
+  SimTrialConfig c = a;
+  c.settings.translation.cogging.amplitude = std::nextafter(a.settings.translation.cogging.amplitude, 1.0);
+  EXPECT_NE(first_difference(ra, record(c)), -1);
 }
 
 // --- completion under every setting
