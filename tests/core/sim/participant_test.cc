@@ -92,10 +92,10 @@ TEST(ParticipantTest, PracticeMakesTheSamePersonFasterOnTheSameTrial) {
   // The movement-time factor falls from (1 + gain) untrained to ~1 after
   // many trials (gain 0.3..0.7, participant.h); burning time does not
   // shrink with practice, so the whole trial shortens less. Measured over
-  // these four people (dissection, high fidelity, trial seed 7): practised
-  // (20 trials) / untrained durations 0.69..0.87, mean 0.77 (0.66..0.82 with
-  // an earlier participant model). Required: every one faster, and a mean
-  // ratio below 0.9.
+  // these four people (dissection, high fidelity, trial seed 7; participant
+  // model of 9bb2dac; the test prints them): practised (20 trials) /
+  // untrained durations 0.67..0.86, mean 0.73. Required: every one faster,
+  // and a mean ratio below 0.9.
   const EngineSettings hf =
       load_settings_file(std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/high_fidelity.json").engine;
   double ratio_sum = 0.0;
