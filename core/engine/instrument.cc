@@ -66,7 +66,7 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   const ToolPose& pose = out.measured_pose;
   const JointVector ve_joint = world_to_joint(pose, ve);
   if (!ve_joint.allFinite()) {
-    // A finite VE force so large (beyond ~1e308 N) that its joint components
+    // A finite VE force so large (near 1e308 N) that its joint components
     // overflow: the chains are not stepped with it.
     internal_fault(in.position, out);
     return out;
@@ -206,8 +206,8 @@ void Instrument::refresh_forces(const Eigen::Vector3d& ve_force_N, InstrumentOut
     const DofOutput& d = last_dof_[static_cast<std::size_t>(a)];
     command[a] = d.ve_coupled ? d.force : (axis_ve_force(settings_.axis(a), ve_joint[a]) + d.model_force) * d.ripple;
   }
-  // A non-finite ve_joint makes a non-finite command.
-  if (!finish_forces(command, out) || !out.displayed_force_N.allFinite()) {
+  // ve_joint is checked itself: an axis saturation would clip its infinity.
+  if (!ve_joint.allFinite() || !finish_forces(command, out) || !out.displayed_force_N.allFinite()) {
     // The chains' state came from step() and is finite; only this force is lost.
     out.joint_force.setZero();
     out.displayed_force_N.setZero();

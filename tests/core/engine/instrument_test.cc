@@ -131,6 +131,22 @@ TEST(InstrumentTest, RefreshWithANonFiniteVeForceZeroesTheForce) {
   EXPECT_TRUE(out.status & kFaultNonFiniteInput);
 }
 
+TEST(InstrumentTest, RefreshWithAnOverflowingVeForceZeroesTheForce) {
+  // As in AnOverflowingIntermediateValue...: F_i = 2.4e308 N is infinite.
+  // The 1 N axis saturation would clip it to a plausible 1 N command.
+  EngineSettings s = load_example("high_fidelity");
+  s.translation.saturation.enabled = true;
+  s.translation.saturation.level = 1.0;
+  const JointVector q(0.1, 0.0, std::numbers::pi / 4);
+  Instrument inst(s, q);
+  inst.step({1e-3, q, {0.0, 0.0, 0.0}});
+  InstrumentOutput out = inst.step({1e-3, q, {0.0, 0.0, 0.0}});
+  inst.refresh_forces({1.7e308, 0.0, -1.7e308}, out);
+  EXPECT_EQ(out.joint_force, JointVector::Zero());
+  EXPECT_EQ(out.displayed_force_N, Eigen::Vector3d::Zero());
+  EXPECT_TRUE(out.status & kFaultNonFiniteState);
+}
+
 TEST(InstrumentTest, JointCommandsNeverExceedTheDeviceLimitWhateverTheParameters) {
   // Random settings at the top of every range, huge VE forces, random poses.
   std::mt19937_64 rng(3);
