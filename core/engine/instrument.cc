@@ -11,8 +11,14 @@ namespace {
 bool finite(const Eigen::Vector3d& v) noexcept { return v.allFinite(); }
 
 Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept {
-  const double norm = f.norm();
-  return norm > limit ? Eigen::Vector3d(f * (limit / norm)) : f;
+  // Scaled by the largest component first: the norm of a finite force near
+  // 1e308 N overflows (norm() already at 1e154 N, hypot() at 1.3e308 N), and
+  // limit/inf would zero the force instead of clipping it.
+  const double largest = f.cwiseAbs().maxCoeff();
+  if (largest == 0.0) return f;
+  const Eigen::Vector3d scaled = f / largest;  // largest component ±1
+  const double scaled_norm = scaled.norm();    // 1 .. sqrt(3)
+  return largest * scaled_norm > limit ? Eigen::Vector3d(scaled * (limit / scaled_norm)) : f;
 }
 
 }  // namespace
@@ -59,6 +65,12 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   out.measured_pose = tool_pose(in.position);
   const ToolPose& pose = out.measured_pose;
   const JointVector ve_joint = world_to_joint(pose, ve);
+  if (!ve_joint.allFinite()) {
+    // A finite VE force so large (near 1e308 N) that its joint components
+    // overflow: the chains are not stepped with it.
+    internal_fault(in.position, out);
+    return out;
+  }
 
   // dt policy: how many sub-steps of which length. A dt below 1/2000 s (or
   // <= 0) advances no time: it is carried into the next update, because a
@@ -113,7 +125,7 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   }
   if (dt > 0.0) last_position_ = in.position;  // a deferred update keeps the start point
 
-  finish_forces(ve, ve_joint, command, out);
+  const bool commands_finite = finish_forces(command, out);
 
   // degraded joints => delayed/held => VE, with display offsets
   out.degraded_position =
@@ -127,26 +139,35 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
     out.degraded_tip_m = tip_position(pose);
   }
 
-  if (!out.displayed_force_N.allFinite() || !out.joint_force.allFinite() ||
-      !out.degraded_position.allFinite()) {
-    // Should be impossible with validated settings; never let it reach a motor.
-    for (int a = 0; a < kNumAxes; ++a) chains_[a].reset(settings_.axis(a), in.position[a]);
-    out.displayed_force_N.setZero();
-    out.joint_force.setZero();
-    out.degraded_position = in.position;
-    out.degraded_tip_m = tip_position(pose);
-    out.tip_offset_m.setZero();
-    out.orientation_offset.setIdentity();
-    out.status |= kFaultNonFiniteState;
+  if (!commands_finite || !out.displayed_force_N.allFinite() || !out.degraded_position.allFinite()) {
+    internal_fault(in.position, out);
+    return out;
   }
   last_degraded_ = out.degraded_position;
-  refreshable_ = (out.status & kFaultNonFiniteState) == 0 && loop.force_latency_s == 0.0 &&
-                 loop.hold_rate_Hz == 0.0;
+  refreshable_ = loop.force_latency_s == 0.0 && loop.hold_rate_Hz == 0.0;
   return out;
 }
 
-void Instrument::finish_forces(const Eigen::Vector3d& ve, const JointVector& ve_joint, JointVector command,
-                               InstrumentOutput& out) const noexcept {
+void Instrument::internal_fault(const JointVector& q, InstrumentOutput& out) noexcept {
+  // Never let it reach a motor; start again from rest at the instrument.
+  for (int a = 0; a < kNumAxes; ++a) chains_[a].reset(settings_.axis(a), q[a]);
+  last_position_ = q;
+  position_delay_.reset(q);  // it may hold the non-finite position
+  out.displayed_force_N.setZero();
+  out.joint_force.setZero();
+  out.degraded_position = q;
+  out.degraded_tip_m = tip_position(out.measured_pose);
+  out.tip_offset_m.setZero();
+  out.orientation_offset.setIdentity();
+  out.status |= kFaultNonFiniteState;
+  last_degraded_ = q;
+  refreshable_ = false;
+}
+
+bool Instrument::finish_forces(JointVector command, InstrumentOutput& out) const noexcept {
+  // Checked before the limit, which would turn an infinity into a full-scale
+  // command.
+  if (!command.allFinite()) return false;
   // device limit, per axis, last
   out.status &= ~static_cast<std::uint32_t>(kForceLimited);
   for (int a = 0; a < kNumAxes; ++a) {
@@ -157,10 +178,12 @@ void Instrument::finish_forces(const Eigen::Vector3d& ve, const JointVector& ve_
     }
   }
   out.joint_force = command;
-  // The VE's own force passes to the tip exactly; only what the degradations
-  // changed goes back through the moment arms, whose floor near the trocar
-  // would otherwise distort the VE force there.
-  out.displayed_force_N = ve + joint_to_world(out.measured_pose, command - ve_joint, settings_.min_moment_arm_m);
+  // joint => world with the same moment arms (eq. 2.19): the displayed force
+  // is what the limited motor commands make, so the two outputs never
+  // disagree. Below the moment-arm floor the lateral part is smaller than
+  // the VE asked for (the torques are L·F, divided by the floor).
+  out.displayed_force_N = joint_to_world(out.measured_pose, command, settings_.min_moment_arm_m);
+  return true;
 }
 
 void Instrument::refresh_forces(const Eigen::Vector3d& ve_force_N, InstrumentOutput& out) noexcept {
@@ -183,8 +206,9 @@ void Instrument::refresh_forces(const Eigen::Vector3d& ve_force_N, InstrumentOut
     const DofOutput& d = last_dof_[static_cast<std::size_t>(a)];
     command[a] = d.ve_coupled ? d.force : (axis_ve_force(settings_.axis(a), ve_joint[a]) + d.model_force) * d.ripple;
   }
-  finish_forces(ve, ve_joint, command, out);
-  if (!out.displayed_force_N.allFinite() || !out.joint_force.allFinite()) {
+  // ve_joint is checked itself: an axis saturation would clip its infinity.
+  if (!ve_joint.allFinite() || !finish_forces(command, out) || !out.displayed_force_N.allFinite()) {
+    // The chains' state came from step() and is finite; only this force is lost.
     out.joint_force.setZero();
     out.displayed_force_N.setZero();
     out.status |= kFaultNonFiniteState;

@@ -12,7 +12,7 @@
 //                   positions; beyond 8 sub-steps (≈53 ms): re-anchor
 //     per DOF       DofChain: friction, cogging, saturation, inertia, backlash
 //     device limit  |joint force| <= device limit per axis
-//     joint=>world  displayed tip force                        eq. 2.19
+//     joint=>world  displayed tip force of the limited commands  eq. 2.19
 //     loop emul.    degraded joints delayed / held => VE; offsets eq. 2.20–2.21
 //
 // Not thread-safe: one instrument is stepped by one (real-time) thread.
@@ -81,9 +81,12 @@ class Instrument {
 
  private:
   void resync(const JointVector& q) noexcept;
-  // Device limit per axis, then the displayed tip force (eq. 2.19).
-  void finish_forces(const Eigen::Vector3d& ve, const JointVector& ve_joint, JointVector command,
-                     InstrumentOutput& out) const noexcept;
+  // Device limit per axis, then the displayed tip force those limited
+  // commands make (eq. 2.19). False, and `out` untouched, if a command is
+  // not finite.
+  bool finish_forces(JointVector command, InstrumentOutput& out) const noexcept;
+  // A non-finite intermediate value: zero force, state reset at q, status bit 2.
+  void internal_fault(const JointVector& q, InstrumentOutput& out) noexcept;
 
   EngineSettings settings_;
   std::array<DofChain, kNumAxes> chains_;

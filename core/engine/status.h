@@ -11,8 +11,9 @@ enum StatusFlag : std::uint32_t {
   // An input (position, VE force or dt) was NaN or infinite. The displayed
   // force is zero for this update; the engine recovers once inputs are finite.
   kFaultNonFiniteInput = 1u << 0,
-  // An internal value became non-finite (should never happen); the output was
-  // zeroed and the instrument state was reset.
+  // An intermediate value became non-finite: a finite input so large that
+  // arithmetic overflowed, or a subnormal virtual mass (docs/engine.md,
+  // Safety). The output was zeroed and the instrument state was reset.
   kFaultNonFiniteState = 1u << 1,
   // dt was below 1/2000 s (or <= 0): no time advanced in this update and the
   // velocity estimates were held; a positive dt is carried into the next update.

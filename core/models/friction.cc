@@ -1,6 +1,8 @@
 #include "core/models/friction.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace hapticlab {
 namespace {
@@ -16,7 +18,12 @@ void Friction::reset(double position) noexcept {
 LinearizedForce Friction::step(const FrictionParams& p, double x, double v) noexcept {
   const double mu = p.dynamic_level;
   const double dp = p.presliding_displacement;
-  const double k = mu / dp;
+  // The pre-sliding range d_p may be any positive number, subnormals
+  // included: μ_d/d_p then overflows to infinity, and −K_f·0 at rest would
+  // be NaN. So the force is −μ_d·(stretch/d_p) (|stretch/d_p| <= 1), and the
+  // stiffness handed over for implicit integration is capped at the largest
+  // double: dt²·K_f stays finite, and the mass is held just as firmly.
+  const double k = std::min(mu / dp, std::numeric_limits<double>::max());
 
   if (!sticking_ && std::abs(v) < p.stick_velocity) {
     // Slip -> stick. Attach so that the spring force equals the slip force
@@ -28,7 +35,7 @@ LinearizedForce Friction::step(const FrictionParams& p, double x, double v) noex
   if (sticking_) {
     const double stretch = x - stick_centre_;
     if (std::abs(stretch) <= dp) {
-      last_force_ = -k * stretch;
+      last_force_ = -mu * (stretch / dp);
       return {last_force_, k};
     }
     // Breakaway: the pre-sliding spring ruptures.

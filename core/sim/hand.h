@@ -8,7 +8,8 @@
 //   reference (SimDevice's HandCoupling); the tip stiffness is converted to
 //   joint stiffnesses through the instrument's lever (K·L² for pitch).
 // - Impedance adaptation: against felt forces it cannot predict (ripple,
-//   stick-slip) the arm co-contracts, up to 2.5 times stiffer.
+//   stick-slip) the arm co-contracts, up to four times stiffer
+//   (kMaxStiffening in hand.cc, from docs/simulation.md).
 // - Force regulation: while pressing along a direction, the hand shifts its
 //   reference by an offset that integrates the error between the target
 //   force and its estimate of the applied force. The estimate fuses two

@@ -131,6 +131,22 @@ TEST(InstrumentTest, RefreshWithANonFiniteVeForceZeroesTheForce) {
   EXPECT_TRUE(out.status & kFaultNonFiniteInput);
 }
 
+TEST(InstrumentTest, RefreshWithAnOverflowingVeForceZeroesTheForce) {
+  // As in AnOverflowingIntermediateValue...: F_i = 2.4e308 N is infinite.
+  // The 1 N axis saturation would clip it to a plausible 1 N command.
+  EngineSettings s = load_example("high_fidelity");
+  s.translation.saturation.enabled = true;
+  s.translation.saturation.level = 1.0;
+  const JointVector q(0.1, 0.0, std::numbers::pi / 4);
+  Instrument inst(s, q);
+  inst.step({1e-3, q, {0.0, 0.0, 0.0}});
+  InstrumentOutput out = inst.step({1e-3, q, {0.0, 0.0, 0.0}});
+  inst.refresh_forces({1.7e308, 0.0, -1.7e308}, out);
+  EXPECT_EQ(out.joint_force, JointVector::Zero());
+  EXPECT_EQ(out.displayed_force_N, Eigen::Vector3d::Zero());
+  EXPECT_TRUE(out.status & kFaultNonFiniteState);
+}
+
 TEST(InstrumentTest, JointCommandsNeverExceedTheDeviceLimitWhateverTheParameters) {
   // Random settings at the top of every range, huge VE forces, random poses.
   std::mt19937_64 rng(3);
@@ -154,6 +170,8 @@ TEST(InstrumentTest, JointCommandsNeverExceedTheDeviceLimitWhateverTheParameters
       ASSERT_LE(std::abs(out.joint_force[0]), s.device_limits.insertion_force_N);
       ASSERT_LE(std::abs(out.joint_force[1]), s.device_limits.pitch_torque_Nm);
       ASSERT_LE(std::abs(out.joint_force[2]), s.device_limits.yaw_torque_Nm);
+      const Eigen::Vector3d made = joint_to_world(hand(3 * t), out.joint_force, s.min_moment_arm_m);
+      ASSERT_LT((out.displayed_force_N - made).norm(), 1e-12 * (1.0 + made.norm()));
     }
   }
 }
@@ -299,16 +317,135 @@ TEST(InstrumentTest, AHugeFiniteDtReanchorsInsteadOfOverflowing) {
   EXPECT_LT(peak, 0.02);
 }
 
-TEST(InstrumentTest, HighFidelityIsTransparentNearAndBehindTheTrocar) {
-  // Below the 2 cm moment-arm floor, and at negative insertion, the VE force
-  // must still reach the tip unchanged (no lateral shrinking or sign flip).
-  for (double insertion : {0.01, 0.0, -0.01}) {
+TEST(InstrumentTest, HighFidelityIsTransparentAtAndBeyondTheMomentArmFloorAndBehindTheTrocar) {
+  // Where both moment arms (insertion, insertion·cos(pitch)) reach the
+  // 2 cm floor they are exact, so the VE force reaches the tip unchanged,
+  // also at negative insertion (no sign flip). 0.025·cos(0.2) = 0.0245 m.
+  for (double insertion : {0.025, 0.1, -0.025, -0.05}) {
     Instrument inst(load_example("high_fidelity"), JointVector(insertion, 0.2, -0.1));
     const Eigen::Vector3d ve(0.3, 1.0, -0.5);
     inst.step({1e-3, JointVector(insertion, 0.2, -0.1), ve});
     const InstrumentOutput out = inst.step({1e-3, JointVector(insertion, 0.2, -0.1), ve});
     EXPECT_LT((out.displayed_force_N - ve).norm(), 1e-12) << insertion;
   }
+}
+
+// The displayed force is what the device-limited joint commands make,
+// mapped back with the same moment arms (eq. 2.19), never the VE's force
+// with a correction. Pitch = yaw = 0: d_in = (0, 0, −1), e_pitch = (0, 1,
+// 0), e_yaw = (1, 0, 0); high fidelity, LSW limits 19 N and 0.85 N·m.
+InstrumentOutput second_update(double insertion_m, const Eigen::Vector3d& ve) {
+  const JointVector q(insertion_m, 0.0, 0.0);
+  Instrument inst(load_example("high_fidelity"), q);
+  inst.step({1e-3, q, ve});
+  return inst.step({1e-3, q, ve});
+}
+
+TEST(InstrumentTest, DisplayedForceIsWhatTheLimitedJointCommandsMake) {
+  // The case: 1e6 N at insertion 0 (it displayed the VE force's
+  // 1e6 N while the motors were commanded 19 N). F_i = d_in·F = 1e6 N,
+  // limited to 19 N; the moment arms are 0, so no torque: (0, 0, −19) N.
+  const InstrumentOutput at_trocar = second_update(0.0, {3.0, -2.0, -1e6});
+  EXPECT_EQ(at_trocar.joint_force, JointVector(19.0, 0.0, 0.0));
+  EXPECT_LT((at_trocar.displayed_force_N - Eigen::Vector3d(0.0, 0.0, -19.0)).norm(), 1e-12);
+  EXPECT_TRUE(at_trocar.status & kForceLimited);
+
+  // Below the floor, 1 cm: T_pitch = 0.01·(−2) = −0.02 N·m, T_yaw =
+  // 0.01·cos 0·3 = 0.03 N·m, shown through the 2 cm floor: (1.5, −1, −19) N.
+  const InstrumentOutput below_floor = second_update(0.01, {3.0, -2.0, -1e6});
+  EXPECT_LT((below_floor.joint_force - JointVector(19.0, -0.02, 0.03)).norm(), 1e-15);
+  EXPECT_LT((below_floor.displayed_force_N - Eigen::Vector3d(1.5, -1.0, -19.0)).norm(), 1e-12);
+
+  // 10 cm: T_pitch = 0.1·5 = 0.5 N·m (within the limit), T_yaw = 0.1·20 =
+  // 2 N·m limited to 0.85 N·m: (0.85/0.1, 0.5/0.1, −19) = (8.5, 5, −19) N.
+  const InstrumentOutput deeper = second_update(0.1, {20.0, 5.0, -1e6});
+  EXPECT_LT((deeper.joint_force - JointVector(19.0, 0.5, 0.85)).norm(), 1e-15);
+  EXPECT_LT((deeper.displayed_force_N - Eigen::Vector3d(8.5, 5.0, -19.0)).norm(), 1e-12);
+}
+
+TEST(InstrumentTest, AHugeFiniteVeForceIsLimitedNotPassedOn) {
+  // 1e300 N along x at 10 cm: only T_yaw = 0.1·1e300 N·m, limited to
+  // 0.85 N·m, so (0.85/0.1, 0, 0) = (8.5, 0, 0) N; it used to display a
+  // difference of two 1e300s.
+  const InstrumentOutput out = second_update(0.1, {1e300, 0.0, 0.0});
+  EXPECT_EQ(out.joint_force, JointVector(0.0, 0.0, 0.85));
+  EXPECT_LT((out.displayed_force_N - Eigen::Vector3d(8.5, 0.0, 0.0)).norm(), 1e-12);
+  EXPECT_EQ(out.status & kFaultMask, 0u);
+
+  // With the 1 N tip clip the direction is kept even where |F| overflows:
+  // |(1.7e308, 0, −1.7e308)| = 2.4e308 is infinite in doubles, and the
+  // clip used to scale by 1/inf, showing nothing. Expected (1, 0, −1)/√2.
+  const JointVector q(0.1, 0.2, -0.1);
+  Instrument clipped(load_example("force_saturation"), q);
+  const Eigen::Vector3d huge(1.7e308, 0.0, -1.7e308);
+  clipped.step({1e-3, q, huge});
+  const InstrumentOutput c = clipped.step({1e-3, q, huge});
+  EXPECT_LT((c.displayed_force_N - Eigen::Vector3d(1.0, 0.0, -1.0) / std::sqrt(2.0)).norm(), 1e-12);
+  EXPECT_EQ(c.status & kFaultMask, 0u);
+}
+
+TEST(InstrumentTest, AnOverflowingIntermediateValueZeroesTheForceAndSetsTheFaultBit) {
+  // Yaw 45°: d_in = (sin 45°, 0, −cos 45°), so F_i = d_in·(1.7e308, 0,
+  // −1.7e308) = 2.4e308 overflows to infinity, although every input is
+  // finite. The device limit would have made that a full 19 N command.
+  const double yaw = std::numbers::pi / 4;
+  const JointVector q(0.1, 0.0, yaw);
+  Instrument inst(load_example("high_fidelity"), q);
+  inst.step({1e-3, q, {0.0, 0.0, 0.0}});
+  const InstrumentOutput out = inst.step({1e-3, q, {1.7e308, 0.0, -1.7e308}});
+  EXPECT_TRUE(out.status & kFaultNonFiniteState);
+  EXPECT_EQ(out.joint_force, JointVector::Zero());
+  EXPECT_EQ(out.displayed_force_N, Eigen::Vector3d::Zero());
+  EXPECT_EQ(out.degraded_position, q);
+  // A sane force next: no fault, and it passes through.
+  const InstrumentOutput next = inst.step({1e-3, q, {0.5, 0.0, 0.0}});
+  EXPECT_EQ(next.status & kFaultMask, 0u);
+  EXPECT_LT((next.displayed_force_N - Eigen::Vector3d(0.5, 0.0, 0.0)).norm(), 1e-12);
+}
+
+// docs/engine.md said an internal fault was impossible with validated
+// settings; the smallest allowed values of each field found two ways:
+// - a subnormal pre-sliding range d_p made K_f = μ_d/d_p infinite and the
+//   stuck friction force −K_f·0 NaN (fixed in the friction model);
+// - a subnormal virtual mass or inertia (the range is "> 0"): the free mass
+//   in the backlash gap gains F·dt/m per update, which overflows for
+//   m < F·dt/1.8e308 (1e-310 kg at 100 N, 1 kHz). That is a massless body
+//   accelerating without bound, not a rounding problem, so it stays a
+//   documented fault (docs/engine.md, Safety): zero force, bit 2.
+TEST(InstrumentTest, TheSmallestAllowedPreslidingRangeNeverFaults) {
+  for (bool backlash : {true, false}) {
+    EngineSettings s = load_example("max_stable");  // friction on both axes
+    s.translation.backlash.enabled = s.rotation.backlash.enabled = backlash;
+    s.translation.friction.presliding_displacement = std::numeric_limits<double>::denorm_min();
+    s.rotation.friction.presliding_displacement = std::numeric_limits<double>::denorm_min();
+    validate_settings(s);
+    Instrument inst(s, hand(0));
+    double t = 0.0;
+    for (int i = 0; i < 3000; ++i) {
+      t += 1e-3;
+      const InstrumentOutput out = inst.step({1e-3, hand(3 * t), {0.5 * std::sin(5 * t), -0.3, 1.2}});
+      ASSERT_EQ(out.status & kFaultMask, 0u) << "backlash " << backlash << ", update " << i;
+    }
+  }
+}
+
+TEST(InstrumentTest, ASubnormalVirtualMassInTheGapOverflowsToADocumentedFault) {
+  EngineSettings s = load_example("inertia_backlash");
+  s.translation.inertia.mass = 1e-310;  // kg, allowed by "> 0"
+  validate_settings(s);
+  const JointVector q(0.1, 0.0, 0.0);
+  Instrument inst(s, q);
+  // 100 N pushing deeper (d_in = (0, 0, −1)): 100·1e-3/1e-310 = 1e309 m/s.
+  const Eigen::Vector3d ve(0.0, 0.0, -100.0);
+  bool faulted = false;
+  for (int i = 0; i < 5 && !faulted; ++i) {
+    const InstrumentOutput out = inst.step({1e-3, q, ve});
+    faulted = (out.status & kFaultNonFiniteState) != 0;
+    if (faulted) {
+      EXPECT_EQ(out.joint_force, JointVector::Zero());
+    }
+  }
+  EXPECT_TRUE(faulted);
 }
 
 // Leaves hand(0), wanders for 7 s and comes back to rest there at 8 s.

@@ -4,6 +4,7 @@
 #include "core/models/friction.h"
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -41,6 +42,27 @@ TEST(FrictionTest, PreslidingSpringThenBreakawayAtTheDynamicLevel) {
       EXPECT_NEAR(force, -0.45, 1e-12) << x;
     }
   }
+}
+
+TEST(FrictionTest, ASubnormalPreslidingRangeGivesFiniteForces) {
+  // d_p only has to be > 0, so subnormal doubles (below 2.2e-308) are
+  // allowed: here 4 × 4.9e-324 m, so that half of it is exact. K_f =
+  // μ_d/d_p = 0.45/2e-323 overflows to infinity, and the stuck contact at
+  // rest used to return −K_f·0 = NaN: the engine's "internal fault" with
+  // validated settings. Hand-worked: at rest F = 0; half the range
+  // stretched F = −μ_d/2 = −0.225 N; at the edge −μ_d; beyond, dragged at −μ_d.
+  FrictionParams p = table31();
+  p.presliding_displacement = 4 * std::numeric_limits<double>::denorm_min();
+  const double dp = p.presliding_displacement;
+  Friction f;
+  f.reset(0.0);
+  const LinearizedForce at_rest = f.step(p, 0.0, 0.0);
+  EXPECT_EQ(at_rest.force, 0.0);
+  EXPECT_TRUE(std::isfinite(at_rest.stiffness));
+  EXPECT_EQ(f.step(p, 0.5 * dp, 0.0).force, -0.225);
+  EXPECT_EQ(f.step(p, dp, 0.0).force, -0.45);
+  EXPECT_EQ(f.step(p, 1e-6, 0.001).force, -0.45);  // dragged at μ_d
+  EXPECT_TRUE(f.sticking());
 }
 
 TEST(FrictionTest, SlipForceOpposesVelocityAtTheDynamicLevel) {

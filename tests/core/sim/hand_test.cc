@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -258,6 +259,44 @@ TEST(HandTest, WithoutFeltForceTheHandFallsBackOnVision) {
   EXPECT_LT(p.hand.haptic_weight(), 1e-4);
   EXPECT_GT(p.hand.haptic_weight(), 1e-7);
   EXPECT_NEAR(p.hand.estimated_force_N(), F, 1e-4 * F);
+}
+
+// Impedance adaptation (hand.cc): the felt device force's deviation from
+// its 1 s running mean has an RMS over a 1 s window; above 0.04 N the arm
+// wants 1 + (RMS − 0.04 N)/(0.08 N) times its relaxed stiffness, at most 4
+// (docs/simulation.md: "up to four times stiffer"), and gets there with a
+// 0.3 s time constant. Fed `force_N(t)` on the insertion axis for
+// duration_s at 1 kHz; the tip force is then that force along the shaft.
+double stiffening_after(double duration_s, double (*force_N)(double)) {
+  Hand hand;
+  hand.init(kRight, quiet(), Eigen::Vector3d(0.05, 0.0, -0.1), 3);
+  const DeviceJoints q{0.1, 0.0, 0.0, 0.0, 0.0};
+  const int n = static_cast<int>(std::lround(duration_s / kDt_s));
+  for (int k = 1; k <= n; ++k) {
+    DeviceJoints f{};
+    f[kJointInsertion] = force_N(k * kDt_s);
+    hand.feel_device(q, f, kDt_s);
+  }
+  return hand.stiffening();
+}
+
+TEST(HandTest, AnUnpredictableForceStiffensTheArmByTheDocumentedRule) {
+  // A 20 Hz ripple of amplitude 0.2 N (cogging-like): its mean is ~0 (the
+  // 1 s mean passes 0.8 % of it) and its RMS 0.2/√2 = 0.1414 N, so the arm
+  // settles at 1 + (0.1414 − 0.04)/0.08 = 2.268. After 10 s the transients
+  // (1 s and 0.3 s) are gone; what remains is the 1 s variance window
+  // passing 0.4 % of the 40 Hz ripple of the squared deviation, ±0.0004 N
+  // of RMS, ±0.004 in stiffening before the 0.3 s smoothing: 0.005 covers it.
+  const double ripple = stiffening_after(10.0, [](double t) { return 0.2 * std::sin(2 * std::numbers::pi * 20 * t); });
+  EXPECT_NEAR(ripple, 1.0 + (0.2 / std::sqrt(2.0) - 0.04) / 0.08, 0.005);
+  // 1 N of ripple wants 1 + (0.707 − 0.04)/0.08 = 9.3: capped at 4.
+  const double strong = stiffening_after(10.0, [](double t) { return std::sin(2 * std::numbers::pi * 20 * t); });
+  EXPECT_NEAR(strong, 4.0, 1e-9);
+  // A steady 2 N (contact) is predicted once the mean has caught up: the
+  // deviation decays as e^(−t/1 s), below 0.04 N after ~4 s, and the arm
+  // relaxes back to 1 with its 0.3 s time constant: 1 + 3·e^(−(20 − 8)/0.3).
+  const double steady = stiffening_after(20.0, [](double) { return 2.0; });
+  EXPECT_NEAR(steady, 1.0, 1e-9);
 }
 
 TEST(HandTest, GripMovesLinearlyToItsTargetAngle) {
