@@ -347,6 +347,35 @@ TEST_F(StudyAnalysisTest, MetricsCsvOneRowPerTrialAndHand) {
   EXPECT_EQ(checked, 1);
 }
 
+// %.9g printed 0.1 + 0.2 as 0.3 and 1/3 as 0.333333333, which read back as
+// other doubles; the shortest round-trip form reads back exactly.
+TEST(MetricsCsvTest, NumbersReadBackToTheSameDouble) {
+  StudyAnalysis a;
+  TrialRecord t;
+  t.trial_id = 1;
+  t.participant = "P1, \"left-handed\"";  // quoting, too
+  t.task = "clip";
+  t.setting = "HiFi";
+  t.window = TaskWindow{0.1, 0.1 + 0.2};
+  t.hands[0] = {3, 3, 1.0 / 3.0, 2.0 / 3.0, 1e-300 * 3.0, 123456.78901234567};
+  t.hands[1] = {3, 0, std::nan(""), std::nan(""), 0.1, 0.7};
+  a.trials.push_back(t);
+  std::ostringstream out;
+  write_metrics_csv(a, out);
+  const LongCsv csv = LongCsv::parse(out.str(), "metrics.csv");
+  ASSERT_EQ(csv.row_count(), 2u);
+  EXPECT_EQ(csv.text(0, csv.column("participant")), t.participant);
+  EXPECT_EQ(csv.number(0, csv.column("task_end_s")), 0.1 + 0.2);
+  EXPECT_EQ(csv.text(0, csv.column("task_end_s")), "0.30000000000000004");
+  EXPECT_EQ(csv.text(0, csv.column("task_start_s")), "0.1");
+  EXPECT_EQ(csv.number(0, csv.column("completion_time_s")), (0.1 + 0.2) - 0.1);
+  EXPECT_EQ(csv.number(0, csv.column("force_median_N")), 1.0 / 3.0);
+  EXPECT_EQ(csv.number(0, csv.column("force_p95_N")), 2.0 / 3.0);
+  EXPECT_EQ(csv.number(0, csv.column("speed_median_m_per_s")), 1e-300 * 3.0);
+  EXPECT_EQ(csv.number(0, csv.column("path_length_m")), 123456.78901234567);
+  EXPECT_EQ(csv.text(1, csv.column("force_median_N")), "");  // missing stays empty
+}
+
 TEST_F(StudyAnalysisTest, HeadlineTablesShowThesisLayout) {
   const std::string text = format_headline_tables(analyze());
   EXPECT_THAT(text, HasSubstr("Table 3.4"));
