@@ -224,6 +224,9 @@ void run_pairwise(const PairwiseOptions& opt) {
                 {"p", c.p ? json(*c.p) : json(nullptr)},
                 {"n", c.n_observations},
                 {"n_blocks", c.n_blocks},
+                {"replicates", c.replicates},
+                {"dropped_observations", c.dropped_observations},
+                {"blocks_left_out", c.blocks_left_out},
                 {"significant", c.significant}};
       j["comparisons"].push_back(std::move(e));
       if (!opt.common.json) {
@@ -231,6 +234,15 @@ void run_pairwise(const PairwiseOptions& opt) {
                     c.statistic ? num(*c.statistic).c_str() : "N/A",
                     c.p ? num(*c.p).c_str() : "N/A", c.p ? (c.significant ? "yes" : "no") : "N/A");
         std::fflush(stdout);
+      }
+    }
+    if (!opt.common.json) {
+      // Balancing keeps the first repetitions; say what each test did not see.
+      for (const auto& c : comparisons) {
+        if (c.dropped_observations == 0) continue;
+        std::cout << "  " << c.treatment << ": "
+                  << an::balancing_note(c.replicates, c.dropped_observations, c.blocks_left_out)
+                  << "\n";
       }
     }
     return j;

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <utility>
 
+#include "analysis/stats/balanced_pair.h"
 #include "analysis/stats/block_table.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/stats/durbin.h"
@@ -518,58 +519,20 @@ void run_statistics(StudyAnalysis& a) {
           return r.task == task && r.measure == m && r.hand == -1 && r.test.result && r.test.result->p < o.alpha;
         });
         const std::vector<Point> points = collect(a, "", task, m, -1);
-        std::map<std::pair<std::string, std::string>, std::vector<double>> cells;
-        std::vector<std::string> blocks;
+        std::vector<Observation> pair_points;
         for (const auto& p : points) {
-          if (p.setting != a.control && p.setting != setting) continue;
-          cells[{p.block, p.setting}].push_back(p.value);
-          add_unique(blocks, p.block);
+          if (p.setting == a.control || p.setting == setting) pair_points.push_back({p.block, p.setting, "", p.value});
         }
-        // The replicated Friedman test needs the same number of repetitions
-        // in every cell. A time-out or a hand without contact leaves a cell
-        // short, so balance: every block keeps its first r repetitions per
-        // setting, with r chosen to keep the most observations (on a tie,
-        // the most blocks); a block with fewer than r is left out.
-        std::vector<std::pair<std::string, std::size_t>> usable;  // block, repetitions in both cells
-        std::size_t available = 0;
-        for (const auto& b : blocks) {
-          auto c = cells.find({b, a.control});
-          auto s = cells.find({b, setting});
-          if (c == cells.end() || s == cells.end()) continue;
-          usable.emplace_back(b, std::min(c->second.size(), s->second.size()));
-          available += c->second.size() + s->second.size();
-        }
-        std::size_t r = 0, best_kept = 0;
-        for (const auto& [block, reps] : usable) {
-          std::size_t blocks_with = 0;
-          for (const auto& other : usable) blocks_with += other.second >= reps ? 1 : 0;
-          const std::size_t kept = 2 * reps * blocks_with;
-          if (kept > best_kept || (kept == best_kept && reps < r)) {
-            best_kept = kept;
-            r = reps;
-          }
-        }
-        BlockTable table;
-        table.treatment_names = {a.control, setting};
+        // Balanced as `stats pairwise` does: same replicates in every cell.
+        const BlockTable both = BlockTable::from_observations(pair_points);
+        const BalancedPair balanced =
+            both.treatment_count() == 2
+                ? balance_pair(both, both.treatment_index(a.control), both.treatment_index(setting))
+                : BalancedPair{};
+        const BlockTable& table = balanced.table;
         std::set<std::string> participants;
-        std::size_t blocks_left_out = 0;
-        for (const auto& [b, reps] : usable) {
-          if (reps < r) {
-            ++blocks_left_out;
-            continue;
-          }
-          const auto& c = cells.at({b, a.control});
-          const auto& s = cells.at({b, setting});
-          table.block_names.push_back(b);
-          table.cells.push_back({std::vector<double>(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(r)),
-                                 std::vector<double>(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(r))});
-          participants.insert(b.substr(0, b.find('/')));
-        }
-        if (best_kept < available) {
-          cell.note = "balanced to " + std::to_string(r) + " repetition(s) per cell: " +
-                      std::to_string(available - best_kept) + " observation(s) dropped" +
-                      (blocks_left_out > 0 ? ", " + std::to_string(blocks_left_out) + " block(s) left out" : "");
-        }
+        for (const auto& b : table.block_names) participants.insert(b.substr(0, b.find('/')));
+        cell.note = balanced.note();
         cell.blocks = table.block_names.size();
         cell.participants = participants.size();
         if (table.block_names.empty()) {

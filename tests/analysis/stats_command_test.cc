@@ -186,6 +186,31 @@ TEST_F(StatsCommandTest, KsBootstrapNeedsReplicateColumn) {
                analysis::DataError);
 }
 
+// One repetition of T missing in block 2 used to fail every comparison
+// ("unequal replicates"); now balanced as the study analysis does. Kept: 2
+// per cell in all 3 blocks (12 of 16 values), C below T in each: Q = 7.2
+// (see PairwiseFriedmanTest.UnequalRepetitionsAreBalanced).
+TEST_F(StatsCommandTest, PairwiseBalancesUnequalRepetitionsAndSaysWhatWasDropped) {
+  const auto path = write_file("u.csv",
+                               "b,t,v\n"
+                               "B1,C,1\nB1,C,2\nB1,C,3\nB1,T,4\nB1,T,5\nB1,T,6\n"
+                               "B2,C,1\nB2,C,2\nB2,C,3\nB2,T,4\nB2,T,5\n"
+                               "B3,C,1\nB3,C,2\nB3,T,3\nB3,T,4\nB3,T,5\n");
+  const std::vector<std::string> args = {"stats", "pairwise", "--csv", path.string(), "--block",
+                                         "b", "--treatment", "t", "--value", "v", "--control", "C"};
+  const std::string out = run(args);
+  EXPECT_THAT(out, HasSubstr("7.2"));
+  EXPECT_THAT(out, HasSubstr("T: balanced to 2 repetition(s) per cell: 4 observation(s) dropped"));
+  std::vector<std::string> json_args = args;
+  json_args.push_back("--json");
+  const auto j = nlohmann::json::parse(run(json_args));
+  const auto& c = j.at("comparisons").at(0);
+  EXPECT_NEAR(c.at("statistic").get<double>(), 7.2, 1e-12);
+  EXPECT_EQ(c.at("replicates").get<int>(), 2);
+  EXPECT_EQ(c.at("dropped_observations").get<int>(), 4);
+  EXPECT_EQ(c.at("blocks_left_out").get<int>(), 0);
+}
+
 TEST_F(StatsCommandTest, ErrorsAreRuntimeErrorsNamingTheProblem) {
   const auto path = rounding_csv();
   try {
