@@ -1,5 +1,6 @@
 #include "app/stats_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -59,6 +60,7 @@ struct KsOptions {
   std::size_t block_length = 0;
   std::uint64_t seed = 1;
   std::string percentile_method = "matlab";
+  bool block_given = false;  // --block on the command line
 };
 
 std::string num(double v) {
@@ -274,8 +276,19 @@ void run_correlation(const CorrelationOptions& opt) {
 
 void run_ks(const KsOptions& opt) {
   const auto csv = an::LongCsv::read(opt.common.csv);
+  an::LongColumns columns = opt.common.columns;
+  // The pooled test needs no blocks; only the bootstrap resamples per block.
+  const bool has_block_column = std::find(csv.columns().begin(), csv.columns().end(),
+                                          columns.block) != csv.columns().end();
+  if (!opt.block_given && !has_block_column) {
+    if (opt.bootstrap > 0) {
+      throw an::DataError(opt.common.csv + ": ks --bootstrap needs --block COL naming the "
+                          "participant (the file has no column '" + columns.block + "')");
+    }
+    columns.block.clear();
+  }
   // One participant may be enough for the bootstrap (the thesis' "(1)" rows).
-  const auto observations = an::read_observations(csv, opt.common.columns, 1, 2);
+  const auto observations = an::read_observations(csv, columns, 1, 2);
   if (opt.bootstrap > 0 && opt.common.columns.replicate.empty()) {
     throw an::DataError("ks --bootstrap needs --replicate COL to tell the repetitions apart");
   }
@@ -316,13 +329,15 @@ void run_ks(const KsOptions& opt) {
       }
     }
     const an::KsResult ks = an::ks_test(control, other);
-    json j = {{"test", "ks"}, {"control", opt.control}, {"other", opt.other},
-              {"statistic", ks.d}, {"p", ks.p}, {"n", ks.n1 + ks.n2}, {"n_control", ks.n1},
+    const char* p_method = ks.exact ? "exact" : "asymptotic";
+    json j = {{"test", "ks"},          {"control", opt.control},  {"other", opt.other},
+              {"statistic", ks.d},     {"p", ks.p},               {"p_method", p_method},
+              {"p_asymptotic", ks.p_asymptotic}, {"n", ks.n1 + ks.n2}, {"n_control", ks.n1},
               {"n_other", ks.n2}};
     if (!opt.common.json) {
       std::cout << "Kolmogorov-Smirnov, pooled " << opt.control << " (n = " << ks.n1 << ") vs "
-                << opt.other << " (n = " << ks.n2 << "): D = " << num(ks.d)
-                << ", asymptotic p = " << num(ks.p) << "\n";
+                << opt.other << " (n = " << ks.n2 << "): D = " << num(ks.d) << ", " << p_method
+                << " p = " << num(ks.p) << "\n";
     }
     if (opt.bootstrap > 0) {
       an::KsBootstrapOptions bo;
@@ -419,11 +434,15 @@ void add_stats_command(CLI::App& app) {
         "Two-sample Kolmogorov-Smirnov D of two treatments; with --bootstrap, the thesis' "
         "Appendix I moving block bootstrap of D_intra and D_inter");
     add_common_options(*cmd, opt->common, true);
+    cmd->get_option("--block")->description(
+        "Column naming the participant; the pooled test needs none (used only when the file has "
+        "it), --bootstrap does");
     cmd->add_option("--control", opt->control, "Control treatment (e.g. the High Fidelity setting)")
         ->required();
     cmd->add_option("--other", opt->other, "Treatment compared with the control")->required();
     cmd->add_option("--bootstrap", opt->bootstrap,
-                    "Bootstrap resamples (0: only the pooled D and its asymptotic p; the thesis "
+                    "Bootstrap resamples (0: only the pooled D and its p, exact when "
+                    "n_control * n_other < 10000, else asymptotic; the thesis "
                     "used 1000); needs --replicate and --block-length")
         ->capture_default_str();
     cmd->add_option("--block-length", opt->block_length,
@@ -434,7 +453,10 @@ void add_stats_command(CLI::App& app) {
     cmd->add_option("--percentile-method", opt->percentile_method,
                     "Percentile definition for the 95% ranges: matlab, r7, r6, nearest")
         ->capture_default_str();
-    cmd->callback([opt] { run_ks(*opt); });
+    cmd->callback([opt, cmd] {
+      opt->block_given = cmd->count("--block") > 0;
+      run_ks(*opt);
+    });
   }
 }
 

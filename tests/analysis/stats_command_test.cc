@@ -1,6 +1,7 @@
 #include "app/stats_command.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -209,6 +210,33 @@ TEST_F(StatsCommandTest, PairwiseBalancesUnequalRepetitionsAndSaysWhatWasDropped
   EXPECT_EQ(c.at("replicates").get<int>(), 2);
   EXPECT_EQ(c.at("dropped_observations").get<int>(), 4);
   EXPECT_EQ(c.at("blocks_left_out").get<int>(), 0);
+}
+
+// A pooled two-sample test needs no block column. {1, 2, 3} vs {4, 5, 6}:
+// D = 1, exact p = 2/C(6, 3) = 0.1 (the asymptotic p would be
+// Q(sqrt(3·3/6)) = 2(e^−3 − e^−12 + e^−27 ...) = 0.0996).
+TEST_F(StatsCommandTest, KsPooledNeedsNoBlockAndReportsTheExactP) {
+  const auto path = write_file("k.csv", "setting,force\nA,1\nA,2\nA,3\nB,4\nB,5\nB,6\n");
+  const std::vector<std::string> args = {"stats", "ks", "--csv", path.string(), "--treatment",
+                                         "setting", "--value", "force", "--control", "A",
+                                         "--other", "B"};
+  EXPECT_THAT(run(args), HasSubstr("D = 1, exact p = 0.1\n"));
+  std::vector<std::string> json_args = args;
+  json_args.push_back("--json");
+  const auto j = nlohmann::json::parse(run(json_args));
+  EXPECT_EQ(j.at("p_method"), "exact");
+  EXPECT_NEAR(j.at("p").get<double>(), 0.1, 1e-15);
+  EXPECT_NEAR(j.at("p_asymptotic").get<double>(),
+              2.0 * (std::exp(-3.0) - std::exp(-12.0) + std::exp(-27.0)), 1e-12);
+  // The bootstrap resamples per participant, so it does need the column.
+  json_args.insert(json_args.end(), {"--bootstrap", "10", "--block-length", "1", "--replicate",
+                                     "setting"});
+  try {
+    run(json_args);
+    FAIL() << "expected DataError";
+  } catch (const analysis::DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--block"));
+  }
 }
 
 TEST_F(StatsCommandTest, ErrorsAreRuntimeErrorsNamingTheProblem) {
