@@ -69,6 +69,16 @@ std::string num(double v) {
   return buffer;
 }
 
+// The CSV, refused when it holds no data rows: a test of nothing must not
+// look like a result (it used to print nothing and exit 0).
+an::LongCsv read_data(const std::string& path) {
+  an::LongCsv csv = an::LongCsv::read(path);
+  if (csv.row_count() == 0) {
+    throw an::DataError(path + ": the file has a header row but no data rows; nothing to test");
+  }
+  return csv;
+}
+
 void add_csv_option(CLI::App& cmd, std::string& csv) {
   cmd.add_option("--csv", csv,
                  "Long-format CSV: a header row of column names, then one observation per row")
@@ -177,7 +187,7 @@ void print_test(const an::TestResult& r) {
 
 void run_block_test(const CommonOptions& opt, const std::string& test,
                     an::TestResult (*run)(const an::BlockTable&)) {
-  const auto csv = an::LongCsv::read(opt.csv);
+  const auto csv = read_data(opt.csv);
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped(test, csv, opt.group, opt.json, [&](const Group& g) {
     const an::TestResult r = run(table_for(observations, g));
@@ -187,7 +197,7 @@ void run_block_test(const CommonOptions& opt, const std::string& test,
 }
 
 void run_durbin(const CommonOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.csv);
+  const auto csv = read_data(opt.csv);
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped("durbin", csv, opt.group, opt.json, [&](const Group& g) {
     const an::DurbinResult r = an::durbin_test(table_for(observations, g));
@@ -203,7 +213,7 @@ void run_durbin(const CommonOptions& opt) {
 }
 
 void run_pairwise(const PairwiseOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.common.csv);
+  const auto csv = read_data(opt.common.csv);
   const auto observations = an::read_observations(csv, opt.common.columns);
   run_grouped("pairwise-friedman", csv, opt.common.group, opt.common.json, [&](const Group& g) {
     const an::BlockTable table = table_for(observations, g);
@@ -252,7 +262,7 @@ void run_pairwise(const PairwiseOptions& opt) {
 }
 
 void run_correlation(const CorrelationOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.csv);
+  const auto csv = read_data(opt.csv);
   const std::size_t x = csv.column(opt.x);
   const std::size_t y = csv.column(opt.y);
   run_grouped("pearson-correlation", csv, opt.group, opt.json, [&](const Group& g) {
@@ -262,7 +272,7 @@ void run_correlation(const CorrelationOptions& opt) {
       xs.push_back(csv.number(r, x));
       ys.push_back(csv.number(r, y));
     }
-    const an::CorrelationResult c = an::pearson_correlation(xs, ys);
+    const an::CorrelationResult c = an::pearson_correlation(xs, ys, opt.x, opt.y);
     const std::string strength(an::correlation_strength_name(c.strength));
     if (!opt.json) {
       std::cout << "Pearson r(" << opt.x << ", " << opt.y << ") = " << num(c.r) << ", t = "
@@ -275,7 +285,7 @@ void run_correlation(const CorrelationOptions& opt) {
 }
 
 void run_ks(const KsOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.common.csv);
+  const auto csv = read_data(opt.common.csv);
   an::LongColumns columns = opt.common.columns;
   // The pooled test needs no blocks; only the bootstrap resamples per block.
   const bool has_block_column = std::find(csv.columns().begin(), csv.columns().end(),

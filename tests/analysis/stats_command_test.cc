@@ -239,6 +239,37 @@ TEST_F(StatsCommandTest, KsPooledNeedsNoBlockAndReportsTheExactP) {
   }
 }
 
+// A header and no rows used to print nothing and exit 0.
+TEST_F(StatsCommandTest, HeaderOnlyCsvIsRefused) {
+  const auto path = write_file("h.csv", "block,treatment,value,x,y\n");
+  const std::vector<std::vector<std::string>> commands = {
+      {"stats", "correlation", "--csv", path.string(), "--x", "x", "--y", "y"},
+      {"stats", "friedman", "--csv", path.string()},
+      {"stats", "pairwise", "--csv", path.string(), "--control", "A"},
+      {"stats", "durbin", "--csv", path.string()},
+      {"stats", "skillings-mack", "--csv", path.string()},
+      {"stats", "ks", "--csv", path.string(), "--control", "A", "--other", "B"}};
+  for (const auto& args : commands) {
+    try {
+      run(args);
+      ADD_FAILURE() << args[1] << ": expected DataError";
+    } catch (const analysis::DataError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("no data rows")) << args[1];
+      EXPECT_THAT(e.what(), HasSubstr("h.csv")) << args[1];
+    }
+  }
+}
+
+TEST_F(StatsCommandTest, CorrelationOfAConstantColumnNamesIt) {
+  const auto path = write_file("c.csv", "trial,force\n1,0.1\n2,0.1\n3,0.1\n");
+  try {
+    run({"stats", "correlation", "--csv", path.string(), "--x", "trial", "--y", "force"});
+    FAIL() << "expected DataError";
+  } catch (const analysis::DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("force is constant"));
+  }
+}
+
 TEST_F(StatsCommandTest, ErrorsAreRuntimeErrorsNamingTheProblem) {
   const auto path = rounding_csv();
   try {
