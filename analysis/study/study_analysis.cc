@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <set>
@@ -117,6 +118,37 @@ std::string format_p(double p) {
   }
   std::snprintf(buf, sizeof buf, "%.0fE%d", mantissa, exponent);
   return buf;
+}
+
+std::string format_level(double level) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", level);
+  return buf;
+}
+
+std::string format_p(double p, double level) {
+  std::string text = format_p(p);
+  if (!std::isfinite(p) || !std::isfinite(level) || p == 0.0) return text;
+  const double shown_level = std::strtod(format_level(level).c_str(), nullptr);
+  // Trailing zeros kept ("0.007300"), so the digits shown say how close it is.
+  const auto rounded = [](double v, int digits) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%#.*g", digits, v);
+    return std::string(buf);
+  };
+  // Readable: on the same side of the level as printed as p is of the level,
+  // and not the same text as the level at this precision (0.00729 against
+  // 0.0073 must not print as "0.0073").
+  const auto readable = [&](const std::string& shown, int digits) {
+    const bool below = std::strtod(shown.c_str(), nullptr) < shown_level;
+    return below == (p < level) && (p == level || rounded(p, digits) != rounded(level, digits));
+  };
+  if (readable(text, 2)) return text;
+  for (int digits = 3; digits < 17; ++digits) {
+    text = rounded(p, digits);
+    if (readable(text, digits)) return text;
+  }
+  return rounded(p, 17);
 }
 
 // ---------------------------------------------------------------------------
@@ -690,7 +722,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
         std::string cell = "N/A";
         for (const auto* r : rows) {
           if (r->measure == m && r->test.result) {
-            cell = format_p(r->test.result->p) + (r->test.result->p < a.options.alpha ? "*" : "");
+            cell = format_p(r->test.result->p, a.options.alpha) + (r->test.result->p < a.options.alpha ? "*" : "");
           }
         }
         out << pad(cell, kColWidth);
@@ -700,8 +732,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
   }
   out << "* p < " << a.options.alpha << "\n\n";
 
-  char level[32];
-  std::snprintf(level, sizeof level, "%.4f", a.sidak_level);
+  const std::string level = format_level(a.sidak_level);
   int table_number = 5;
   for (const auto& task : a.tasks) {
     out << "Table 3." << table_number++ << "  " << task << ": " << a.control
@@ -719,7 +750,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
         std::string text = "N/A";
         for (const auto& cell : a.pairwise) {
           if (cell.task != task || cell.setting != a.settings[si] || cell.measure != m || !cell.p) continue;
-          text = format_p(*cell.p) + (cell.significant ? "**" : "");
+          text = format_p(*cell.p, a.sidak_level) + (cell.significant ? "**" : "");
           if (cell.gated) text = "(" + text + ")";
         }
         out << pad(text, kColWidth);
@@ -740,7 +771,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
       std::string text = "N/A";
       for (const auto& r : a.whole_design) {
         if (r.task == task && r.measure == m && r.test.result) {
-          text = format_p(r.test.result->p) + (r.test.result->p < a.options.alpha ? "*" : "");
+          text = format_p(r.test.result->p, a.options.alpha) + (r.test.result->p < a.options.alpha ? "*" : "");
           text += " " + std::string(r.test.result->method == "Skillings-Mack" ? "SM" : r.test.result->method.substr(0, 1));
         }
       }

@@ -407,6 +407,19 @@ TEST(FormatTest, PValuesLikeTheThesis) {
   EXPECT_EQ(format_p(6.3e-5), "6E-5");
   EXPECT_EQ(format_p(9.6e-5), "1E-4");
   EXPECT_EQ(format_p(1.0), "1");
+  // Next to a decision level, as many digits as it takes to see the side:
+  // 0.00729 and 0.00734 against the Šidák level 0.0073008 (m = 7) used to
+  // print as "0.0073**" and "0.0073".
+  const double sidak = 1.0 - std::pow(0.95, 1.0 / 7.0);  // 0.0073008
+  EXPECT_EQ(format_level(sidak), "0.007301");
+  EXPECT_EQ(format_p(0.00729, sidak), "0.00729");
+  EXPECT_EQ(format_p(0.00734, sidak), "0.00734");
+  EXPECT_EQ(format_p(0.0073005, sidak), "0.007300");  // below 0.007301 as printed
+  EXPECT_EQ(format_p(0.0071, sidak), "0.0071");         // clear of it: thesis form
+  EXPECT_EQ(format_p(6.3e-5, sidak), "6E-5");
+  EXPECT_EQ(format_p(0.05, 0.05), "0.05");              // not below: not significant
+  EXPECT_EQ(format_p(0.0496, 0.05), "0.0496");          // "0.05" would look not significant
+  EXPECT_EQ(format_p(0.0504, 0.05), "0.0504");
   EXPECT_EQ(setting_abbreviation("No Force Feedback"), "NFF");
   EXPECT_EQ(setting_abbreviation("Inertia + Backlash"), "I+B");
   EXPECT_EQ(setting_abbreviation("Cogging"), "Cogging");
