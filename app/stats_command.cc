@@ -340,9 +340,15 @@ void run_ks(const KsOptions& opt) {
     }
     const an::KsResult ks = an::ks_test(control, other);
     const char* p_method = ks.exact ? "exact" : "asymptotic";
-    json j = {{"test", "ks"},          {"control", opt.control},  {"other", opt.other},
-              {"statistic", ks.d},     {"p", ks.p},               {"p_method", p_method},
-              {"p_asymptotic", ks.p_asymptotic}, {"n", ks.n1 + ks.n2}, {"n_control", ks.n1},
+    json j = {{"test", "ks"},
+              {"control", opt.control},
+              {"other", opt.other},
+              {"statistic", ks.d},
+              {"p", ks.p},
+              {"p_method", p_method},  // "exact" below n1*n2 = 10000, else "asymptotic"
+              {"p_asymptotic", ks.p_asymptotic},
+              {"n", ks.n1 + ks.n2},
+              {"n_control", ks.n1},
               {"n_other", ks.n2}};
     if (!opt.common.json) {
       std::cout << "Kolmogorov-Smirnov, pooled " << opt.control << " (n = " << ks.n1 << ") vs "
