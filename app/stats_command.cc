@@ -1,5 +1,6 @@
 #include "app/stats_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -59,12 +60,23 @@ struct KsOptions {
   std::size_t block_length = 0;
   std::uint64_t seed = 1;
   std::string percentile_method = "matlab";
+  bool block_given = false;  // --block on the command line
 };
 
 std::string num(double v) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.6g", v);
   return buffer;
+}
+
+// The CSV, refused when it holds no data rows: a test of nothing must not
+// look like a result (it used to print nothing and exit 0).
+an::LongCsv read_data(const std::string& path) {
+  an::LongCsv csv = an::LongCsv::read(path);
+  if (csv.row_count() == 0) {
+    throw an::DataError(path + ": the file has a header row but no data rows; nothing to test");
+  }
+  return csv;
 }
 
 void add_csv_option(CLI::App& cmd, std::string& csv) {
@@ -175,7 +187,7 @@ void print_test(const an::TestResult& r) {
 
 void run_block_test(const CommonOptions& opt, const std::string& test,
                     an::TestResult (*run)(const an::BlockTable&)) {
-  const auto csv = an::LongCsv::read(opt.csv);
+  const auto csv = read_data(opt.csv);
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped(test, csv, opt.group, opt.json, [&](const Group& g) {
     const an::TestResult r = run(table_for(observations, g));
@@ -185,7 +197,7 @@ void run_block_test(const CommonOptions& opt, const std::string& test,
 }
 
 void run_durbin(const CommonOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.csv);
+  const auto csv = read_data(opt.csv);
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped("durbin", csv, opt.group, opt.json, [&](const Group& g) {
     const an::DurbinResult r = an::durbin_test(table_for(observations, g));
@@ -201,7 +213,7 @@ void run_durbin(const CommonOptions& opt) {
 }
 
 void run_pairwise(const PairwiseOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.common.csv);
+  const auto csv = read_data(opt.common.csv);
   const auto observations = an::read_observations(csv, opt.common.columns);
   run_grouped("pairwise-friedman", csv, opt.common.group, opt.common.json, [&](const Group& g) {
     const an::BlockTable table = table_for(observations, g);
@@ -224,6 +236,9 @@ void run_pairwise(const PairwiseOptions& opt) {
                 {"p", c.p ? json(*c.p) : json(nullptr)},
                 {"n", c.n_observations},
                 {"n_blocks", c.n_blocks},
+                {"replicates", c.replicates},
+                {"dropped_observations", c.dropped_observations},
+                {"blocks_left_out", c.blocks_left_out},
                 {"significant", c.significant}};
       j["comparisons"].push_back(std::move(e));
       if (!opt.common.json) {
@@ -233,12 +248,21 @@ void run_pairwise(const PairwiseOptions& opt) {
         std::fflush(stdout);
       }
     }
+    if (!opt.common.json) {
+      // Balancing keeps the first repetitions; say what each test did not see.
+      for (const auto& c : comparisons) {
+        if (c.dropped_observations == 0) continue;
+        std::cout << "  " << c.treatment << ": "
+                  << an::balancing_note(c.replicates, c.dropped_observations, c.blocks_left_out)
+                  << "\n";
+      }
+    }
     return j;
   });
 }
 
 void run_correlation(const CorrelationOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.csv);
+  const auto csv = read_data(opt.csv);
   const std::size_t x = csv.column(opt.x);
   const std::size_t y = csv.column(opt.y);
   run_grouped("pearson-correlation", csv, opt.group, opt.json, [&](const Group& g) {
@@ -248,7 +272,7 @@ void run_correlation(const CorrelationOptions& opt) {
       xs.push_back(csv.number(r, x));
       ys.push_back(csv.number(r, y));
     }
-    const an::CorrelationResult c = an::pearson_correlation(xs, ys);
+    const an::CorrelationResult c = an::pearson_correlation(xs, ys, opt.x, opt.y);
     const std::string strength(an::correlation_strength_name(c.strength));
     if (!opt.json) {
       std::cout << "Pearson r(" << opt.x << ", " << opt.y << ") = " << num(c.r) << ", t = "
@@ -261,9 +285,20 @@ void run_correlation(const CorrelationOptions& opt) {
 }
 
 void run_ks(const KsOptions& opt) {
-  const auto csv = an::LongCsv::read(opt.common.csv);
+  const auto csv = read_data(opt.common.csv);
+  an::LongColumns columns = opt.common.columns;
+  // The pooled test needs no blocks; only the bootstrap resamples per block.
+  const bool has_block_column = std::find(csv.columns().begin(), csv.columns().end(),
+                                          columns.block) != csv.columns().end();
+  if (!opt.block_given && !has_block_column) {
+    if (opt.bootstrap > 0) {
+      throw an::DataError(opt.common.csv + ": ks --bootstrap needs --block COL naming the "
+                          "participant (the file has no column '" + columns.block + "')");
+    }
+    columns.block.clear();
+  }
   // One participant may be enough for the bootstrap (the thesis' "(1)" rows).
-  const auto observations = an::read_observations(csv, opt.common.columns, 1, 2);
+  const auto observations = an::read_observations(csv, columns, 1, 2);
   if (opt.bootstrap > 0 && opt.common.columns.replicate.empty()) {
     throw an::DataError("ks --bootstrap needs --replicate COL to tell the repetitions apart");
   }
@@ -304,13 +339,21 @@ void run_ks(const KsOptions& opt) {
       }
     }
     const an::KsResult ks = an::ks_test(control, other);
-    json j = {{"test", "ks"}, {"control", opt.control}, {"other", opt.other},
-              {"statistic", ks.d}, {"p", ks.p}, {"n", ks.n1 + ks.n2}, {"n_control", ks.n1},
+    const char* p_method = ks.exact ? "exact" : "asymptotic";
+    json j = {{"test", "ks"},
+              {"control", opt.control},
+              {"other", opt.other},
+              {"statistic", ks.d},
+              {"p", ks.p},
+              {"p_method", p_method},  // "exact" below n1*n2 = 10000, else "asymptotic"
+              {"p_asymptotic", ks.p_asymptotic},
+              {"n", ks.n1 + ks.n2},
+              {"n_control", ks.n1},
               {"n_other", ks.n2}};
     if (!opt.common.json) {
       std::cout << "Kolmogorov-Smirnov, pooled " << opt.control << " (n = " << ks.n1 << ") vs "
-                << opt.other << " (n = " << ks.n2 << "): D = " << num(ks.d)
-                << ", asymptotic p = " << num(ks.p) << "\n";
+                << opt.other << " (n = " << ks.n2 << "): D = " << num(ks.d) << ", " << p_method
+                << " p = " << num(ks.p) << "\n";
     }
     if (opt.bootstrap > 0) {
       an::KsBootstrapOptions bo;
@@ -407,11 +450,15 @@ void add_stats_command(CLI::App& app) {
         "Two-sample Kolmogorov-Smirnov D of two treatments; with --bootstrap, the thesis' "
         "Appendix I moving block bootstrap of D_intra and D_inter");
     add_common_options(*cmd, opt->common, true);
+    cmd->get_option("--block")->description(
+        "Column naming the participant; the pooled test needs none (used only when the file has "
+        "it), --bootstrap does");
     cmd->add_option("--control", opt->control, "Control treatment (e.g. the High Fidelity setting)")
         ->required();
     cmd->add_option("--other", opt->other, "Treatment compared with the control")->required();
     cmd->add_option("--bootstrap", opt->bootstrap,
-                    "Bootstrap resamples (0: only the pooled D and its asymptotic p; the thesis "
+                    "Bootstrap resamples (0: only the pooled D and its p, exact when "
+                    "n_control * n_other < 10000, else asymptotic; the thesis "
                     "used 1000); needs --replicate and --block-length")
         ->capture_default_str();
     cmd->add_option("--block-length", opt->block_length,
@@ -422,7 +469,10 @@ void add_stats_command(CLI::App& app) {
     cmd->add_option("--percentile-method", opt->percentile_method,
                     "Percentile definition for the 95% ranges: matlab, r7, r6, nearest")
         ->capture_default_str();
-    cmd->callback([opt] { run_ks(*opt); });
+    cmd->callback([opt, cmd] {
+      opt->block_given = cmd->count("--block") > 0;
+      run_ks(*opt);
+    });
   }
 }
 

@@ -1,12 +1,12 @@
 #include "db/export_csv.h"
 
 #include <cctype>
-#include <charconv>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 #include <system_error>
 
+#include "core/common/csv_format.h"
 #include "db/sample_codec.h"
 
 namespace hapticlab::db {
@@ -21,27 +21,6 @@ std::string slug(std::string_view text) {
   }
   while (!out.empty() && out.back() == '_') out.pop_back();
   return out.empty() ? "_" : out;
-}
-
-// RFC 4180: quote a field holding a comma, quote or line break.
-void put_text(std::string& line, std::string_view text) {
-  if (text.find_first_of(",\"\r\n") == std::string_view::npos) {
-    line += text;
-    return;
-  }
-  line += '"';
-  for (char c : text) {
-    if (c == '"') line += '"';
-    line += c;
-  }
-  line += '"';
-}
-
-template <typename T>
-void put_number(std::string& line, T value) {
-  char buf[40];
-  const auto r = std::to_chars(buf, buf + sizeof buf, value);
-  line.append(buf, r.ptr);
 }
 
 // Writes to "<path>.tmp", renames on commit(), removes the temp file if
@@ -80,29 +59,29 @@ class CsvFile {
 };
 
 void put_trial_key(std::string& line, const TrialRow& t) {
-  put_number(line, t.id);
+  append_number(line, t.id);
   line += ',';
-  put_text(line, t.participant_code);
+  append_csv_text(line, t.participant_code);
   line += ',';
-  put_text(line, t.task);
+  append_csv_text(line, t.task);
   line += ',';
-  put_text(line, t.setting_name);
+  append_csv_text(line, t.setting_name);
   line += ',';
-  put_number(line, t.repetition);
+  append_number(line, t.repetition);
 }
 
 void put_sample(std::string& line, const StoredSample& s) {
   const InstrumentSample& v = s.value;
   line += ',';
-  put_number(line, s.tick);
+  append_number(line, s.tick);
   line += ',';
-  put_number(line, s.dt_s);
+  append_number(line, s.dt_s);
   line += ',';
-  put_number(line, s.t_s);
+  append_number(line, s.t_s);
   // Stored as float32: printing the float keeps the text short and exact.
   auto f = [&](double x) {
     line += ',';
-    put_number(line, to_stored_float(x));
+    append_number(line, to_stored_float(x));
   };
   for (double x : v.raw_position) f(x);
   for (double x : v.degraded_position) f(x);
@@ -112,9 +91,9 @@ void put_sample(std::string& line, const StoredSample& s) {
   for (double x : v.displayed_force_N) f(x);
   for (double x : v.joint_force) f(x);
   line += ',';
-  put_number(line, v.engine_status);
+  append_number(line, v.engine_status);
   line += ',';
-  put_number(line, s.device_status);
+  append_number(line, s.device_status);
   line += v.in_contact ? ",1" : ",0";
 }
 
@@ -168,15 +147,15 @@ std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t tr
   for (const EventRow& e : db.events(trial_id)) {
     put_trial_key(line, t);
     line += ',';
-    put_number(line, e.t_s);
+    append_number(line, e.t_s);
     line += ',';
-    put_text(line, e.type);
+    append_csv_text(line, e.type);
     line += ',';
-    put_number(line, e.instrument);
+    append_number(line, e.instrument);
     line += ',';
-    put_number(line, e.item_index);
+    append_number(line, e.item_index);
     line += ',';
-    put_text(line, e.detail);
+    append_csv_text(line, e.detail);
     events.line(line);
   }
   samples.commit();
@@ -198,34 +177,34 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
   for (const TrialRow& t : db.trials(study_id)) {
     put_trial_key(line, t);
     line += ',';
-    put_number(line, t.block);
+    append_number(line, t.block);
     line += ',';
-    put_number(line, t.position);
+    append_number(line, t.position);
     line += ',';
     line += to_string(t.status);
     line += ',';
-    if (t.started_unix_s) put_number(line, *t.started_unix_s);
+    if (t.started_unix_s) append_number(line, *t.started_unix_s);
     line += ',';
-    if (t.ended_unix_s) put_number(line, *t.ended_unix_s);
+    if (t.ended_unix_s) append_number(line, *t.ended_unix_s);
     line += ',';
-    put_text(line, t.abort_reason);
+    append_csv_text(line, t.abort_reason);
     line += ',';
-    put_number(line, db.sample_count(t.id, 0));
+    append_number(line, db.sample_count(t.id, 0));
     const std::optional<LoopTimingRow> timing = db.loop_timing(t.id);
     if (timing && timing->timing) {
       const LoopTimingSummary& s = *timing->timing;
       for (double x : {static_cast<double>(s.count), s.p50_period_s, s.p99_period_s, s.max_period_s,
                        s.mean_period_s, static_cast<double>(s.overruns)}) {
         line += ',';
-        put_number(line, x);
+        append_number(line, x);
       }
     } else {
       line += ",,,,,,";
     }
     line += ',';
-    if (timing) put_number(line, timing->dropped_samples);
+    if (timing) append_number(line, timing->dropped_samples);
     line += ',';
-    if (timing) put_number(line, timing->dropped_events);
+    if (timing) append_number(line, timing->dropped_events);
     index.line(line);
     if (t.status != TrialStatus::kPlanned) {
       const auto files = export_trial_csv(db, t.id, out_dir, bad_chunks);

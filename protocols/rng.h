@@ -16,6 +16,9 @@
 // Streams: `Rng::for_stream(seed, "schedule/S1")` keys an independent
 // generator by a purpose string, so adding a participant, or drawing one
 // more number for one purpose, never changes the draws of another.
+//
+// The generator itself is core/common/random.h's, shared with the simulation
+// and the bootstrap; this file adds the stream keys and the shuffle.
 
 #include <cstddef>
 #include <cstdint>
@@ -23,17 +26,12 @@
 #include <utility>
 #include <vector>
 
+#include "core/common/random.h"
+
 namespace hapticlab::protocols {
 
-// One SplitMix64 step: advances `state` by the golden-ratio increment and
-// returns the mixed value (reference: prng.di.unimi.it/splitmix64.c).
-constexpr std::uint64_t splitmix64_next(std::uint64_t& state) {
-  state += 0x9E3779B97F4A7C15ULL;
-  std::uint64_t z = state;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
+// One SplitMix64 step (core/common/random.h).
+constexpr std::uint64_t splitmix64_next(std::uint64_t& state) { return splitmix64(state); }
 
 // 64-bit FNV-1a of the bytes of `text` (offset basis 0xcbf29ce484222325,
 // prime 0x100000001b3): turns a stream name into a key.
@@ -48,13 +46,8 @@ constexpr std::uint64_t fnv1a64(std::string_view text) {
 
 class Rng {
  public:
-  // State filled by four SplitMix64 outputs started at `seed`, as the
-  // xoshiro authors recommend. SplitMix64 never outputs four zeros in a row,
-  // so the forbidden all-zero state cannot occur.
-  explicit constexpr Rng(std::uint64_t seed) {
-    std::uint64_t sm = seed;
-    for (auto& word : s_) word = splitmix64_next(sm);
-  }
+  // State filled by four SplitMix64 outputs started at `seed`.
+  explicit constexpr Rng(std::uint64_t seed) : core_(seed) {}
 
   // Independent stream for one purpose: seeded with
   // splitmix64_next(seed ^ fnv1a64(name)) (one step from that state).
@@ -67,47 +60,25 @@ class Rng {
   static constexpr Rng from_state(std::uint64_t s0, std::uint64_t s1, std::uint64_t s2,
                                   std::uint64_t s3) {
     Rng r(0);
-    r.s_[0] = s0;
-    r.s_[1] = s1;
-    r.s_[2] = s2;
-    r.s_[3] = s3;
+    r.core_ = Xoshiro256StarStar::from_state(s0, s1, s2, s3);
     return r;
   }
 
-  // xoshiro256** next output (reference: prng.di.unimi.it/xoshiro256starstar.c).
-  constexpr std::uint64_t next() {
-    const std::uint64_t result = rotl(s_[1] * 5, 7) * 9;
-    const std::uint64_t t = s_[1] << 17;
-    s_[2] ^= s_[0];
-    s_[3] ^= s_[1];
-    s_[1] ^= s_[2];
-    s_[0] ^= s_[3];
-    s_[2] ^= t;
-    s_[3] = rotl(s_[3], 45);
-    return result;
-  }
+  // xoshiro256** next output.
+  constexpr std::uint64_t next() { return core_.next(); }
 
-  // Uniform integer in [0, n), n >= 1. Draws below 2^64 mod n are rejected
-  // so every residue is equally likely; the expected number of draws is
-  // below 2 for every n.
+  // Uniform integer in [0, n), n >= 1; n <= 1 gives 0 without a draw, which
+  // every schedule so far relies on.
   constexpr std::uint64_t uniform_below(std::uint64_t n) {
     if (n <= 1) return 0;
-    const std::uint64_t threshold = (0 - n) % n;  // == 2^64 mod n
-    for (;;) {
-      const std::uint64_t x = next();
-      if (x >= threshold) return x % n;
-    }
+    return hapticlab::uniform_below(core_, n);
   }
 
   // A fair coin: the top bit of one draw.
   constexpr bool coin() { return (next() >> 63) != 0; }
 
  private:
-  static constexpr std::uint64_t rotl(std::uint64_t x, int k) {
-    return (x << k) | (x >> (64 - k));
-  }
-
-  std::uint64_t s_[4]{};
+  Xoshiro256StarStar core_;
 };
 
 // Fisher–Yates: for i = n-1 down to 1, swap v[i] with v[uniform_below(i+1)].

@@ -135,7 +135,9 @@ double LongCsv::number(std::size_t row, std::size_t column) const {
 
 std::vector<Observation> read_observations(const LongCsv& csv, const LongColumns& columns,
                                            std::size_t min_blocks, std::size_t min_treatments) {
-  const std::size_t block = csv.column(columns.block);
+  // No block column: every row is one block (a pooled two-sample test).
+  const bool has_block = !columns.block.empty();
+  const std::size_t block = has_block ? csv.column(columns.block) : 0;
   const std::size_t treatment = csv.column(columns.treatment);
   const std::size_t value = csv.column(columns.value);
   const bool has_replicate = !columns.replicate.empty();
@@ -147,10 +149,11 @@ std::vector<Observation> read_observations(const LongCsv& csv, const LongColumns
   std::set<std::string> treatments;
   for (std::size_t r = 0; r < csv.row_count(); ++r) {
     Observation o;
-    o.block = csv.text(r, block);
+    o.block = has_block ? csv.text(r, block) : "";
     o.treatment = csv.text(r, treatment);
     for (const auto& [name, index] : {std::pair{&columns.block, block},
                                       std::pair{&columns.treatment, treatment}}) {
+      if (name == &columns.block && !has_block) continue;
       if (csv.text(r, index).empty()) {
         throw DataError(csv.source() + ":" + std::to_string(csv.line(r)) + ": column '" + *name +
                         "' is empty");

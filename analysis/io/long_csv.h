@@ -51,7 +51,7 @@ class LongCsv {
 
 // Column names of a block design. An empty `replicate` means no replicate
 // column: several rows of one block and treatment are then replicates in file
-// order.
+// order. An empty `block` means no block column: all rows form one block.
 struct LongColumns {
   std::string block = "block";
   std::string treatment = "treatment";

@@ -175,7 +175,7 @@ std::vector<std::string> measure_header(const std::string& first) {
 
 Cell p_cell(const std::optional<TestResult>& r, double level) {
   if (!r) return {"N/A", false};
-  return {format_p(r->p), r->p < level};
+  return {format_p(r->p, level), r->p < level};
 }
 
 Section summary_section(const StudyAnalysis& a) {
@@ -280,7 +280,7 @@ Section pairwise_section(const StudyAnalysis& a, const std::string& task, int nu
   s.intro = "P values of pairwise Friedman tests between " + a.control +
             " and each other setting over every participant (and hand) who did both; the number in brackets is "
             "the number of participants. Bold: significant at the Šidák level 1-(1-alpha)^(1/m) = " +
-            num(a.sidak_level, "%.4f") + " for m = " + std::to_string(a.sidak_m) +
+            format_level(a.sidak_level) + " for m = " + std::to_string(a.sidak_m) +
             ". A p value in parentheses was computed although no participant's Table 3.4 test was significant "
             "for that measure (the thesis did not compare those).";
   Table t;
@@ -294,7 +294,8 @@ Section pairwise_section(const StudyAnalysis& a, const std::string& task, int nu
       Cell cell{"N/A"};
       for (const auto& c : a.pairwise) {
         if (c.task != task || c.setting != a.settings[si] || c.measure != m || !c.p) continue;
-        cell = {c.gated ? "(" + format_p(*c.p) + ")" : format_p(*c.p), c.significant};
+        const std::string p = format_p(*c.p, a.sidak_level);
+        cell = {c.gated ? "(" + p + ")" : p, c.significant};
       }
       row.push_back(cell);
     }
@@ -349,7 +350,7 @@ Section correlation_section(const StudyAnalysis& a) {
     if (r.result) {
       const std::string strength(correlation_strength_name(r.result->strength));
       std::vector<Cell> row{{measure_label(r.measure)}, {r.task}, {r.participant}, {correlation_hand(r)},
-                            {num(r.result->r, "%.2f")}, {format_p(r.result->p)},
+                            {num(r.result->r, "%.2f")}, {format_p(r.result->p, a.options.alpha)},
                             {strength, r.result->strength == CorrelationStrength::kStrong}};
       if (r.result->strength != CorrelationStrength::kNone) t.rows.push_back(row);
       row.push_back({std::to_string(r.result->n)});
@@ -621,7 +622,7 @@ class FigureBuilder {
       const std::string what = std::string(measure_label(r.measure)) + " vs trial number: " + r.participant + ", " +
                                r.task + ", " + correlation_hand(r) + " hand";
       std::ostringstream cmd;
-      cmd << "set title " << gnuplot_quote(what + "\n(R = " + num(r.result->r, "%.2f") + ", P = " + format_p(r.result->p) + ")")
+      cmd << "set title " << gnuplot_quote(what + "\n(R = " + num(r.result->r, "%.2f") + ", P = " + format_p(r.result->p, a_.options.alpha) + ")")
           << "\nset xlabel 'trial number'\nset ylabel "
           << gnuplot_quote(std::string(measure_label(r.measure)) + " [" + measure_unit(r.measure) + "]")
           << "\nset key outside right\nset grid\n"

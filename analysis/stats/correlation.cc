@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <limits>
 #include <string>
 
 #include "analysis/stats/data_error.h"
 #include "analysis/stats/distributions.h"
+#include "core/common/csv_format.h"
 
 namespace hapticlab::analysis {
 
@@ -26,15 +28,30 @@ CorrelationStrength classify_correlation(double r) {
   return CorrelationStrength::kNone;
 }
 
-CorrelationResult pearson_correlation(std::span<const double> x, std::span<const double> y) {
+namespace {
+
+// Within rounding error of a constant; see the header.
+bool is_constant(std::span<const double> v, double sum_of_squares) {
+  double scale = 0.0;
+  for (double e : v) scale = std::max(scale, std::fabs(e));
+  const double n = static_cast<double>(v.size());
+  const double noise_sd = 4.0 * (n + 1.0) * std::numeric_limits<double>::epsilon() * scale;
+  return std::sqrt(sum_of_squares / n) <= noise_sd;
+}
+
+}  // namespace
+
+CorrelationResult pearson_correlation(std::span<const double> x, std::span<const double> y,
+                                      std::string_view x_name, std::string_view y_name) {
+  const std::string names = "Pearson correlation of " + std::string(x_name) + " and " +
+                            std::string(y_name) + ": ";
   if (x.size() != y.size()) {
-    throw DataError("pearson_correlation(): x has " + std::to_string(x.size()) +
-                    " values but y has " + std::to_string(y.size()));
+    throw DataError(names + std::string(x_name) + " has " + std::to_string(x.size()) +
+                    " values but " + std::string(y_name) + " has " + std::to_string(y.size()));
   }
   const std::size_t n = x.size();
   if (n < 3) {
-    throw DataError("pearson_correlation(): " + std::to_string(n) +
-                    " pairs; at least 3 are needed for a p-value");
+    throw DataError(names + std::to_string(n) + " pair(s); at least 3 are needed for a p-value");
   }
   // Two passes (means first) keep the sums of squares accurate for data
   // with a large offset, e.g. trial start times.
@@ -42,8 +59,7 @@ CorrelationResult pearson_correlation(std::span<const double> x, std::span<const
   double mean_y = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(x[i]) || !std::isfinite(y[i])) {
-      throw DataError("pearson_correlation(): pair " + std::to_string(i + 1) +
-                      " holds a non-finite value");
+      throw DataError(names + "pair " + std::to_string(i + 1) + " holds a non-finite value");
     }
     mean_x += x[i];
     mean_y += y[i];
@@ -60,9 +76,12 @@ CorrelationResult pearson_correlation(std::span<const double> x, std::span<const
     syy += dy * dy;
     sxy += dx * dy;
   }
-  if (sxx == 0.0 || syy == 0.0) {
-    throw DataError(std::string("pearson_correlation(): ") + (sxx == 0.0 ? "x" : "y") +
-                    " is constant; the correlation is undefined");
+  for (const auto& [v, ss, name] : {std::tuple{x, sxx, x_name}, std::tuple{y, syy, y_name}}) {
+    if (is_constant(v, ss)) {
+      throw DataError(names + std::string(name) + " is constant (every value equals " +
+                      format_number(v[0]) +
+                      " to within rounding error); the correlation is undefined");
+    }
   }
   CorrelationResult result;
   result.n = n;

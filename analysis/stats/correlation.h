@@ -26,7 +26,15 @@ struct CorrelationResult {
   CorrelationStrength strength = CorrelationStrength::kNone;
 };
 
-// x, y: same length n >= 3, finite, neither constant. Throws DataError.
-CorrelationResult pearson_correlation(std::span<const double> x, std::span<const double> y);
+// x, y: same length n >= 3, finite, neither constant. Throws DataError,
+// naming the variables by x_name and y_name (e.g. the CSV columns).
+//
+// "Constant" allows for rounding: a spread no larger than the error of the
+// mean itself, sd <= 4·(n + 1)·ε·max|v|, is noise (0.1, 0.1, 0.1 has a mean
+// of 0.10000000000000002, and Σ(x − x̄)² = 6e-34 rather than 0), and r and p
+// computed from it would be meaningless (r = 0, p = 1, say).
+CorrelationResult pearson_correlation(std::span<const double> x, std::span<const double> y,
+                                      std::string_view x_name = "x",
+                                      std::string_view y_name = "y");
 
 }  // namespace hapticlab::analysis

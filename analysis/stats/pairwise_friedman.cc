@@ -22,8 +22,8 @@ std::vector<PairwiseComparison> pairwise_friedman_vs_control(const BlockTable& t
                                                              double alpha) {
   const std::size_t c = table.treatment_index(control);
   if (table.treatment_count() < 2) {
-    throw DataError("pairwise_friedman_vs_control(): only the control '" + control +
-                    "' is present; nothing to compare");
+    throw DataError("only the control treatment '" + control +
+                    "' is present; there is nothing to compare it with");
   }
   const double level = sidak_level(alpha, table.treatment_count() - 1);
 
@@ -32,17 +32,13 @@ std::vector<PairwiseComparison> pairwise_friedman_vs_control(const BlockTable& t
     if (t == c) continue;
     PairwiseComparison cmp;
     cmp.treatment = table.treatment_names[t];
-    // The blocks with data for both: "all data available" for this pair.
-    BlockTable pair;
-    pair.treatment_names = {table.treatment_names[c], table.treatment_names[t]};
-    for (std::size_t b = 0; b < table.block_count(); ++b) {
-      if (table.cells[b][c].empty() || table.cells[b][t].empty()) continue;
-      pair.block_names.push_back(table.block_names[b]);
-      pair.cells.push_back({table.cells[b][c], table.cells[b][t]});
-    }
-    cmp.n_blocks = pair.block_count();
+    const BalancedPair pair = balance_pair(table, c, t);
+    cmp.replicates = pair.replicates;
+    cmp.dropped_observations = pair.dropped;
+    cmp.blocks_left_out = pair.blocks_left_out;
+    cmp.n_blocks = pair.table.block_count();
     if (cmp.n_blocks > 0) {
-      const TestResult r = friedman_test(pair);
+      const TestResult r = friedman_test(pair.table);
       cmp.p = r.p;
       cmp.statistic = r.statistic;
       cmp.df = r.df;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/stats/balanced_pair.h"
 #include "analysis/stats/block_table.h"
 
 namespace hapticlab::analysis {
@@ -21,6 +22,11 @@ struct PairwiseComparison {
   std::size_t n_blocks = 0;     // blocks that entered the test
   std::size_t n_observations = 0;  // values in those blocks, both cells, all replicates
   bool significant = false;     // p < sidak_level
+  // Balancing (see balanced_pair.h): replicates per cell, and what was left
+  // out to reach them.
+  std::size_t replicates = 0;
+  std::size_t dropped_observations = 0;
+  std::size_t blocks_left_out = 0;
 };
 
 // 1 − (1 − alpha)^(1/m); alpha in (0, 1), m >= 1. Throws DataError otherwise.
@@ -28,8 +34,8 @@ double sidak_level(double alpha, std::size_t m);
 
 // Compares `control` (a treatment name in table) with every other treatment,
 // in table order; m is the number of other treatments. Blocks missing either
-// cell are left out of that comparison. Within the blocks used, the two cells
-// of a block must hold equal numbers of replicates (DataError otherwise).
+// cell are left out of that comparison, and the rest are balanced to equal
+// replicates with balance_pair(), as the study analysis does.
 std::vector<PairwiseComparison> pairwise_friedman_vs_control(const BlockTable& table,
                                                              const std::string& control,
                                                              double alpha = 0.05);

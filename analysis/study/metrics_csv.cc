@@ -1,33 +1,18 @@
 #include "analysis/study/metrics_csv.h"
 
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <ostream>
 #include <string>
 
 #include "analysis/stats/data_error.h"
+#include "core/common/csv_format.h"
 
 namespace hapticlab::analysis {
 namespace {
 
-std::string number(double v) {
-  if (!std::isfinite(v)) return "";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
-
-// RFC 4180 quoting, only where needed (names may hold commas).
-std::string field(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out + '"';
-}
+// Shortest round-trip form; a missing measure (NaN) is an empty field.
+std::string number(double v) { return std::isfinite(v) ? format_number(v) : std::string(); }
 
 }  // namespace
 
@@ -41,13 +26,13 @@ void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
       const bool have = t.window.has_value();
       std::string note = t.problem;
       if (have && h.force_samples == 0) note = "no sample reached the contact threshold: force measures missing";
-      out << t.trial_id << ',' << field(t.participant) << ',' << field(t.task) << ',' << field(t.setting) << ','
+      out << t.trial_id << ',' << csv_text(t.participant) << ',' << csv_text(t.task) << ',' << csv_text(t.setting) << ','
           << t.repetition << ',' << t.block << ',' << t.position << ',' << t.status << ',' << hand_name(hand) << ','
           << (have ? number(t.window->start_s) : "") << ',' << (have ? number(t.window->end_s) : "") << ','
           << number(t.value(Measure::kCompletionTime, hand)) << ',' << (have ? std::to_string(h.samples) : "")
           << ',' << (have ? std::to_string(h.force_samples) : "") << ',' << number(t.value(Measure::kForceMedian, hand))
           << ',' << number(t.value(Measure::kForceP95, hand)) << ',' << number(t.value(Measure::kSpeedMedian, hand))
-          << ',' << number(t.value(Measure::kPathLength, hand)) << ',' << field(note) << '\n';
+          << ',' << number(t.value(Measure::kPathLength, hand)) << ',' << csv_text(note) << '\n';
     }
   }
 }

@@ -9,7 +9,8 @@
 // trial_number is the trial's position in the participant's schedule (the
 // thesis' "trial number", 3.4.2.2). completion_time_s belongs to the trial
 // and repeats on both hands' rows. A missing value is an empty field, and
-// `note` says why. Numbers are written with 9 significant digits.
+// `note` says why. Numbers are written in the shortest form that reads back
+// to the same double (core/common/csv_format.h).
 #include <filesystem>
 #include <iosfwd>
 

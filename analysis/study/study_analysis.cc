@@ -4,12 +4,14 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <set>
 #include <sstream>
 #include <utility>
 
+#include "analysis/stats/balanced_pair.h"
 #include "analysis/stats/block_table.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/stats/durbin.h"
@@ -116,6 +118,37 @@ std::string format_p(double p) {
   }
   std::snprintf(buf, sizeof buf, "%.0fE%d", mantissa, exponent);
   return buf;
+}
+
+std::string format_level(double level) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", level);
+  return buf;
+}
+
+std::string format_p(double p, double level) {
+  std::string text = format_p(p);
+  if (!std::isfinite(p) || !std::isfinite(level) || p == 0.0) return text;
+  const double shown_level = std::strtod(format_level(level).c_str(), nullptr);
+  // Trailing zeros kept ("0.007300"), so the digits shown say how close it is.
+  const auto rounded = [](double v, int digits) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%#.*g", digits, v);
+    return std::string(buf);
+  };
+  // Readable: on the same side of the level as printed as p is of the level,
+  // and not the same text as the level at this precision (0.00729 against
+  // 0.0073 must not print as "0.0073").
+  const auto readable = [&](const std::string& shown, int digits) {
+    const bool below = std::strtod(shown.c_str(), nullptr) < shown_level;
+    return below == (p < level) && (p == level || rounded(p, digits) != rounded(level, digits));
+  };
+  if (readable(text, 2)) return text;
+  for (int digits = 3; digits < 17; ++digits) {
+    text = rounded(p, digits);
+    if (readable(text, digits)) return text;
+  }
+  return rounded(p, 17);
 }
 
 // ---------------------------------------------------------------------------
@@ -527,58 +560,20 @@ void run_statistics(StudyAnalysis& a) {
           return r.task == task && r.measure == m && r.hand == -1 && r.test.result && r.test.result->p < o.alpha;
         });
         const std::vector<Point> points = collect(a, "", task, m, -1);
-        std::map<std::pair<std::string, std::string>, std::vector<double>> cells;
-        std::vector<std::string> blocks;
+        std::vector<Observation> pair_points;
         for (const auto& p : points) {
-          if (p.setting != a.control && p.setting != setting) continue;
-          cells[{p.block, p.setting}].push_back(p.value);
-          add_unique(blocks, p.block);
+          if (p.setting == a.control || p.setting == setting) pair_points.push_back({p.block, p.setting, "", p.value});
         }
-        // The replicated Friedman test needs the same number of repetitions
-        // in every cell. A time-out or a hand without contact leaves a cell
-        // short, so balance: every block keeps its first r repetitions per
-        // setting, with r chosen to keep the most observations (on a tie,
-        // the most blocks); a block with fewer than r is left out.
-        std::vector<std::pair<std::string, std::size_t>> usable;  // block, repetitions in both cells
-        std::size_t available = 0;
-        for (const auto& b : blocks) {
-          auto c = cells.find({b, a.control});
-          auto s = cells.find({b, setting});
-          if (c == cells.end() || s == cells.end()) continue;
-          usable.emplace_back(b, std::min(c->second.size(), s->second.size()));
-          available += c->second.size() + s->second.size();
-        }
-        std::size_t r = 0, best_kept = 0;
-        for (const auto& [block, reps] : usable) {
-          std::size_t blocks_with = 0;
-          for (const auto& other : usable) blocks_with += other.second >= reps ? 1 : 0;
-          const std::size_t kept = 2 * reps * blocks_with;
-          if (kept > best_kept || (kept == best_kept && reps < r)) {
-            best_kept = kept;
-            r = reps;
-          }
-        }
-        BlockTable table;
-        table.treatment_names = {a.control, setting};
+        // Balanced as `stats pairwise` does: same replicates in every cell.
+        const BlockTable both = BlockTable::from_observations(pair_points);
+        const BalancedPair balanced =
+            both.treatment_count() == 2
+                ? balance_pair(both, both.treatment_index(a.control), both.treatment_index(setting))
+                : BalancedPair{};
+        const BlockTable& table = balanced.table;
         std::set<std::string> participants;
-        std::size_t blocks_left_out = 0;
-        for (const auto& [b, reps] : usable) {
-          if (reps < r) {
-            ++blocks_left_out;
-            continue;
-          }
-          const auto& c = cells.at({b, a.control});
-          const auto& s = cells.at({b, setting});
-          table.block_names.push_back(b);
-          table.cells.push_back({std::vector<double>(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(r)),
-                                 std::vector<double>(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(r))});
-          participants.insert(b.substr(0, b.find('/')));
-        }
-        if (best_kept < available) {
-          cell.note = "balanced to " + std::to_string(r) + " repetition(s) per cell: " +
-                      std::to_string(available - best_kept) + " observation(s) dropped" +
-                      (blocks_left_out > 0 ? ", " + std::to_string(blocks_left_out) + " block(s) left out" : "");
-        }
+        for (const auto& b : table.block_names) participants.insert(b.substr(0, b.find('/')));
+        cell.note = balanced.note();
         cell.blocks = table.block_names.size();
         cell.participants = participants.size();
         if (table.block_names.empty()) {
@@ -738,7 +733,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
         std::string cell = "N/A";
         for (const auto* r : rows) {
           if (r->measure == m && r->test.result) {
-            cell = format_p(r->test.result->p) + (r->test.result->p < a.options.alpha ? "*" : "");
+            cell = format_p(r->test.result->p, a.options.alpha) + (r->test.result->p < a.options.alpha ? "*" : "");
           }
         }
         out << pad(cell, kColWidth);
@@ -748,8 +743,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
   }
   out << "* p < " << a.options.alpha << "\n\n";
 
-  char level[32];
-  std::snprintf(level, sizeof level, "%.4f", a.sidak_level);
+  const std::string level = format_level(a.sidak_level);
   int table_number = 5;
   for (const auto& task : a.tasks) {
     out << "Table 3." << table_number++ << "  " << task << ": " << a.control
@@ -767,7 +761,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
         std::string text = "N/A";
         for (const auto& cell : a.pairwise) {
           if (cell.task != task || cell.setting != a.settings[si] || cell.measure != m || !cell.p) continue;
-          text = format_p(*cell.p) + (cell.significant ? "**" : "");
+          text = format_p(*cell.p, a.sidak_level) + (cell.significant ? "**" : "");
           if (cell.gated) text = "(" + text + ")";
         }
         out << pad(text, kColWidth);
@@ -788,7 +782,7 @@ std::string format_headline_tables(const StudyAnalysis& a) {
       std::string text = "N/A";
       for (const auto& r : a.whole_design) {
         if (r.task == task && r.measure == m && r.test.result) {
-          text = format_p(r.test.result->p) + (r.test.result->p < a.options.alpha ? "*" : "");
+          text = format_p(r.test.result->p, a.options.alpha) + (r.test.result->p < a.options.alpha ? "*" : "");
           text += " " + std::string(r.test.result->method == "Skillings-Mack" ? "SM" : r.test.result->method.substr(0, 1));
         }
       }

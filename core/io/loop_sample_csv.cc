@@ -1,22 +1,20 @@
 #include "core/io/loop_sample_csv.h"
 
-#include <charconv>
+#include "core/common/csv_format.h"
 
 namespace hapticlab {
 
 namespace {
 
-void append_number(std::string& line, double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 17);
-  line.append(buf, r.ptr);
+// Shortest round-trip numbers (core/common/csv_format.h), each followed by
+// the separator.
+void append_real(std::string& line, double v) {
+  append_number(line, v);
   line.push_back(',');
 }
 
 void append_integer(std::string& line, long long v) {
-  char buf[24];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  line.append(buf, r.ptr);
+  append_number(line, v);
   line.push_back(',');
 }
 
@@ -46,17 +44,17 @@ void LoopSampleCsvWriter::add_event(const TaskEvent& event) { pending_.push_back
 void LoopSampleCsvWriter::write(const LoopSample& s) {
   line_.clear();
   append_integer(line_, static_cast<long long>(s.tick));
-  append_number(line_, s.t_s);
-  append_number(line_, s.dt_s);
+  append_real(line_, s.t_s);
+  append_real(line_, s.dt_s);
   append_integer(line_, s.device_status);
   for (const InstrumentSample& in : s.instrument) {
-    for (double v : in.raw_position) append_number(line_, v);
-    for (double v : in.degraded_position) append_number(line_, v);
-    for (double v : in.tip_position_m) append_number(line_, v);
-    for (double v : in.tip_velocity_m_per_s) append_number(line_, v);
-    for (double v : in.ve_force_N) append_number(line_, v);
-    for (double v : in.displayed_force_N) append_number(line_, v);
-    for (double v : in.joint_force) append_number(line_, v);
+    for (double v : in.raw_position) append_real(line_, v);
+    for (double v : in.degraded_position) append_real(line_, v);
+    for (double v : in.tip_position_m) append_real(line_, v);
+    for (double v : in.tip_velocity_m_per_s) append_real(line_, v);
+    for (double v : in.ve_force_N) append_real(line_, v);
+    for (double v : in.displayed_force_N) append_real(line_, v);
+    for (double v : in.joint_force) append_real(line_, v);
     append_integer(line_, in.engine_status);
     append_integer(line_, in.in_contact ? 1 : 0);
   }

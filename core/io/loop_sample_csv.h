@@ -11,7 +11,8 @@
 //   p insertion_force_N pitch_torque_Nm yaw_torque_Nm  p engine_status p contact
 // and events: "left:contact_start;task:task_complete" (instrument or "task",
 // event name, and "#index" for tissue cells and clips).
-// Numbers are written with 17 significant digits, so they read back exactly.
+// Numbers are written in the shortest form that reads back to the same
+// double (core/common/csv_format.h, as every HapticLab CSV).
 
 #include <deque>
 #include <ostream>

@@ -9,6 +9,8 @@
 #include <ostream>
 #include <system_error>
 
+#include "core/common/csv_format.h"
+
 namespace hapticlab {
 namespace {
 
@@ -50,12 +52,6 @@ std::string parse_number(std::string_view cell, double& value) {
     return "non-numeric cell '" + std::string(cell) + "'";
   }
   return {};
-}
-
-std::string format_number(double v) {
-  char buf[32];
-  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
-  return ec == std::errc{} ? std::string(buf, end) : std::string("?");
 }
 
 template <typename Names>
@@ -231,10 +227,8 @@ void TrajectoryCsvWriter::write(const TrajectoryRow& row, const InstrumentOutput
   // replayed output reproduces the numbers exactly.
   line_.clear();
   const auto add = [this](auto value) {
-    char buf[32];
-    const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, value);
     if (!line_.empty()) line_ += ',';
-    line_.append(buf, ec == std::errc{} ? end : buf);
+    append_number(line_, value);
   };
   add(row.t_s);
   add(row.instrument);

@@ -1,6 +1,7 @@
 #include "app/stats_command.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -184,6 +185,89 @@ TEST_F(StatsCommandTest, KsBootstrapNeedsReplicateColumn) {
                     "--value", "v", "--control", "A", "--other", "B", "--bootstrap", "10",
                     "--block-length", "1"}),
                analysis::DataError);
+}
+
+// One repetition of T missing in block 2 used to fail every comparison
+// ("unequal replicates"); now balanced as the study analysis does. Kept: 2
+// per cell in all 3 blocks (12 of 16 values), C below T in each: Q = 7.2
+// (see PairwiseFriedmanTest.UnequalRepetitionsAreBalanced).
+TEST_F(StatsCommandTest, PairwiseBalancesUnequalRepetitionsAndSaysWhatWasDropped) {
+  const auto path = write_file("u.csv",
+                               "b,t,v\n"
+                               "B1,C,1\nB1,C,2\nB1,C,3\nB1,T,4\nB1,T,5\nB1,T,6\n"
+                               "B2,C,1\nB2,C,2\nB2,C,3\nB2,T,4\nB2,T,5\n"
+                               "B3,C,1\nB3,C,2\nB3,T,3\nB3,T,4\nB3,T,5\n");
+  const std::vector<std::string> args = {"stats", "pairwise", "--csv", path.string(), "--block",
+                                         "b", "--treatment", "t", "--value", "v", "--control", "C"};
+  const std::string out = run(args);
+  EXPECT_THAT(out, HasSubstr("7.2"));
+  EXPECT_THAT(out, HasSubstr("T: balanced to 2 repetition(s) per cell: 4 observation(s) dropped"));
+  std::vector<std::string> json_args = args;
+  json_args.push_back("--json");
+  const auto j = nlohmann::json::parse(run(json_args));
+  const auto& c = j.at("comparisons").at(0);
+  EXPECT_NEAR(c.at("statistic").get<double>(), 7.2, 1e-12);
+  EXPECT_EQ(c.at("replicates").get<int>(), 2);
+  EXPECT_EQ(c.at("dropped_observations").get<int>(), 4);
+  EXPECT_EQ(c.at("blocks_left_out").get<int>(), 0);
+}
+
+// A pooled two-sample test needs no block column. {1, 2, 3} vs {4, 5, 6}:
+// D = 1, exact p = 2/C(6, 3) = 0.1 (the asymptotic p would be
+// Q(sqrt(3·3/6)) = 2(e^−3 − e^−12 + e^−27 ...) = 0.0996).
+TEST_F(StatsCommandTest, KsPooledNeedsNoBlockAndReportsTheExactP) {
+  const auto path = write_file("k.csv", "setting,force\nA,1\nA,2\nA,3\nB,4\nB,5\nB,6\n");
+  const std::vector<std::string> args = {"stats", "ks", "--csv", path.string(), "--treatment",
+                                         "setting", "--value", "force", "--control", "A",
+                                         "--other", "B"};
+  EXPECT_THAT(run(args), HasSubstr("D = 1, exact p = 0.1\n"));
+  std::vector<std::string> json_args = args;
+  json_args.push_back("--json");
+  const auto j = nlohmann::json::parse(run(json_args));
+  EXPECT_EQ(j.at("p_method"), "exact");
+  EXPECT_NEAR(j.at("p").get<double>(), 0.1, 1e-15);
+  EXPECT_NEAR(j.at("p_asymptotic").get<double>(),
+              2.0 * (std::exp(-3.0) - std::exp(-12.0) + std::exp(-27.0)), 1e-12);
+  // The bootstrap resamples per participant, so it does need the column.
+  json_args.insert(json_args.end(), {"--bootstrap", "10", "--block-length", "1", "--replicate",
+                                     "setting"});
+  try {
+    run(json_args);
+    FAIL() << "expected DataError";
+  } catch (const analysis::DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--block"));
+  }
+}
+
+// A header and no rows used to print nothing and exit 0.
+TEST_F(StatsCommandTest, HeaderOnlyCsvIsRefused) {
+  const auto path = write_file("h.csv", "block,treatment,value,x,y\n");
+  const std::vector<std::vector<std::string>> commands = {
+      {"stats", "correlation", "--csv", path.string(), "--x", "x", "--y", "y"},
+      {"stats", "friedman", "--csv", path.string()},
+      {"stats", "pairwise", "--csv", path.string(), "--control", "A"},
+      {"stats", "durbin", "--csv", path.string()},
+      {"stats", "skillings-mack", "--csv", path.string()},
+      {"stats", "ks", "--csv", path.string(), "--control", "A", "--other", "B"}};
+  for (const auto& args : commands) {
+    try {
+      run(args);
+      ADD_FAILURE() << args[1] << ": expected DataError";
+    } catch (const analysis::DataError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("no data rows")) << args[1];
+      EXPECT_THAT(e.what(), HasSubstr("h.csv")) << args[1];
+    }
+  }
+}
+
+TEST_F(StatsCommandTest, CorrelationOfAConstantColumnNamesIt) {
+  const auto path = write_file("c.csv", "trial,force\n1,0.1\n2,0.1\n3,0.1\n");
+  try {
+    run({"stats", "correlation", "--csv", path.string(), "--x", "trial", "--y", "force"});
+    FAIL() << "expected DataError";
+  } catch (const analysis::DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("force is constant"));
+  }
 }
 
 TEST_F(StatsCommandTest, ErrorsAreRuntimeErrorsNamingTheProblem) {

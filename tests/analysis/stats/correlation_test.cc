@@ -3,12 +3,15 @@
 #include <cmath>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "analysis/stats/data_error.h"
 
 namespace hapticlab::analysis {
 namespace {
+
+using ::testing::HasSubstr;
 
 // R's cor.test(x, y) output, as published in the articles cited per test;
 // tolerances are half a unit in the last printed digit.
@@ -69,6 +72,27 @@ TEST(CorrelationTest, RejectsBadInput) {
                DataError);
   EXPECT_THROW(pearson_correlation(three, std::vector<double>{5, 5, 5}), DataError);
   EXPECT_THROW(pearson_correlation(three, std::vector<double>{1, NAN, 2}), DataError);
+}
+
+// 0.1 + 0.1 + 0.1 = 0.30000000000000004, so the mean of three 0.1s is
+// 0.10000000000000002 and Σ(y − ȳ)² = 6e-34, not 0: without a tolerance this
+// gave r = 0, p = 1 for a constant y.
+TEST(CorrelationTest, ConstantUpToRoundingIsRefused) {
+  const std::vector<double> x = {1, 2, 3};
+  const std::vector<double> y = {0.1, 0.1, 0.1};
+  try {
+    pearson_correlation(x, y, "trial", "force_N");
+    FAIL() << "expected DataError";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("force_N is constant"));
+    EXPECT_THAT(e.what(), HasSubstr("0.1"));
+  }
+  EXPECT_THROW(pearson_correlation(y, x), DataError);
+  // A real spread, 7000 ulps of 0.1 and some 200 times the threshold, is
+  // still a correlation (the steps are exact to 1 ulp in 7000).
+  const CorrelationResult tiny =
+      pearson_correlation(x, std::vector<double>{0.1, 0.1 + 1e-13, 0.1 + 2e-13});
+  EXPECT_NEAR(tiny.r, 1.0, 1e-3);
 }
 
 }  // namespace

@@ -73,6 +73,60 @@ TEST(KolmogorovSmirnovTest, ThesisCriticalValueIsFivePercent) {
   EXPECT_NEAR(kolmogorov_upper(lambda), 0.05, 0.001);
 }
 
+// Exact p (n1·n2 < 10 000): under H0 each of the C(n1+n2, n1) assignments of
+// the pooled values to the samples is equally likely. Disjoint samples reach
+// D = 1 only by the two assignments "all of a first" and "all of b first".
+TEST(KolmogorovSmirnovTest, ExactPOfDisjointSamplesIsTwoOverTheAssignments) {
+  const KsResult r = ks_test(std::vector<double>{1, 2, 3}, std::vector<double>{4, 5, 6});
+  EXPECT_TRUE(r.exact);
+  EXPECT_NEAR(r.p, 2.0 / 20.0, 1e-15);  // C(6, 3) = 20
+  // 2 / C(100, 50) = 1.98233e-29: the upper tail is summed from its own
+  // paths, so a tiny p keeps its digits (1 − P(D < d) would give 0).
+  std::vector<double> a;
+  std::vector<double> b;
+  for (int i = 0; i < 50; ++i) {
+    a.push_back(i);
+    b.push_back(i + 50);
+  }
+  EXPECT_NEAR(ks_exact_p(a, b) / (2.0 / 100891344545564193334812497256.0), 1.0, 1e-12);
+}
+
+// Ties, as R's psmirnov treats them: the gap counts only where the pooled
+// value changes. a = {1, 1, 2}, b = {2, 3}: pooled 1 1 2 2 3, D = 2/3 (after
+// the 1s). Of the C(5, 3) = 10 assignments, D >= 2/3 at a value change
+// (after position 2 or 4) only when positions 1-2 are both a (3 ways) or
+// both b (1 way): p = 4/10. Judging inside the run of 2s as well would count
+// 6 of 10 (enumerated).
+TEST(KolmogorovSmirnovTest, ExactPWithTiesByEnumeration) {
+  const KsResult r = ks_test(std::vector<double>{1, 1, 2}, std::vector<double>{2, 3});
+  EXPECT_NEAR(r.d, 2.0 / 3.0, kExact);
+  EXPECT_NEAR(r.p, 0.4, 1e-15);
+}
+
+// Independent check against SciPy 1.10.1, scipy.stats.ks_2samp(a, b,
+// method='exact') for a = 0..79, b = 20.5..118.5: D = 40/99,
+// p = 5.345899461873255e-07.
+TEST(KolmogorovSmirnovTest, ExactPMatchesScipy) {
+  std::vector<double> a;
+  std::vector<double> b;
+  for (int i = 0; i < 80; ++i) a.push_back(i);
+  for (int k = 0; k < 99; ++k) b.push_back(k + 20.5);
+  const KsResult r = ks_test(a, b);
+  EXPECT_TRUE(r.exact);
+  EXPECT_NEAR(r.d, 40.0 / 99.0, kExact);
+  EXPECT_NEAR(r.p / 5.345899461873255e-07, 1.0, 1e-12);
+}
+
+// R's rule: exact when n1·n2 < 10 000 (99·101 = 9999), asymptotic from
+// 10 000 (AsymptoticPByHand above, 100·100).
+TEST(KolmogorovSmirnovTest, ExactBelowTenThousandPairs) {
+  const KsResult small = ks_test(std::vector<double>(99, 1.0), std::vector<double>(101, 2.0));
+  EXPECT_TRUE(small.exact);
+  const KsResult large = ks_test(std::vector<double>(100, 1.0), std::vector<double>(100, 2.0));
+  EXPECT_FALSE(large.exact);
+  EXPECT_EQ(large.p, large.p_asymptotic);
+}
+
 TEST(KolmogorovSmirnovTest, RejectsEmptySample) {
   EXPECT_THROW(ks_test(std::vector<double>{}, std::vector<double>{1}), DataError);
   EXPECT_THROW(ks_test(std::vector<double>{1, INFINITY}, std::vector<double>{1}), DataError);

@@ -1,11 +1,13 @@
 #include "analysis/stats/pairwise_friedman.h"
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "analysis/stats/balanced_pair.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/stats/friedman.h"
 
@@ -99,6 +101,58 @@ TEST(PairwiseFriedmanTest, NoSharedBlockIsNotApplicable) {
   EXPECT_EQ(with_sat.back().n_blocks, 0u);
   EXPECT_FALSE(with_sat.back().significant);
   EXPECT_EQ(result.size() + 1, with_sat.size());
+}
+
+// A short cell (a timed-out repetition) is balanced away, as the study
+// analysis does, instead of failing the comparison. Minimum repetitions in
+// both cells: B1 3, B2 2, B3 2. r = 3 keeps 2·3·1 = 6 values, r = 2 keeps
+// 2·2·3 = 12 of the 16: r = 2, 4 dropped. Kept, every block ranks C (1, 2)
+// below T (3, 4): R = (9, 21), E = 15, Σ(R−E)² = 72, σ² = 5/3 (N = 4),
+// Q = 72/(3·2·5/3) = 7.2, p = erfc(sqrt(3.6)).
+TEST(PairwiseFriedmanTest, UnequalRepetitionsAreBalanced) {
+  std::vector<Observation> obs;
+  const auto add = [&](const char* block, const char* treatment, std::vector<double> values) {
+    for (double v : values) obs.push_back({block, treatment, "", v});
+  };
+  add("B1", "C", {1, 2, 3});
+  add("B1", "T", {4, 5, 6});
+  add("B2", "C", {1, 2, 3});
+  add("B2", "T", {4, 5});
+  add("B3", "C", {1, 2});
+  add("B3", "T", {3, 4, 5});
+  const auto result = pairwise_friedman_vs_control(BlockTable::from_observations(obs), "C", 0.05);
+  ASSERT_EQ(result.size(), 1u);
+  const PairwiseComparison& c = result[0];
+  ASSERT_TRUE(c.p.has_value());
+  EXPECT_EQ(c.replicates, 2u);
+  EXPECT_EQ(c.dropped_observations, 4u);
+  EXPECT_EQ(c.blocks_left_out, 0u);
+  EXPECT_EQ(c.n_blocks, 3u);
+  EXPECT_EQ(c.n_observations, 12u);
+  EXPECT_NEAR(*c.statistic, 7.2, 1e-12);
+  EXPECT_NEAR(*c.p, std::erfc(std::sqrt(3.6)), 1e-15);
+}
+
+// r = 3 keeps 2·3·2 = 12 (B1, B2), r = 1 keeps 2·1·3 = 6: B3 is left out.
+TEST(PairwiseFriedmanTest, BalancingLeavesOutAShortBlockWhenThatKeepsMore) {
+  std::vector<Observation> obs;
+  const auto add = [&](const char* block, const char* treatment, std::vector<double> values) {
+    for (double v : values) obs.push_back({block, treatment, "", v});
+  };
+  add("B1", "C", {1, 2, 3});
+  add("B1", "T", {4, 5, 6});
+  add("B2", "C", {1, 2, 3});
+  add("B2", "T", {4, 5, 6});
+  add("B3", "C", {1});
+  add("B3", "T", {2, 3});
+  const BalancedPair pair = balance_pair(BlockTable::from_observations(obs), 0, 1);
+  EXPECT_EQ(pair.replicates, 3u);
+  EXPECT_EQ(pair.available, 15u);
+  EXPECT_EQ(pair.dropped, 3u);
+  EXPECT_EQ(pair.blocks_left_out, 1u);
+  EXPECT_EQ(pair.table.block_names, (std::vector<std::string>{"B1", "B2"}));
+  EXPECT_EQ(pair.note(),
+            "balanced to 3 repetition(s) per cell: 3 observation(s) dropped, 1 block(s) left out");
 }
 
 TEST(PairwiseFriedmanTest, UnknownControlListsTreatments) {

@@ -15,6 +15,7 @@
 #include "analysis/stats/block_table.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/stats/friedman.h"
+#include "analysis/stats/ks_bootstrap.h"
 #include "analysis/study/metrics_csv.h"
 #include "study/synthetic_study_db.h"
 
@@ -308,15 +309,53 @@ TEST_F(StudyAnalysisTest, TrialNumberCorrelations) {
   EXPECT_TRUE(time_seen);
 }
 
-TEST_F(StudyAnalysisTest, KsComparisonsForEveryHandQuantityAndSetting) {
+// The KS rows are the bootstrap of exactly the series the header of
+// synthetic_study_db.h describes. Left-hand force, High Fidelity vs No Force
+// Feedback (the first comparison): inside the window the samples above 1 mN
+// are k·f, k = 1..5, with f = base + rep/8 + participant/16, so P1 has HF
+// f = 1.1875, 1.3125 and NFF f = 2.1875, 2.3125, and P2 each 1/16 more.
+// The analysis seeds comparison c with seed·0x9E3779B97F4A7C15 + c. The same
+// bootstrap run on those hand-built series must give the same ranges, bit
+// for bit: a leaked out-of-window sample (100 N), the wrong hand or a
+// missing repetition changes them.
+TEST_F(StudyAnalysisTest, KsRowIsTheBootstrapOfTheHandWorkedSeries) {
   const StudyAnalysis a = analyze();
   EXPECT_EQ(a.ks.size(), 1u * 2 * 2 * 2);  // task × hand × {force, speed} × 2 settings
-  for (const auto& r : a.ks) {
-    ASSERT_TRUE(r.result.has_value()) << r.note;
-    EXPECT_LE(r.result->intra.low, r.result->intra.high);
-    EXPECT_GE(r.result->inter.low, 0.0);
-    EXPECT_LE(r.result->inter.high, 1.0);
+  const KsRow& row = a.ks.at(0);
+  ASSERT_EQ(row.hand, 0);
+  ASSERT_EQ(row.quantity, "force");
+  ASSERT_EQ(row.setting, "No Force Feedback");
+  ASSERT_TRUE(row.result.has_value()) << row.note;
+
+  const auto series = [](double f) {
+    std::vector<double> v;
+    for (int k = 1; k <= 5; ++k) v.push_back(k * f);
+    return v;
+  };
+  std::vector<ParticipantRepetitions> data;
+  for (int p = 1; p <= 2; ++p) {
+    ParticipantRepetitions reps;
+    reps.participant = "P" + std::to_string(p);
+    for (int rep = 1; rep <= 2; ++rep) {
+      reps.control.push_back(series(trial_force_N(p, 0, rep)));
+      reps.other.push_back(series(trial_force_N(p, 1, rep)));
+    }
+    data.push_back(reps);
   }
+  KsBootstrapOptions o;
+  o.resamples = 200;
+  o.block_length = 2;
+  o.seed = 1 * 0x9E3779B97F4A7C15ULL + 1;
+  const KsBootstrapResult expected = ks_block_bootstrap(data, o);
+  EXPECT_EQ(row.result->intra.low, expected.intra.low);
+  EXPECT_EQ(row.result->intra.high, expected.intra.high);
+  EXPECT_EQ(row.result->inter.low, expected.inter.low);
+  EXPECT_EQ(row.result->inter.high, expected.inter.high);
+  EXPECT_EQ(row.result->significant, expected.significant);
+  EXPECT_EQ(row.result->participants_used, 2u);
+  // and the ranges are not degenerate, so the comparison above means something
+  EXPECT_LT(expected.intra.low, expected.intra.high);
+  EXPECT_LT(expected.inter.low, expected.inter.high);
 }
 
 TEST_F(StudyAnalysisTest, MetricsCsvOneRowPerTrialAndHand) {
@@ -345,6 +384,35 @@ TEST_F(StudyAnalysisTest, MetricsCsvOneRowPerTrialAndHand) {
     EXPECT_EQ(csv.text(row, csv.column("trial_number")), "2");
   }
   EXPECT_EQ(checked, 1);
+}
+
+// %.9g printed 0.1 + 0.2 as 0.3 and 1/3 as 0.333333333, which read back as
+// other doubles; the shortest round-trip form reads back exactly.
+TEST(MetricsCsvTest, NumbersReadBackToTheSameDouble) {
+  StudyAnalysis a;
+  TrialRecord t;
+  t.trial_id = 1;
+  t.participant = "P1, \"left-handed\"";  // quoting, too
+  t.task = "clip";
+  t.setting = "HiFi";
+  t.window = TaskWindow{0.1, 0.1 + 0.2};
+  t.hands[0] = {3, 3, 1.0 / 3.0, 2.0 / 3.0, 1e-300 * 3.0, 123456.78901234567};
+  t.hands[1] = {3, 0, std::nan(""), std::nan(""), 0.1, 0.7};
+  a.trials.push_back(t);
+  std::ostringstream out;
+  write_metrics_csv(a, out);
+  const LongCsv csv = LongCsv::parse(out.str(), "metrics.csv");
+  ASSERT_EQ(csv.row_count(), 2u);
+  EXPECT_EQ(csv.text(0, csv.column("participant")), t.participant);
+  EXPECT_EQ(csv.number(0, csv.column("task_end_s")), 0.1 + 0.2);
+  EXPECT_EQ(csv.text(0, csv.column("task_end_s")), "0.30000000000000004");
+  EXPECT_EQ(csv.text(0, csv.column("task_start_s")), "0.1");
+  EXPECT_EQ(csv.number(0, csv.column("completion_time_s")), (0.1 + 0.2) - 0.1);
+  EXPECT_EQ(csv.number(0, csv.column("force_median_N")), 1.0 / 3.0);
+  EXPECT_EQ(csv.number(0, csv.column("force_p95_N")), 2.0 / 3.0);
+  EXPECT_EQ(csv.number(0, csv.column("speed_median_m_per_s")), 1e-300 * 3.0);
+  EXPECT_EQ(csv.number(0, csv.column("path_length_m")), 123456.78901234567);
+  EXPECT_EQ(csv.text(1, csv.column("force_median_N")), "");  // missing stays empty
 }
 
 TEST_F(StudyAnalysisTest, HeadlineTablesShowThesisLayout) {
@@ -378,6 +446,19 @@ TEST(FormatTest, PValuesLikeTheThesis) {
   EXPECT_EQ(format_p(6.3e-5), "6E-5");
   EXPECT_EQ(format_p(9.6e-5), "1E-4");
   EXPECT_EQ(format_p(1.0), "1");
+  // Next to a decision level, as many digits as it takes to see the side:
+  // 0.00729 and 0.00734 against the Šidák level 0.0073008 (m = 7) used to
+  // print as "0.0073**" and "0.0073".
+  const double sidak = 1.0 - std::pow(0.95, 1.0 / 7.0);  // 0.0073008
+  EXPECT_EQ(format_level(sidak), "0.007301");
+  EXPECT_EQ(format_p(0.00729, sidak), "0.00729");
+  EXPECT_EQ(format_p(0.00734, sidak), "0.00734");
+  EXPECT_EQ(format_p(0.0073005, sidak), "0.007300");  // below 0.007301 as printed
+  EXPECT_EQ(format_p(0.0071, sidak), "0.0071");         // clear of it: thesis form
+  EXPECT_EQ(format_p(6.3e-5, sidak), "6E-5");
+  EXPECT_EQ(format_p(0.05, 0.05), "0.05");              // not below: not significant
+  EXPECT_EQ(format_p(0.0496, 0.05), "0.0496");          // "0.05" would look not significant
+  EXPECT_EQ(format_p(0.0504, 0.05), "0.0504");
   EXPECT_EQ(setting_abbreviation("No Force Feedback"), "NFF");
   EXPECT_EQ(setting_abbreviation("Inertia + Backlash"), "I+B");
   EXPECT_EQ(setting_abbreviation("Cogging"), "Cogging");
