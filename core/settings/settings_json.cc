@@ -1,7 +1,6 @@
 #include "core/settings/settings_json.h"
 
 #include <cmath>
-#include <fstream>
 #include <functional>
 #include <numbers>
 #include <set>
@@ -9,6 +8,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "core/io/input_file.h"
 
 namespace hapticlab {
 namespace {
@@ -279,19 +280,21 @@ NamedSettings settings_from_json(const json& j, const std::string& source) {
 NamedSettings settings_from_json_text(std::string_view text, const std::string& source) {
   json j;
   try {
-    j = json::parse(text);
-  } catch (const json::exception& e) {  // syntax errors, numbers beyond a double, ...
-    throw SettingsError(source + ": not valid JSON: " + e.what());
+    j = parse_json_strict(text);
+  } catch (const InputFileError& e) {  // syntax, depth, duplicate keys, numbers beyond a double
+    throw SettingsError(source + ": " + e.what());
   }
   return settings_from_json(j, source);
 }
 
 NamedSettings load_settings_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw SettingsError(path.string() + ": cannot open settings file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return settings_from_json_text(text.str(), path.string());
+  std::string text;
+  try {
+    text = read_text_file(path, kMaxJsonFileBytes, "settings file");
+  } catch (const InputFileError& e) {
+    throw SettingsError(e.what());
+  }
+  return settings_from_json_text(text, path.string());
 }
 
 json settings_to_json(const NamedSettings& named) {
