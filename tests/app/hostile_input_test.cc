@@ -175,6 +175,18 @@ TEST_F(HostileInputTest, EngineReplayReadsBomAndCrOnlyTrajectories) {
   EXPECT_THAT(out, HasSubstr("6 rows (instrument 0: 3, instrument 1: 3)"));
 }
 
+TEST_F(HostileInputTest, CsvInputsOfDevZeroStopAtTheirLimits) {
+  const auto [stats_status, stats_out] = run("stats correlation --csv /dev/zero --x x --y y");
+  EXPECT_EQ(stats_status, 1) << stats_out;
+  EXPECT_THAT(stats_out, HasSubstr("/dev/zero: larger than 64 MiB, the limit for a CSV file"));
+
+  const auto [replay_status, replay_out] = run("engine replay --settings " + settings_arg() +
+                                               " --input /dev/zero --output " + (dir_ / "out.csv").string());
+  EXPECT_EQ(replay_status, 1) << replay_out;
+  EXPECT_THAT(replay_out, HasSubstr("/dev/zero: line 1: longer than the 1 MiB limit for one line"));
+  EXPECT_EQ(entries(), 0u);
+}
+
 // ---------------------------------------------------------------- outputs
 
 TEST_F(HostileInputTest, EngineReplayOntoAFullDeviceNamesPathAndCause) {
