@@ -10,7 +10,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <random>
 #include <string>
@@ -18,6 +17,7 @@
 
 #include "core/engine/engine.h"
 #include "core/engine/status.h"
+#include "core/io/output_file.h"
 #include "core/io/trajectory_csv.h"
 #include "core/settings/settings_json.h"
 
@@ -64,9 +64,8 @@ struct Summary {
 
 Summary run_setting(const NamedSettings& setting, const fs::path& csv_path, double duration_s) {
   Engine engine(setting.engine, {hand(0, 0), hand(1, 0)});
-  std::ofstream file(csv_path);
-  if (!file) throw std::runtime_error("cannot write " + csv_path.string());
-  TrajectoryCsvWriter writer(file);
+  AtomicOutputFile file(csv_path);
+  TrajectoryCsvWriter writer(file.stream());
 
   std::mt19937_64 rng(2004);  // same VE timing for every setting
   std::uniform_real_distribution<double> rate_Hz(200.0, 2000.0);
@@ -88,7 +87,12 @@ Summary run_setting(const NamedSettings& setting, const fs::path& csv_path, doub
       depth[i] = new_depth;
       const TrajectoryRow row{t, i, hand(i, t), tissue_force(q_ve[i], rate)};
       const InstrumentOutput out = engine.update(i, {dt, row.position, row.ve_force_N});
-      writer.write(row, out);
+      try {
+        writer.write(row, out);
+      } catch (const TrajectoryCsvError&) {
+        file.check();  // the writer's message lacks the path and the cause
+        throw;
+      }
       q_ve[i] = out.degraded_position;
       const double f = out.displayed_force_N.norm();
       magnitudes.push_back(f);
@@ -98,6 +102,7 @@ Summary run_setting(const NamedSettings& setting, const fs::path& csv_path, doub
       if (out.status & kFaultMask) ++s.faults;
     }
   }
+  file.commit();
   s.updates = magnitudes.size();
   std::sort(magnitudes.begin(), magnitudes.end());
   s.p95_N = magnitudes[static_cast<std::size_t>(0.95 * (magnitudes.size() - 1))];

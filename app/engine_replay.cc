@@ -11,9 +11,9 @@
 
 #include "core/engine/engine.h"
 #include "core/engine/status.h"
+#include "core/io/output_file.h"
 #include "core/io/trajectory_csv.h"
 #include "core/settings/settings_json.h"
-#include "app/temp_output_file.h"
 
 namespace hapticlab::app {
 namespace {
@@ -46,10 +46,12 @@ std::array<JointVector, kNumInstruments> first_positions(const fs::path& input) 
 }
 
 void run_replay(const ReplayOptions& opt) {
+  refuse_output_over_input(opt.input, opt.output, "--input", "--output");
+  refuse_output_over_input(opt.settings, opt.output, "--settings", "--output");
   const NamedSettings settings = load_settings_file(opt.settings);
   Engine engine(settings.engine, first_positions(opt.input));
   TrajectoryCsvReader reader{fs::path(opt.input)};
-  TempOutputFile output(opt.output);
+  AtomicOutputFile output(opt.output);
   TrajectoryCsvWriter writer(output.stream());
 
   // dt is per instrument: rows of the other instrument in between do not
@@ -72,7 +74,12 @@ void run_replay(const ReplayOptions& opt) {
     last_t_s[i] = row.t_s;
 
     const InstrumentOutput out = engine.update(i, in);
-    writer.write(row, out);
+    try {
+      writer.write(row, out);
+    } catch (const TrajectoryCsvError&) {
+      output.check();  // the writer's message lacks the path and the cause
+      throw;
+    }
     ++rows[i];
     peak_force_N = std::max(peak_force_N, out.displayed_force_N.norm());
     if (out.status & kFaultMask) ++fault_rows;
@@ -109,7 +116,8 @@ void add_engine_replay_command(CLI::App& engine) {
                   "Output CSV: the input columns, then displayed_force_{x,y,z}_N, "
                   "insertion_force_N, pitch_torque_Nm, yaw_torque_Nm, degraded_insertion_m, "
                   "degraded_pitch_rad, degraded_yaw_rad, fault (status bits). Written to "
-                  "OUTPUT.tmp and renamed when complete")
+                  "OUTPUT.<pid>.tmp and renamed when complete, so a failed replay leaves no "
+                  "OUTPUT; must not be the input file")
       ->required();
   cmd->footer(
       "Sign conventions: world frame at the trocar, z up out of the patient; at zero pitch and "

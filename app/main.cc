@@ -1,4 +1,5 @@
 // hapticlab: command line entry point.
+#include <csignal>
 #include <cstdio>
 #include <exception>
 
@@ -21,6 +22,10 @@
 #include "app/bench_db.h"
 
 int main(int argc, char** argv) {
+  // A file size limit (ulimit -f) should fail the write with EFBIG, which the
+  // output files report with the path, instead of killing the process with
+  // SIGXFSZ and leaving a temporary file behind.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"HapticLab: make a high-end haptic device feel like inexpensive hardware, "
                "and study whether it matters."};
   app.require_subcommand(1);

@@ -6,9 +6,11 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "app/sim_run.h"
+#include "core/io/output_file.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
 #include "db/replay_frames.h"
@@ -79,6 +81,9 @@ int run(const SimReplayOptions& opt) {
   if (opt.db.empty() == opt.csv.empty())
     throw std::invalid_argument("give either --db with --trial, or --csv with --task and --settings");
   if (!opt.db.empty() && !opt.trial) throw std::invalid_argument("--trial: required with --db");
+  // Replacing the database by the output would lose the study.
+  for (const auto& [input, option] : {std::pair{&opt.db, "--db"}, {&opt.csv, "--csv"}, {&opt.settings, "--settings"}})
+    if (!input->empty()) refuse_output_over_input(*input, opt.output, option, "--output");
   Recording rec = opt.db.empty() ? from_csv(opt) : from_database(opt);
 
   SimTrialConfig config;

@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <string>
 
-#include "app/temp_output_file.h"
 #include "core/io/loop_sample_csv.h"
+#include "core/io/output_file.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
 
@@ -27,7 +27,7 @@ struct SimRunOptions {
 }  // namespace
 
 SimTrialResult run_sim_trial_to_csv(const SimTrialConfig& config, const std::filesystem::path& output) {
-  TempOutputFile file{output};
+  AtomicOutputFile file{output};
   LoopSampleCsvWriter writer(file.stream());
   SimTrialSink sink;
   sink.on_event = [&](const TaskEvent& e) { writer.add_event(e); };
@@ -42,6 +42,7 @@ namespace {
 int run(const SimRunOptions& opt) {
   SimTrialConfig config;
   config.task = parse_task_kind(opt.task);
+  refuse_output_over_input(opt.settings, opt.output, "--settings", "--output");
   const NamedSettings settings = load_settings_file(opt.settings);
   config.settings = settings.engine;
   config.participant_seed = opt.participant_seed;

@@ -13,6 +13,7 @@
 #include "app/data_paths.h"
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
+#include "core/io/input_file.h"
 #include "db/sha256.h"
 #include "db/study_db.h"
 #include "sessions/session_runner.h"
@@ -32,14 +33,7 @@ struct DemoOptions {
 };
 
 std::string read_text(const fs::path& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) throw std::runtime_error(path.string() + ": cannot open");
-  std::string text;
-  char buffer[4096];
-  std::size_t n;
-  while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) text.append(buffer, n);
-  std::fclose(f);
-  return text;
+  return read_text_file(path, kMaxJsonFileBytes, "protocol file");  // the cap the protocol reader applies
 }
 
 // Creates the study, or checks that the one already in `db_path` came from

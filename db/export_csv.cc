@@ -1,12 +1,11 @@
 #include "db/export_csv.h"
 
 #include <cctype>
-#include <fstream>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 
 #include "core/common/csv_format.h"
+#include "core/io/output_file.h"
 #include "db/sample_codec.h"
 
 namespace hapticlab::db {
@@ -23,39 +22,21 @@ std::string slug(std::string_view text) {
   return out.empty() ? "_" : out;
 }
 
-// Writes to "<path>.tmp", renames on commit(), removes the temp file if
-// never committed.
+// One export file, complete or absent (core/io/output_file.h): a full disk
+// names the file and the cause, and leaves no truncated CSV.
 class CsvFile {
  public:
-  explicit CsvFile(std::filesystem::path path) : path_(std::move(path)), temp_(path_.string() + ".tmp") {
-    out_.open(temp_, std::ios::binary | std::ios::trunc);
-    if (!out_) throw std::runtime_error(temp_.string() + ": cannot open for writing");
-  }
-  ~CsvFile() {
-    if (committed_) return;
-    out_.close();
-    std::error_code ignored;
-    std::filesystem::remove(temp_, ignored);
-  }
-  CsvFile(const CsvFile&) = delete;
-  CsvFile& operator=(const CsvFile&) = delete;
+  explicit CsvFile(std::filesystem::path path) : file_(std::move(path)) {}
   void line(std::string& text) {
     text += '\n';
-    out_.write(text.data(), static_cast<std::streamsize>(text.size()));
+    file_.stream().write(text.data(), static_cast<std::streamsize>(text.size()));
     text.clear();
   }
-  void commit() {
-    out_.close();
-    if (!out_) throw std::runtime_error(temp_.string() + ": write failed");
-    std::filesystem::rename(temp_, path_);
-    committed_ = true;
-  }
-  const std::filesystem::path& path() const { return path_; }
+  void commit() { file_.commit(); }
+  const std::filesystem::path& path() const { return file_.path(); }
 
  private:
-  std::filesystem::path path_, temp_;
-  std::ofstream out_;
-  bool committed_ = false;
+  AtomicOutputFile file_;
 };
 
 void put_trial_key(std::string& line, const TrialRow& t) {

@@ -9,6 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/io/input_file.h"
+
 namespace hapticlab::protocols {
 namespace {
 
@@ -242,19 +244,23 @@ Protocol protocol_from_json_text(std::string_view text, const std::filesystem::p
                                  const std::string& source) {
   json j;
   try {
-    j = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw ProtocolError(source, "(file)", std::string("is not valid JSON: ") + e.what());
+    j = parse_json_strict(text);
+  } catch (const InputFileError& e) {  // syntax, depth, duplicate keys, numbers beyond a double
+    throw ProtocolError(source, "(file)", std::string("is refused: ") + e.what());
   }
   return protocol_from_json(j, base_dir, source);
 }
 
+std::string read_protocol_text(const std::filesystem::path& path) {
+  try {
+    return read_text_file(path, kMaxJsonFileBytes, "protocol file");
+  } catch (const InputFileError& e) {
+    throw ProtocolError(path.string(), "(file)", std::string("cannot be read: ") + e.what());
+  }
+}
+
 Protocol load_protocol_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw ProtocolError(path.string(), "(file)", "cannot be opened");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return protocol_from_json_text(text.str(), path.parent_path(), path.string());
+  return protocol_from_json_text(read_protocol_text(path), path.parent_path(), path.string());
 }
 
 }  // namespace hapticlab::protocols

@@ -26,5 +26,8 @@ Protocol protocol_from_json(const nlohmann::json& j, const std::filesystem::path
 Protocol protocol_from_json_text(std::string_view text, const std::filesystem::path& base_dir,
                                  const std::string& source);
 Protocol load_protocol_file(const std::filesystem::path& path);
+// The protocol file's text, within the size cap of JSON inputs (what a
+// study stores byte for byte); ProtocolError naming the file otherwise.
+std::string read_protocol_text(const std::filesystem::path& path);
 
 }  // namespace hapticlab::protocols

@@ -1,8 +1,6 @@
 #include "sessions/study_setup.h"
 
-#include <fstream>
 #include <map>
-#include <sstream>
 #include <stdexcept>
 
 #include "protocols/protocol_json.h"
@@ -14,16 +12,16 @@ CreatedStudy create_study(db::StudyDb& db, const std::filesystem::path& protocol
                           const std::string& software_version) {
   if (!db.studies().empty())
     throw std::runtime_error(db.path() + ": already holds a study; create each study in a new database file");
-  std::ifstream in(protocol_file, std::ios::binary);
-  if (!in) throw std::runtime_error(protocol_file.string() + ": cannot open the protocol file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  const protocols::Protocol protocol = protocols::load_protocol_file(protocol_file);
+  // Read once: the text stored is the text parsed, and a huge or endless
+  // file (/dev/zero) stops at the size cap.
+  const std::string text = protocols::read_protocol_text(protocol_file);
+  const protocols::Protocol protocol =
+      protocols::protocol_from_json_text(text, protocol_file.parent_path(), protocol_file.string());
   const protocols::StudyPlan plan = protocols::make_study_plan(protocol);
 
   db::Transaction tx(db.connection());
   CreatedStudy created;
-  created.study_id = db.add_study({protocol.study, text.str(), protocol.seed, software_version});
+  created.study_id = db.add_study({protocol.study, text, protocol.seed, software_version});
   std::map<std::size_t, std::int64_t> setting_ids;  // protocol index -> row
   for (std::size_t i = 0; i < protocol.settings.size(); ++i)
     setting_ids[i] = db.add_setting(created.study_id, protocol.settings[i].settings);

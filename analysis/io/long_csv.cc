@@ -2,11 +2,10 @@
 
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <set>
-#include <sstream>
 
 #include "analysis/stats/data_error.h"
+#include "core/io/input_file.h"
 
 namespace hapticlab::analysis {
 namespace {
@@ -54,37 +53,37 @@ std::vector<std::string> split_fields(std::string_view line, const std::string& 
 
 std::string join(const std::vector<std::string>& names) {
   std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  // Invisible characters shown, so "participant" and "<U+FEFF>participant"
+  // do not look the same in a message.
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + visible_text(n);
   return out;
 }
 
 }  // namespace
 
 LongCsv LongCsv::read(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DataError(path.string() + ": cannot open for reading");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw DataError(path.string() + ": read failed");
-  return parse(text.str(), path.string());
+  try {
+    return parse(read_text_file(path, kMaxCsvFileBytes, "CSV file"), path.string());
+  } catch (const InputFileError& e) {
+    throw DataError(e.what());
+  }
 }
 
 LongCsv LongCsv::parse(std::string_view text, std::string source) {
   LongCsv csv;
   csv.source_ = std::move(source);
+  // Spreadsheet exports often start with a UTF-8 byte order mark.
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
   std::size_t line_number = 0;
   std::size_t pos = 0;
-  while (pos <= text.size()) {
-    auto end = text.find('\n', pos);
+  while (pos < text.size()) {
+    // A line ends at LF, CRLF or a lone CR (old Mac and some Excel exports).
+    auto end = text.find_first_of("\r\n", pos);
     if (end == std::string_view::npos) end = text.size();
-    std::string_view line = text.substr(pos, end - pos);
-    pos = end + 1;
+    const std::string_view line = text.substr(pos, end - pos);
+    pos = end + (text.substr(end).starts_with("\r\n") ? 2 : 1);
     ++line_number;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    if (trim(line).empty()) {
-      if (end == text.size()) break;
-      continue;
-    }
+    if (trim(line).empty()) continue;
     const std::string where = csv.source_ + ":" + std::to_string(line_number);
     auto fields = split_fields(line, where);
     if (csv.columns_.empty()) {
@@ -94,7 +93,7 @@ LongCsv LongCsv::parse(std::string_view text, std::string source) {
           throw DataError(where + ": header column " + std::to_string(c + 1) + " has no name");
         }
         if (!seen.insert(fields[c]).second) {
-          throw DataError(where + ": header names column '" + fields[c] + "' twice");
+          throw DataError(where + ": header names column '" + visible_text(fields[c]) + "' twice");
         }
       }
       csv.columns_ = std::move(fields);
@@ -106,7 +105,6 @@ LongCsv LongCsv::parse(std::string_view text, std::string source) {
       csv.rows_.push_back(std::move(fields));
       csv.lines_.push_back(line_number);
     }
-    if (end == text.size()) break;
   }
   if (csv.columns_.empty()) throw DataError(csv.source_ + ": empty file; expected a header row");
   return csv;
@@ -116,7 +114,7 @@ std::size_t LongCsv::column(const std::string& name) const {
   for (std::size_t c = 0; c < columns_.size(); ++c) {
     if (columns_[c] == name) return c;
   }
-  throw DataError(source_ + ": no column named '" + name + "'; the columns are: " + join(columns_));
+  throw DataError(source_ + ": no column named '" + visible_text(name) + "'; the columns are: " + join(columns_));
 }
 
 double LongCsv::number(std::size_t row, std::size_t column) const {
@@ -128,7 +126,7 @@ double LongCsv::number(std::size_t row, std::size_t column) const {
   const auto [ptr, ec] = std::from_chars(first, last, value);
   if (field.empty() || ec != std::errc() || ptr != last || !std::isfinite(value)) {
     throw DataError(source_ + ":" + std::to_string(line(row)) + ": column '" + columns_[column] +
-                    "': '" + field + "' is not a finite number");
+                    "': '" + visible_text(field) + "' is not a finite number");
   }
   return value;
 }

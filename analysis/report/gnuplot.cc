@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -12,6 +13,7 @@
 #include <sstream>
 
 #include "analysis/stats/data_error.h"
+#include "core/io/output_file.h"
 
 extern char** environ;
 
@@ -65,16 +67,58 @@ void GnuplotScript::add_plot(const std::string& svg_name, const std::string& com
   outputs_.push_back(svg_name);
 }
 
+namespace {
+
+// Removes the staging directory on every path out of run_gnuplot.
+class StagingDir {
+ public:
+  explicit StagingDir(std::filesystem::path path) : path_(std::move(path)) {
+    std::filesystem::remove_all(path_);
+    std::error_code ec;
+    std::filesystem::create_directories(path_, ec);
+    if (ec) throw DataError("cannot create the directory '" + path_.string() + "' for the figures: " + ec.message());
+  }
+  StagingDir(const StagingDir&) = delete;
+  StagingDir& operator=(const StagingDir&) = delete;
+  ~StagingDir() {
+    std::error_code ignored;  // best effort: a destructor must not throw
+    std::filesystem::remove_all(path_, ignored);
+  }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// gnuplot does not always fail when its output cannot be written (a full
+// disk truncates the SVG and gnuplot still exits 0), so an SVG counts only
+// when its closing tag made it to the file.
+bool complete_svg(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return false;
+  const std::streamoff size = in.tellg();
+  const std::streamoff tail = std::min<std::streamoff>(size, 64);
+  std::string end(static_cast<std::size_t>(tail), '\0');
+  in.seekg(size - tail);
+  in.read(end.data(), tail);
+  return in && end.find("</svg>") != std::string::npos;
+}
+
+}  // namespace
+
 void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
                  const std::filesystem::path& gnuplot) {
-  const std::filesystem::path script_path = std::filesystem::absolute(dir / "plots.gp");
-  const std::filesystem::path log_path = std::filesystem::absolute(dir / "gnuplot.log");
-  {
-    std::ofstream out(script_path, std::ios::binary | std::ios::trunc);
-    out << script.text();
-    if (!out) throw DataError("cannot write the plot script '" + script_path.string() + "'");
+  // gnuplot draws into a staging directory; the figures and the script move
+  // into `dir` only when every one is complete, so a failed run (disk full,
+  // a gnuplot error) leaves no truncated figure that looks like a result.
+  const StagingDir staging(std::filesystem::absolute(dir) / (".plots." + std::to_string(::getpid()) + ".tmp"));
+  const std::filesystem::path script_path = staging.path() / "plots.gp";
+  const std::filesystem::path log_path = staging.path() / "gnuplot.log";
+  try {
+    write_file_atomically(script_path, script.text());
+  } catch (const OutputFileError& e) {
+    throw DataError(std::string("cannot write the plot script: ") + e.what());
   }
-  for (const auto& name : script.outputs()) std::filesystem::remove(dir / name);
 
   // posix_spawn rather than system(): no shell, so no quoting of paths.
   posix_spawn_file_actions_t actions;
@@ -82,7 +126,7 @@ void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   // Output names in the script are relative to its directory, so it reruns there by hand.
-  const std::string dir_text = std::filesystem::absolute(dir).string();
+  const std::string dir_text = staging.path().string();
   posix_spawn_file_actions_addchdir_np(&actions, dir_text.c_str());
   const std::string program = gnuplot.string();
   const std::string script_arg = script_path.string();
@@ -100,15 +144,20 @@ void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
   std::ifstream log(log_path);
   std::stringstream messages;
   messages << log.rdbuf();
+  const std::filesystem::path final_script = dir / "plots.gp";
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    throw DataError("gnuplot failed on " + script_path.string() + ": " + messages.str());
+    throw DataError("gnuplot failed on " + final_script.string() +
+                    (WIFSIGNALED(status) ? std::string(" (killed by signal ") + std::to_string(WTERMSIG(status)) + ")"
+                                         : std::string()) +
+                    ": " + messages.str());
   }
   for (const auto& name : script.outputs()) {
-    if (!std::filesystem::exists(dir / name)) {
-      throw DataError("gnuplot wrote no " + (dir / name).string() + ": " + messages.str());
+    if (!complete_svg(staging.path() / name)) {
+      throw DataError("gnuplot wrote no complete " + (dir / name).string() + " (disk full?): " + messages.str());
     }
   }
-  std::filesystem::remove(log_path);
+  for (const auto& name : script.outputs()) std::filesystem::rename(staging.path() / name, dir / name);
+  std::filesystem::rename(script_path, final_script);
 }
 
 }  // namespace hapticlab::analysis

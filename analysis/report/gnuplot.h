@@ -33,8 +33,10 @@ class GnuplotScript {
   std::vector<std::string> outputs_;
 };
 
-// Writes the script to dir/plots.gp and runs gnuplot in `dir`. Throws
-// DataError with gnuplot's own messages if it fails or an output is missing.
+// Runs the script in a staging directory inside `dir`, then moves the
+// figures and the script (plots.gp) into `dir`: all of them, or none when
+// gnuplot fails or an SVG is missing or truncated (DataError with gnuplot's
+// own messages).
 void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
                  const std::filesystem::path& gnuplot);
 

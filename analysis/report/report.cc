@@ -11,6 +11,7 @@
 #include "analysis/report/box_stats.h"
 #include "analysis/report/gnuplot.h"
 #include "analysis/stats/data_error.h"
+#include "core/io/output_file.h"
 
 namespace hapticlab::analysis {
 namespace {
@@ -88,10 +89,11 @@ std::string read_file(const std::filesystem::path& path) {
 }
 
 void write_file(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.flush();
-  if (!out) throw DataError("cannot write '" + path.string() + "'");
+  try {
+    write_file_atomically(path, text);
+  } catch (const OutputFileError& e) {
+    throw DataError(std::string("cannot write the report: ") + e.what());
+  }
 }
 
 // The <svg> element of a gnuplot SVG file, without the XML prolog, so it can

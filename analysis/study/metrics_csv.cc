@@ -1,12 +1,12 @@
 #include "analysis/study/metrics_csv.h"
 
 #include <cmath>
-#include <fstream>
 #include <ostream>
 #include <string>
 
 #include "analysis/stats/data_error.h"
 #include "core/common/csv_format.h"
+#include "core/io/output_file.h"
 
 namespace hapticlab::analysis {
 namespace {
@@ -38,11 +38,13 @@ void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
 }
 
 void write_metrics_csv(const StudyAnalysis& a, const std::filesystem::path& path) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw DataError("cannot write the metrics CSV '" + path.string() + "'");
-  write_metrics_csv(a, out);
-  out.flush();
-  if (!out) throw DataError("writing the metrics CSV '" + path.string() + "' failed (disk full?)");
+  try {
+    AtomicOutputFile file(path);
+    write_metrics_csv(a, file.stream());
+    file.commit();
+  } catch (const OutputFileError& e) {
+    throw DataError(std::string("cannot write the metrics CSV: ") + e.what());
+  }
 }
 
 }  // namespace hapticlab::analysis

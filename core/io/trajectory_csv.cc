@@ -1,5 +1,7 @@
 #include "core/io/trajectory_csv.h"
 
+#include "core/io/input_file.h"
+
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -102,9 +104,25 @@ void TrajectoryCsvReader::fail(std::string_view column, const std::string& what)
 }
 
 bool TrajectoryCsvReader::read_line() {
-  while (std::getline(*in_, line_)) {
+  std::streambuf& in = *in_->rdbuf();
+  using Traits = std::streambuf::traits_type;
+  for (;;) {
+    // One line, ended by LF, CRLF or a lone CR. Read through the stream
+    // buffer rather than getline: getline knows one terminator, and it grows
+    // the line without bound (a file of NUL bytes, /dev/zero).
+    line_.clear();
+    int c = in.sbumpc();
+    if (Traits::eq_int_type(c, Traits::eof())) break;
     ++line_number_;
-    if (!line_.empty() && line_.back() == '\r') line_.pop_back();
+    while (!Traits::eq_int_type(c, Traits::eof()) && c != '\n' && c != '\r') {
+      if (line_.size() >= kMaxCsvLineBytes) {
+        fail("longer than the " + format_byte_limit(kMaxCsvLineBytes) +
+             " limit for one line; is this a trajectory CSV file?");
+      }
+      line_ += Traits::to_char_type(c);
+      c = in.sbumpc();
+    }
+    if (c == '\r' && in.sgetc() == '\n') in.sbumpc();
     // Spreadsheet exports often start with a UTF-8 byte order mark.
     if (line_number_ == 1 && line_.starts_with("\xEF\xBB\xBF")) line_.erase(0, 3);
     if (!trim(line_).empty()) return true;
@@ -133,7 +151,7 @@ void TrajectoryCsvReader::read_header() {
     }
     for (std::size_t j = 0; j < column_names_.size(); ++j) {
       if (column_names_[j] == name) {
-        fail("duplicate column '" + std::string(name) + "' (fields " + std::to_string(j + 1) +
+        fail("duplicate column '" + visible_text(name) + "' (fields " + std::to_string(j + 1) +
              " and " + std::to_string(i + 1) + ")");
       }
     }
@@ -146,7 +164,7 @@ void TrajectoryCsvReader::read_header() {
       }
     }
     for (std::string_view out : kTrajectoryOutputColumns) known = known || out == name;
-    if (!known) unknown.emplace_back(name);
+    if (!known) unknown.push_back(visible_text(name));
   }
   if (!unknown.empty()) fail("unknown column(s) " + quoted_list(unknown) + expected);
 

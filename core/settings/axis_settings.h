@@ -42,7 +42,7 @@ struct SaturationParams {
 // 2.1–2.2, Fig. 2-2). Backlash reuses this mass and coupling.
 struct InertiaParams {
   bool enabled = false;
-  double mass = 0.0;           // [M] > 0
+  double mass = 0.0;           // [M] >= 1e-3 kg (translation), >= 1e-6 kg·m² (rotation)
   double stiffness = 0.0;      // [F/X] coupling spring K, > 0
   double damping_ratio = 0.0;  // [-] B as a fraction of critical damping 2·sqrt(K·m)
 };

@@ -1,7 +1,6 @@
 #include "core/settings/settings_json.h"
 
 #include <cmath>
-#include <fstream>
 #include <functional>
 #include <numbers>
 #include <set>
@@ -9,6 +8,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "core/io/input_file.h"
 
 namespace hapticlab {
 namespace {
@@ -81,9 +82,12 @@ std::vector<Block> axis_blocks(AxisKind kind, AxisSettings& s) {
   // Thesis Table 3.1: 1 N; rotation is N/A there, 0.1 Nm is 1 N at 10 cm.
   b.push_back({"saturation", &s.saturation.enabled,
                {{"level_" + F, &s.saturation.level, 0, max_force, false, t ? 1.0 : 0.1}}});
-  // Table 3.1 mass, Table 2.2 K and damping ratio.
+  // Table 3.1 mass, Table 2.2 K and damping ratio. The floor, 1 g (or
+  // 1e-6 kg·m², a gram at 3 cm), is lighter than any instrument handle, so
+  // it costs no real setting; an unbounded "> 0" admitted subnormal masses
+  // whose free motion in the backlash gap (F·dt/m per update) overflows.
   b.push_back({"inertia", &s.inertia.enabled,
-               {{t ? "mass_kg" : "inertia_kg_m2", &s.inertia.mass, 0, t ? 10.0 : 0.1, true,
+               {{t ? "mass_kg" : "inertia_kg_m2", &s.inertia.mass, t ? 1e-3 : 1e-6, t ? 10.0 : 0.1, false,
                  t ? 0.1 : 0.001},
                 {"stiffness_" + F + "_per_" + X, &s.inertia.stiffness, 0, t ? 1e5 : 1e3, true,
                  t ? 600.0 : 4.0},
@@ -279,19 +283,21 @@ NamedSettings settings_from_json(const json& j, const std::string& source) {
 NamedSettings settings_from_json_text(std::string_view text, const std::string& source) {
   json j;
   try {
-    j = json::parse(text);
-  } catch (const json::exception& e) {  // syntax errors, numbers beyond a double, ...
-    throw SettingsError(source + ": not valid JSON: " + e.what());
+    j = parse_json_strict(text);
+  } catch (const InputFileError& e) {  // syntax, depth, duplicate keys, numbers beyond a double
+    throw SettingsError(source + ": " + e.what());
   }
   return settings_from_json(j, source);
 }
 
 NamedSettings load_settings_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw SettingsError(path.string() + ": cannot open settings file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return settings_from_json_text(text.str(), path.string());
+  std::string text;
+  try {
+    text = read_text_file(path, kMaxJsonFileBytes, "settings file");
+  } catch (const InputFileError& e) {
+    throw SettingsError(e.what());
+  }
+  return settings_from_json_text(text, path.string());
 }
 
 json settings_to_json(const NamedSettings& named) {

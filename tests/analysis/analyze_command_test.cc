@@ -3,6 +3,7 @@
 #include "app/analyze_command.h"
 
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/io/long_csv.h"
+#include "app/cli_process.h"
 #include "study/synthetic_study_db.h"
 
 namespace hapticlab::app {
@@ -75,6 +77,42 @@ TEST_F(AnalyzeCommandTest, BadInputIsAnError) {
   EXPECT_THAT([&] { run({"analyze", "--db", db_, "--out", out, "--no-plots", "--ks-block", "0"}); },
               ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("ks_block_length is 0")));
   EXPECT_THROW(run({"analyze", "--out", out}), CLI::RequiredError);
+}
+
+// Through the real binary under a file size limit (prlimit, util-linux: in
+// bytes, unlike sh's ulimit -f), which fails the writes
+// part-way as a full disk does (EFBIG instead of ENOSPC): every output is
+// complete or absent, and the message names the file and the cause. The
+// limit must leave room for SQLite's 32 KiB shared-memory file (the database
+// is in WAL mode) and be smaller than report.html with its inline figures.
+TEST_F(AnalyzeCommandTest, FullDiskLeavesNoPartialOutput) {
+  namespace fs = std::filesystem;
+  const std::string args = "analyze --db " + db_ + " --quiet --ks-resamples 50 --out ";
+  const fs::path full = dir_.path() / "full";
+  const auto [full_status, full_text] = hapticlab::testing::run_cli(HAPTICLAB_CLI_PATH, args + full.string());
+  ASSERT_EQ(full_status, 0) << full_text;
+  constexpr std::uintmax_t kLimit_bytes = 48 * 1024;
+  ASSERT_GT(fs::file_size(full / "report.html"), kLimit_bytes) << "the test needs a report larger than the limit";
+
+  const fs::path out = dir_.path() / "out";
+  const auto [status, text] =
+      hapticlab::testing::run_cli("prlimit --fsize=" + std::to_string(kLimit_bytes) + " " + HAPTICLAB_CLI_PATH,
+                                  args + out.string());
+  EXPECT_EQ(status, 1) << text;
+  EXPECT_THAT(text, HasSubstr((out / "report.html").string() + ": cannot write: File too large"));
+  EXPECT_FALSE(fs::exists(out / "report.html"));
+  // What was written before the failure is complete: byte for byte the same
+  // as in the unlimited run; nothing else (no temporary file) is left.
+  for (const auto& e : fs::recursive_directory_iterator(out)) {
+    if (e.is_directory()) continue;
+    const fs::path twin = full / fs::relative(e.path(), out);
+    ASSERT_TRUE(fs::exists(twin)) << e.path() << " was left behind";
+    std::ifstream a(e.path(), std::ios::binary), b(twin, std::ios::binary);
+    std::stringstream sa, sb;
+    sa << a.rdbuf();
+    sb << b.rdbuf();
+    EXPECT_TRUE(sa.str() == sb.str()) << e.path() << " differs from the unlimited run";
+  }
 }
 
 }  // namespace

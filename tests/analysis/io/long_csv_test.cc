@@ -124,5 +124,25 @@ TEST(LongCsvTest, ReadsAFileAndNamesAMissingOne) {
               HasSubstr("no_such_file.csv"));
 }
 
+// A spreadsheet's UTF-8 byte order mark is not part of the first column's name.
+TEST(LongCsvTest, ByteOrderMarkIsStripped) {
+  const LongCsv csv = LongCsv::parse("\xEF\xBB\xBFparticipant,x\nS1,1\n", "bom.csv");
+  EXPECT_EQ(csv.column("participant"), 0u);
+}
+
+TEST(LongCsvTest, CrOnlyAndMixedLineEndingsAreLines) {
+  const LongCsv csv = LongCsv::parse("a,b\r1,2\n3,4\r\n\r5,6", "cr.csv");
+  ASSERT_EQ(csv.row_count(), 3u);
+  EXPECT_EQ(csv.text(2, 1), "6");
+  EXPECT_EQ(csv.line(0), 2u);
+  EXPECT_EQ(csv.line(2), 5u);  // the blank line 4 counts
+}
+
+TEST(LongCsvTest, InvisibleCharactersAreNamedInMessages) {
+  const LongCsv csv = LongCsv::parse("\xE2\x80\x8Bparticipant,x\xC2\xA0\nS1,1\n", "hidden.csv");
+  EXPECT_THAT(error_of([&] { csv.column("participant"); }),
+              HasSubstr("the columns are: <U+200B>participant, x<U+00A0>"));
+}
+
 }  // namespace
 }  // namespace hapticlab::analysis

@@ -407,11 +407,12 @@ TEST(InstrumentTest, AnOverflowingIntermediateValueZeroesTheForceAndSetsTheFault
 // settings; the smallest allowed values of each field found two ways:
 // - a subnormal pre-sliding range d_p made K_f = μ_d/d_p infinite and the
 //   stuck friction force −K_f·0 NaN (fixed in the friction model);
-// - a subnormal virtual mass or inertia (the range is "> 0"): the free mass
-//   in the backlash gap gains F·dt/m per update, which overflows for
+// - a subnormal virtual mass or inertia (the range was "> 0"): the free
+//   mass in the backlash gap gains F·dt/m per update, which overflows for
 //   m < F·dt/1.8e308 (1e-310 kg at 100 N, 1 kHz). That is a massless body
-//   accelerating without bound, not a rounding problem, so it stays a
-//   documented fault (docs/engine.md, Safety): zero force, bit 2.
+//   accelerating without bound, not a rounding problem: the settings now
+//   refuse masses below 1 g (1e-6 kg·m²), and the model, handed one
+//   anyway, faults safely (zero force, bit 2).
 TEST(InstrumentTest, TheSmallestAllowedPreslidingRangeNeverFaults) {
   for (bool backlash : {true, false}) {
     EngineSettings s = load_example("max_stable");  // friction on both axes
@@ -429,10 +430,34 @@ TEST(InstrumentTest, TheSmallestAllowedPreslidingRangeNeverFaults) {
   }
 }
 
+// The floor of the mass range is safe: at 1 g and 1e-6 kg·m², with
+// backlash, friction and cogging on and VE forces of several hundred N
+// (far beyond the device limits), no update faults.
+TEST(InstrumentTest, TheSmallestAllowedMassNeverFaults) {
+  EngineSettings s = load_example("max_stable");
+  for (AxisSettings* axis : {&s.translation, &s.rotation}) {
+    axis->inertia.enabled = axis->backlash.enabled = axis->friction.enabled = axis->cogging.enabled = true;
+  }
+  s.translation.inertia.mass = 1e-3;  // kg, the floor
+  s.rotation.inertia.mass = 1e-6;     // kg·m², the floor
+  validate_settings(s);
+  s.translation.inertia.mass = 0.99e-3;
+  EXPECT_THROW(validate_settings(s), SettingsError);
+  s.translation.inertia.mass = 1e-3;
+  Instrument inst(s, hand(0));
+  double t = 0.0;
+  for (int i = 0; i < 3000; ++i) {
+    t += 1e-3;
+    const Eigen::Vector3d ve(300 * std::sin(5 * t), -300, 400 * std::cos(3 * t));
+    const InstrumentOutput out = inst.step({1e-3, hand(3 * t), ve});
+    ASSERT_EQ(out.status & kFaultMask, 0u) << "update " << i;
+  }
+}
+
 TEST(InstrumentTest, ASubnormalVirtualMassInTheGapOverflowsToADocumentedFault) {
   EngineSettings s = load_example("inertia_backlash");
-  s.translation.inertia.mass = 1e-310;  // kg, allowed by "> 0"
-  validate_settings(s);
+  s.translation.inertia.mass = 1e-310;  // kg: refused by the settings, handed to the model directly
+  EXPECT_THROW(validate_settings(s), SettingsError);
   const JointVector q(0.1, 0.0, 0.0);
   Instrument inst(s, q);
   // 100 N pushing deeper (d_in = (0, 0, −1)): 100·1e-3/1e-310 = 1e309 m/s.

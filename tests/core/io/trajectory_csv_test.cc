@@ -8,9 +8,12 @@
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "core/io/input_file.h"
 
 namespace hapticlab {
 namespace {
@@ -63,6 +66,37 @@ TEST(TrajectoryCsv, AcceptsCrlfBlankLinesAndTrailingNewline) {
       "0.001,0,0.1,0,0,0,0,1.5\r\n");
   ASSERT_EQ(rows.size(), 2u);
   EXPECT_EQ(rows[1].ve_force_N.z(), 1.5);
+}
+
+// Old Mac and some spreadsheet exports end lines with a lone CR; the line
+// numbers still count every line, in any mix of endings.
+TEST(TrajectoryCsv, AcceptsCrOnlyAndMixedLineEndings) {
+  std::istringstream in(
+      "\xEF\xBB\xBFt_s,instrument,insertion_m,pitch_rad,yaw_rad,ve_force_x_N,ve_force_y_N,ve_force_z_N\r"
+      "0,0,0.1,0,0,0,0,0\r"
+      "0.001,0,0.1,0,0,0,0,1.5\n"
+      "0.002,0,0.1,0,0,0,0,2.5\r\n"
+      "0.003,0,0.1,0,0,0,0,3.5");
+  TrajectoryCsvReader reader(in, "cr.csv");
+  TrajectoryRow row;
+  std::vector<std::pair<std::size_t, double>> seen;
+  while (reader.next(row)) seen.emplace_back(reader.line_number(), row.ve_force_N.z());
+  const std::vector<std::pair<std::size_t, double>> expected = {{2, 0.0}, {3, 1.5}, {4, 2.5}, {5, 3.5}};
+  EXPECT_EQ(seen, expected);
+}
+
+TEST(TrajectoryCsvErrors, InvisibleCharactersInColumnNamesAreShown) {
+  // A byte order mark after the first line is not stripped; it is named.
+  const std::string message =
+      parse_error("t_s,instrument,insertion_m,pitch_rad,yaw_rad,ve_force_x_N,ve_force_y_N,\xEF\xBB\xBFve_force_z_N\n");
+  EXPECT_TRUE(contains(message, "unknown column(s) '<U+FEFF>ve_force_z_N'"));
+}
+
+// A file without line breaks (here: a megabyte of zero bytes) is refused at
+// the line limit instead of being read into memory whole.
+TEST(TrajectoryCsvErrors, OverlongLineIsRefused) {
+  const std::string message = parse_error(kHeader + std::string(kMaxCsvLineBytes + 10, '\0'));
+  EXPECT_TRUE(contains(message, "test.csv: line 2: longer than the 1 MiB limit for one line"));
 }
 
 TEST(TrajectoryCsv, AcceptsNonFiniteJointsAndForces) {

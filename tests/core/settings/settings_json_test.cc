@@ -77,8 +77,11 @@ TEST(SettingsJsonTest, OutOfRangeNamesFieldValueAndRange) {
   EXPECT_THAT(e, HasSubstr("translation.friction.dynamic_level_N"));
   EXPECT_THAT(e, HasSubstr("-0.2"));
   EXPECT_THAT(e, HasSubstr(">= 0 and <= 50"));
-  EXPECT_THAT(error_of(R"({"rotation": {"inertia": {"inertia_kg_m2": 0}}})"),
-              HasSubstr("'rotation.inertia.inertia_kg_m2' is 0, but must be > 0"));
+  EXPECT_THAT(error_of(R"({"rotation": {"inertia": {"stiffness_Nm_per_rad": 0}}})"),
+              HasSubstr("'rotation.inertia.stiffness_Nm_per_rad' is 0, but must be > 0"));
+  // The mass floor (docs/engine.md, Safety: a subnormal mass overflows).
+  EXPECT_THAT(error_of(R"({"rotation": {"inertia": {"inertia_kg_m2": 1e-310}}})"),
+              HasSubstr("'rotation.inertia.inertia_kg_m2' is 1e-310, but must be >= 1e-06 and <= 0.1"));
 }
 
 TEST(SettingsJsonTest, UnitsAreInEveryFieldName) {
