@@ -18,20 +18,32 @@ std::string describe(const BadChunk& c) {
          "), ticks " + ticks + ": " + c.problem;
 }
 
-void read_samples(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& out,
-                  std::vector<BadChunk>& bad) {
+void for_each_chunk(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& scratch,
+                    const std::function<void(std::span<const StoredSample>)>& on_chunk,
+                    std::vector<BadChunk>& bad) {
   Statement s = db.prepare(
       "SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = ?1 AND instrument = ?2 ORDER BY first_tick");
   s.bind(1, trial_id).bind(2, std::int64_t{instrument});
   while (s.step()) {
     const auto first = static_cast<std::uint64_t>(s.column_int64(0));
     const std::int64_t count = s.column_int64(1);
+    scratch.clear();
     try {
-      decode_chunk(first, static_cast<std::size_t>(count), s.column_blob(2), out);
+      decode_chunk(first, static_cast<std::size_t>(count), s.column_blob(2), scratch);
     } catch (const ChunkError& e) {
       bad.push_back(bad_chunk(trial_id, instrument, first, count, e));
+      continue;
     }
+    on_chunk(scratch);
   }
+}
+
+void read_samples(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& out,
+                  std::vector<BadChunk>& bad) {
+  std::vector<StoredSample> scratch;
+  for_each_chunk(db, trial_id, instrument, scratch,
+                 [&](std::span<const StoredSample> chunk) { out.insert(out.end(), chunk.begin(), chunk.end()); },
+                 bad);
 }
 
 ChunkCheck check_all_chunks(Database& db) {

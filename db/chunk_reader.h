@@ -5,6 +5,8 @@
 // (sample_codec.h) first.
 
 #include <cstdint>
+#include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -27,9 +29,15 @@ struct BadChunk {
 // "trial 3, left instrument (0), ticks 1000..1999: checksum mismatch (...)".
 std::string describe(const BadChunk& chunk);
 
-// Every chunk of (trial, instrument) in tick order, decoded and appended to
-// `out`; a chunk that fails is left out and appended to `bad`. Throws
-// DbError only for the database itself.
+// Every good chunk of (trial, instrument) in tick order, decoded into
+// `scratch` (cleared first, so a reader holds one chunk at a time) and
+// handed to `on_chunk`; a chunk that fails is left out and appended to
+// `bad`. Throws DbError only for the database itself.
+void for_each_chunk(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& scratch,
+                    const std::function<void(std::span<const StoredSample>)>& on_chunk,
+                    std::vector<BadChunk>& bad);
+
+// for_each_chunk, every sample appended to `out`.
 void read_samples(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& out,
                   std::vector<BadChunk>& bad);
 

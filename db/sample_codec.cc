@@ -42,10 +42,6 @@ constexpr CrcTables make_crc_tables() {
 }
 constexpr CrcTables kCrc = make_crc_tables();
 
-}  // namespace
-
-namespace {
-
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 // SSE 4.2 has CRC-32C as an instruction (the same polynomial): several
 // times the table's rate, chosen at run time so the binary still runs on a
@@ -62,7 +58,11 @@ __attribute__((target("sse4.2"))) std::uint32_t crc32c_sse42(std::uint32_t crc, 
   for (; n > 0; ++p, --n) c32 = __builtin_ia32_crc32qi(c32, *p);
   return ~c32;
 }
-const bool kHaveSse42 = __builtin_cpu_supports("sse4.2");
+// A static initializer may run before libgcc's own CPU probe: run it here.
+const bool kHaveSse42 = [] {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("sse4.2") != 0;
+}();
 #endif
 
 }  // namespace

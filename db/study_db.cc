@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sqlite3.h>
 
+#include "db/chunk_reader.h"
 #include "db/schema.h"
 #include "db/session_lock.h"
 #include "db/sha256.h"
@@ -514,19 +515,12 @@ void StudyDb::update_chunk(std::int64_t chunk_id, std::span<const StoredSample> 
 }
 
 std::vector<StoredSample> StudyDb::samples(std::int64_t trial_id, int instrument) {
-  Statement s = db_.prepare(
-      "SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = ?1 AND instrument = ?2 ORDER BY first_tick");
-  s.bind(1, trial_id).bind(2, std::int64_t{instrument});
   std::vector<StoredSample> out;
-  while (s.step()) {
-    const auto first = static_cast<std::uint64_t>(s.column_int64(0));
-    try {
-      decode_chunk(first, static_cast<std::size_t>(s.column_int64(1)), s.column_blob(2), out);
-    } catch (const std::runtime_error& e) {
-      throw DbError(db_.path() + ": trial " + std::to_string(trial_id) + " instrument " + std::to_string(instrument) +
-                    " chunk at tick " + std::to_string(first) + ": " + e.what());
-    }
-  }
+  std::vector<BadChunk> bad;
+  read_samples(db_, trial_id, instrument, out, bad);
+  if (!bad.empty())
+    throw DbError(db_.path() + ": " + describe(bad.front()) +
+                  (bad.size() > 1 ? " (and " + std::to_string(bad.size() - 1) + " more damaged chunks)" : ""));
   return out;
 }
 
