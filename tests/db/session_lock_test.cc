@@ -16,6 +16,13 @@ namespace {
 
 using ::testing::HasSubstr;
 
+// A study file with one trial running; its id and its participant's.
+std::pair<std::int64_t, std::int64_t> running_trial(const std::filesystem::path& path) {
+  StudyDb db(path);
+  const std::int64_t trial = testing::make_trial(db);
+  return {trial, db.trial(trial).participant_id};
+}
+
 TEST(SessionLock, ASecondHolderIsRefusedNamingTheFirst) {
   testing::TempDir dir;
   const auto db = dir.file("study.db");
@@ -58,17 +65,19 @@ TEST(SessionLock, AnUnlockedFileLeftBehindIsTakenOverAsStale) {
   EXPECT_EQ(lock.stale_owner()->describe(), "pid 424242 on host lab-pc, since 2026-01-01T00:00:00.000Z");
 }
 
-TEST(SessionLock, AFolderWithoutWriteAccessIsNamedInTheError) {
-  if (::geteuid() == 0) GTEST_SKIP() << "root writes anywhere";
+TEST(SessionLock, ALockFileThatCannotBeMadeIsNamedWithItsCause) {
+  // A folder that does not exist fails for root too (a read-only folder
+  // would not: root writes anywhere).
   testing::TempDir dir;
-  std::filesystem::permissions(dir.path(), std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+  const auto db = dir.file("missing") / "study.db";
   try {
-    SessionLock::acquire(dir.file("study.db"), 1, "P01");
-    FAIL();
+    SessionLock::acquire(db, 1, "P01");
+    FAIL() << "a lock file was made in a folder that does not exist";
   } catch (const std::runtime_error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("cannot create the session lock file"));
+    EXPECT_THAT(e.what(), HasSubstr(SessionLock::lock_path(db, 1).string()));
+    EXPECT_THAT(e.what(), HasSubstr("cannot create the session lock file: No such file or directory"));
   }
-  std::filesystem::permissions(dir.path(), std::filesystem::perms::owner_all);
+  EXPECT_FALSE(SessionLock::try_acquire(db, 1, "recovery").has_value()) << "nobody to recover from here";
 }
 
 // Opening the file recovers only sessions that are gone: a trial whose
@@ -77,12 +86,7 @@ TEST(SessionLock, AFolderWithoutWriteAccessIsNamedInTheError) {
 TEST(SessionLock, OpeningRecoversOnlyDeadSessions) {
   testing::TempDir dir;
   const auto path = dir.file("study.db");
-  std::int64_t trial = 0, participant = 0;
-  {
-    StudyDb db(path);
-    trial = testing::make_trial(db);
-    participant = db.trial(trial).participant_id;
-  }
+  const auto [trial, participant] = running_trial(path);
   {
     const SessionLock live = SessionLock::acquire(path, participant, "P01");
     StudyDb db(path);  // recover = true
@@ -103,12 +107,7 @@ TEST(SessionLock, OpeningRecoversOnlyDeadSessions) {
 TEST(SessionLock, AReasonLeftInTheLockFileIsWhatRecoveryRecords) {
   testing::TempDir dir;
   const auto path = dir.file("study.db");
-  std::int64_t trial = 0, participant = 0;
-  {
-    StudyDb db(path);
-    trial = testing::make_trial(db);
-    participant = db.trial(trial).participant_id;
-  }
+  const auto [trial, participant] = running_trial(path);
   {
     SessionLock lock = SessionLock::acquire(path, participant, "P01");
     lock.record_abort_reason("storage failure: database or disk is full\nsecond line");

@@ -31,10 +31,12 @@ bool can_mount_tmpfs() {
 // the cause, and the trial is recorded with that cause, never as "runner
 // crashed or was killed". Two disk sizes, because where the disk fills
 // decides how the cause gets stored: with ~3 MB free the database still
-// takes the trial's closing write; with ~6 MB the WAL has grown so that it
-// does not (both seen on 2026-11-23 with the virtual clock),
-// and the cause goes through the session's lock file to the next run.
-// Either way the outcome below must hold.
+// takes the trial's closing write; with ~6 MB the WAL had usually grown so
+// that it did not, and the cause went through the session's lock file to
+// the next run (both seen on 2026-11-23 with the virtual clock; which one
+// happens depends on where the commits fall). Either way the outcome below
+// must hold; SessionLock.AReasonLeftInTheLockFileIsWhatRecoveryRecords
+// covers the lock-file path deterministically.
 class StorageFailureTest : public ::testing::TestWithParam<int> {};
 
 TEST_P(StorageFailureTest, ATrialCutShortByAFullDiskKeepsItsRealReason) {
