@@ -6,9 +6,11 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
+#include "core/device/device_spec.h"
 #include "sessions/session_runner.h"
 
 namespace hapticlab::app {
@@ -20,6 +22,7 @@ struct SessionCommandOptions {
   std::string db;
   std::string participant;
   std::string device = "sim";
+  std::vector<std::string> device_options;
   std::string clock = "virtual";
   double rate_Hz = 1000.0;
   double max_trial_s = 300.0;
@@ -50,7 +53,8 @@ std::string trial_label(const sessions::SessionProgress& p, bool blind) {
 int run(const SessionCommandOptions& opt) {
   sessions::SessionOptions options;
   options.participant = opt.participant;
-  options.device = opt.device;
+  options.device = parse_device_spec(opt.device);
+  add_device_options(options.device, opt.device_options);
   options.clock = parse_clock_kind(opt.clock);
   options.rate_Hz = opt.rate_Hz;
   options.max_trial_s = opt.max_trial_s;
@@ -126,9 +130,11 @@ void add_session_command(CLI::App& app) {
       "Exit status 0 when done, 130 when stopped, 3 on a device fault.");
   cmd->add_option("--db", opt->db, "Study database (from `hapticlab study create`)")->required();
   cmd->add_option("--participant", opt->participant, "Participant code, as in the protocol")->required();
-  cmd->add_option("--device", opt->device, "Device backend; sim: the simulated workstation and participant")
-      ->check(CLI::IsMember({"sim"}))
+  cmd->add_option("--device", opt->device,
+                  "Device: sim (the simulated workstation and participant), plugin:PATH.so (a device plugin, "
+                  "docs/devices.md), udp:[HOST:]PORT (a driver behind the UDP bridge, docs/udp_bridge.md)")
       ->capture_default_str();
+  cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
   cmd->add_option("--clock", opt->clock, "virtual: as fast as the CPU allows; wall: real time")
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/common/random.h"
+#include "core/device/device_factory.h"
 #include "core/sim/task_event.h"
 #include "db/session_lock.h"
 #include "protocols/rng.h"
@@ -33,10 +34,6 @@ bool stop_requested(const SessionOptions& options) {
 
 void check_options(const SessionOptions& options) {
   if (options.participant.empty()) throw std::invalid_argument("participant: a participant code is required");
-  if (options.device != "sim")
-    throw std::invalid_argument("device: '" + options.device +
-                                "' cannot be driven by a session yet; choose sim (a real device plugs in "
-                                "through the C API, see docs/devices.md)");
   if (!(options.rate_Hz >= 150.0 && options.rate_Hz <= 2000.0))
     throw std::invalid_argument("rate_Hz: " + std::to_string(options.rate_Hz) + " is outside 150..2000 Hz");
   if (!(options.max_trial_s > 0.0) || !std::isfinite(options.max_trial_s))
@@ -116,6 +113,10 @@ std::uint64_t trial_seed(std::uint64_t participant_seed, std::int64_t trial_id) 
 
 SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options) {
   check_options(options);
+  // The device is opened (a plugin loaded, a socket bound) and dropped
+  // once before anything is stored, so a wrong path, option or port is
+  // refused with nothing changed. Each trial opens it again.
+  (void)open_device(options.device);
   if (!std::filesystem::exists(db_path))
     throw std::runtime_error(db_path.string() + ": no such database (create it with `hapticlab study create`)");
   // Recovery waits for the participant's lock (below): done at open, it
@@ -173,7 +174,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   }
 
   result.session_id =
-      db.begin_session(*participant_id, options.device, options.clock == ClockKind::kVirtual ? "virtual" : "wall");
+      db.begin_session(*participant_id, options.device.describe(), options.clock == ClockKind::kVirtual ? "virtual" : "wall");
   const Clock::time_point session_start = Clock::now();
   std::set<std::string> trained;
   double trial_wall_s = 0.0;  // wall time of trials finished in this session
@@ -193,6 +194,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   auto base_config = [&](const std::string& task, const NamedSettings& settings, std::uint64_t seed, int practice) {
     SimTrialConfig c;
     c.task = parse_task_kind(task);
+    c.device = options.device;
     c.settings = settings.engine;
     c.participant_seed = who;
     c.trial_seed = seed;

@@ -25,6 +25,7 @@
 #include <optional>
 #include <string>
 
+#include "core/device/device_spec.h"
 #include "core/sim/trial_runner.h"
 #include "db/sample_writer.h"
 #include "db/study_db.h"
@@ -51,7 +52,7 @@ struct SessionProgress {
 
 struct SessionOptions {
   std::string participant;  // code, as in the protocol
-  std::string device = "sim";  // the only backend a session can drive today
+  DeviceSpec device;  // core/device/device_spec.h; default: the built-in simulated workstation
   ClockKind clock = ClockKind::kVirtual;
   double rate_Hz = 1000.0;     // 150..2000
   double max_trial_s = 300.0;  // per-trial time limit (> 0)

@@ -1,5 +1,7 @@
 #include "core/device/device.h"
 
+#include "core/device/workstation_spec.h"
+
 namespace hapticlab {
 
 const char* to_string(DeviceStatus status) noexcept {
@@ -13,9 +15,38 @@ const char* to_string(DeviceStatus status) noexcept {
     case DeviceStatus::kOutOfRange: return "out_of_range";
     case DeviceStatus::kWriteFailed: return "write_failed";
     case DeviceStatus::kEndOfData: return "end_of_data";
+    case DeviceStatus::kNotCalibrated: return "not_calibrated";
+    case DeviceStatus::kTimeout: return "device_timeout";
   }
   // A value cast from an integer that names no status (e.g. from the C API).
   return "unknown";
+}
+
+}  // namespace hapticlab
+
+namespace hapticlab {
+
+DeviceRatings workstation_ratings() noexcept {
+  // Velocity limits are a runaway guard, not a property of the LSW (Table
+  // 2.1 gives none): hand motion in laparoscopic tasks stays below about
+  // 0.5 m/s at the tip, a few rad/s at the pivot. Four times that still
+  // passes any real movement and catches a motor running away or a
+  // reading that jumps (1 m in one update is 1000 m/s at 1 kHz).
+  static constexpr std::array<double, kNumDeviceJoints> kMaxVelocity = {
+      2.0,   // insertion [m/s]
+      20.0,  // pitch [rad/s]: 2 m/s at 0.1 m from the pivot
+      20.0,  // yaw
+      40.0,  // twist: the handle is rolled between the fingers
+      40.0,  // grip
+  };
+  DeviceRatings ratings;
+  for (auto& instrument : ratings.joint)
+    for (int j = 0; j < kNumDeviceJoints; ++j) {
+      const WorkstationJointSpec& spec = kWorkstationJoints[static_cast<std::size_t>(j)];
+      instrument[static_cast<std::size_t>(j)] = {spec.min_position, spec.max_position, spec.continuous_force,
+                                                 spec.peak_force, kMaxVelocity[static_cast<std::size_t>(j)]};
+    }
+  return ratings;
 }
 
 }  // namespace hapticlab

@@ -32,7 +32,10 @@ enum class DeviceStatus : std::int32_t {
   kOutOfRange,         // a reading lies outside the joint's mechanical range
   kWriteFailed,        // the force command could not be sent
   kEndOfData,          // replay: the recording is exhausted
+  kNotCalibrated,      // activate(): the device is not calibrated or homed; it must not be driven
+  kTimeout,            // read(): no answer within the device's timeout (network bridge)
 };
+inline constexpr int kNumDeviceStatuses = 11;
 
 // A short, stable name for logs and error messages ("read_failed", ...).
 const char* to_string(DeviceStatus status) noexcept;
@@ -58,7 +61,28 @@ struct DeviceConfig {
   std::uint64_t seed = 0;
 };
 
+// What a device can do and take, per instrument and DeviceJoint. [X] = m
+// for insertion, rad otherwise; [F] = N or N·m. The loop's safety guard
+// never commands more than peak_force (and lowers it further if the
+// protocol asks), treats a reading outside [min_position, max_position] as
+// a fault, and zeroes the force when a joint moves faster than
+// max_velocity. Defaults: the Laparoscopic Surgical Workstation (thesis
+// Table 2.1; core/device/workstation_spec.h).
+struct DeviceJointRating {
+  double min_position = 0.0;     // [X]
+  double max_position = 0.0;     // [X] > min_position
+  double continuous_force = 0.0; // [F] >= 0, sustainable output
+  double peak_force = 0.0;       // [F] >= continuous_force, short-term output
+  double max_velocity = 0.0;     // [X/s] > 0, faster is a fault (a runaway or a bad reading)
+};
+struct DeviceRatings {
+  std::array<std::array<DeviceJointRating, kNumDeviceJoints>, 2> joint{};
+};
+// The Laparoscopic Surgical Workstation's ratings, for both instruments.
+DeviceRatings workstation_ratings() noexcept;
+
 class Clock;
+class HandAttachment;
 
 class Device {
  public:
@@ -77,6 +101,14 @@ class Device {
   virtual DeviceStatus deactivate() noexcept = 0;
 
   virtual const char* name() const noexcept = 0;
+
+  // Any thread. What the device can do (see DeviceRatings); fixed once
+  // configure() succeeded.
+  virtual DeviceRatings ratings() const noexcept { return workstation_ratings(); }
+
+  // A simulated device a simulated participant can hold; null for hardware,
+  // which a person holds.
+  virtual HandAttachment* hand_attachment() noexcept { return nullptr; }
 };
 
 }  // namespace hapticlab

@@ -286,6 +286,15 @@ void SimDevice::substep(double end_s, double thermal_alpha) noexcept {
 
 // --- Simulation set-up and accessors
 
+bool SimDevice::set_start_pose(int instrument, const DeviceJoints& position) noexcept {
+  try {
+    set_position(instrument, position);
+    return true;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 void SimDevice::set_position(int instrument, const DeviceJoints& position) {
   if (active_) throw std::logic_error("SimDevice::set_position(): call before activate()");
   if (!valid_instrument(instrument)) {

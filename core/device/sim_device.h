@@ -33,21 +33,10 @@
 #include <limits>
 
 #include "core/device/device.h"
+#include "core/device/hand_attachment.h"
 #include "core/models/virtual_mass.h"
 
 namespace hapticlab {
-
-// The simulated hand on one joint. [X] = m for insertion, rad otherwise;
-// [F] = N or N·m; [M] = kg or kg·m². All zero: the hand is off the joint.
-struct HandCoupling {
-  double reference_position = 0.0;  // [X] where the hand wants the joint at the time of set_hand
-  double reference_velocity = 0.0;  // [X/s] the reference moves on linearly until the next set_hand
-  double stiffness = 0.0;           // [F/X] >= 0, hand impedance
-  double damping = 0.0;             // [F·s/X] >= 0
-  double force = 0.0;               // [F] feed-forward push
-  double mass = 0.0;                // [M] hand/arm mass moving with the handle, >= 0
-};
-using HandCouplings = std::array<HandCoupling, kNumDeviceJoints>;
 
 // Mechanics of one simulated joint. [X], [F], [M] as for HandCoupling.
 struct SimJointParams {
@@ -83,7 +72,7 @@ struct SimDeviceParams {
   double out_of_range_tolerance_counts = 10.0;
 };
 
-class SimDevice final : public Device {
+class SimDevice final : public Device, public HandAttachment {
  public:
   // Throws std::invalid_argument naming the field, the value and its range.
   explicit SimDevice(const SimDeviceParams& params = {});
@@ -105,6 +94,10 @@ class SimDevice final : public Device {
   DeviceStatus write(const DeviceCommand& command) noexcept override;
   DeviceStatus deactivate() noexcept override;
   const char* name() const noexcept override { return "sim"; }
+  HandAttachment* hand_attachment() noexcept override { return this; }
+
+  // --- HandAttachment
+  bool set_start_pose(int instrument, const DeviceJoints& position) noexcept override;
 
   // --- Simulation (not part of Device)
   // Loop thread, between reads. The reference holds from now (the clock's
@@ -112,7 +105,7 @@ class SimDevice final : public Device {
   // ignored. A coupling with a non-finite field or a negative stiffness,
   // damping or mass is not applied: that joint is released (all zero) and
   // rejected_hand_updates() counts it.
-  void set_hand(int instrument, const HandCouplings& hand) noexcept;
+  void set_hand(int instrument, const HandCouplings& hand) noexcept override;
 
   // Control thread, before activate(): the start pose, velocities zero.
   // Throws std::invalid_argument for an instrument other than 0 or 1 or a
@@ -136,9 +129,9 @@ class SimDevice final : public Device {
   DeviceJoints velocity(int instrument) const noexcept;       // [m/s, rad/s]
   // What the hand exerted on the handle over the last sub-step,
   // K·(x_ref − x) + B·(v_ref − v) + f_ff [N, N·m]: what the participant feels.
-  DeviceJoints hand_force(int instrument) const noexcept;
+  DeviceJoints hand_force(int instrument) const noexcept override;
   // Motor output in the last sub-step, after the peak and thermal limits.
-  DeviceJoints motor_force(int instrument) const noexcept;
+  DeviceJoints motor_force(int instrument) const noexcept override;
   // Thermal estimate: exponentially weighted RMS of the motor output [N, N·m].
   DeviceJoints thermal_rms_force(int instrument) const noexcept;
   // Physics time [s] (the clock's time at the last read).

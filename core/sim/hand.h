@@ -5,7 +5,7 @@
 // - Reaching: minimum-jerk paths (Flash & Hogan 1985) of the tool tip in the
 //   world frame, with Fitts-law durations chosen by the caller.
 // - Impedance: the hand holds the handle through a spring–damper to its
-//   reference (SimDevice's HandCoupling); the tip stiffness is converted to
+//   reference (HandCoupling, hand_attachment.h); the tip stiffness is converted to
 //   joint stiffnesses through the instrument's lever (K·L² for pitch).
 // - Impedance adaptation: against felt forces it cannot predict (ripple,
 //   stick-slip) the arm co-contracts, up to four times stiffer
@@ -25,7 +25,7 @@
 #include <Eigen/Core>
 
 #include "core/common/random.h"
-#include "core/device/sim_device.h"
+#include "core/device/hand_attachment.h"
 #include "core/engine/joint_transform.h"
 #include "core/sim/control_grid.h"
 

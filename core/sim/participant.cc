@@ -60,7 +60,7 @@ DeviceJoints Participant::start_pose(int instrument) noexcept {
 }
 
 Participant::Participant(const ParticipantTraits& traits, const ParticipantTrial& trial,
-                         SimDevice& device, const VirtualEnvironment& task)
+                         HandAttachment& device, const VirtualEnvironment& task)
     : traits_(traits), device_(device), rng_(Random::derive(trial.seed, 0x747269616cull)) {
   if (task.kind() == TaskKind::kDissection) dissection_ = static_cast<const DissectionTask*>(&task);
   else clip_ = static_cast<const ClipTask*>(&task);

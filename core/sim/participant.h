@@ -1,5 +1,6 @@
 #pragma once
-// A simulated surgeon: moves both instruments of the SimDevice through a
+// A simulated surgeon: moves both instruments of a simulated device (its
+// HandAttachment: SimDevice, or the same behind a plugin or the UDP bridge) through a
 // task, inside the haptic loop (a LoopAgent).
 //
 // Traits (per participant, from a seed): speed, force level, hand
@@ -14,7 +15,7 @@
 
 #include <cstdint>
 
-#include "core/device/sim_device.h"
+#include "core/device/hand_attachment.h"
 #include "core/loop/haptic_loop.h"
 #include "core/sim/clip_task.h"
 #include "core/sim/dissection_task.h"
@@ -47,7 +48,7 @@ struct ParticipantTrial {
 class Participant final : public LoopAgent {
  public:
   // `task` must be the VE the loop steps (DissectionTask or ClipTask).
-  Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, SimDevice& device,
+  Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, HandAttachment& device,
               const VirtualEnvironment& task);
 
   // Runs the participant's sensorimotor control on its own grid, every
@@ -85,7 +86,7 @@ class Participant final : public LoopAgent {
   bool retract(int hand, double t_s, bool entering) noexcept;
 
   ParticipantTraits traits_;
-  SimDevice& device_;
+  HandAttachment& device_;
   const DissectionTask* dissection_ = nullptr;
   const ClipTask* clip_ = nullptr;
   Random rng_;

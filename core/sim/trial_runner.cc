@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/device/device_factory.h"
 #include "core/device/sim_device.h"
 #include "core/engine/engine.h"
 #include "core/loop/clock.h"
@@ -39,25 +40,27 @@ SimRig::SimRig(const SimTrialConfig& config) {
     device_ = std::make_unique<ReplayDevice>(*config.replay);
     for (int i = 0; i < 2; ++i) set_start(i, config.replay->front().position[static_cast<std::size_t>(i)]);
   } else {
-    // The simulated workstation. Sub-steps of 1 ms are plenty for a hand of
-    // a few hundred N/m on a few hundred grams (ω·h < 0.05) and keep a 1 kHz
-    // loop at one physics step per update.
-    SimDeviceParams device_params;
-    device_params.max_substep_s = 1e-3;
-    auto sim = std::make_unique<SimDevice>(device_params);
-    for (int i = 0; i < 2; ++i) {
-      const DeviceJoints pose = Participant::start_pose(i);
-      sim->set_position(i, pose);
-      set_start(i, pose);
-    }
-    sim_device_ = sim.get();
-    device_ = std::move(sim);
+    device_ = open_device(config.device);
+    hand_ = device_->hand_attachment();
+    sim_device_ = dynamic_cast<SimDevice*>(device_.get());
   }
   DeviceConfig device_config;
   device_config.nominal_rate_Hz = std::clamp(1.0 / schedule.nominal_period_s(), 150.0, 2000.0);
   device_config.seed = config.trial_seed;
-  if (device_->configure(device_config) != DeviceStatus::kOk)
-    throw std::invalid_argument("rate_Hz: the " + std::string(device_->name()) + " device refused the loop rate");
+  if (const DeviceStatus status = device_->configure(device_config); status != DeviceStatus::kOk)
+    throw std::invalid_argument("device: the " + std::string(device_->name()) + " device refused its configuration (" +
+                                to_string(status) + ") at rate_Hz " + std::to_string(device_config.nominal_rate_Hz));
+  if (!config.replay) {
+    // A simulated participant holds a simulated device at its start pose;
+    // a real one is where the person left it, and the engine re-anchors on
+    // the first reading.
+    for (int i = 0; i < 2; ++i) {
+      const DeviceJoints pose = Participant::start_pose(i);
+      if (hand_ != nullptr && !hand_->set_start_pose(i, pose))
+        throw std::runtime_error("device: the " + config.device.describe() + " device refused the start pose");
+      set_start(i, pose);
+    }
+  }
   if (config.inject_fault && sim_device_ != nullptr)
     sim_device_->inject_fault(config.inject_fault->first, config.inject_fault->second);
 
@@ -65,10 +68,10 @@ SimRig::SimRig(const SimTrialConfig& config) {
   if (config.task == TaskKind::kDissection) ve_ = std::make_unique<DissectionTask>(config.trial_seed);
   else ve_ = std::make_unique<ClipTask>(config.trial_seed);
 
-  if (sim_device_ != nullptr) {
+  if (hand_ != nullptr) {
     const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed);
     participant_ = std::make_unique<Participant>(
-        traits, ParticipantTrial{config.trial_seed, config.practice_trials}, *sim_device_, *ve_);
+        traits, ParticipantTrial{config.trial_seed, config.practice_trials}, *hand_, *ve_);
   }
 
   if (config.clock == ClockKind::kVirtual) clock_ = std::make_unique<VirtualClock>();

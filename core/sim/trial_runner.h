@@ -14,6 +14,7 @@
 #include <memory>
 #include <optional>
 
+#include "core/device/device_spec.h"
 #include "core/device/replay_device.h"
 #include "core/device/sim_device.h"
 #include "core/engine/engine.h"
@@ -30,6 +31,10 @@ ClockKind parse_clock_kind(std::string_view name);
 
 struct SimTrialConfig {
   TaskKind task = TaskKind::kDissection;
+  // The device (device_spec.h). A simulated one (sim, or the simulated
+  // workstation as a plugin or behind the UDP bridge) is held by a
+  // simulated participant; any other is held by a person.
+  DeviceSpec device;
   EngineSettings settings;
   std::uint64_t participant_seed = 1;  // who: the traits
   std::uint64_t trial_seed = 1;        // this trial: task layout and execution variation
@@ -77,15 +82,17 @@ class SimRig {
 
   HapticLoop& loop() noexcept { return *loop_; }
   Device& device() noexcept { return *device_; }
-  // The simulated device and participant; null when replaying.
+  // The built-in simulated device; null when replaying or with another backend.
   SimDevice* sim_device() noexcept { return sim_device_; }
+  // The simulated participant; null when replaying or with a device a person holds.
   const Participant* participant() const noexcept { return participant_.get(); }
   Engine& engine() noexcept { return *engine_; }
   VirtualEnvironment& ve() noexcept { return *ve_; }
 
  private:
   std::unique_ptr<Device> device_;
-  SimDevice* sim_device_ = nullptr;  // device_ when it is the simulated one
+  SimDevice* sim_device_ = nullptr;  // device_ when it is the built-in simulated one
+  HandAttachment* hand_ = nullptr;   // the device's, when a simulated participant holds it
   std::unique_ptr<Engine> engine_;
   std::unique_ptr<VirtualEnvironment> ve_;
   std::unique_ptr<Participant> participant_;

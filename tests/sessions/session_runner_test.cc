@@ -314,8 +314,9 @@ TEST_F(SessionFixture, BadOptionsAndUnknownParticipantsAreNamed) {
   o.rate_Hz = 5000.0;
   EXPECT_THROW(run_session(db_path_, o), std::invalid_argument);
   o = options_for("A1");
-  o.device = "lsw";
+  o.device.options["gain"] = "2";  // the sim device takes no options
   EXPECT_THROW(run_session(db_path_, o), std::invalid_argument);
+  EXPECT_THROW(parse_device_spec("lsw"), std::invalid_argument);
   EXPECT_THROW(run_session(dir_ / "missing.db", options_for("A1")), std::runtime_error);
   EXPECT_FALSE(std::filesystem::exists(dir_ / "missing.db"));
 }

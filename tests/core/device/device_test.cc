@@ -15,12 +15,29 @@ TEST(DeviceStatusTest, EveryStatusHasItsOwnStableName) {
   EXPECT_STREQ(to_string(DeviceStatus::kReadFailed), "read_failed");
   EXPECT_STREQ(to_string(DeviceStatus::kNonFiniteReading), "non_finite_reading");
   EXPECT_STREQ(to_string(DeviceStatus::kEndOfData), "end_of_data");
+  EXPECT_STREQ(to_string(DeviceStatus::kTimeout), "device_timeout");  // the trial's abort reason
   std::set<std::string> names;
-  const int last = static_cast<int>(DeviceStatus::kEndOfData);
+  const int last = kNumDeviceStatuses - 1;
   for (int s = 0; s <= last; ++s) names.insert(to_string(static_cast<DeviceStatus>(s)));
   EXPECT_EQ(names.size(), static_cast<std::size_t>(last + 1));
   EXPECT_EQ(names.count("unknown"), 0u);
   EXPECT_STREQ(to_string(static_cast<DeviceStatus>(last + 1)), "unknown");
+}
+
+TEST(WorkstationSpecTest, RatingsAreTableTwoPointOneForBothInstruments) {
+  const DeviceRatings ratings = workstation_ratings();
+  for (const auto& instrument : ratings.joint) {
+    for (int j = 0; j < kNumDeviceJoints; ++j) {
+      const DeviceJointRating& r = instrument[static_cast<std::size_t>(j)];
+      const WorkstationJointSpec& spec = kWorkstationJoints[static_cast<std::size_t>(j)];
+      EXPECT_EQ(r.min_position, spec.min_position);
+      EXPECT_EQ(r.max_position, spec.max_position);
+      EXPECT_EQ(r.continuous_force, spec.continuous_force);
+      EXPECT_EQ(r.peak_force, spec.peak_force);
+      EXPECT_GT(r.max_velocity, 0.0);
+    }
+    EXPECT_EQ(instrument[kJointInsertion].peak_force, 19.0);
+  }
 }
 
 TEST(WorkstationSpecTest, TableTwoPointOneInSiUnits) {

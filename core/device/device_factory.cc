@@ -1,0 +1,35 @@
+#include "core/device/device_factory.h"
+
+#include <stdexcept>
+
+#include "core/device/sim_device.h"
+
+namespace hapticlab {
+namespace {
+
+void reject_options(const DeviceSpec& spec) {
+  if (!spec.options.empty())
+    throw std::invalid_argument("device-option: '" + spec.options.begin()->first + "' is not an option of the " +
+                                spec.describe() + " device, which takes none");
+}
+
+}  // namespace
+
+std::unique_ptr<Device> open_device(const DeviceSpec& spec) {
+  switch (spec.kind) {
+    case DeviceSpec::Kind::kSim: {
+      reject_options(spec);
+      // Sub-steps of 1 ms are plenty for a hand of a few hundred N/m on a
+      // few hundred grams (ω·h < 0.05) and keep a 1 kHz loop at one physics
+      // step per update.
+      SimDeviceParams params;
+      params.max_substep_s = 1e-3;
+      return std::make_unique<SimDevice>(params);
+    }
+    case DeviceSpec::Kind::kPlugin:
+    case DeviceSpec::Kind::kUdp: break;
+  }
+  throw std::runtime_error("device: " + spec.describe() + " cannot be opened by this build");
+}
+
+}  // namespace hapticlab

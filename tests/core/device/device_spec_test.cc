@@ -1,0 +1,58 @@
+#include "core/device/device_spec.h"
+
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include "core/device/device_factory.h"
+
+namespace hapticlab {
+namespace {
+
+TEST(DeviceSpec, ParsesEveryBackend) {
+  EXPECT_EQ(parse_device_spec("sim").kind, DeviceSpec::Kind::kSim);
+  const DeviceSpec plugin = parse_device_spec("plugin:/opt/lab/libmydevice.so");
+  EXPECT_EQ(plugin.kind, DeviceSpec::Kind::kPlugin);
+  EXPECT_EQ(plugin.path, "/opt/lab/libmydevice.so");
+  const DeviceSpec udp = parse_device_spec("udp:10.0.0.7:5005");
+  EXPECT_EQ(udp.kind, DeviceSpec::Kind::kUdp);
+  EXPECT_EQ(udp.host, "10.0.0.7");
+  EXPECT_EQ(udp.port, 5005);
+  EXPECT_EQ(udp.describe(), "udp:10.0.0.7:5005");
+  const DeviceSpec loopback = parse_device_spec("udp:6000");
+  EXPECT_EQ(loopback.host, "127.0.0.1");  // loopback by default
+  EXPECT_EQ(loopback.port, 6000);
+}
+
+TEST(DeviceSpec, RefusesMalformedSpecsNamingTheText) {
+  for (const char* bad : {"lsw", "", "plugin:", "udp:", "udp:0", "udp:65536", "udp:host:", "udp::5000", "udp:12ab"}) {
+    try {
+      parse_device_spec(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("'" + std::string(bad) + "'"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(DeviceSpec, OptionsAreKeyValueAndUnique) {
+  DeviceSpec spec = parse_device_spec("udp:5000");
+  add_device_options(spec, {"timeout_ms=20", "note=a=b"});
+  EXPECT_EQ(spec.options.at("timeout_ms"), "20");
+  EXPECT_EQ(spec.options.at("note"), "a=b");
+  EXPECT_THROW(add_device_options(spec, {"timeout_ms=5"}), std::invalid_argument);
+  EXPECT_THROW(add_device_options(spec, {"novalue"}), std::invalid_argument);
+  EXPECT_THROW(add_device_options(spec, {"=1"}), std::invalid_argument);
+}
+
+TEST(DeviceFactory, TheSimDeviceIsHeldByASimulatedHandAndTakesNoOptions) {
+  const auto device = open_device(parse_device_spec("sim"));
+  ASSERT_NE(device, nullptr);
+  EXPECT_NE(device->hand_attachment(), nullptr);
+  DeviceSpec spec;
+  spec.options["gain"] = "2";
+  EXPECT_THROW(open_device(spec), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace hapticlab
