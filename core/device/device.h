@@ -99,6 +99,13 @@ class Device {
   virtual DeviceStatus write(const DeviceCommand& command) noexcept = 0;
   // Control thread. Zero forces, amplifiers off. Always safe to call.
   virtual DeviceStatus deactivate() noexcept = 0;
+  // Any thread, at any time, concurrently with read()/write(): stop the
+  // force output now (amplifier enable off, a zero-force latch), without
+  // waiting for the loop, which may be the thing that hangs. The loop's
+  // watchdog calls it; deactivate() follows once the loop ends. Forces stay
+  // off until the next activate(). Default: nothing beyond what write()
+  // does, for devices without a separate way to cut the output.
+  virtual void halt() noexcept {}
 
   virtual const char* name() const noexcept = 0;
 
