@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/data_paths.h"
+#include "core/loop/realtime.h"
 #include "core/loop/stall_probe.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
@@ -19,11 +20,13 @@ EngineSettings shipped(const char* name) {
   return load_settings_file(default_settings_dir() / (std::string(name) + ".json")).engine;
 }
 
-void bench_wall_loop(double seconds, double rate_Hz, double probe_s, bool json) {
+void bench_wall_loop(double seconds, double rate_Hz, double probe_s, const RealtimeOptions& realtime, bool json) {
   // The machine's own stalls first, on the same clock and core type: a loop
   // cannot beat them, so its jitter is read against them.
   const StallProbeResult probe = probe_s > 0.0 ? probe_stalls(probe_s) : StallProbeResult{};
+  const std::string realtime_line = realtime.enabled ? prepare_realtime(realtime) : "real-time: off";
   SimTrialConfig c;
+  c.realtime = realtime;
   c.task = TaskKind::kDissection;
   c.settings = shipped("all_degradations");
   c.clock = ClockKind::kWall;
@@ -47,13 +50,15 @@ void bench_wall_loop(double seconds, double rate_Hz, double probe_s, bool json) 
                         {"machine_probe_s", probe_s},
                         {"machine_windows", probe.windows},
                         {"machine_windows_with_stall_over_100us", probe.windows_with_stall},
-                        {"machine_max_stall_us", probe.max_stall_s * 1e6}};
+                        {"machine_max_stall_us", probe.max_stall_s * 1e6},
+                        {"realtime", realtime_line}};
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
   std::printf("hapticlab bench loop: wall clock, %.0f Hz, %.1f s, full simulated rig "
               "(sim device, all degradations, dissection VE, simulated participant, samples queued)\n",
               rate_Hz, seconds);
+  std::printf("%s\n", realtime_line.c_str());
   if (probe_s > 0.0) {
     std::printf("machine, before the loop: a bare thread spinning on the clock for %.1f s was stalled > 100 us "
                 "in %.2f %% of 1 ms windows (max %.0f us): stalls the loop below cannot avoid\n",
@@ -132,6 +137,7 @@ void add_bench_loop_commands(CLI::App& bench) {
     double rate_Hz = 1000.0;
     double probe_s = 5.0;
     bool json = false;
+    RealtimeOptions realtime;
   };
   auto lo = std::make_shared<LoopOpts>();
   CLI::App* loop = bench.add_subcommand(
@@ -148,8 +154,14 @@ void add_bench_loop_commands(CLI::App& bench) {
                    "itself stalled it > 100 us (0: skip)")
       ->check(CLI::Range(0.0, 600.0))
       ->capture_default_str();
+  loop->add_flag("--realtime", lo->realtime.enabled,
+                 "SCHED_FIFO, CPU affinity and locked memory for the loop, as `session run --realtime`");
+  loop->add_option("--realtime-priority", lo->realtime.priority, "SCHED_FIFO priority, 1..99")
+      ->check(CLI::Range(1, 99))
+      ->capture_default_str();
+  loop->add_option("--realtime-cpu", lo->realtime.cpu, "CPU for the loop (-1: the last one)")->capture_default_str();
   loop->add_flag("--json", lo->json, "Machine-readable output");
-  loop->callback([lo] { bench_wall_loop(lo->seconds, lo->rate_Hz, lo->probe_s, lo->json); });
+  loop->callback([lo] { bench_wall_loop(lo->seconds, lo->rate_Hz, lo->probe_s, lo->realtime, lo->json); });
 
   struct SimOpts {
     double simulated_s = 60.0;

@@ -11,6 +11,7 @@
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
 #include "core/device/device_spec.h"
+#include "core/loop/realtime.h"
 #include "sessions/session_runner.h"
 
 namespace hapticlab::app {
@@ -30,6 +31,7 @@ struct SessionCommandOptions {
   int max_trials = -1;       // -1: all
   bool blind = false;
   bool training_until_enter = false;
+  RealtimeOptions realtime;
 };
 
 // Counts the operator's Enter presses on stdin, for training the operator
@@ -60,6 +62,8 @@ int run(const SessionCommandOptions& opt) {
   options.max_trial_s = opt.max_trial_s;
   if (opt.training_trials >= 0) options.training_trials = opt.training_trials;
   if (opt.max_trials >= 0) options.max_trials = opt.max_trials;
+  options.realtime = opt.realtime;
+  if (opt.realtime.enabled) std::fprintf(stderr, "%s\n", prepare_realtime(opt.realtime).c_str());
   // Static: the detached reader may outlive this function's frame.
   static std::atomic<int> enter_presses{0};
   if (opt.training_until_enter) {
@@ -154,6 +158,14 @@ void add_session_command(CLI::App& app) {
                 "as with a real participant, who practises until the operator judges them ready");
   cmd->add_option("--max-trials", opt->max_trials, "Run at most this many trials, then stop (default: all)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--realtime", opt->realtime.enabled,
+                "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked (for a real device; "
+                "if the system refuses, says so and runs without; docs/devices.md)");
+  cmd->add_option("--realtime-priority", opt->realtime.priority, "SCHED_FIFO priority with --realtime, 1..99")
+      ->check(CLI::Range(1, 99))
+      ->capture_default_str();
+  cmd->add_option("--realtime-cpu", opt->realtime.cpu, "CPU for the loop with --realtime (-1: the last one)")
+      ->capture_default_str();
   cmd->add_flag("--blind", opt->blind,
                 "Never print setting names (when the participant can see this terminal)");
   cmd->callback([opt] {

@@ -201,6 +201,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     c.practice_trials = practice;
     c.clock = options.clock;
     c.rate_Hz = options.rate_Hz;
+    c.realtime = options.realtime;
     c.max_duration_s = options.max_trial_s;
     return c;
   };

@@ -55,6 +55,7 @@ struct SessionOptions {
   DeviceSpec device;  // core/device/device_spec.h; default: the built-in simulated workstation
   ClockKind clock = ClockKind::kVirtual;
   double rate_Hz = 1000.0;     // 150..2000
+  RealtimeOptions realtime;    // the loop thread's scheduling (core/loop/realtime.h)
   double max_trial_s = 300.0;  // per-trial time limit (> 0)
   // Simulated training trials per task before the first scheduled trial of
   // that task in this session; nullopt: the protocol's training_trials.

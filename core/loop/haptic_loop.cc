@@ -85,7 +85,10 @@ bool HapticLoop::activate() {
 
 bool HapticLoop::start() {
   if (!activate()) return false;
-  thread_ = std::thread([this] { loop_body(); });
+  thread_ = std::thread([this] {
+    realtime_result_ = apply_realtime_to_this_thread(config_.realtime);
+    loop_body();
+  });
   return true;
 }
 

@@ -34,6 +34,7 @@
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
 #include "core/loop/rate_schedule.h"
+#include "core/loop/realtime.h"
 #include "core/loop/spsc_queue.h"
 #include "core/sim/task_event.h"
 #include "core/sim/virtual_environment.h"
@@ -60,6 +61,9 @@ struct LoopConfig {
   // instead of dropping (simulated time stands still meanwhile, so nothing
   // is distorted). Ignored with the wall clock, which never waits.
   bool wait_when_full_virtual = true;
+  // Applied to the loop thread by start() (not by run(), whose thread is the
+  // caller's); what it got is realtime_result().
+  RealtimeOptions realtime;
 };
 
 // What a simulated participant sees after the VE step of one update.
@@ -109,6 +113,8 @@ class HapticLoop {
   std::uint64_t dropped_samples() const noexcept { return dropped_samples_.load(std::memory_order_relaxed); }
   std::uint64_t dropped_events() const noexcept { return dropped_events_.load(std::memory_order_relaxed); }
   LoopTimingSummary timing() const { return timing_.summary(); }
+  // After join(): what LoopConfig::realtime got (all false when not asked).
+  RealtimeResult realtime_result() const noexcept { return realtime_result_; }
 
   // Consumer side of the queues (one consumer thread).
   SpscQueue<LoopSample>& samples() noexcept { return samples_; }
@@ -134,6 +140,7 @@ class HapticLoop {
   SpscQueue<TaskEvent> events_;
   LoopTimingStats timing_;
   std::thread thread_;
+  RealtimeResult realtime_result_;  // written by the loop thread, read after join()
 
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> running_{false};

@@ -46,6 +46,7 @@ struct SimTrialConfig {
   bool stop_when_complete = true;       // false: run on to max_duration_s (benchmarks)
   bool publish_samples = true;         // false: no samples reach the sink (throughput runs)
   std::size_t sample_queue_capacity = 1 << 14;
+  RealtimeOptions realtime;  // scheduling of the loop thread (core/loop/realtime.h)
   // Fault injection for tests: from this simulated time on, the device read
   // fails with this status. nullopt: no fault.
   std::optional<std::pair<DeviceStatus, double>> inject_fault;
