@@ -20,6 +20,7 @@
 #include "app/bench_loop.h"
 #include "app/export_command.h"
 #include "app/bench_db.h"
+#include "core/common/build_info.h"
 
 int main(int argc, char** argv) {
   // A file size limit (ulimit -f) should fail the write with EFBIG, which the
@@ -29,7 +30,7 @@ int main(int argc, char** argv) {
   CLI::App app{"HapticLab: make a high-end haptic device feel like inexpensive hardware, "
                "and study whether it matters."};
   app.require_subcommand(1);
-  app.set_version_flag("--version", HAPTICLAB_VERSION_STRING);
+  app.set_version_flag("--version", hapticlab::software_version());
 
   hapticlab::app::add_study_demo_command(app);
 

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/common/build_info.h"
 #include "db/chunk_reader.h"
 #include "db/schema.h"
 #include "db/study_db.h"
@@ -30,7 +31,7 @@ void create(const StudyOptions& opt) {
   const bool existed = std::filesystem::exists(db_path);
   try {
     db::StudyDb db(db_path);
-    const sessions::CreatedStudy created = sessions::create_study(db, opt.protocol, HAPTICLAB_VERSION_STRING);
+    const sessions::CreatedStudy created = sessions::create_study(db, opt.protocol, software_version());
     std::printf("created study %lld in %s: %d participants, %d planned trials\n",
                 static_cast<long long>(created.study_id), opt.db.c_str(), created.participants, created.trials);
     std::printf("next: hapticlab study show --db %s   or   hapticlab session run --db %s --participant CODE\n",

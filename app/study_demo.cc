@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/common/build_info.h"
 #include "analysis/report/report.h"
 #include "analysis/study/metrics_csv.h"
 #include "analysis/study/study_analysis.h"
@@ -51,7 +52,7 @@ void create_or_resume(const fs::path& db_path, const fs::path& protocol, Progres
     return;
   }
   if (existed) line.print("Creating the study in the empty database " + db_path.string());
-  const sessions::CreatedStudy created = sessions::create_study(db, protocol, HAPTICLAB_VERSION_STRING);
+  const sessions::CreatedStudy created = sessions::create_study(db, protocol, software_version());
   line.print("1. Study designed and block-randomized: " + std::to_string(created.participants) +
              " simulated surgeons, " + std::to_string(created.trials) + " trials -> " + db_path.string());
 }

@@ -64,6 +64,26 @@ TEST_F(SessionCommandTest, ShowPrintsTheScheduleAndProgressSummaryOnlyProgress) 
   EXPECT_LT(summary.size(), out.size() / 5);
 }
 
+TEST_F(SessionCommandTest, TheStudyRecordsTheVersionAndCommitOfTheBuildThatCreatedIt) {
+  const auto [status, version] = testing::run_cli(kBinary, "--version");
+  ASSERT_EQ(status, 0) << version;
+  // "hapticlab 0.1.0 (commit 0123456789ab)", -dirty or "unknown" as the tree is.
+  EXPECT_THAT(version, ::testing::MatchesRegex("hapticlab [0-9]+\\.[0-9]+\\.[0-9]+ \\(commit [0-9a-f]{12}(-dirty)?\\)\n|"
+                                               "hapticlab [0-9.]+ \\(commit unknown\\)\n"));
+  db::StudyDb db(db_);
+  ASSERT_EQ(db.studies().size(), 1u);
+  EXPECT_EQ(db.studies().front().software_version + "\n", version);
+}
+
+TEST_F(SessionCommandTest, RealtimeSaysWhatTheLoopGotAndTheSessionRuns) {
+  const auto [status, out] = testing::run_cli(
+      kBinary, "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 1 --realtime");
+  ASSERT_EQ(status, 0) << out;
+  // Granted or refused depends on who runs the test; either way it is said.
+  EXPECT_THAT(out, ::testing::ContainsRegex("real-time: SCHED_FIFO (priority 80|refused)"));
+  EXPECT_THAT(out, HasSubstr("1 complete"));
+}
+
 TEST_F(SessionCommandTest, BlindSessionNeverNamesTheSettingTheOperatorViewDoes) {
   const auto [status, blind] = testing::run_cli(
       kBinary, "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 2 --blind");
