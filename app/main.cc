@@ -1,7 +1,6 @@
 // hapticlab: command line entry point.
 #include <csignal>
 #include <cstdio>
-#include <exception>
 
 #include <CLI/CLI.hpp>
 
@@ -20,6 +19,7 @@
 #include "app/bench_loop.h"
 #include "app/export_command.h"
 #include "app/bench_db.h"
+#include "app/cli_errors.h"
 #include "core/common/build_info.h"
 
 int main(int argc, char** argv) {
@@ -28,7 +28,8 @@ int main(int argc, char** argv) {
   // SIGXFSZ and leaving a temporary file behind.
   std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"HapticLab: make a high-end haptic device feel like inexpensive hardware, "
-               "and study whether it matters."};
+               "and study whether it matters.",
+               "hapticlab"};
   app.require_subcommand(1);
   app.set_version_flag("--version", hapticlab::software_version());
 
@@ -61,17 +62,7 @@ int main(int argc, char** argv) {
   hapticlab::app::add_bench_analyze_command(*bench);
   hapticlab::app::add_bench_db_command(*bench);
 
-  if (argc == 1) {
-    std::fputs(app.help().c_str(), stdout);
-    return 0;
-  }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "hapticlab: error: %s\n", e.what());
-    return 1;
-  }
-  return 0;
+  hapticlab::app::add_help_command(app);
+  app.footer(hapticlab::app::exit_status_help());
+  return hapticlab::app::run_command_line(app, argc, argv);
 }

@@ -137,6 +137,14 @@ void add_session_command(CLI::App& app) {
   cmd->add_option("--device", opt->device,
                   "Device: sim (the simulated workstation and participant), plugin:PATH.so (a device plugin, "
                   "docs/devices.md), udp:[HOST:]PORT (a driver behind the UDP bridge, docs/udp_bridge.md)")
+      ->check([](const std::string& text) {
+        try {
+          parse_device_spec(text);
+          return std::string();
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+      })
       ->capture_default_str();
   cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
   cmd->add_option("--clock", opt->clock, "virtual: as fast as the CPU allows; wall: real time")

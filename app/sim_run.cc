@@ -67,7 +67,7 @@ int run(const SimRunOptions& opt) {
     std::fprintf(stderr, "hapticlab sim run: device fault: %s\n", to_string(r.device_status));
     return 3;
   }
-  return r.task_complete ? 0 : 2;
+  return r.task_complete ? 0 : 4;
 }
 
 }  // namespace
@@ -78,7 +78,7 @@ void add_sim_run_command(CLI::App& sim) {
       "run",
       "Run one simulated trial: a simulated participant performs a task on the simulated "
       "workstation through the degradation engine. Writes every loop update to a CSV file and "
-      "prints a one-line summary. Exit status 0 when the task completed, 2 when it timed out, "
+      "prints a one-line summary. Exit status 0 when the task completed, 4 when it timed out, "
       "3 on a device fault.");
   cmd->add_option("--task", opt->task, "dissection or clip (thesis 3.3.2)")
       ->check(CLI::IsMember({"dissection", "clip"}))

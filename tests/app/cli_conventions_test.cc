@@ -1,0 +1,76 @@
+// The command line's conventions through the real binary: exit statuses
+// (0, 1 failure, 2 usage), "hapticlab: error: ..." with the --help to read,
+// a suggestion for a mistyped command, `hapticlab help [COMMAND...]`.
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "app/cli_errors.h"
+#include "app/cli_process.h"
+
+namespace hapticlab {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
+using ::testing::StartsWith;
+
+const std::string kBinary = HAPTICLAB_CLI_PATH;
+
+TEST(CliConventions, AMistypedCommandIsNamedWithTheNearestOneAtItsLevel) {
+  auto [status, out] = testing::run_cli(kBinary, "stduy show");
+  EXPECT_EQ(status, 2);
+  EXPECT_THAT(out, StartsWith("hapticlab: error: 'stduy' is not a command; did you mean 'study'?"));
+  EXPECT_THAT(out, HasSubstr("Run 'hapticlab --help'"));
+  std::tie(status, out) = testing::run_cli(kBinary, "study shwo --db x.db");
+  EXPECT_EQ(status, 2);
+  EXPECT_THAT(out, HasSubstr("'shwo' is not a hapticlab study command; did you mean 'show'?"));
+  std::tie(status, out) = testing::run_cli(kBinary, "frobnicate");
+  EXPECT_EQ(status, 2);
+  EXPECT_THAT(out, Not(HasSubstr("did you mean")));  // nothing is near: no misleading guess
+}
+
+TEST(CliConventions, UsageErrorsExitTwoAndNameTheCommandsHelp) {
+  for (const char* args : {"study show", "session run --db x.db --participant S1 --rate-hz 5",
+                           "session run --db x.db --participant S1 --device lsw", "analyze --no-such-option"}) {
+    const auto [status, out] = testing::run_cli(kBinary, args);
+    EXPECT_EQ(status, 2) << args << "\n" << out;
+    EXPECT_THAT(out, StartsWith("hapticlab: error: ")) << args;
+    EXPECT_THAT(out, HasSubstr("--help' for usage")) << args;
+  }
+}
+
+TEST(CliConventions, AFailureExitsOneWithTheCause) {
+  const auto [status, out] = testing::run_cli(kBinary, "study show --db /nonexistent/study.db");
+  EXPECT_EQ(status, 1) << out;
+  EXPECT_THAT(out, HasSubstr("/nonexistent/study.db"));
+}
+
+TEST(CliConventions, HelpNamesCommandsAndExitStatuses) {
+  auto [status, out] = testing::run_cli(kBinary, "");
+  EXPECT_EQ(status, 0);
+  EXPECT_THAT(out, HasSubstr("Usage: hapticlab [OPTIONS] SUBCOMMAND"));
+  EXPECT_THAT(out, HasSubstr("session"));
+  EXPECT_THAT(out, HasSubstr("Exit status: 0 success; 1 "));
+  std::tie(status, out) = testing::run_cli(kBinary, "help study create");
+  EXPECT_EQ(status, 0);
+  EXPECT_THAT(out, HasSubstr("Usage: hapticlab study create [OPTIONS]"));
+  EXPECT_THAT(out, HasSubstr("--protocol"));
+  std::tie(status, out) = testing::run_cli(kBinary, "help");
+  EXPECT_EQ(status, 0);
+  EXPECT_THAT(out, HasSubstr("Usage: hapticlab [OPTIONS] SUBCOMMAND"));
+  std::tie(status, out) = testing::run_cli(kBinary, "help sesion");
+  EXPECT_EQ(status, 2);
+  EXPECT_THAT(out, HasSubstr("did you mean 'session'?"));
+}
+
+TEST(CliConventions, NearestNameIsForTyposOnly) {
+  const std::vector<std::string> names = {"study", "session", "stats", "export"};
+  EXPECT_EQ(app::nearest_name("sesion", names), "session");
+  EXPECT_EQ(app::nearest_name("stat", names), "stats");
+  EXPECT_EQ(app::nearest_name("calibrate", names), "");
+}
+
+}  // namespace
+}  // namespace hapticlab
