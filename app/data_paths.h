@@ -1,6 +1,8 @@
 #pragma once
-// Where the shipped example files are: the source tree when run from a
-// build, the installed data directory otherwise.
+// Where the shipped settings and protocols are: $HAPTICLAB_DATA_DIR if set,
+// else <prefix>/share/hapticlab beside an installed binary (found from the
+// binary's own path, so a moved prefix still works), else the source tree
+// when run from a build directory.
 #include <filesystem>
 
 namespace hapticlab::app {

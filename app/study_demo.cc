@@ -71,7 +71,7 @@ int run(const DemoOptions& opt) {
   const fs::path db_path = out / "study.db";
 
   ProgressLine line;
-  line.print("HapticLab demo: the thesis study (" + protocol.filename().string() +
+  line.print("HapticLab demo: the thesis study (" + protocol.string() +
              ") on the simulated rig, virtual clock");
   create_or_resume(db_path, protocol, line);
 
