@@ -412,7 +412,15 @@ void add_stats_command(CLI::App& app) {
         ->required();
     cmd->add_option("--alpha", opt->alpha, "Family-wise significance level, in (0, 1)")
         ->capture_default_str()
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(CLI::Validator(
+            [](const std::string& text) {
+              // CLI::Range is closed; 0 and 1 are no significance levels.
+              double a = 0.0;
+              if (!CLI::detail::lexical_cast(text, a) || !(a > 0.0 && a < 1.0))
+                return "alpha is " + text + "; it must lie strictly between 0 and 1";
+              return std::string();
+            },
+            "in (0, 1)"));
     cmd->callback([opt] { run_pairwise(*opt); });
   }
   {

@@ -9,10 +9,10 @@ namespace hapticlab::analysis {
 
 double sidak_level(double alpha, std::size_t m) {
   if (!(alpha > 0.0 && alpha < 1.0)) {
-    throw DataError("sidak_level(): alpha is " + std::to_string(alpha) +
+    throw DataError("alpha is " + std::to_string(alpha) +
                     ", but must be > 0 and < 1");
   }
-  if (m == 0) throw DataError("sidak_level(): the number of comparisons must be >= 1");
+  if (m == 0) throw DataError("the Sidak level needs at least one comparison");
   // 1 − (1 − α)^(1/m), written with expm1/log1p to keep precision for small α
   return -std::expm1(std::log1p(-alpha) / static_cast<double>(m));
 }

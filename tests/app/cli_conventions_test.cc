@@ -41,6 +41,16 @@ TEST(CliConventions, UsageErrorsExitTwoAndNameTheCommandsHelp) {
   }
 }
 
+TEST(CliConventions, AlphaIsCheckedAtTheOptionWithoutInternalNames) {
+  for (const char* alpha : {"0", "1", "-0.1", "nan"}) {
+    const auto [status, out] =
+        testing::run_cli(kBinary, std::string("stats pairwise --control HF --csv none.csv --alpha ") + alpha);
+    EXPECT_EQ(status, 2) << alpha << "\n" << out;
+    EXPECT_THAT(out, HasSubstr("strictly between 0 and 1")) << alpha;
+    EXPECT_THAT(out, Not(HasSubstr("()"))) << alpha;  // no function name reaches the user
+  }
+}
+
 TEST(CliConventions, AFailureExitsOneWithTheCause) {
   const auto [status, out] = testing::run_cli(kBinary, "study show --db /nonexistent/study.db");
   EXPECT_EQ(status, 1) << out;
