@@ -5,6 +5,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "analysis/report/gnuplot.h"
 #include "analysis/report/report.h"
 #include "analysis/stats/data_error.h"
@@ -32,7 +34,44 @@ struct AnalyzeOptions {
   std::uint64_t seed = 1;
   bool no_plots = false;
   bool quiet = false;
+  bool json = false;
 };
+
+// The summary a script needs: what was analysed, the whole-design and
+// pairwise results, and where the files are. The report has everything.
+nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::path& out,
+                            const an::ReportFiles& files) {
+  auto optional = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+  nlohmann::json whole = nlohmann::json::array();
+  for (const an::WholeDesignRow& r : a.whole_design) {
+    nlohmann::json row = {{"task", r.task}, {"measure", an::measure_column(r.measure)}};
+    if (r.test.result) {
+      row["method"] = r.test.result->method;
+      row["statistic"] = r.test.result->statistic;
+      row["df"] = r.test.result->df;
+      row["p"] = r.test.result->p;
+    } else {
+      row["note"] = r.test.note;
+    }
+    whole.push_back(row);
+  }
+  nlohmann::json pairwise = nlohmann::json::array();
+  for (const an::PairwiseCell& c : a.pairwise)
+    pairwise.push_back({{"task", c.task}, {"setting", c.setting}, {"measure", an::measure_column(c.measure)},
+                        {"p", optional(c.p)}, {"significant", c.significant}, {"participants", c.participants},
+                        {"note", c.note}});
+  return {{"study", a.study_name},
+          {"control", a.control},
+          {"trials", {{"analysed", a.counts.analysed}, {"complete", a.counts.complete},
+                      {"aborted_excluded", a.counts.aborted_excluded},
+                      {"aborted_included", a.counts.aborted_included}, {"not_run", a.counts.not_run},
+                      {"without_window", a.counts.without_window}, {"damaged_chunks", a.counts.damaged_chunks}}},
+          {"sidak_level", a.sidak_level},
+          {"whole_design", whole},
+          {"pairwise", pairwise},
+          {"files", {{"metrics_csv", (out / "metrics.csv").string()}, {"html", files.html.string()},
+                     {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};
+}
 
 void run_analyze(const AnalyzeOptions& o) {
   an::AnalysisOptions options;
@@ -66,6 +105,10 @@ void run_analyze(const AnalyzeOptions& o) {
   if (ec) throw an::DataError("--out is '" + o.out + "', but it cannot be created: " + ec.message());
   an::write_metrics_csv(analysis, out / "metrics.csv");
   const an::ReportFiles files = an::write_report(analysis, out, report);
+  if (o.json) {
+    std::printf("%s\n", summary_json(analysis, out, files).dump(2).c_str());
+    return;
+  }
   if (!o.quiet) std::fputs(an::format_headline_tables(analysis).c_str(), stdout);
   std::printf("\nwrote %s, %s, %s and %zu figure(s) in %s\n", (out / "metrics.csv").c_str(), files.html.c_str(),
               files.markdown.c_str(), files.figures.size(), (out / "figures").c_str());
@@ -118,6 +161,8 @@ void add_analyze_command(CLI::App& app) {
   cmd->add_option("--seed", opt->seed, "Seed of the KS bootstrap; same seed and data, same result")
       ->capture_default_str();
   cmd->add_flag("--no-plots", opt->no_plots, "Write the report without figures (gnuplot not needed)");
+  cmd->add_flag("--json", opt->json,
+                "Print a JSON summary (counts, whole-design and pairwise results, files) instead of the tables");
   cmd->add_flag("--quiet", opt->quiet, "Do not print the headline tables");
   cmd->callback([opt] { run_analyze(*opt); });
 }

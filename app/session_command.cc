@@ -8,6 +8,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
 #include "core/device/device_spec.h"
@@ -32,6 +34,7 @@ struct SessionCommandOptions {
   bool blind = false;
   bool training_until_enter = false;
   RealtimeOptions realtime;
+  bool json = false;
 };
 
 // Counts the operator's Enter presses on stdin, for training the operator
@@ -74,7 +77,8 @@ int run(const SessionCommandOptions& opt) {
 
   InterruptFlag interrupt;
   options.stop = &interrupt.flag();
-  ProgressLine line;
+  // With --json, stdout carries only the summary object; progress goes to stderr.
+  ProgressLine line(opt.json ? stderr : stdout);
   options.on_progress = [&](const sessions::SessionProgress& p) {
     using Phase = sessions::SessionProgress::Phase;
     const double done = p.trial_count > 0 ? static_cast<double>(p.trial_number - 1) / p.trial_count : 0.0;
@@ -102,12 +106,32 @@ int run(const SessionCommandOptions& opt) {
     std::fprintf(stderr, "hapticlab session run: took over the lock of %s's previous session (%s), which had "
                          "ended without releasing it\n",
                  opt.participant.c_str(), r.stale_session->c_str());
-  std::printf("session %lld of %s: %d trials run (%d complete, %d aborted), %d re-queued, %d still planned, "
-              "%llu updates logged%s\n",
-              static_cast<long long>(r.session_id), opt.participant.c_str(), r.trials_run, r.trials_complete,
-              r.trials_aborted, r.trials_requeued, r.trials_left, static_cast<unsigned long long>(r.samples_logged),
-              r.training_trials > 0 ? (", after " + std::to_string(r.training_trials) + " training trials").c_str()
-                                    : "");
+  if (opt.json) {
+    nlohmann::json j = {{"session", r.session_id},
+                        {"participant", opt.participant},
+                        {"device", options.device.describe()},
+                        {"training_trials", r.training_trials},
+                        {"trials_run", r.trials_run},
+                        {"trials_complete", r.trials_complete},
+                        {"trials_aborted", r.trials_aborted},
+                        {"trials_requeued", r.trials_requeued},
+                        {"trials_left", r.trials_left},
+                        {"updates_logged", r.samples_logged},
+                        {"stopped_by_operator", r.stopped_by_operator},
+                        {"device_fault", r.device_fault ? nlohmann::json(r.device_fault_reason) : nlohmann::json()},
+                        {"stale_session", r.stale_session ? nlohmann::json(*r.stale_session) : nlohmann::json()}};
+    std::printf("%s\n", j.dump(2).c_str());
+  } else {
+    std::printf("session %lld of %s: %d %s run (%d complete, %d aborted), %d re-queued, %d still planned, "
+                "%llu updates logged%s\n",
+                static_cast<long long>(r.session_id), opt.participant.c_str(), r.trials_run,
+                r.trials_run == 1 ? "trial" : "trials", r.trials_complete, r.trials_aborted, r.trials_requeued,
+                r.trials_left, static_cast<unsigned long long>(r.samples_logged),
+                r.training_trials > 0 ? (", after " + std::to_string(r.training_trials) + " training trial" +
+                                         (r.training_trials == 1 ? "" : "s"))
+                                            .c_str()
+                                      : "");
+  }
   if (r.device_fault) {
     std::fprintf(stderr, "hapticlab session run: %s; the trial is re-queued, run the session again once the "
                          "device works\n", r.device_fault_reason.c_str());
@@ -174,6 +198,8 @@ void add_session_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--realtime-cpu", opt->realtime.cpu, "CPU for the loop with --realtime (-1: the last one)")
       ->capture_default_str();
+  cmd->add_flag("--json", opt->json,
+                "Print the session's summary as one JSON object on stdout (progress goes to stderr)");
   cmd->add_flag("--blind", opt->blind,
                 "Never print setting names (when the participant can see this terminal)");
   cmd->callback([opt] {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <gmock/gmock.h>
+#include <nlohmann/json.hpp>
 #include <gtest/gtest.h>
 
 #include "analysis/io/long_csv.h"
@@ -46,6 +47,19 @@ TEST_F(AnalyzeCommandTest, WritesCsvAndReport) {
   EXPECT_EQ(csv.row_count(), 20u);
   EXPECT_TRUE(std::filesystem::exists(out + "/report.html"));
   EXPECT_TRUE(std::filesystem::exists(out + "/report.md"));
+}
+
+TEST_F(AnalyzeCommandTest, JsonSummaryIsTheOnlyOutputAndAgreesWithTheCsv) {
+  const std::string out = (dir_.path() / "out").string();
+  ::testing::internal::CaptureStdout();
+  run({"analyze", "--db", db_, "--out", out, "--no-plots", "--no-ks", "--json"});
+  const std::string printed = ::testing::internal::GetCapturedStdout();
+  const nlohmann::json j = nlohmann::json::parse(printed);  // nothing but the JSON on stdout
+  const auto csv = analysis::LongCsv::read(out + "/metrics.csv");
+  EXPECT_EQ(2 * j.at("trials").at("analysed").get<std::size_t>(), csv.row_count());  // a row per trial and hand
+  EXPECT_EQ(j.at("files").at("metrics_csv"), out + "/metrics.csv");
+  EXPECT_FALSE(j.at("whole_design").empty());
+  EXPECT_GT(j.at("sidak_level").get<double>(), 0.0);
 }
 
 TEST_F(AnalyzeCommandTest, IncludeAbortedAndPercentileMethodReachTheAnalysis) {

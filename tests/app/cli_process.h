@@ -10,10 +10,9 @@
 
 namespace hapticlab::testing {
 
-// Runs `binary args` with stderr folded into stdout; returns the exit status
-// (-1 if it did not exit normally) and everything it printed.
-inline std::pair<int, std::string> run_cli(const std::string& binary, const std::string& args) {
-  const std::string command = binary + " " + args + " 2>&1";
+// Runs a shell command; returns the exit status (-1 if it did not exit
+// normally) and what it printed on stdout.
+inline std::pair<int, std::string> run_shell(const std::string& command) {
   std::FILE* pipe = ::popen(command.c_str(), "r");
   if (pipe == nullptr) return {-1, "popen failed"};
   std::string out;
@@ -22,6 +21,16 @@ inline std::pair<int, std::string> run_cli(const std::string& binary, const std:
   while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) out.append(buffer, n);
   const int status = ::pclose(pipe);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+// Runs `binary args` with stderr folded into stdout.
+inline std::pair<int, std::string> run_cli(const std::string& binary, const std::string& args) {
+  return run_shell(binary + " " + args + " 2>&1");
+}
+
+// stdout alone (stderr discarded): for --json, whose stdout must parse.
+inline std::pair<int, std::string> run_cli_stdout(const std::string& binary, const std::string& args) {
+  return run_shell(binary + " " + args + " 2>/dev/null");
 }
 
 }  // namespace hapticlab::testing

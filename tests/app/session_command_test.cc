@@ -16,6 +16,8 @@
 #include "app/csv_rows.h"
 #include "db/study_db.h"
 
+#include <nlohmann/json.hpp>
+
 namespace hapticlab {
 namespace {
 
@@ -73,6 +75,36 @@ TEST_F(SessionCommandTest, TheStudyRecordsTheVersionAndCommitOfTheBuildThatCreat
   db::StudyDb db(db_);
   ASSERT_EQ(db.studies().size(), 1u);
   EXPECT_EQ(db.studies().front().software_version + "\n", version);
+}
+
+TEST_F(SessionCommandTest, JsonSummariesAreTheOnlyThingOnStdout) {
+  const auto [status, out] = testing::run_cli_stdout(
+      kBinary, "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 1 --json");
+  ASSERT_EQ(status, 0) << out;
+  const nlohmann::json j = nlohmann::json::parse(out);  // throws (fails the test) on anything but JSON
+  EXPECT_EQ(j.at("participant"), "S1");
+  EXPECT_EQ(j.at("device"), "sim");
+  EXPECT_EQ(j.at("trials_run"), 1);
+  EXPECT_EQ(j.at("trials_complete"), 1);
+  EXPECT_EQ(j.at("trials_left"), 19);
+  EXPECT_TRUE(j.at("device_fault").is_null());
+  EXPECT_GT(j.at("updates_logged").get<int>(), 1000);
+
+  const auto [status2, summary] = testing::run_cli_stdout(kBinary, "study show --summary --json --db " + db_);
+  ASSERT_EQ(status2, 0) << summary;
+  const nlohmann::json progress = nlohmann::json::parse(summary);
+  EXPECT_TRUE(progress.is_object()) << summary;
+
+  const auto [status3, checked] = testing::run_cli_stdout(
+      kBinary, "settings check --json " + std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/friction.json " +
+                   db_);  // the database is no settings file
+  EXPECT_EQ(status3, 1);
+  const nlohmann::json files = nlohmann::json::parse(checked);
+  ASSERT_EQ(files.size(), 2u);
+  EXPECT_TRUE(files[0].at("ok").get<bool>());
+  EXPECT_EQ(files[0].at("settings").at("name"), "Friction");
+  EXPECT_FALSE(files[1].at("ok").get<bool>());
+  EXPECT_THAT(files[1].at("error").get<std::string>(), HasSubstr("study.db"));
 }
 
 TEST_F(SessionCommandTest, RealtimeSaysWhatTheLoopGotAndTheSessionRuns) {
