@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "app/renamed_option.h"
 #include "analysis/report/report.h"
 #include "analysis/stats/split_mix64.h"
 #include "analysis/study/metrics_csv.h"
@@ -248,9 +249,10 @@ void add_bench_analyze_command(CLI::App& bench) {
       "analyze",
       "Time `hapticlab analyze` on a synthetic thesis-sized study (3 participants, 2 tasks, 135 trials "
       "of 1-2 minutes at 1 kHz, both hands), built first and not timed; target under 10 s");
-  cmd->add_option("--dir", opt->dir,
-                  "Directory for the synthetic database and report (default: a temporary one, removed after)");
-  cmd->add_flag("--keep", opt->keep, "Keep the database and report (in --dir, or the temporary directory)");
+  CLI::Option* out = cmd->add_option(
+      "--out", opt->dir, "Directory for the synthetic database and report (default: a temporary one, removed after)");
+  add_old_spelling(*cmd, out, "--dir", opt->dir);
+  cmd->add_flag("--keep", opt->keep, "Keep the database and report (in --out, or the temporary directory)");
   cmd->add_option("--rate-hz", opt->rate_hz, "Logging rate of the synthetic trials, Hz (> 0)")->capture_default_str()
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--no-plots", opt->no_plots, "Time the report without figures (gnuplot not needed)");

@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/renamed_option.h"
 #include "app/data_paths.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
@@ -319,7 +320,9 @@ void add_bench_db_command(CLI::App& bench) {
   cmd->add_option("--loop-seconds", opt->loop_seconds, "Wall time of each 1 kHz loop run, off then on [s]")
       ->check(CLI::Range(0.5, 3600.0))
       ->capture_default_str();
-  cmd->add_option("--dir", opt->dir, "Folder for the scratch databases (default: the system temp folder)");
+  CLI::Option* scratch =
+      cmd->add_option("--scratch-dir", opt->dir, "Folder for the scratch databases (default: the system temp folder)");
+  add_old_spelling(*cmd, scratch, "--dir", opt->dir);
   cmd->add_flag("--json", opt->json, "Machine-readable output");
   cmd->callback([opt] { run_bench_db(*opt); });
 }

@@ -11,6 +11,7 @@
 
 #include "core/engine/engine.h"
 #include "core/engine/status.h"
+#include "app/renamed_option.h"
 #include "core/io/output_file.h"
 #include "core/io/trajectory_csv.h"
 #include "core/settings/settings_json.h"
@@ -46,8 +47,8 @@ std::array<JointVector, kNumInstruments> first_positions(const fs::path& input) 
 }
 
 void run_replay(const ReplayOptions& opt) {
-  refuse_output_over_input(opt.input, opt.output, "--input", "--output");
-  refuse_output_over_input(opt.settings, opt.output, "--settings", "--output");
+  refuse_output_over_input(opt.input, opt.output, "--csv", "--out");
+  refuse_output_over_input(opt.settings, opt.output, "--settings", "--out");
   const NamedSettings settings = load_settings_file(opt.settings);
   Engine engine(settings.engine, first_positions(opt.input));
   TrajectoryCsvReader reader{fs::path(opt.input)};
@@ -106,25 +107,30 @@ void add_engine_replay_command(CLI::App& engine) {
   cmd->add_option("--settings", opt->settings, "Settings JSON file")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--input", opt->input,
+  CLI::Option* csv = cmd->add_option("--csv", opt->input,
                   "Trajectory CSV with a header row and the columns (any order) t_s, "
                   "instrument (0 or 1), insertion_m, pitch_rad, yaw_rad, ve_force_x_N, "
                   "ve_force_y_N, ve_force_z_N")
-      ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--output", opt->output,
+  const RenamedOption csv_option = add_old_spelling(*cmd, csv, "--input", opt->input);
+  csv_option.old->check(CLI::ExistingFile);
+  CLI::Option* out = cmd->add_option("--out", opt->output,
                   "Output CSV: the input columns, then displayed_force_{x,y,z}_N, "
                   "insertion_force_N, pitch_torque_Nm, yaw_torque_Nm, degraded_insertion_m, "
                   "degraded_pitch_rad, degraded_yaw_rad, fault (status bits). Written to "
                   "OUTPUT.<pid>.tmp and renamed when complete, so a failed replay leaves no "
-                  "OUTPUT; must not be the input file")
-      ->required();
+                  "OUT; must not be the input file");
+  const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
   cmd->footer(
       "Sign conventions: world frame at the trocar, z up out of the patient; at zero pitch and "
       "yaw the tool points along -z. VE and displayed forces act on the tool tip in the world "
       "frame. A positive insertion force pushes toward larger insertion; positive pitch/yaw "
       "torques turn toward larger angles.");
-  cmd->callback([opt] { run_replay(*opt); });
+  cmd->callback([opt, csv_option, out_option] {
+    csv_option.require();
+    out_option.require();
+    run_replay(*opt);
+  });
 }
 
 }  // namespace hapticlab::app

@@ -23,13 +23,16 @@ void add_settings_check_command(CLI::App& settings) {
       "check",
       "Validate settings files; print the resolved parameters (defaults filled in). Every file is checked; "
       "exit status 1 if any is invalid");
-  cmd->add_option("files", opt->files, "Settings JSON files")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--settings", opt->files, "Settings JSON file (repeatable)")->check(CLI::ExistingFile);
+  // The old positional form, `settings check A.json B.json`, hidden.
+  cmd->add_option("files", opt->files, "Settings JSON files")->group("")->check(CLI::ExistingFile);
   cmd->add_flag("-q,--quiet", opt->quiet, "Only report errors");
   cmd->add_flag("--json", opt->json,
                 "Print one JSON array, an object per file: file, ok, and the resolved settings or the error");
   settings.add_subcommand("reference", "Print every settings field with its default and range")
       ->callback([] { std::cout << settings_reference_markdown(); });
   cmd->callback([opt] {
+    if (opt->files.empty()) throw CLI::RequiredError("--settings");
     nlohmann::json results = nlohmann::json::array();
     int failed = 0;
     for (const std::string& f : opt->files) {

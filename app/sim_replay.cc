@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "app/renamed_option.h"
 #include "app/sim_run.h"
 #include "core/io/output_file.h"
 #include "core/settings/settings_json.h"
@@ -83,7 +84,7 @@ int run(const SimReplayOptions& opt) {
   if (!opt.db.empty() && !opt.trial) throw std::invalid_argument("--trial: required with --db");
   // Replacing the database by the output would lose the study.
   for (const auto& [input, option] : {std::pair{&opt.db, "--db"}, {&opt.csv, "--csv"}, {&opt.settings, "--settings"}})
-    if (!input->empty()) refuse_output_over_input(*input, opt.output, option, "--output");
+    if (!input->empty()) refuse_output_over_input(*input, opt.output, option, "--out");
   Recording rec = opt.db.empty() ? from_csv(opt) : from_database(opt);
 
   SimTrialConfig config;
@@ -138,8 +139,10 @@ void add_sim_replay_command(CLI::App& sim) {
   cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
       ->check(CLI::Range(150.0, 2000.0))
       ->capture_default_str();
-  cmd->add_option("--output", opt->output, "CSV file to write (one row per loop update)")->required();
-  cmd->callback([opt] {
+  CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update)");
+  const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
+  cmd->callback([opt, out_option] {
+    out_option.require();
     const int status = run(*opt);
     if (status != 0) throw CLI::RuntimeError(status);
   });

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <string>
 
+#include "app/renamed_option.h"
 #include "core/io/loop_sample_csv.h"
 #include "core/io/output_file.h"
 #include "core/settings/settings_json.h"
@@ -42,7 +43,7 @@ namespace {
 int run(const SimRunOptions& opt) {
   SimTrialConfig config;
   config.task = parse_task_kind(opt.task);
-  refuse_output_over_input(opt.settings, opt.output, "--settings", "--output");
+  refuse_output_over_input(opt.settings, opt.output, "--settings", "--out");
   const NamedSettings settings = load_settings_file(opt.settings);
   config.settings = settings.engine;
   config.participant_seed = opt.participant_seed;
@@ -105,12 +106,15 @@ void add_sim_run_command(CLI::App& sim) {
       ->capture_default_str();
   cmd->add_flag("--thesis-rate", opt->thesis_rate,
                 "Let the rate wander between 200 and 2000 Hz like the thesis' VE (overrides --rate-hz)");
-  cmd->add_option("--max-duration-s", opt->max_duration_s,
-                  "Stop the trial after this much (simulated) time [s]")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  cmd->add_option("--output", opt->output, "CSV file to write (one row per loop update)")->required();
-  cmd->callback([opt] {
+  CLI::Option* limit = cmd->add_option("--max-trial-s", opt->max_duration_s,
+                                       "Time limit of the trial [s] (simulated time with --clock virtual)")
+                           ->check(CLI::PositiveNumber)
+                           ->capture_default_str();
+  add_old_spelling(*cmd, limit, "--max-duration-s", opt->max_duration_s).old->check(CLI::PositiveNumber);
+  CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update)");
+  const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
+  cmd->callback([opt, out_option] {
+    out_option.require();
     const int status = run(*opt);
     if (status != 0) throw CLI::RuntimeError(status);
   });

@@ -75,6 +75,25 @@ TEST(CliConventions, HelpNamesCommandsAndExitStatuses) {
   EXPECT_THAT(out, HasSubstr("did you mean 'session'?"));
 }
 
+TEST(CliConventions, OldSpellingsStillWorkForOneReleaseButAreHidden) {
+  const std::string settings = std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/friction.json";
+  const std::string csv = ::testing::TempDir() + "hapticlab_old_spelling.csv";
+  auto [status, out] = testing::run_cli(
+      kBinary, "sim run --task clip --settings " + settings + " --max-duration-s 0.2 --output " + csv);
+  EXPECT_EQ(status, 4) << out;  // ran (and timed out, as asked)
+  EXPECT_THAT(out, HasSubstr("after 0.20 s"));
+  std::tie(status, out) = testing::run_cli(kBinary, "sim run --help");
+  EXPECT_THAT(out, HasSubstr("--out"));
+  EXPECT_THAT(out, HasSubstr("--max-trial-s"));
+  EXPECT_THAT(out, Not(HasSubstr("--output")));
+  EXPECT_THAT(out, Not(HasSubstr("--max-duration-s")));
+  std::tie(status, out) = testing::run_cli(
+      kBinary, "sim run --task clip --settings " + settings + " --out " + csv + " --output " + csv);
+  EXPECT_EQ(status, 2) << out;  // both spellings at once
+  std::tie(status, out) = testing::run_cli(kBinary, "settings check -q " + settings);  // positional, as before
+  EXPECT_EQ(status, 0) << out;
+}
+
 TEST(CliConventions, NearestNameIsForTyposOnly) {
   const std::vector<std::string> names = {"study", "session", "stats", "export"};
   EXPECT_EQ(app::nearest_name("sesion", names), "session");

@@ -132,7 +132,7 @@ TEST_F(DbIntegrityTest, EveryReaderRefusesADamagedIndex) {
   const std::string out = (dir_.path() / "out").string();
   for (const std::string& args : {"study show" + db, "export" + db + " --format csv --out " + out,
                                   "analyze" + db + " --out " + out + " --no-plots --no-ks",
-                                  "sim replay" + db + " --trial 1 --output " + out + ".csv"}) {
+                                  "sim replay" + db + " --trial 1 --out " + out + ".csv"}) {
     const auto [code, text] = cli(args);
     EXPECT_EQ(code, 1) << args << "\n" << text;
     EXPECT_THAT(text, AllOf(HasSubstr("integrity_check found"), HasSubstr("event_by_trial"))) << args;

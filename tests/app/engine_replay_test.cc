@@ -59,7 +59,7 @@ class EngineReplayTest : public ::testing::Test {
     CLI::App* engine = app.add_subcommand("engine");
     add_engine_replay_command(*engine);
     std::vector<std::string> args = {"engine",  "replay",         "--settings", settings.string(),
-                                     "--input", input.string(),   "--output",   output.string()};
+                                     "--csv", input.string(),   "--out",   output.string()};
     std::reverse(args.begin(), args.end());  // CLI11 takes the arguments last first
     ::testing::internal::CaptureStdout();
     try {

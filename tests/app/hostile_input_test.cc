@@ -102,7 +102,7 @@ TEST_F(HostileInputTest, ProtocolNestedHundredThousandDeepIsRefusedByStudyCreate
 }
 
 TEST_F(HostileInputTest, SettingsCheckOfDevZeroStopsAtTheSizeLimit) {
-  const auto [status, out] = run("settings check /dev/zero");
+  const auto [status, out] = run("settings check --settings /dev/zero");
   EXPECT_EQ(status, 1) << out;
   EXPECT_THAT(out, HasSubstr("/dev/zero: larger than 4 MiB, the limit for a settings file"));
 }
@@ -169,8 +169,8 @@ TEST_F(HostileInputTest, StatsReadsACsvWithCrOnlyLineEndings) {
 TEST_F(HostileInputTest, EngineReplayReadsBomAndCrOnlyTrajectories) {
   const fs::path input = write("cr.csv", "\xEF\xBB\xBF" + trajectory(3, "\r"));
   const fs::path output = dir_ / "out.csv";
-  const auto [status, out] = run("engine replay --settings " + settings_arg() + " --input " + input.string() +
-                                 " --output " + output.string());
+  const auto [status, out] = run("engine replay --settings " + settings_arg() + " --csv " + input.string() +
+                                 " --out " + output.string());
   EXPECT_EQ(status, 0) << out;
   EXPECT_THAT(out, HasSubstr("6 rows (instrument 0: 3, instrument 1: 3)"));
 }
@@ -181,7 +181,7 @@ TEST_F(HostileInputTest, CsvInputsOfDevZeroStopAtTheirLimits) {
   EXPECT_THAT(stats_out, HasSubstr("/dev/zero: larger than 64 MiB, the limit for a CSV file"));
 
   const auto [replay_status, replay_out] = run("engine replay --settings " + settings_arg() +
-                                               " --input /dev/zero --output " + (dir_ / "out.csv").string());
+                                               " --csv /dev/zero --out " + (dir_ / "out.csv").string());
   EXPECT_EQ(replay_status, 1) << replay_out;
   EXPECT_THAT(replay_out, HasSubstr("/dev/zero: line 1: longer than the 1 MiB limit for one line"));
   EXPECT_EQ(entries(), 0u);
@@ -196,8 +196,8 @@ TEST_F(HostileInputTest, EngineReplayOntoAFullDeviceNamesPathAndCause) {
   // machine's /dev/full.
   const fs::path output = dir_ / "full.csv";
   fs::create_symlink("/dev/full", output);
-  const auto [status, out] = run("engine replay --settings " + settings_arg() + " --input " + input.string() +
-                                 " --output " + output.string());
+  const auto [status, out] = run("engine replay --settings " + settings_arg() + " --csv " + input.string() +
+                                 " --out " + output.string());
   EXPECT_EQ(status, 1) << out;
   EXPECT_THAT(out, HasSubstr(output.string() + ": cannot write: No space left on device"));
 }
@@ -207,8 +207,8 @@ TEST_F(HostileInputTest, EngineReplayOntoAFullDeviceNamesPathAndCause) {
 TEST_F(HostileInputTest, EngineReplayOverTheFileSizeLimitLeavesNoOutput) {
   const fs::path input = write("in.csv", trajectory(2000));  // output about 600 KB
   const fs::path output = dir_ / "out.csv";
-  const auto [status, out] = run("engine replay --settings " + settings_arg() + " --input " + input.string() +
-                                     " --output " + output.string(),
+  const auto [status, out] = run("engine replay --settings " + settings_arg() + " --csv " + input.string() +
+                                     " --out " + output.string(),
                                  "prlimit --fsize=32768 ");
   EXPECT_EQ(status, 1) << out;
   EXPECT_THAT(out, HasSubstr(output.string() + ": cannot write: File too large"));
@@ -218,7 +218,7 @@ TEST_F(HostileInputTest, EngineReplayOverTheFileSizeLimitLeavesNoOutput) {
 
 TEST_F(HostileInputTest, SimRunOverTheFileSizeLimitLeavesNoOutput) {
   const fs::path output = dir_ / "sim.csv";
-  const auto [status, out] = run("sim run --settings " + settings_arg() + " --max-duration-s 2 --output " +
+  const auto [status, out] = run("sim run --settings " + settings_arg() + " --max-trial-s 2 --out " +
                                      output.string(),
                                  "prlimit --fsize=8192 ");
   EXPECT_EQ(status, 1) << out;
@@ -231,10 +231,10 @@ TEST_F(HostileInputTest, EngineReplayRefusesToOverwriteItsInput) {
   const fs::path input = write("in.csv", text);
   fs::create_symlink(input, dir_ / "link.csv");
   for (const fs::path& output : {input, dir_ / "." / "in.csv", dir_ / "link.csv"}) {
-    const auto [status, out] = run("engine replay --settings " + settings_arg() + " --input " + input.string() +
-                                   " --output " + output.string());
+    const auto [status, out] = run("engine replay --settings " + settings_arg() + " --csv " + input.string() +
+                                   " --out " + output.string());
     EXPECT_EQ(status, 1) << out;
-    EXPECT_THAT(out, HasSubstr("is the same file as --input"));
+    EXPECT_THAT(out, HasSubstr("is the same file as --csv"));
   }
   EXPECT_EQ(slurp(input), text);
 }

@@ -172,7 +172,7 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
 
   const fs::path replay_csv = dir_ / "replay.csv";
   const auto [status2, summary] = testing::run_cli(
-      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --output " + replay_csv.string());
+      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --out " + replay_csv.string());
   ASSERT_EQ(status2, 0) << summary;
   EXPECT_THAT(summary, HasSubstr("end_of_data"));
   EXPECT_THAT(summary, HasSubstr("task complete"));
@@ -204,7 +204,7 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
   const fs::path no_ffb_csv = dir_ / "no_ffb.csv";
   const auto [status4, summary4] = testing::run_cli(
       kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --settings " +
-                   std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/no_force_feedback.json --output " +
+                   std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/no_force_feedback.json --out " +
                    no_ffb_csv.string());
   ASSERT_EQ(status4, 0) << summary4;
   EXPECT_THAT(summary4, HasSubstr("through No Force Feedback"));
@@ -221,10 +221,10 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
 
 TEST_F(SessionCommandTest, ReplayNamesWhatIsMissing) {
   const auto [status, out] =
-      testing::run_cli(kBinary, "sim replay --db " + db_ + " --trial 1 --output " + (dir_ / "x.csv").string());
+      testing::run_cli(kBinary, "sim replay --db " + db_ + " --trial 1 --out " + (dir_ / "x.csv").string());
   EXPECT_NE(status, 0);
   EXPECT_THAT(out, HasSubstr("no stored samples"));
-  const auto [status2, out2] = testing::run_cli(kBinary, "sim replay --db " + db_ + " --output x.csv");
+  const auto [status2, out2] = testing::run_cli(kBinary, "sim replay --db " + db_ + " --out x.csv");
   EXPECT_NE(status2, 0);
   EXPECT_THAT(out2, HasSubstr("--trial"));
   EXPECT_FALSE(fs::exists(dir_ / "x.csv"));

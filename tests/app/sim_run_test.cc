@@ -122,7 +122,7 @@ TEST_F(SimRunTest, WritesOneRowPerUpdateWithTheDocumentedColumnsAndPrintsTheSumm
   const fs::path out = dir_ / "trial.csv";
   const std::string printed = sim_run({"--task", "dissection", "--settings",
                                        shipped_settings("high_fidelity").string(), "--participant-seed", "2",
-                                       "--output", out.string()});
+                                       "--out", out.string()});
   const Csv csv = read_csv(out);
   EXPECT_EQ(csv.header, documented_columns());
   ASSERT_GT(csv.rows.size(), 5000u);  // a dissection takes seconds at 1 kHz
@@ -180,7 +180,7 @@ TEST_F(SimRunTest, RateAndMaxDurationShapeTheFileAndATimeoutExitsWithTwo) {
     add_sim_run_command(*sim);
     std::vector<std::string> args = {"sim", "run", "--task", "clip", "--settings",
                                      shipped_settings("friction").string(), "--rate-hz", "512",
-                                     "--max-duration-s", "1.5", "--output", out.string()};
+                                     "--max-trial-s", "1.5", "--out", out.string()};
     std::reverse(args.begin(), args.end());
     try {
       app.parse(args);
@@ -203,7 +203,7 @@ TEST_F(SimRunTest, RateAndMaxDurationShapeTheFileAndATimeoutExitsWithTwo) {
 
 TEST_F(SimRunTest, BadTaskIsRefusedNamingTheValueAndTheChoices) {
   const std::string msg = sim_run_error({"--task", "suturing", "--settings",
-                                         shipped_settings("high_fidelity").string(), "--output",
+                                         shipped_settings("high_fidelity").string(), "--out",
                                          (dir_ / "x.csv").string()});
   EXPECT_NE(msg.find("suturing"), std::string::npos) << msg;
   EXPECT_NE(msg.find("dissection"), std::string::npos) << msg;
@@ -215,7 +215,7 @@ TEST_F(SimRunTest, RateOutsideTheLoopsRangeIsRefusedNamingTheValue) {
   for (const std::string rate : {"5000", "100", "fast"}) {
     const std::string msg = sim_run_error({"--task", "clip", "--settings",
                                            shipped_settings("high_fidelity").string(), "--rate-hz", rate,
-                                           "--output", (dir_ / "x.csv").string()});
+                                           "--out", (dir_ / "x.csv").string()});
     EXPECT_NE(msg.find(rate), std::string::npos) << msg;
     EXPECT_TRUE(dir_is_empty()) << rate;
   }
@@ -223,7 +223,7 @@ TEST_F(SimRunTest, RateOutsideTheLoopsRangeIsRefusedNamingTheValue) {
 
 TEST_F(SimRunTest, MissingOrInvalidSettingsFileIsRefusedNamingIt) {
   const fs::path missing = dir_ / "no_such_settings.json";
-  std::string msg = sim_run_error({"--settings", missing.string(), "--output", (dir_ / "x.csv").string()});
+  std::string msg = sim_run_error({"--settings", missing.string(), "--out", (dir_ / "x.csv").string()});
   EXPECT_NE(msg.find(missing.string()), std::string::npos) << msg;
   EXPECT_TRUE(dir_is_empty());
 
@@ -231,7 +231,7 @@ TEST_F(SimRunTest, MissingOrInvalidSettingsFileIsRefusedNamingIt) {
   // names the field and the value, and no output appears.
   const fs::path bad = dir_ / "bad.json";
   std::ofstream(bad) << R"({"name":"bad","tip_force_saturation":{"limit_N":-2.5}})";
-  msg = sim_run_error({"--settings", bad.string(), "--output", (dir_ / "x.csv").string()});
+  msg = sim_run_error({"--settings", bad.string(), "--out", (dir_ / "x.csv").string()});
   EXPECT_NE(msg.find("limit_N"), std::string::npos) << msg;
   EXPECT_NE(msg.find("-2.5"), std::string::npos) << msg;
   EXPECT_FALSE(fs::exists(dir_ / "x.csv"));
