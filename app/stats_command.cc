@@ -36,6 +36,7 @@ struct CommonOptions {
   an::LongColumns columns;
   std::vector<std::string> group;
   bool json = false;
+  bool drop_missing = false;
 };
 
 struct PairwiseOptions {
@@ -50,6 +51,7 @@ struct CorrelationOptions {
   std::string y;
   std::vector<std::string> group;
   bool json = false;
+  bool drop_missing = false;
 };
 
 struct KsOptions {
@@ -71,8 +73,21 @@ std::string num(double v) {
 
 // The CSV, refused when it holds no data rows: a test of nothing must not
 // look like a result (it used to print nothing and exit 0).
-an::LongCsv read_data(const std::string& path) {
+// With drop_missing, rows with an empty cell in one of `value_columns` are
+// left out and counted on stderr: metrics.csv leaves a measure empty when a
+// trial has no task window, and an analysis of the rest is what a user wants.
+an::LongCsv read_data(const std::string& path, bool drop_missing, const std::vector<std::string>& value_columns) {
   an::LongCsv csv = an::LongCsv::read(path);
+  if (drop_missing) {
+    std::size_t dropped = 0;
+    csv = csv.without_empty(value_columns, dropped);
+    if (dropped > 0) {
+      std::string names;
+      for (const std::string& c : value_columns) names += (names.empty() ? "" : ", ") + c;
+      std::fprintf(stderr, "hapticlab stats: left out %zu row(s) of %s with an empty %s\n", dropped, path.c_str(),
+                   names.c_str());
+    }
+  }
   if (csv.row_count() == 0) {
     throw an::DataError(path + ": the file has a header row but no data rows; nothing to test");
   }
@@ -92,6 +107,12 @@ void add_group_option(CLI::App& cmd, std::vector<std::string>& group) {
       ->delimiter(',');
 }
 
+void add_drop_missing_flag(CLI::App& cmd, bool& drop_missing) {
+  cmd.add_flag("--drop-missing", drop_missing,
+               "Leave out rows whose value is empty (as metrics.csv has for a trial without a task window), "
+               "counted on stderr; without it an empty value is an error");
+}
+
 void add_common_options(CLI::App& cmd, CommonOptions& opt, bool with_group) {
   add_csv_option(cmd, opt.csv);
   cmd.add_option("--block", opt.columns.block,
@@ -106,6 +127,7 @@ void add_common_options(CLI::App& cmd, CommonOptions& opt, bool with_group) {
   cmd.add_option("--value", opt.columns.value, "Column holding the measured value")
       ->capture_default_str();
   if (with_group) add_group_option(cmd, opt.group);
+  add_drop_missing_flag(cmd, opt.drop_missing);
   cmd.add_flag("--json", opt.json, "Print one JSON object instead of a table");
 }
 
@@ -187,7 +209,7 @@ void print_test(const an::TestResult& r) {
 
 void run_block_test(const CommonOptions& opt, const std::string& test,
                     an::TestResult (*run)(const an::BlockTable&)) {
-  const auto csv = read_data(opt.csv);
+  const auto csv = read_data(opt.csv, opt.drop_missing, {opt.columns.value});
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped(test, csv, opt.group, opt.json, [&](const Group& g) {
     const an::TestResult r = run(table_for(observations, g));
@@ -197,7 +219,7 @@ void run_block_test(const CommonOptions& opt, const std::string& test,
 }
 
 void run_durbin(const CommonOptions& opt) {
-  const auto csv = read_data(opt.csv);
+  const auto csv = read_data(opt.csv, opt.drop_missing, {opt.columns.value});
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped("durbin", csv, opt.group, opt.json, [&](const Group& g) {
     const an::DurbinResult r = an::durbin_test(table_for(observations, g));
@@ -213,7 +235,7 @@ void run_durbin(const CommonOptions& opt) {
 }
 
 void run_pairwise(const PairwiseOptions& opt) {
-  const auto csv = read_data(opt.common.csv);
+  const auto csv = read_data(opt.common.csv, opt.common.drop_missing, {opt.common.columns.value});
   const auto observations = an::read_observations(csv, opt.common.columns);
   run_grouped("pairwise-friedman", csv, opt.common.group, opt.common.json, [&](const Group& g) {
     const an::BlockTable table = table_for(observations, g);
@@ -262,7 +284,7 @@ void run_pairwise(const PairwiseOptions& opt) {
 }
 
 void run_correlation(const CorrelationOptions& opt) {
-  const auto csv = read_data(opt.csv);
+  const auto csv = read_data(opt.csv, opt.drop_missing, {opt.x, opt.y});
   const std::size_t x = csv.column(opt.x);
   const std::size_t y = csv.column(opt.y);
   run_grouped("pearson-correlation", csv, opt.group, opt.json, [&](const Group& g) {
@@ -285,7 +307,7 @@ void run_correlation(const CorrelationOptions& opt) {
 }
 
 void run_ks(const KsOptions& opt) {
-  const auto csv = read_data(opt.common.csv);
+  const auto csv = read_data(opt.common.csv, opt.common.drop_missing, {opt.common.columns.value});
   an::LongColumns columns = opt.common.columns;
   // The pooled test needs no blocks; only the bootstrap resamples per block.
   const bool has_block_column = std::find(csv.columns().begin(), csv.columns().end(),
@@ -448,6 +470,7 @@ void add_stats_command(CLI::App& app) {
     cmd->add_option("--y", opt->y, "Column of the second variable (e.g. a performance measure)")
         ->required();
     add_group_option(*cmd, opt->group);
+    add_drop_missing_flag(*cmd, opt->drop_missing);
     cmd->add_flag("--json", opt->json, "Print one JSON object instead of a table");
     cmd->callback([opt] { run_correlation(*opt); });
   }

@@ -69,6 +69,26 @@ LongCsv LongCsv::read(const std::filesystem::path& path) {
   }
 }
 
+LongCsv LongCsv::without_empty(const std::vector<std::string>& columns, std::size_t& dropped) const {
+  std::vector<std::size_t> indices;
+  for (const std::string& c : columns) indices.push_back(column(c));
+  LongCsv kept;
+  kept.source_ = source_;
+  kept.columns_ = columns_;
+  dropped = 0;
+  for (std::size_t r = 0; r < rows_.size(); ++r) {
+    bool empty = false;
+    for (std::size_t i : indices) empty = empty || rows_[r][i].empty();
+    if (empty) {
+      ++dropped;
+      continue;
+    }
+    kept.rows_.push_back(rows_[r]);
+    kept.lines_.push_back(lines_[r]);
+  }
+  return kept;
+}
+
 LongCsv LongCsv::parse(std::string_view text, std::string source) {
   LongCsv csv;
   csv.source_ = std::move(source);

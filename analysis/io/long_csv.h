@@ -45,6 +45,11 @@ class LongCsv {
   // and value otherwise (empty, non-numeric, trailing text, NaN, Inf).
   double number(std::size_t row, std::size_t column) const;
 
+  // A copy without the rows whose field is empty in any of `columns` (a
+  // measure the analysis could not compute is an empty cell in metrics.csv);
+  // `dropped` counts them. Throws DataError for a missing column.
+  LongCsv without_empty(const std::vector<std::string>& columns, std::size_t& dropped) const;
+
  private:
   std::string source_;
   std::vector<std::string> columns_;

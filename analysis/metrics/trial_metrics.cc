@@ -79,13 +79,13 @@ WindowValues window_values(const HandSeries& series, const TaskWindow& window, d
   const std::size_t n = series.t_s.size();
   if (series.tip_position_m.size() != n || series.tip_velocity_m_per_s.size() != n ||
       series.ve_force_N.size() != n) {
-    throw DataError("window_values(): the series' channels differ in length (t_s " + std::to_string(n) +
+    throw DataError("task window: the series' channels differ in length (t_s " + std::to_string(n) +
                     ", tip_position_m " + std::to_string(series.tip_position_m.size()) +
                     ", tip_velocity_m_per_s " + std::to_string(series.tip_velocity_m_per_s.size()) +
                     ", ve_force_N " + std::to_string(series.ve_force_N.size()) + ")");
   }
   if (!(std::isfinite(min_force_N) && min_force_N >= 0.0)) {
-    throw DataError("window_values(): min_force_N is " + std::to_string(min_force_N) +
+    throw DataError("task window: min_force_N is " + std::to_string(min_force_N) +
                     ", but must be finite and >= 0");
   }
   WindowValues out;
@@ -95,7 +95,7 @@ WindowValues window_values(const HandSeries& series, const TaskWindow& window, d
   for (std::size_t i = 0; i < n; ++i) {
     const double t = series.t_s[i];
     if (!std::isfinite(t)) {
-      throw DataError("window_values(): t_s of sample " + std::to_string(i) + " is not finite");
+      throw DataError("task window: t_s of sample " + std::to_string(i) + " is not finite");
     }
     if (t < window.start_s || t > window.end_s) continue;
     ++out.samples;
@@ -104,7 +104,7 @@ WindowValues window_values(const HandSeries& series, const TaskWindow& window, d
     const Vec3d& p = series.tip_position_m[i];
     // A NaN would otherwise fail the threshold test and vanish silently.
     if (!std::isfinite(force) || !std::isfinite(speed) || !std::isfinite(norm3(p))) {
-      throw DataError("window_values(): sample " + std::to_string(i) + " at t_s = " + std::to_string(t) +
+      throw DataError("task window: sample " + std::to_string(i) + " at t_s = " + std::to_string(t) +
                       " has a non-finite " +
                       (!std::isfinite(force) ? "ve_force_N" : !std::isfinite(speed) ? "tip_velocity_m_per_s"
                                                                                      : "tip_position_m"));
@@ -125,7 +125,7 @@ namespace {
 void check_finite(const std::vector<double>& values, const char* what) {
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (!std::isfinite(values[i])) {
-      throw DataError(std::string("summarize_window(): ") + what + " value " + std::to_string(i) +
+      throw DataError(std::string("task window: ") + what + " value " + std::to_string(i) +
                       " is not finite (" + std::to_string(values[i]) + ")");
     }
   }

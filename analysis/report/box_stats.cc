@@ -9,13 +9,13 @@
 namespace hapticlab::analysis {
 
 BoxStats box_stats(std::span<const double> values, double whisker_iqr, PercentileMethod method) {
-  if (values.empty()) throw DataError("box_stats(): no values");
+  if (values.empty()) throw DataError("box plot: no values");
   if (!(std::isfinite(whisker_iqr) && whisker_iqr >= 0.0)) {
-    throw DataError("box_stats(): whisker_iqr is " + std::to_string(whisker_iqr) + ", but must be >= 0");
+    throw DataError("box plot: whisker_iqr is " + std::to_string(whisker_iqr) + ", but must be >= 0");
   }
   std::vector<double> sorted(values.begin(), values.end());
   for (double v : sorted)
-    if (!std::isfinite(v)) throw DataError("box_stats(): a value is not finite");
+    if (!std::isfinite(v)) throw DataError("box plot: a value is not finite");
   std::sort(sorted.begin(), sorted.end());
   BoxStats b;
   b.n = sorted.size();

@@ -36,9 +36,9 @@ BlockTable BlockTable::from_observations(const std::vector<Observation>& observa
 }
 
 BlockTable BlockTable::from_matrix(const std::vector<std::vector<double>>& rows, std::size_t reps) {
-  if (reps == 0) throw DataError("BlockTable::from_matrix(): reps must be >= 1");
+  if (reps == 0) throw DataError("table of values: reps must be >= 1");
   if (rows.empty() || rows.size() % reps != 0) {
-    throw DataError("BlockTable::from_matrix(): " + std::to_string(rows.size()) +
+    throw DataError("table of values: " + std::to_string(rows.size()) +
                     " rows is not a positive multiple of reps = " + std::to_string(reps));
   }
   const std::size_t columns = rows.front().size();
@@ -49,7 +49,7 @@ BlockTable BlockTable::from_matrix(const std::vector<std::vector<double>>& rows,
   table.cells.assign(blocks, std::vector<std::vector<double>>(columns));
   for (std::size_t r = 0; r < rows.size(); ++r) {
     if (rows[r].size() != columns) {
-      throw DataError("BlockTable::from_matrix(): row " + std::to_string(r + 1) + " has " +
+      throw DataError("table of values: row " + std::to_string(r + 1) + " has " +
                       std::to_string(rows[r].size()) + " values, row 1 has " +
                       std::to_string(columns));
     }

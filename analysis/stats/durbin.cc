@@ -14,8 +14,8 @@ namespace hapticlab::analysis {
 DurbinResult durbin_test(const BlockTable& table) {
   const std::size_t t = table.treatment_count();
   const std::size_t b = table.block_count();
-  if (t < 2) throw DataError("durbin_test(): at least 2 treatments are needed");
-  if (b < 2) throw DataError("durbin_test(): at least 2 blocks are needed");
+  if (t < 2) throw DataError("Durbin test: at least 2 treatments are needed");
+  if (b < 2) throw DataError("Durbin test: at least 2 blocks are needed");
 
   // Design checks: one observation per cell, equal block sizes k.
   std::size_t k = 0;
@@ -24,26 +24,26 @@ DurbinResult durbin_test(const BlockTable& table) {
     for (std::size_t j = 0; j < t; ++j) {
       const auto& cell = table.cells[i][j];
       if (cell.size() > 1) {
-        throw DataError("durbin_test(): block '" + table.block_names[i] + "', treatment '" +
+        throw DataError("Durbin test: block '" + table.block_names[i] + "', treatment '" +
                         table.treatment_names[j] + "' has " + std::to_string(cell.size()) +
                         " observations; the Durbin test takes one per cell");
       }
       if (cell.size() == 1 && !std::isfinite(cell[0])) {
-        throw DataError("durbin_test(): block '" + table.block_names[i] + "', treatment '" +
+        throw DataError("Durbin test: block '" + table.block_names[i] + "', treatment '" +
                         table.treatment_names[j] + "' holds a non-finite value");
       }
       size += cell.size();
     }
     if (i == 0) k = size;
     if (size != k) {
-      throw DataError("durbin_test(): block '" + table.block_names[i] + "' holds " +
+      throw DataError("Durbin test: block '" + table.block_names[i] + "' holds " +
                       std::to_string(size) + " treatments but block '" + table.block_names[0] +
                       "' holds " + std::to_string(k) +
                       "; a balanced incomplete block design has equal block sizes "
                       "(use the Skillings-Mack test otherwise)");
     }
   }
-  if (k < 2) throw DataError("durbin_test(): blocks must hold at least 2 treatments");
+  if (k < 2) throw DataError("Durbin test: blocks must hold at least 2 treatments");
 
   // Replication r and pair balance λ.
   std::vector<std::size_t> replication(t, 0);
@@ -60,7 +60,7 @@ DurbinResult durbin_test(const BlockTable& table) {
   const std::size_t r = replication[0];
   for (std::size_t j = 0; j < t; ++j) {
     if (replication[j] != r) {
-      throw DataError("durbin_test(): treatment '" + table.treatment_names[j] + "' appears in " +
+      throw DataError("Durbin test: treatment '" + table.treatment_names[j] + "' appears in " +
                       std::to_string(replication[j]) + " blocks but treatment '" +
                       table.treatment_names[0] + "' in " + std::to_string(r) +
                       "; a balanced incomplete block design replicates every treatment equally");
@@ -70,7 +70,7 @@ DurbinResult durbin_test(const BlockTable& table) {
   for (std::size_t j = 0; j < t; ++j) {
     for (std::size_t l = j + 1; l < t; ++l) {
       if (together[j][l] != lambda) {
-        throw DataError("durbin_test(): treatments '" + table.treatment_names[j] + "' and '" +
+        throw DataError("Durbin test: treatments '" + table.treatment_names[j] + "' and '" +
                         table.treatment_names[l] + "' share " + std::to_string(together[j][l]) +
                         " blocks but '" + table.treatment_names[0] + "' and '" +
                         table.treatment_names[1] + "' share " + std::to_string(lambda) +

@@ -13,9 +13,9 @@ namespace {
 
 // Replicates per cell, after checking the layout is complete and balanced.
 std::size_t balanced_replicates(const BlockTable& table) {
-  if (table.block_count() < 1) throw DataError("friedman_test(): no blocks");
+  if (table.block_count() < 1) throw DataError("Friedman test: no blocks");
   if (table.treatment_count() < 2) {
-    throw DataError("friedman_test(): " + std::to_string(table.treatment_count()) +
+    throw DataError("Friedman test: " + std::to_string(table.treatment_count()) +
                     " treatment(s); at least 2 are needed");
   }
   const std::size_t reps = table.cells[0][0].size();
@@ -23,13 +23,13 @@ std::size_t balanced_replicates(const BlockTable& table) {
     for (std::size_t t = 0; t < table.treatment_count(); ++t) {
       const std::size_t n = table.cells[b][t].size();
       if (n == 0) {
-        throw DataError("friedman_test(): block '" + table.block_names[b] +
+        throw DataError("Friedman test: block '" + table.block_names[b] +
                         "' has no observation for treatment '" + table.treatment_names[t] +
                         "'; the Friedman test needs complete blocks (use the Skillings-Mack "
                         "test for missing cells)");
       }
       if (n != reps) {
-        throw DataError("friedman_test(): block '" + table.block_names[b] + "', treatment '" +
+        throw DataError("Friedman test: block '" + table.block_names[b] + "', treatment '" +
                         table.treatment_names[t] + "' has " + std::to_string(n) +
                         " observations but block '" + table.block_names[0] + "', treatment '" +
                         table.treatment_names[0] + "' has " + std::to_string(reps) +
@@ -37,7 +37,7 @@ std::size_t balanced_replicates(const BlockTable& table) {
       }
       for (double v : table.cells[b][t]) {
         if (!std::isfinite(v)) {
-          throw DataError("friedman_test(): block '" + table.block_names[b] + "', treatment '" +
+          throw DataError("Friedman test: block '" + table.block_names[b] + "', treatment '" +
                           table.treatment_names[t] + "' holds a non-finite value");
         }
       }

@@ -14,14 +14,14 @@ void check_lengths(const ParticipantRepetitions& p, const std::vector<std::vecto
                    const char* which, std::size_t block_length) {
   for (std::size_t r = 0; r < reps.size(); ++r) {
     if (reps[r].size() < block_length) {
-      throw DataError("ks_block_bootstrap(): participant '" + p.participant + "', " + which +
+      throw DataError("KS bootstrap: participant '" + p.participant + "', " + which +
                       " repetition " + std::to_string(r + 1) + " has " +
                       std::to_string(reps[r].size()) + " samples, fewer than the block length " +
                       std::to_string(block_length));
     }
     for (double v : reps[r]) {
       if (!std::isfinite(v)) {
-        throw DataError("ks_block_bootstrap(): participant '" + p.participant + "', " + which +
+        throw DataError("KS bootstrap: participant '" + p.participant + "', " + which +
                         " repetition " + std::to_string(r + 1) + " holds a non-finite value");
       }
     }
@@ -41,13 +41,13 @@ bool ranges_disjoint(const DRange& a, const DRange& b) { return a.high < b.low |
 
 KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& data,
                                      const KsBootstrapOptions& options) {
-  if (options.resamples < 1) throw DataError("ks_block_bootstrap(): resamples must be >= 1");
+  if (options.resamples < 1) throw DataError("KS bootstrap: resamples must be >= 1");
   if (options.block_length < 1) {
-    throw DataError("ks_block_bootstrap(): block length must be >= 1 sample (choose it to "
+    throw DataError("KS bootstrap: block length must be >= 1 sample (choose it to "
                     "cover the autocorrelation of the data)");
   }
   if (!(options.coverage > 0.0 && options.coverage < 1.0)) {
-    throw DataError("ks_block_bootstrap(): coverage is " + std::to_string(options.coverage) +
+    throw DataError("KS bootstrap: coverage is " + std::to_string(options.coverage) +
                     ", but must be > 0 and < 1");
   }
   // Participants who can supply HF1 != HF2 and SI1.
@@ -59,7 +59,7 @@ KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& 
     eligible.push_back(&p);
   }
   if (eligible.empty()) {
-    throw DataError("ks_block_bootstrap(): no participant has at least 2 control repetitions "
+    throw DataError("KS bootstrap: no participant has at least 2 control repetitions "
                     "and 1 repetition of the other setting");
   }
 

@@ -10,9 +10,9 @@ namespace hapticlab::analysis {
 void moving_block_resample(std::span<const double> series, std::size_t block_length,
                            SplitMix64& rng, std::vector<double>& out) {
   const std::size_t n = series.size();
-  if (n == 0) throw DataError("moving_block_resample(): the series is empty");
+  if (n == 0) throw DataError("block bootstrap: the series is empty");
   if (block_length < 1 || block_length > n) {
-    throw DataError("moving_block_resample(): block length is " + std::to_string(block_length) +
+    throw DataError("block bootstrap: block length is " + std::to_string(block_length) +
                     ", but must be >= 1 and <= the series length " + std::to_string(n));
   }
   out.resize(n);

@@ -28,7 +28,7 @@ double value_at(const PercentilePosition& pos, double lower_value, double upper_
 
 void check_p(double p_percent) {
   if (!(p_percent >= 0.0 && p_percent <= 100.0)) {
-    throw DataError("percentile(): p is " + std::to_string(p_percent) +
+    throw DataError("percentile: p is " + std::to_string(p_percent) +
                     ", but must be >= 0 and <= 100");
   }
 }
@@ -56,7 +56,7 @@ std::string_view percentile_method_name(PercentileMethod method) {
 
 PercentilePosition percentile_position(std::size_t n, double p_percent, PercentileMethod method) {
   check_p(p_percent);
-  if (n == 0) throw DataError("percentile(): the sample is empty");
+  if (n == 0) throw DataError("percentile: the sample is empty");
   const double nd = static_cast<double>(n);
   switch (method) {
     case PercentileMethod::kMatlab:
@@ -123,7 +123,7 @@ std::vector<double> percentiles_select(std::vector<double>& values, std::span<co
 double percentile(std::span<const double> values, double p_percent, PercentileMethod method) {
   std::vector<double> sorted(values.begin(), values.end());
   for (double v : sorted) {
-    if (!std::isfinite(v)) throw DataError("percentile(): the sample holds a non-finite value");
+    if (!std::isfinite(v)) throw DataError("percentile: the sample holds a non-finite value");
   }
   std::sort(sorted.begin(), sorted.end());
   return percentile_sorted(sorted, p_percent, method);

@@ -15,7 +15,7 @@ namespace hapticlab::analysis {
 
 TestResult skillings_mack_test(const BlockTable& table) {
   const std::size_t t = table.treatment_count();
-  if (t < 2) throw DataError("skillings_mack_test(): at least 2 treatments are needed");
+  if (t < 2) throw DataError("Skillings-Mack test: at least 2 treatments are needed");
 
   Eigen::VectorXd adjusted = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(t));
   Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(t),
@@ -32,14 +32,14 @@ TestResult skillings_mack_test(const BlockTable& table) {
     for (std::size_t j = 0; j < t; ++j) {
       const auto& cell = table.cells[i][j];
       if (cell.size() > 1) {
-        throw DataError("skillings_mack_test(): block '" + table.block_names[i] +
+        throw DataError("Skillings-Mack test: block '" + table.block_names[i] +
                         "', treatment '" + table.treatment_names[j] + "' has " +
                         std::to_string(cell.size()) +
                         " observations; the Skillings-Mack test takes at most one per cell");
       }
       if (cell.empty()) continue;
       if (!std::isfinite(cell[0])) {
-        throw DataError("skillings_mack_test(): block '" + table.block_names[i] +
+        throw DataError("Skillings-Mack test: block '" + table.block_names[i] +
                         "', treatment '" + table.treatment_names[j] + "' holds a non-finite value");
       }
       values.push_back(cell[0]);
@@ -63,7 +63,7 @@ TestResult skillings_mack_test(const BlockTable& table) {
 
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(covariance);
   if (cod.rank() < static_cast<Eigen::Index>(t - 1)) {
-    throw DataError("skillings_mack_test(): the treatments are not connected through blocks "
+    throw DataError("Skillings-Mack test: the treatments are not connected through blocks "
                     "with at least two observations (covariance rank " +
                     std::to_string(cod.rank()) + ", need " + std::to_string(t - 1) +
                     "); every treatment must share blocks, directly or through others");

@@ -23,15 +23,15 @@ std::string format_number(double value) {
 }  // namespace
 
 ReplayDevice::ReplayDevice(std::vector<ReplayFrame> frames) : frames_(std::move(frames)) {
-  if (frames_.empty()) throw std::invalid_argument("ReplayDevice(): frames is empty, but must hold at least one frame");
+  if (frames_.empty()) throw std::invalid_argument("replay: frames is empty, but must hold at least one frame");
   for (std::size_t k = 0; k < frames_.size(); ++k) {
     const double t_s = frames_[k].t_s;
     if (!std::isfinite(t_s)) {
-      throw std::invalid_argument("ReplayDevice(): frame " + std::to_string(k) + " has t_s = " +
+      throw std::invalid_argument("replay: frame " + std::to_string(k) + " has t_s = " +
                                   format_number(t_s) + ", but t_s must be finite");
     }
     if (k > 0 && t_s < frames_[k - 1].t_s) {
-      throw std::invalid_argument("ReplayDevice(): frame " + std::to_string(k) + " has t_s = " +
+      throw std::invalid_argument("replay: frame " + std::to_string(k) + " has t_s = " +
                                   format_number(t_s) + " s, before frame " + std::to_string(k - 1) +
                                   " (" + format_number(frames_[k - 1].t_s) +
                                   " s); frames must be sorted by non-decreasing t_s");
