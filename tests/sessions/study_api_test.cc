@@ -268,5 +268,51 @@ TEST_F(StudyApiTest, AbortedTrialsAreRequeuedButATimeLimitClosesTheSlot) {
   EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK);
 }
 
+TEST_F(StudyApiTest, LoggingNeverBlocksAndEveryDropIsCounted) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  // Far more than the queue holds (2^14), as fast as possible: whatever the
+  // writer does not take in time is dropped, counted, and reported as such.
+  constexpr std::uint64_t kPushed = 200'000;
+  std::uint64_t accepted = 0, refused = 0;
+  for (std::uint64_t k = 0; k < kPushed; ++k) {
+    const hl_sample s = sample_at(k);
+    const int rc = hl_study_log_sample(study_, &s);
+    ASSERT_TRUE(rc == HL_OK || rc == HL_STUDY_DROPPED) << rc;
+    (rc == HL_OK ? accepted : refused) += 1;
+  }
+  std::uint64_t dropped = 0;
+  ASSERT_EQ(hl_study_dropped(study_, &dropped, nullptr), HL_OK);
+  EXPECT_EQ(dropped, refused);
+  RecordProperty("samples_dropped", std::to_string(refused));
+  const std::int64_t id = trial_.trial_id;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.sample_count(id, 0), accepted);  // every accepted sample is stored
+  const std::optional<db::LoopTimingRow> timing = db.loop_timing(id);
+  ASSERT_TRUE(timing.has_value());
+  EXPECT_EQ(timing->dropped_samples, refused);
+  ASSERT_TRUE(timing->timing.has_value());
+  EXPECT_EQ(timing->timing->count, kPushed);  // the application's periods, all of them
+  EXPECT_NEAR(timing->timing->mean_period_s, 0.001, 1e-12);
+}
+
+TEST_F(StudyApiTest, ClosingWithATrialOpenAbortsAndRequeuesIt) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  const std::int64_t id = trial_.trial_id;
+  const hl_sample s = sample_at(0);
+  ASSERT_EQ(hl_study_log_sample(study_, &s), HL_OK);
+  hl_study_close(study_);
+  study_ = nullptr;
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.trial(id).status, db::TrialStatus::kAborted);
+  EXPECT_EQ(db.trial(id).abort_reason, "the application closed the study with the trial open");
+  EXPECT_EQ(db.sample_count(id, 0), 1u);
+  EXPECT_EQ(db.session(*db.trial(id).session_id).status, db::SessionStatus::kInterrupted);
+  EXPECT_EQ(*db.next_planned_trial(db.trial(id).participant_id) > id, true);  // the re-queued copy is next
+  EXPECT_EQ(db.trial(*db.next_planned_trial(db.trial(id).participant_id)).position, db.trial(id).position);
+}
+
 }  // namespace
 }  // namespace hapticlab::sessions
