@@ -34,8 +34,13 @@ void create(const StudyOptions& opt) {
     const sessions::CreatedStudy created = sessions::create_study(db, opt.protocol, software_version());
     std::printf("created study %lld in %s: %d participants, %d planned trials\n",
                 static_cast<long long>(created.study_id), opt.db.c_str(), created.participants, created.trials);
-    std::printf("next: hapticlab study show --db %s   or   hapticlab session run --db %s --participant CODE\n",
-                opt.db.c_str(), opt.db.c_str());
+    if (created.external_ve)
+      std::printf("next: hapticlab study show --db %s; the lab's application runs the trials through the study API "
+                  "(hapticlab/study.h, docs/ve_events.md)\n",
+                  opt.db.c_str());
+    else
+      std::printf("next: hapticlab study show --db %s   or   hapticlab session run --db %s --participant CODE\n",
+                  opt.db.c_str(), opt.db.c_str());
   } catch (...) {
     // Leave no half-made file behind: a refused protocol must not block
     // the next attempt with "already holds a study".

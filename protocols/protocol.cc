@@ -45,20 +45,32 @@ void check_enough_settings(std::size_t count, const std::string& path, const std
 
 }  // namespace
 
-std::string_view task_name(Task task) {
-  switch (task) {
-    case Task::kDissection:
-      return "dissection";
-    case Task::kClip:
-      return "clip";
-  }
-  return "?";
-}
+std::string_view ve_name(Ve ve) { return ve == Ve::kExternal ? "external" : "simulated"; }
+
+std::string_view task_name(const Task& task) { return task.name(); }
 
 std::optional<Task> task_from_name(std::string_view name) {
-  for (Task t : kAllTasks) {
-    if (task_name(t) == name) return t;
+  for (const Task* t : {&Task::kDissection, &Task::kClip}) {
+    if (t->name() == name) return *t;
   }
+  return std::nullopt;
+}
+
+std::optional<std::string> task_name_problem(std::string_view name, Ve ve) {
+  if (ve == Ve::kSimulated) {
+    if (task_from_name(name)) return std::nullopt;
+    return "is not a task of the simulated VE; with \"ve\": \"simulated\" (the default) a task must be one of "
+           "\"dissection\", \"clip\", and a lab's own task needs \"ve\": \"external\"";
+  }
+  const std::string rule = "a task name must be 1 to " + std::to_string(kMaxTaskNameLength) +
+                           " bytes of printable text without leading or trailing spaces";
+  if (name.empty() || name.size() > kMaxTaskNameLength)
+    return "has " + std::to_string(name.size()) + " bytes, but " + rule;
+  for (char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) return "contains a control character, but " + rule;
+  }
+  if (name.front() == ' ' || name.back() == ' ') return "begins or ends with a space, but " + rule;
   return std::nullopt;
 }
 
@@ -90,9 +102,14 @@ void validate_protocol(const Protocol& p, const std::string& source) {
 
   // tasks and their repetitions
   if (p.tasks.empty()) {
-    throw ProtocolError(source, "tasks", "is empty, but must list at least one of \"dissection\", \"clip\"");
+    throw ProtocolError(source, "tasks",
+                        p.ve == Ve::kSimulated ? "is empty, but must list at least one of \"dissection\", \"clip\""
+                                               : "is empty, but must list at least one task");
   }
   for (std::size_t i = 0; i < p.tasks.size(); ++i) {
+    if (auto problem = task_name_problem(task_name(p.tasks[i]), p.ve)) {
+      throw ProtocolError(source, index_path("tasks", i), "is " + in_quotes(task_name(p.tasks[i])) + ", which " + *problem);
+    }
     for (std::size_t j = 0; j < i; ++j) {
       if (p.tasks[i] == p.tasks[j]) {
         throw ProtocolError(source, index_path("tasks", i),
@@ -147,7 +164,7 @@ void validate_protocol(const Protocol& p, const std::string& source) {
     }
     for (std::size_t t = 0; t < ps.tasks.size(); ++t) {
       bool in_study = false;
-      for (Task st : p.tasks) in_study = in_study || st == ps.tasks[t];
+      for (const Task& st : p.tasks) in_study = in_study || st == ps.tasks[t];
       if (!in_study) {
         throw ProtocolError(source, index_path(path + ".tasks", t),
                             "is " + in_quotes(task_name(ps.tasks[t])) + ", which is not one of the study's tasks");

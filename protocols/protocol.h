@@ -21,14 +21,46 @@
 
 namespace hapticlab::protocols {
 
-// The thesis' two simulator tasks (Ch. 3.3.2).
-enum class Task { kDissection = 0, kClip = 1 };
-inline constexpr std::size_t kTaskCount = 2;
-inline constexpr std::array<Task, kTaskCount> kAllTasks{Task::kDissection, Task::kClip};
+// Where the tasks happen. kSimulated: HapticLab's own VE, which knows the
+// thesis' two tasks (Ch. 3.3.2) and runs them in `session run`. kExternal:
+// the lab's own VE, driven by its application through the study API
+// (hapticlab/study.h); the tasks are the lab's, named freely. Protocol
+// files say "ve": "simulated" (the default) or "external".
+enum class Ve { kSimulated = 0, kExternal = 1 };
+std::string_view ve_name(Ve ve);
 
-// "dissection" / "clip": the names used in protocol files.
-std::string_view task_name(Task task);
+// A task of the study, by its name in the protocol file: with the
+// simulated VE "dissection" or "clip", with an external VE the lab's own
+// (task_name_problem says which names are accepted).
+class Task {
+ public:
+  Task() = default;
+  explicit Task(std::string name) : name_(std::move(name)) {}
+  const std::string& name() const noexcept { return name_; }
+  friend bool operator==(const Task&, const Task&) = default;
+  friend auto operator<=>(const Task&, const Task&) = default;
+
+  static const Task kDissection;
+  static const Task kClip;
+
+ private:
+  std::string name_;
+};
+inline const Task Task::kDissection{"dissection"};
+inline const Task Task::kClip{"clip"};
+// The simulated VE's tasks, in the order its counterbalancing uses.
+inline constexpr std::size_t kSimulatedTaskCount = 2;
+
+// The name used in protocol files and the database.
+std::string_view task_name(const Task& task);
+// A simulated VE's task called `name`, or nullopt.
 std::optional<Task> task_from_name(std::string_view name);
+
+// Task names of an external VE: 1..kMaxTaskNameLength bytes of printable
+// text (UTF-8 allowed, no control characters), no leading or trailing space.
+inline constexpr std::size_t kMaxTaskNameLength = 64;
+// Why `name` is not an acceptable task name for `ve`, or nullopt if it is.
+std::optional<std::string> task_name_problem(std::string_view name, Ve ve);
 
 // Repetitions allowed per setting and task (each repetition is one block).
 inline constexpr int kMaxRepetitions = 100;
@@ -78,16 +110,21 @@ struct ParticipantSpec {
 struct Protocol {
   std::string study;                      // study name, non-empty
   std::string description;                // free text, may be empty
+  Ve ve = Ve::kSimulated;                 // where the tasks run
   std::vector<Task> tasks;                // non-empty, no duplicates, in file order
   std::vector<ProtocolSetting> settings;  // >= 2, unique names
-  // Repetitions of every setting per task, 1..100, indexed by Task; used only
-  // for tasks in `tasks` (thesis: 3 dissection, 9 clip).
-  std::array<int, kTaskCount> repetitions{};
+  // Repetitions of every setting per task, 1..100, for every task in
+  // `tasks` (thesis: 3 dissection, 9 clip).
+  std::map<Task, int> repetitions;
   std::vector<ParticipantSpec> participants;  // >= 1, unique codes
   Design design;
   std::uint64_t seed = 0;  // fixes the design search, task orders and schedules
 
-  int repetitions_of(Task task) const { return repetitions[static_cast<std::size_t>(task)]; }
+  // 0 for a task without repetitions.
+  int repetitions_of(const Task& task) const {
+    const auto it = repetitions.find(task);
+    return it == repetitions.end() ? 0 : it->second;
+  }
   // Index into `settings` of the setting called `name`, or nullopt.
   std::optional<std::size_t> find_setting(std::string_view name) const;
 };

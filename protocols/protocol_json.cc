@@ -35,11 +35,19 @@ class Reader {
 
   Protocol read(const json& j) {
     expect_object(j, "(top level)");
-    check_keys(j, "", {"study", "description", "tasks", "repetitions", "settings", "participants", "design",
+    check_keys(j, "", {"study", "description", "ve", "tasks", "repetitions", "settings", "participants", "design",
                        "seed", "training_trials"});
     Protocol p;
     p.study = as_string(require(j, "study", ""), "study");
     if (j.contains("description")) p.description = as_string(j["description"], "description");
+    if (j.contains("ve")) {
+      const std::string ve = j["ve"].is_string() ? j["ve"].get<std::string>() : "";
+      if (ve == "simulated") p.ve = Ve::kSimulated;
+      else if (ve == "external") p.ve = Ve::kExternal;
+      else fail("ve", "is " + shown(j["ve"]) + ", but must be \"simulated\" (HapticLab's VE, the default) or "
+                      "\"external\" (the lab's own VE, run through the study API)");
+    }
+    ve_ = p.ve;
     p.tasks = read_tasks(require(j, "tasks", ""), "tasks");
     read_repetitions(require(j, "repetitions", ""), p);
     read_settings(require(j, "settings", ""), p);
@@ -114,9 +122,15 @@ class Reader {
   }
 
   Task as_task(const json& v, const std::string& path) const {
-    const std::string name = v.is_string() ? v.get<std::string>() : "";
-    if (auto t = task_from_name(name)) return *t;
-    fail(path, "is " + shown(v) + ", but must be one of \"dissection\", \"clip\"");
+    if (ve_ == Ve::kSimulated) {
+      const std::string name = v.is_string() ? v.get<std::string>() : "";
+      if (auto t = task_from_name(name)) return *t;
+      fail(path, "is " + shown(v) + ", but must be one of \"dissection\", \"clip\" (the simulated VE's tasks; "
+                 "a lab's own task needs \"ve\": \"external\")");
+    }
+    const std::string name = as_string(v, path);
+    if (auto problem = task_name_problem(name, ve_)) fail(path, "is " + shown(v) + ", which " + *problem);
+    return Task(name);
   }
 
   std::vector<Task> read_tasks(const json& v, const std::string& path) const {
@@ -129,15 +143,15 @@ class Reader {
   void read_repetitions(const json& v, Protocol& p) const {
     expect_object(v, "repetitions");
     for (const auto& [key, value] : v.items()) {
-      auto task = task_from_name(key);
-      if (!task) fail("repetitions." + key, "is not a task; tasks are \"dissection\", \"clip\"");
-      if (std::find(p.tasks.begin(), p.tasks.end(), *task) == p.tasks.end()) {
+      if (ve_ == Ve::kSimulated && !task_from_name(key))
+        fail("repetitions." + key, "is not a task; tasks are \"dissection\", \"clip\"");
+      const Task task(key);
+      if (std::find(p.tasks.begin(), p.tasks.end(), task) == p.tasks.end()) {
         fail("repetitions." + key, "is given, but \"" + key + "\" is not in tasks");
       }
-      p.repetitions[static_cast<std::size_t>(*task)] =
-          as_int(value, "repetitions." + key, 1, kMaxRepetitions, " (repetitions of every setting)");
+      p.repetitions[task] = as_int(value, "repetitions." + key, 1, kMaxRepetitions, " (repetitions of every setting)");
     }
-    for (Task t : p.tasks) {
+    for (const Task& t : p.tasks) {
       if (!v.contains(std::string(task_name(t)))) {
         fail("repetitions." + std::string(task_name(t)), "is missing, but every task in tasks needs its repetitions");
       }
@@ -232,6 +246,7 @@ class Reader {
 
   std::string source_;
   std::filesystem::path base_dir_;
+  Ve ve_ = Ve::kSimulated;  // the protocol's, once read: how task names are checked
 };
 
 }  // namespace

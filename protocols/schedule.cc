@@ -21,7 +21,11 @@ std::string letters(std::size_t i) {
   return s;
 }
 
-bool does_both_tasks(const ParticipantSpec& ps) { return ps.tasks.size() == kTaskCount; }
+// Participants doing every task of the study are the ones whose order is
+// counterbalanced (the others do theirs in protocol order).
+bool does_all_tasks(const Protocol& protocol, const ParticipantSpec& ps) {
+  return protocol.tasks.size() >= 2 && ps.tasks.size() == protocol.tasks.size();
+}
 
 }  // namespace
 
@@ -45,18 +49,29 @@ std::vector<std::size_t> block_randomized_order(std::size_t setting_count, int b
 
 std::vector<std::vector<Task>> counterbalanced_task_orders(const Protocol& protocol) {
   Rng rng = Rng::for_stream(protocol.seed, "task-order");
+  // The pair's "first" order: the simulated VE's tasks in the thesis' order
+  // (dissection, clip) whatever the file's order; a lab's own in file order.
+  const std::vector<Task> canonical = protocol.ve == Ve::kSimulated
+                                          ? std::vector<Task>{Task::kDissection, Task::kClip}
+                                          : protocol.tasks;
   std::vector<std::vector<Task>> orders;
-  bool pair_open = false;   // the previous both-task participant started a pair
-  bool previous_first_dissection = false;
+  bool pair_open = false;   // the previous all-task participant started a pair
+  bool previous_first_canonical = false;
+  std::size_t rotation = 0;  // more than two tasks: all-task participants so far
   for (const ParticipantSpec& ps : protocol.participants) {
     std::vector<Task> order = ps.tasks;
-    if (does_both_tasks(ps)) {
+    if (does_all_tasks(protocol, ps) && canonical.size() == 2) {
       // First of a pair: coin; second: the other order.
-      const bool dissection_first = pair_open ? !previous_first_dissection : rng.coin();
-      order = dissection_first ? std::vector<Task>{Task::kDissection, Task::kClip}
-                               : std::vector<Task>{Task::kClip, Task::kDissection};
-      previous_first_dissection = dissection_first;
+      const bool first_canonical = pair_open ? !previous_first_canonical : rng.coin();
+      order = first_canonical ? canonical : std::vector<Task>{canonical[1], canonical[0]};
+      previous_first_canonical = first_canonical;
       pair_open = !pair_open;
+    } else if (does_all_tasks(protocol, ps)) {
+      // More tasks (an external VE): a rotation per participant, so every
+      // task is first equally often over each run of participants.
+      order = canonical;
+      std::rotate(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(rotation % order.size()), order.end());
+      ++rotation;
     }
     orders.push_back(std::move(order));
   }
@@ -100,7 +115,7 @@ StudyPlan make_study_plan(const Protocol& protocol) {
     // Blocks, task by task, in the counterbalanced order.
     Rng rng = Rng::for_stream(protocol.seed, "schedule/" + spec.code);
     int position = 0;
-    for (Task task : pp.task_order) {
+    for (const Task& task : pp.task_order) {
       const int blocks = protocol.repetitions_of(task);
       const auto order = block_randomized_order(pp.setting_indices.size(), blocks, rng);
       std::vector<int> seen(pp.setting_indices.size(), 0);

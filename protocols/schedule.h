@@ -20,7 +20,10 @@
 // pairs; in each pair one starts with dissection and the other with clip, a
 // seeded coin deciding which. Every prefix of the participant list is then
 // balanced within one, which matters when a study stops early (the thesis
-// ran 3 of 8 planned participants).
+// ran 3 of 8 planned participants). An external VE's two tasks are paired
+// the same way (the first-listed in dissection's role); with more tasks,
+// participants doing all of them take successive rotations of the
+// protocol's order.
 //
 // Random streams (rng.h), all keyed by Protocol::seed: "design" (design.h),
 // "task-order", "schedule/<code>", "labels/<code>". A participant's schedule

@@ -21,6 +21,7 @@ CreatedStudy create_study(db::StudyDb& db, const std::filesystem::path& protocol
 
   db::Transaction tx(db.connection());
   CreatedStudy created;
+  created.external_ve = protocol.ve == protocols::Ve::kExternal;
   created.study_id = db.add_study({protocol.study, text, protocol.seed, software_version});
   std::map<std::size_t, std::int64_t> setting_ids;  // protocol index -> row
   for (std::size_t i = 0; i < protocol.settings.size(); ++i)

@@ -16,6 +16,7 @@ struct CreatedStudy {
   std::int64_t study_id = 0;
   int participants = 0;
   int trials = 0;
+  bool external_ve = false;  // the protocol says "ve": "external": run by the lab's application
 };
 
 // Reads and validates the protocol file (ProtocolError), plans the study

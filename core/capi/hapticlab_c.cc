@@ -2,6 +2,7 @@
 #include "hapticlab/hapticlab.h"
 
 #include <array>
+#include <atomic>
 #include <cstdio>
 #include <exception>
 #include <memory>
@@ -21,6 +22,9 @@ struct hl_engine {
   // Set by a successful update, cleared by a failed one and by the refresh:
   // a refresh must never revive the forces of an earlier update.
   std::array<bool, hapticlab::kNumInstruments> refreshable{};
+  // Operator stop (hl_engine_halt), set from any thread, read once per
+  // update and refresh on the loop thread.
+  std::atomic<bool> halted{false};
 };
 
 namespace {
@@ -58,6 +62,18 @@ void copy_forces(const hapticlab::InstrumentOutput& r, hl_output* out) {
   out->pitch_torque_Nm = r.joint_force[hapticlab::kPitch];
   out->yaw_torque_Nm = r.joint_force[hapticlab::kYaw];
   out->status = r.status;
+}
+
+static_assert((HL_HALTED & (HL_FAULT_MASK | hapticlab::kFaultMask | HL_DT_DEFERRED | HL_DT_SUBSTEPPED |
+                             HL_DT_RESYNCED | HL_FORCE_LIMITED)) == 0,
+              "HL_HALTED must not share a bit with the engine's status flags");
+
+// A halted engine's output: positions as computed, every force zero.
+void zero_forces_if_halted(const hl_engine& engine, hl_output* out) {
+  if (!engine.halted.load(std::memory_order_relaxed)) return;
+  for (double& f : out->displayed_force_N) f = 0.0;
+  out->insertion_force_N = out->pitch_torque_Nm = out->yaw_torque_Nm = 0.0;
+  out->status |= HL_HALTED;
 }
 
 bool valid_instrument(int instrument) {
@@ -112,6 +128,7 @@ int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_o
   out->degraded_insertion_m = r.degraded_position[hapticlab::kInsertion];
   out->degraded_pitch_rad = r.degraded_position[hapticlab::kPitch];
   out->degraded_yaw_rad = r.degraded_position[hapticlab::kYaw];
+  zero_forces_if_halted(*engine, out);
   return HL_OK;
 }
 
@@ -129,6 +146,7 @@ int hl_engine_refresh_forces(hl_engine* engine, int instrument, const double ve_
   // back then writes the update's own forces.
   engine->engine.refresh_forces(instrument, {ve_force_N[0], ve_force_N[1], ve_force_N[2]}, r);
   copy_forces(r, out);
+  zero_forces_if_halted(*engine, out);
   return HL_OK;
 }
 
@@ -149,6 +167,10 @@ int hl_engine_set_settings(hl_engine* engine, const char* settings_json, char* e
     write_error(error, error_size, "unknown error");
   }
   return HL_ERROR_SETTINGS;
+}
+
+void hl_engine_halt(hl_engine* engine) {
+  if (engine != nullptr) engine->halted.store(true, std::memory_order_relaxed);
 }
 
 void hl_engine_destroy(hl_engine* engine) { delete engine; }

@@ -7,7 +7,7 @@ execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_
 if(rc)
   message(FATAL_ERROR "cmake --install failed")
 endif()
-foreach(f include/hapticlab/hapticlab.h lib/cmake/hapticlab/hapticlabConfig.cmake)
+foreach(f include/hapticlab/hapticlab.h include/hapticlab/study.h lib/cmake/hapticlab/hapticlabConfig.cmake)
   if(NOT EXISTS ${WORK_DIR}/prefix/${f})
     message(FATAL_ERROR "not installed: ${f}")
   endif()
@@ -27,4 +27,29 @@ execute_process(COMMAND ${WORK_DIR}/build/hapticlab_c_driver
 message(STATUS "${out}")
 if(rc)
   message(FATAL_ERROR "the example driver failed")
+endif()
+
+# The study API's example application, built the same way, runs a whole
+# session of a study the installed CLI created (issue 15 section 3).
+execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/external_app -B ${WORK_DIR}/build-app
+                        -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix RESULT_VARIABLE rc)
+if(rc)
+  message(FATAL_ERROR "configuring examples/external_app against the installed package failed")
+endif()
+execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/build-app RESULT_VARIABLE rc)
+if(rc)
+  message(FATAL_ERROR "building examples/external_app against the installed package failed")
+endif()
+execute_process(COMMAND ${WORK_DIR}/prefix/bin/hapticlab study create
+                        --protocol ${WORK_DIR}/prefix/share/hapticlab/protocols/external_peg_touch.json
+                        --db ${WORK_DIR}/peg.db
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
+if(rc)
+  message(FATAL_ERROR "hapticlab study create failed: ${out}")
+endif()
+execute_process(COMMAND ${WORK_DIR}/build-app/hapticlab_external_app ${WORK_DIR}/peg.db P01
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
+message(STATUS "${out}")
+if(rc OR NOT out MATCHES "schedule complete")
+  message(FATAL_ERROR "the example application did not complete its session")
 endif()

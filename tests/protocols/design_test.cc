@@ -115,7 +115,7 @@ Protocol three_settings_protocol() {
   Protocol p;
   p.study = "t";
   p.tasks = {Task::kClip};
-  p.repetitions[static_cast<std::size_t>(Task::kClip)] = 2;
+  p.repetitions[Task::kClip] = 2;
   for (const char* name : {"High Fidelity", "No Force Feedback", "Friction", "Cogging"}) {
     ProtocolSetting s;
     s.settings.name = name;

@@ -148,7 +148,15 @@ TEST(ProtocolExamplesTest, EveryShippedProtocolLoadsAndPlans) {
     EXPECT_FALSE(plan.participants.empty()) << entry.path();
     ++count;
   }
-  EXPECT_EQ(count, 4);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete
+  EXPECT_EQ(count, 5);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch
+}
+
+TEST(ProtocolExamplesTest, ExternalPegTouchIsTheLabsOwnTask) {
+  const Protocol p = load_protocol_file(kDir / "external_peg_touch.json");
+  EXPECT_EQ(p.ve, Ve::kExternal);
+  EXPECT_EQ(p.tasks, std::vector<Task>{Task("peg touch")});
+  // 2 settings x 2 repetitions for each of P01, P02 (examples/external_app).
+  for (const auto& pp : make_study_plan(p).participants) EXPECT_EQ(pp.trials.size(), 4u);
 }
 
 }  // namespace

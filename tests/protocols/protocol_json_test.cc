@@ -1,7 +1,11 @@
 #include "protocols/protocol_json.h"
 
+#include "protocols/schedule.h"
+
 #include <filesystem>
+#include <set>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -297,6 +301,65 @@ TEST(ProtocolJsonTest, WrongTypesAndBadJson) {
     EXPECT_THAT(e.what(), HasSubstr("not valid JSON"));
   }
   EXPECT_THROW(load_protocol_file(kProtocolsDir / "does_not_exist.json"), ProtocolError);
+}
+
+// Issue 15: with "ve": "external" the tasks are the lab's own, named freely;
+// the simulated VE (the default) still knows only its two.
+json external(const std::vector<std::string>& tasks) {
+  json j = valid();
+  j["ve"] = "external";
+  j["tasks"] = tasks;
+  j["repetitions"] = json::object();
+  for (const std::string& t : tasks) j["repetitions"][t] = 2;
+  j["participants"] = {"S1", "S2", "S3"};
+  return j;
+}
+
+TEST(ProtocolJsonTest, ExternalVeTakesTheLabsOwnTaskNames) {
+  const Protocol p = parse(external({"peg touch", "Naht (Knoten) #2"}));
+  EXPECT_EQ(p.ve, Ve::kExternal);
+  ASSERT_EQ(p.tasks.size(), 2u);
+  EXPECT_EQ(task_name(p.tasks[0]), "peg touch");
+  EXPECT_EQ(p.repetitions_of(Task("Naht (Knoten) #2")), 2);
+  EXPECT_EQ(parse(valid()).ve, Ve::kSimulated);  // the default
+  // The same name under the simulated VE is refused, pointing at "ve".
+  json j = external({"peg touch"});
+  j.erase("ve");
+  const Failure f = failure_of(j);
+  EXPECT_EQ(f.field, "tasks[0]");
+  EXPECT_THAT(f.message, HasSubstr("\"ve\": \"external\""));
+}
+
+TEST(ProtocolJsonTest, ExternalTaskNamesMustBeSane) {
+  EXPECT_EQ(failure_of(external({""})).field, "tasks[0]");
+  EXPECT_THAT(failure_of(external({""})).message, HasSubstr("1 to 64 bytes"));
+  EXPECT_EQ(failure_of(external({"peg", std::string(65, 'x')})).field, "tasks[1]");
+  EXPECT_NO_THROW(parse(external({std::string(64, 'x')})));
+  EXPECT_THAT(failure_of(external({"peg\ttouch"})).message, HasSubstr("control character"));
+  EXPECT_THAT(failure_of(external({" peg"})).message, HasSubstr("space"));
+  json j = external({"peg"});
+  j["tasks"] = {"peg", 3};
+  EXPECT_EQ(failure_of(j).field, "tasks[1]");
+  j = external({"peg", "peg"});
+  EXPECT_THAT(failure_of(j).message, HasSubstr("already listed"));
+  j = external({"peg"});
+  j["ve"] = "unity";
+  EXPECT_EQ(failure_of(j).field, "ve");
+  EXPECT_THAT(failure_of(j).message, HasSubstr("\"simulated\""));
+}
+
+TEST(ProtocolJsonTest, ExternalTasksAreScheduledAndCounterbalanced) {
+  // Two tasks: paired like dissection/clip (each pair has one of each
+  // first). Three: rotations, so each task leads once in three participants.
+  const StudyPlan two = make_study_plan(parse(external({"peg", "ring"})));
+  ASSERT_EQ(two.participants.size(), 3u);
+  EXPECT_NE(two.participants[0].task_order.front(), two.participants[1].task_order.front());
+  // valid()'s design: 2 required settings + k = 1 others; x 2 repetitions x 2 tasks.
+  EXPECT_EQ(two.participants[0].trials.size(), 3u * 2u * 2u);
+  const StudyPlan three = make_study_plan(parse(external({"peg", "ring", "wire"})));
+  std::set<std::string> firsts;
+  for (const ParticipantPlan& pp : three.participants) firsts.insert(task_name(pp.task_order.front()).data());
+  EXPECT_EQ(firsts, (std::set<std::string>{"peg", "ring", "wire"}));
 }
 
 }  // namespace

@@ -20,7 +20,7 @@ Protocol make_protocol(std::size_t settings, std::size_t participants, std::uint
   Protocol p;
   p.study = "schedule test";
   p.tasks = {Task::kDissection, Task::kClip};
-  p.repetitions = {dissection_reps, clip_reps};
+  p.repetitions = {{Task::kDissection, dissection_reps}, {Task::kClip, clip_reps}};
   for (std::size_t i = 0; i < settings; ++i) {
     ProtocolSetting s;
     s.settings.name = "Setting " + std::to_string(i);

@@ -321,6 +321,34 @@ TEST_F(SessionFixture, BadOptionsAndUnknownParticipantsAreNamed) {
   EXPECT_FALSE(std::filesystem::exists(dir_ / "missing.db"));
 }
 
+// Issue 15: a study whose tasks are the lab's own (an external VE) cannot
+// run on the simulated rig; it is refused before the session begins.
+TEST_F(SessionFixture, AStudyWithAnExternalVeIsRefusedBeforeAnythingChanges) {
+  const std::filesystem::path settings = testing::source_dir() / "examples" / "settings";
+  const std::filesystem::path protocol = dir_ / "external.json";
+  std::ofstream(protocol) << R"({"study": "lab task", "ve": "external", "tasks": ["peg touch"],
+      "repetitions": {"peg touch": 1}, "settings": [")" << (settings / "high_fidelity.json").string()
+                          << R"(", ")" << (settings / "no_force_feedback.json").string() << R"("],
+      "participants": ["P1"], "design": {"type": "complete"}, "seed": 3})";
+  const std::filesystem::path path = dir_ / "external.db";
+  {
+    db::StudyDb db(path);
+    create_study(db, protocol, "test");
+  }
+  try {
+    run_session(path, options_for("P1"));
+    FAIL() << "an external-VE study ran on the simulated rig";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("\"ve\": \"external\""), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("hapticlab/study.h"), std::string::npos) << e.what();
+  }
+  db::StudyDb db(path);
+  EXPECT_EQ(count(trials_of(path, "P1"), TrialStatus::kPlanned), 2);
+  db::Statement sessions = db.connection().prepare("SELECT COUNT(*) FROM session");
+  ASSERT_TRUE(sessions.step());
+  EXPECT_EQ(sessions.column_int64(0), 0);
+}
+
 TEST(SessionSeeds, DifferPerParticipantAndTrialAndAreStable) {
   EXPECT_EQ(participant_seed(2004, "S1"), participant_seed(2004, "S1"));
   EXPECT_NE(participant_seed(2004, "S1"), participant_seed(2004, "S2"));

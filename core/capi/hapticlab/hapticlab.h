@@ -17,7 +17,7 @@
  *
  * Threads: hl_engine_update() and hl_engine_refresh_forces() must be called
  * from one thread (the haptic loop); they never allocate, lock, block or do
- * I/O. hl_engine_set_settings()
+ * I/O. hl_engine_set_settings() and hl_engine_halt()
  * may be called from any other thread; the change takes effect between two
  * updates. Create and destroy from a non-real-time thread.
  */
@@ -53,6 +53,9 @@ typedef struct hl_engine hl_engine;
 #define HL_FORCE_LIMITED 0x20u          /* a joint force hit the device limit */
 #define HL_FAULT_INVALID_ARGUMENT 0x40u /* bad call: force is zero */
 #define HL_FAULT_MASK 0x43u             /* bits meaning "the force was zeroed" */
+/* The engine was halted (hl_engine_halt): force is zero, for good. Not an
+ * engine fault, so not in HL_FAULT_MASK; test it on its own. */
+#define HL_HALTED 0x8000u
 
 typedef struct hl_input {
   double dt_s;           /* time since this instrument's previous update, s */
@@ -135,6 +138,16 @@ HL_API int hl_engine_refresh_forces(hl_engine* engine, int instrument,
  */
 HL_API int hl_engine_set_settings(hl_engine* engine, const char* settings_json, char* error,
                                   size_t error_size);
+
+/*
+ * Operator stop: from the next hl_engine_update() on (the one running now
+ * may still return its force), every update and refresh of every instrument
+ * outputs zero force and zero joint commands, with HL_HALTED in status;
+ * positions are still degraded and returned, so the VE can go on drawing.
+ * It cannot be undone: create a new engine. Callable from any thread while
+ * the loop runs (an atomic flag; no lock). NULL is ignored.
+ */
+HL_API void hl_engine_halt(hl_engine* engine);
 
 HL_API void hl_engine_destroy(hl_engine* engine);
 

@@ -1,0 +1,397 @@
+// The C study API (hapticlab/study.h): a thin shell over StudySession, the
+// bookkeeping `session run` uses too. No exception crosses it.
+#include "hapticlab/study.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "core/loop/loop_sample.h"
+#include "core/loop/loop_timing.h"
+#include "core/loop/spsc_queue.h"
+#include "core/sim/task_event.h"
+#include "db/session_lock.h"
+#include "db/study_db.h"
+#include "sessions/study_session.h"
+
+namespace {
+
+namespace hl = hapticlab;
+
+// The queues of `session run`'s loop (HapticLoopConfig): ~16 s of 1 kHz
+// samples, so a writer held up by another station's commit loses nothing.
+constexpr std::size_t kSampleQueueCapacity = std::size_t{1} << 14;
+constexpr std::size_t kEventQueueCapacity = std::size_t{1} << 12;
+
+static_assert(HL_EVENT_INSERTION_PASSED == static_cast<int>(hl::TaskEventType::kInsertionPassed));
+static_assert(HL_EVENT_INSERTION_WITHDRAWN == static_cast<int>(hl::TaskEventType::kInsertionWithdrawn));
+static_assert(HL_EVENT_CONTACT_START == static_cast<int>(hl::TaskEventType::kContactStart));
+static_assert(HL_EVENT_CONTACT_END == static_cast<int>(hl::TaskEventType::kContactEnd));
+static_assert(HL_EVENT_GRASP_START == static_cast<int>(hl::TaskEventType::kGraspStart));
+static_assert(HL_EVENT_GRASP_END == static_cast<int>(hl::TaskEventType::kGraspEnd));
+static_assert(HL_EVENT_TASK_COMPLETE == static_cast<int>(hl::TaskEventType::kTaskComplete));
+// The operator's abort is logged by the API itself (hl_study_request_stop).
+constexpr int kLastVeEventType = static_cast<int>(hl::TaskEventType::kTaskComplete);
+
+void write_error(char* error, size_t size, const std::string& message) {
+  if (error != nullptr && size > 0) std::snprintf(error, size, "%s", message.c_str());
+}
+
+void copy_text(char* out, size_t size, const std::string& text) {
+  if (out != nullptr && size > 0) std::snprintf(out, size, "%s", text.c_str());
+}
+
+}  // namespace
+
+struct hl_study {
+  explicit hl_study(std::filesystem::path path) : db_path(std::move(path)) {}
+
+  const std::filesystem::path db_path;
+  // Declared before the session: its writer reads them, so they outlive it.
+  hl::SpscQueue<hl::LoopSample> samples{kSampleQueueCapacity};
+  hl::SpscQueue<hl::TaskEvent> events{kEventQueueCapacity};
+  hl::LoopTimingStats timing;  // the application's periods (dt_s), for the trial's loop_timing
+  std::unique_ptr<hl::sessions::StudySession> session;
+
+  // The open trial. trial_open gates the logging calls (loop thread);
+  // engine is shared with hl_study_request_stop (any thread) under mutex.
+  std::optional<hl::db::TrialRow> trial;
+  std::atomic<bool> trial_open{false};
+  std::mutex engine_mutex;
+  hl_engine* engine = nullptr;
+
+  std::atomic<bool> stop{false};
+  std::atomic<std::uint64_t> dropped_samples{0};
+  std::atomic<std::uint64_t> dropped_events{0};
+  std::atomic<double> last_t_s{0.0};  // of the last sample logged: when a stop took effect
+};
+
+namespace {
+
+// Ends the open trial: the writer stores the rest, then the outcome. On a
+// storage failure StudySession has recorded what it could and ended the
+// session; the handle lets it go.
+int finish_trial(hl_study& s, hl::db::TrialOutcome outcome, char* error, size_t error_size) {
+  s.trial_open.store(false, std::memory_order_release);
+  {
+    std::lock_guard<std::mutex> lock(s.engine_mutex);
+    hl_engine_destroy(s.engine);
+    s.engine = nullptr;
+  }
+  outcome.dropped_samples = s.dropped_samples.load(std::memory_order_relaxed);
+  outcome.dropped_events = s.dropped_events.load(std::memory_order_relaxed);
+  outcome.timing = s.timing.summary();
+  s.trial.reset();
+  try {
+    s.session->finish_trial(outcome);
+  } catch (const std::exception& e) {
+    write_error(error, error_size, e.what());
+    s.session.reset();
+    return HL_ERROR_DATABASE;
+  }
+  write_error(error, error_size, "");
+  return HL_OK;
+}
+
+}  // namespace
+
+extern "C" {
+
+hl_study* hl_study_open(const char* db_path, char* error, size_t error_size) {
+  if (db_path == nullptr) {
+    write_error(error, error_size, "hl_study_open: db_path is NULL");
+    return nullptr;
+  }
+  try {
+    if (!std::filesystem::exists(db_path)) {
+      write_error(error, error_size,
+                  std::string(db_path) + ": no such database (create it with `hapticlab study create`)");
+      return nullptr;
+    }
+    // Checked now so a wrong file is reported before a session is tried;
+    // recovery waits for the participant's lock (hl_study_start_session).
+    hl::db::OpenOptions open;
+    open.recover = false;
+    open.integrity = hl::db::OpenOptions::Integrity::kQuick;
+    hl::db::StudyDb db(db_path, open);
+    if (db.studies().empty()) {
+      write_error(error, error_size, db.path() + ": holds no study (run `hapticlab study create` first)");
+      return nullptr;
+    }
+    write_error(error, error_size, "");
+    return new hl_study(db_path);
+  } catch (const std::exception& e) {
+    write_error(error, error_size, e.what());
+  } catch (...) {
+    write_error(error, error_size, "unknown error");
+  }
+  return nullptr;
+}
+
+int hl_study_start_session(hl_study* study, const char* participant_code, const char* device, char* error,
+                           size_t error_size) {
+  if (study == nullptr || participant_code == nullptr) {
+    write_error(error, error_size, "hl_study_start_session: study or participant_code is NULL");
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  if (study->session) {
+    write_error(error, error_size,
+                "hl_study_start_session: a session of participant '" + study->session->participant() +
+                    "' is open on this handle; end it first (hl_study_end_session)");
+    return HL_ERROR_STATE;
+  }
+  try {
+    study->session = std::make_unique<hl::sessions::StudySession>(
+        study->db_path, participant_code, device != nullptr && *device != '\0' ? device : "external", "wall");
+    study->stop.store(false, std::memory_order_relaxed);
+    std::string note;
+    if (study->session->stale_session())
+      note = "the participant's previous session had died (" + *study->session->stale_session() +
+             "); its running trial was recovered";
+    write_error(error, error_size, note);
+    return HL_OK;
+  } catch (const hl::db::SessionBusyError& e) {
+    write_error(error, error_size, e.what());
+    return HL_ERROR_BUSY;
+  } catch (const hl::db::DbError& e) {
+    write_error(error, error_size, e.what());
+    return HL_ERROR_DATABASE;
+  } catch (const std::exception& e) {
+    write_error(error, error_size, e.what());
+    return HL_ERROR_STUDY;
+  }
+}
+
+int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting, size_t operator_setting_size,
+                        char* error, size_t error_size) {
+  if (study == nullptr || trial == nullptr) {
+    write_error(error, error_size, "hl_study_next_trial: study or trial is NULL");
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  if (!study->session) {
+    write_error(error, error_size, "hl_study_next_trial: no session is open (hl_study_start_session)");
+    return HL_ERROR_STATE;
+  }
+  if (study->trial) {
+    write_error(error, error_size,
+                "hl_study_next_trial: trial " + std::to_string(study->trial->id) +
+                    " is still open; end it first (hl_study_end_trial)");
+    return HL_ERROR_STATE;
+  }
+  if (study->stop.load(std::memory_order_acquire)) {
+    write_error(error, error_size, "the operator stopped the session");
+    return HL_STUDY_STOPPED;
+  }
+  try {
+    hl::sessions::StudySession& session = *study->session;
+    const std::optional<hl::db::TrialRow> next = session.next_trial();
+    if (!next) {
+      write_error(error, error_size, "");
+      return HL_STUDY_DONE;
+    }
+    const std::string setting_json = session.db().setting_json(next->setting_id);
+    char engine_error[512] = "";
+    hl_engine* engine = hl_engine_create(setting_json.c_str(), engine_error, sizeof engine_error);
+    if (engine == nullptr) {
+      write_error(error, error_size,
+                  session.db().path() + ": setting " + std::to_string(next->setting_id) +
+                      " of the study cannot configure an engine: " + engine_error);
+      return HL_ERROR_DATABASE;
+    }
+    // Whatever a late call left in the queues belongs to no trial; the
+    // writer is not running, so this thread may consume.
+    hl::LoopSample stale_sample;
+    while (study->samples.try_pop(stale_sample)) {
+    }
+    hl::TaskEvent stale_event;
+    while (study->events.try_pop(stale_event)) {
+    }
+    study->dropped_samples.store(0, std::memory_order_relaxed);
+    study->dropped_events.store(0, std::memory_order_relaxed);
+    study->last_t_s.store(0.0, std::memory_order_relaxed);
+    study->timing.reset();
+    try {
+      session.start_trial(*next, study->samples, study->events);
+    } catch (...) {
+      hl_engine_destroy(engine);
+      throw;
+    }
+    study->trial = *next;
+    {
+      std::lock_guard<std::mutex> lock(study->engine_mutex);
+      study->engine = engine;
+      // A stop that came while the trial was being set up still counts.
+      if (study->stop.load(std::memory_order_acquire)) hl_engine_halt(engine);
+    }
+    *trial = hl_trial{};
+    trial->trial_id = next->id;
+    copy_text(trial->task, sizeof trial->task, next->task);
+    trial->repetition = next->repetition;
+    trial->trial_number = session.complete() + 1;
+    trial->trial_count = session.scheduled();
+    trial->engine = engine;
+    copy_text(operator_setting, operator_setting_size, session.db().trial(next->id).setting_name);
+    study->trial_open.store(true, std::memory_order_release);
+    write_error(error, error_size, "");
+    return HL_OK;
+  } catch (const std::exception& e) {
+    write_error(error, error_size, e.what());
+    return HL_ERROR_DATABASE;
+  }
+}
+
+int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
+  if (study == nullptr || sample == nullptr) return HL_ERROR_INVALID_ARGUMENT;
+  if (!study->trial_open.load(std::memory_order_acquire)) return HL_ERROR_STATE;
+  hl::LoopSample s;
+  s.tick = sample->tick;
+  s.t_s = sample->t_s;
+  s.dt_s = sample->dt_s;
+  s.device_status = sample->device_status;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const hl_sample_instrument& in = sample->instrument[i];
+    hl::InstrumentSample& out = s.instrument[i];
+    for (std::size_t j = 0; j < 5; ++j) out.raw_position[j] = in.raw_joints[j];
+    for (std::size_t j = 0; j < 3; ++j) {
+      out.degraded_position[j] = in.degraded_joints[j];
+      out.tip_position_m[j] = in.tip_position_m[j];
+      out.tip_velocity_m_per_s[j] = in.tip_velocity_m_per_s[j];
+      out.ve_force_N[j] = in.ve_force_N[j];
+      out.displayed_force_N[j] = in.displayed_force_N[j];
+      out.joint_force[j] = in.joint_force[j];
+    }
+    out.engine_status = in.engine_status;
+    out.in_contact = in.in_contact != 0;
+  }
+  study->timing.record(sample->dt_s, false);
+  study->last_t_s.store(sample->t_s, std::memory_order_relaxed);
+  if (!study->samples.try_push(s)) {
+    study->dropped_samples.fetch_add(1, std::memory_order_relaxed);
+    return HL_STUDY_DROPPED;
+  }
+  return HL_OK;
+}
+
+int hl_study_log_event(hl_study* study, double t_s, int type, int instrument, int32_t index) {
+  if (study == nullptr) return HL_ERROR_INVALID_ARGUMENT;
+  if (type < 0 || type > kLastVeEventType || instrument < -1 || instrument > 1 || !std::isfinite(t_s))
+    return HL_ERROR_INVALID_ARGUMENT;
+  if (!study->trial_open.load(std::memory_order_acquire)) return HL_ERROR_STATE;
+  const hl::TaskEvent e{t_s, static_cast<hl::TaskEventType>(type), static_cast<std::int8_t>(instrument), index};
+  if (!study->events.try_push(e)) {
+    study->dropped_events.fetch_add(1, std::memory_order_relaxed);
+    return HL_STUDY_DROPPED;
+  }
+  return HL_OK;
+}
+
+int hl_study_dropped(const hl_study* study, uint64_t* samples, uint64_t* events) {
+  if (study == nullptr) return HL_ERROR_INVALID_ARGUMENT;
+  if (samples != nullptr) *samples = study->dropped_samples.load(std::memory_order_relaxed);
+  if (events != nullptr) *events = study->dropped_events.load(std::memory_order_relaxed);
+  return HL_OK;
+}
+
+int hl_study_end_trial(hl_study* study, int outcome, const char* reason, char* error, size_t error_size) {
+  if (study == nullptr) {
+    write_error(error, error_size, "hl_study_end_trial: study is NULL");
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  if (!study->trial) {
+    write_error(error, error_size, "hl_study_end_trial: no trial is open (hl_study_next_trial)");
+    return HL_ERROR_STATE;
+  }
+  const std::string why = reason != nullptr ? reason : "";
+  hl::db::TrialOutcome out;
+  switch (outcome) {
+    case HL_TRIAL_COMPLETE: out.status = hl::db::TrialStatus::kComplete; break;
+    case HL_TRIAL_ABORTED:
+      if (why.empty()) {
+        write_error(error, error_size,
+                    "hl_study_end_trial: reason is required for HL_TRIAL_ABORTED (it is stored with the trial); "
+                    "the trial is still open");
+        return HL_ERROR_INVALID_ARGUMENT;
+      }
+      out.status = hl::db::TrialStatus::kAborted;
+      out.abort_reason = why;
+      break;
+    case HL_TRIAL_TIME_LIMIT:
+      out.status = hl::db::TrialStatus::kAborted;
+      out.abort_reason = hl::sessions::time_limit_reason(why.empty() ? "set by the application" : why);
+      break;
+    default:
+      write_error(error, error_size,
+                  "hl_study_end_trial: outcome " + std::to_string(outcome) +
+                      " is not HL_TRIAL_COMPLETE (0), HL_TRIAL_ABORTED (1) or HL_TRIAL_TIME_LIMIT (2); the trial "
+                      "is still open");
+      return HL_ERROR_INVALID_ARGUMENT;
+  }
+  if (study->stop.load(std::memory_order_acquire)) {
+    // The participant felt zero force from the stop on: whatever the VE
+    // says, the trial did not run to its end as planned.
+    const std::string stop_reason(hl::sessions::kOperatorStopReason);
+    out.status = hl::db::TrialStatus::kAborted;
+    out.abort_reason = stop_reason;
+    out.closing_events.push_back({study->trial->id, study->last_t_s.load(std::memory_order_relaxed),
+                                  hl::to_string(hl::TaskEventType::kOperatorAbort), -1, 0, stop_reason});
+  }
+  return finish_trial(*study, std::move(out), error, error_size);
+}
+
+int hl_study_request_stop(hl_study* study) {
+  if (study == nullptr) return HL_ERROR_INVALID_ARGUMENT;
+  study->stop.store(true, std::memory_order_release);
+  std::lock_guard<std::mutex> lock(study->engine_mutex);
+  hl_engine_halt(study->engine);
+  return HL_OK;
+}
+
+int hl_study_end_session(hl_study* study, char* error, size_t error_size) {
+  if (study == nullptr) {
+    write_error(error, error_size, "hl_study_end_session: study is NULL");
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  if (!study->session) {
+    write_error(error, error_size, "hl_study_end_session: no session is open (already ended, or never started)");
+    return HL_ERROR_STATE;
+  }
+  if (study->trial) {
+    write_error(error, error_size,
+                "hl_study_end_session: trial " + std::to_string(study->trial->id) +
+                    " is still open; end it first (hl_study_end_trial)");
+    return HL_ERROR_STATE;
+  }
+  try {
+    study->session->end(hl::db::SessionStatus::kClosed);
+    study->session.reset();  // releases the participant's lock
+    write_error(error, error_size, "");
+    return HL_OK;
+  } catch (const std::exception& e) {
+    write_error(error, error_size, e.what());
+    return HL_ERROR_DATABASE;
+  }
+}
+
+void hl_study_close(hl_study* study) {
+  if (study == nullptr) return;
+  try {
+    if (study->trial) {
+      hl::db::TrialOutcome out;
+      out.status = hl::db::TrialStatus::kAborted;
+      out.abort_reason = "the application closed the study with the trial open";
+      finish_trial(*study, std::move(out), nullptr, 0);
+    }
+    if (study->session) study->session->end(hl::db::SessionStatus::kInterrupted);
+  } catch (...) {
+    // Left as a crash would leave it: the next session recovers it.
+  }
+  delete study;
+}
+
+}  // extern "C"

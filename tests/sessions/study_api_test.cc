@@ -1,0 +1,318 @@
+// The C study API (hapticlab/study.h) against a real study database: calls
+// out of order are refused and lose nothing, the operator stop zeroes the
+// trial engine's force from its next update, and the bookkeeping (blinding,
+// re-queueing, the time-limit rule, one session per participant) is that of
+// `session run`.
+#include "hapticlab/study.h"
+
+#include <cmath>
+#include <string>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "db/study_db.h"
+#include "tests/sessions/session_fixture.h"
+
+namespace hapticlab::sessions {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::SessionFixture;
+
+// A valid sample of update `tick` at 1 kHz: both tools still, a VE force of
+// 1 N along z on the left one.
+hl_sample sample_at(std::uint64_t tick) {
+  hl_sample s{};
+  s.tick = tick;
+  s.dt_s = 0.001;
+  s.t_s = 0.001 * static_cast<double>(tick);
+  for (hl_sample_instrument& in : s.instrument) {
+    in.raw_joints[0] = in.degraded_joints[0] = 0.1;
+    in.tip_position_m[2] = -0.1;
+  }
+  s.instrument[0].ve_force_N[2] = 1.0;
+  return s;
+}
+
+class StudyApiTest : public SessionFixture {
+ protected:
+  void SetUp() override {
+    SessionFixture::SetUp();
+    study_ = hl_study_open(db_path_.c_str(), error_, sizeof error_);
+    ASSERT_NE(study_, nullptr) << error_;
+  }
+  void TearDown() override {
+    hl_study_close(study_);
+    SessionFixture::TearDown();
+  }
+  db::StudyDb open_db() {
+    db::OpenOptions o;
+    o.recover = false;
+    return db::StudyDb(db_path_, o);
+  }
+
+  hl_study* study_ = nullptr;
+  char error_[512] = "";
+  hl_trial trial_{};
+  char setting_[128] = "";
+};
+
+TEST_F(StudyApiTest, CallsOutOfOrderAreRefusedAndLoseNothing) {
+  const hl_sample s = sample_at(0);
+  // Before a session.
+  EXPECT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_THAT(error_, HasSubstr("no session is open"));
+  EXPECT_EQ(hl_study_log_sample(study_, &s), HL_ERROR_STATE);
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_EQ(hl_study_start_session(study_, "ZZ9", nullptr, error_, sizeof error_), HL_ERROR_STUDY);
+  EXPECT_THAT(error_, HasSubstr("'ZZ9' is not in study"));
+  EXPECT_THAT(error_, HasSubstr("A1, B2"));
+  // NULL handles and arguments.
+  EXPECT_EQ(hl_study_open(nullptr, error_, sizeof error_), nullptr);
+  EXPECT_EQ(hl_study_open((dir_ / "missing.db").c_str(), error_, sizeof error_), nullptr);
+  EXPECT_THAT(error_, HasSubstr("no such database"));
+  EXPECT_EQ(hl_study_start_session(nullptr, "A1", nullptr, error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_log_sample(nullptr, &s), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_log_sample(study_, nullptr), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_next_trial(study_, nullptr, nullptr, 0, error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_request_stop(nullptr), HL_ERROR_INVALID_ARGUMENT);
+
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  EXPECT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_ERROR_STATE);
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK) << error_;
+  const std::int64_t first = trial_.trial_id;
+  // A trial is open: no second one, no end of session, no abort without a reason.
+  hl_trial other{};
+  EXPECT_EQ(hl_study_next_trial(study_, &other, nullptr, 0, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_THAT(error_, HasSubstr("is still open"));
+  EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_ABORTED, nullptr, error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_end_trial(study_, 7, nullptr, error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_log_event(study_, 0.0, HL_EVENT_CONTACT_START, 2, 0), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_log_event(study_, NAN, HL_EVENT_CONTACT_START, 0, 0), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_log_event(study_, 0.0, 10, -1, 0), HL_ERROR_INVALID_ARGUMENT);  // operator_abort is the API's
+  // ... and everything of the open trial still counts.
+  constexpr int kUpdates = 250;
+  for (int k = 0; k < kUpdates; ++k) {
+    const hl_sample sk = sample_at(static_cast<std::uint64_t>(k));
+    ASSERT_EQ(hl_study_log_sample(study_, &sk), HL_OK);
+  }
+  EXPECT_EQ(hl_study_log_event(study_, 0.010, HL_EVENT_INSERTION_PASSED, 0, 0), HL_OK);
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_EQ(hl_study_log_sample(study_, &s), HL_ERROR_STATE);
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+  EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_ERROR_STATE);
+
+  db::StudyDb db = open_db();
+  const db::TrialRow t = db.trial(first);
+  EXPECT_EQ(t.status, db::TrialStatus::kComplete);
+  EXPECT_EQ(t.position, 1);
+  EXPECT_EQ(db.sample_count(first, 0), static_cast<std::uint64_t>(kUpdates));
+  EXPECT_EQ(db.sample_count(first, 1), static_cast<std::uint64_t>(kUpdates));
+  const std::vector<db::EventRow> events = db.events(first);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].type, "insertion_passed_20mm");
+  EXPECT_DOUBLE_EQ(events[0].t_s, 0.010);
+  // The sample content round-trips (stored as float: 1 N exactly).
+  EXPECT_EQ(db.samples(first, 0)[7].value.ve_force_N[2], 1.0);
+  int running_or_done = 0;
+  for (const db::TrialRow& r : db.trials())
+    if (r.participant_code == "A1" && r.status != db::TrialStatus::kPlanned) ++running_or_done;
+  EXPECT_EQ(running_or_done, 1);  // nothing else was started by the refused calls
+  EXPECT_EQ(db.session(*t.session_id).status, db::SessionStatus::kClosed);
+}
+
+TEST_F(StudyApiTest, TrialsComeInScheduleOrderBlindedWithTheirSettingsEngine) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", "test rig", error_, sizeof error_), HL_OK) << error_;
+  db::StudyDb db = open_db();
+  std::vector<db::TrialRow> planned;
+  for (const db::TrialRow& r : db.trials())
+    if (r.participant_code == "A1") planned.push_back(r);
+  for (std::size_t i = 0; i < planned.size(); ++i) {
+    ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK);
+    EXPECT_EQ(trial_.trial_id, planned[i].id);
+    EXPECT_STREQ(trial_.task, "dissection");
+    EXPECT_EQ(trial_.repetition, planned[i].repetition);
+    EXPECT_EQ(trial_.trial_number, static_cast<int>(i) + 1);
+    EXPECT_EQ(trial_.trial_count, 4);
+    EXPECT_EQ(std::string(setting_), planned[i].setting_name);  // the operator's view
+    // The engine has the trial's setting: without force feedback a VE force
+    // of 2 N never reaches the device; at high fidelity it does (the first
+    // update re-anchors, so look at the second).
+    hl_input in{};
+    in.dt_s = 0.001;
+    in.insertion_m = 0.1;
+    in.ve_force_N[2] = 2.0;
+    hl_output out{};
+    ASSERT_EQ(hl_engine_update(trial_.engine, 0, &in, &out), HL_OK);
+    ASSERT_EQ(hl_engine_update(trial_.engine, 0, &in, &out), HL_OK);
+    if (planned[i].setting_name == "No Force Feedback") {
+      EXPECT_EQ(out.displayed_force_N[2], 0.0);
+    } else {
+      EXPECT_NEAR(out.displayed_force_N[2], 2.0, 1e-9) << planned[i].setting_name;
+    }
+    ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+  }
+  EXPECT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_STUDY_DONE);
+  EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK);
+  EXPECT_EQ(open_db().session(1).device, "test rig");
+}
+
+TEST_F(StudyApiTest, OperatorStopZeroesTheForceFromTheNextUpdateAndRequeuesTheTrial) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  // Find a trial whose setting displays the VE force.
+  for (;;) {
+    ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK);
+    if (std::string(setting_) == "High Fidelity") break;
+    ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK);
+  }
+  const std::int64_t stopped = trial_.trial_id;
+  hl_input in{};
+  in.dt_s = 0.001;
+  in.insertion_m = 0.1;
+  in.ve_force_N[2] = 2.0;
+  hl_output out{};
+  for (std::uint64_t k = 0; k < 3; ++k) {
+    ASSERT_EQ(hl_engine_update(trial_.engine, 0, &in, &out), HL_OK);
+    const hl_sample s = sample_at(k);
+    ASSERT_EQ(hl_study_log_sample(study_, &s), HL_OK);
+  }
+  ASSERT_NEAR(out.displayed_force_N[2], 2.0, 1e-9);
+  ASSERT_EQ(out.status & HL_HALTED, 0u);
+
+  std::thread button([&] { EXPECT_EQ(hl_study_request_stop(study_), HL_OK); });  // the operator's thread
+  button.join();
+  for (int instrument : {0, 1}) {
+    ASSERT_EQ(hl_engine_update(trial_.engine, instrument, &in, &out), HL_OK);
+    EXPECT_EQ(out.displayed_force_N[0], 0.0);
+    EXPECT_EQ(out.displayed_force_N[1], 0.0);
+    EXPECT_EQ(out.displayed_force_N[2], 0.0);
+    EXPECT_EQ(out.insertion_force_N, 0.0);
+    EXPECT_EQ(out.pitch_torque_Nm, 0.0);
+    EXPECT_EQ(out.yaw_torque_Nm, 0.0);
+    EXPECT_NE(out.status & HL_HALTED, 0u);
+    EXPECT_NEAR(out.degraded_insertion_m, 0.1, 1e-6);  // the VE still gets positions
+    // The second half of an update cannot bring the force back.
+    const double ve[3] = {0.0, 0.0, 3.0};
+    ASSERT_EQ(hl_engine_refresh_forces(trial_.engine, instrument, ve, &out), HL_OK);
+    EXPECT_EQ(out.displayed_force_N[2], 0.0);
+  }
+  // The application ends the trial as it would; it is the operator's abort.
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+  EXPECT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_STUDY_STOPPED);
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK);
+
+  db::StudyDb db = open_db();
+  const db::TrialRow t = db.trial(stopped);
+  EXPECT_EQ(t.status, db::TrialStatus::kAborted);
+  EXPECT_EQ(t.abort_reason, "operator stopped the session");
+  const std::vector<db::EventRow> events = db.events(stopped);
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.back().type, "operator_abort");
+  EXPECT_DOUBLE_EQ(events.back().t_s, 0.002);  // the last logged sample's time
+  int copies = 0;
+  for (const db::TrialRow& r : db.trials())
+    if (r.participant_code == "A1" && r.position == t.position && r.status == db::TrialStatus::kPlanned) ++copies;
+  EXPECT_EQ(copies, 1);  // re-queued at its place
+}
+
+TEST_F(StudyApiTest, HaltedEngineOutsideAStudy) {
+  char err[256];
+  hl_engine* e = hl_engine_create_from_file((testing::source_dir() / "examples/settings/all_degradations.json").c_str(),
+                                            err, sizeof err);
+  ASSERT_NE(e, nullptr) << err;
+  hl_engine_halt(e);
+  hl_engine_halt(nullptr);  // ignored
+  hl_input in{};
+  in.dt_s = 0.001;
+  in.insertion_m = 0.1;
+  in.ve_force_N[0] = 5.0;
+  hl_output out{};
+  for (int k = 0; k < 5; ++k) ASSERT_EQ(hl_engine_update(e, 1, &in, &out), HL_OK);
+  EXPECT_EQ(std::hypot(out.displayed_force_N[0], out.displayed_force_N[1], out.displayed_force_N[2]), 0.0);
+  EXPECT_NE(out.status & HL_HALTED, 0u);
+  EXPECT_EQ(out.status & HL_FAULT_MASK, 0u);  // a stop, not an engine fault
+  hl_engine_destroy(e);
+}
+
+TEST_F(StudyApiTest, AbortedTrialsAreRequeuedButATimeLimitClosesTheSlot) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  const std::int64_t aborted = trial_.trial_id;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_ABORTED, "participant felt unwell", error_, sizeof error_), HL_OK);
+  // The re-queued copy comes next, at the same place in the schedule.
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  const std::int64_t copy = trial_.trial_id;
+  EXPECT_NE(copy, aborted);
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_TIME_LIMIT, "120 s", error_, sizeof error_), HL_OK);
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  const std::int64_t next = trial_.trial_id;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK);
+
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.trial(aborted).abort_reason, "participant felt unwell");
+  EXPECT_EQ(db.trial(copy).position, db.trial(aborted).position);
+  EXPECT_EQ(db.trial(copy).abort_reason, "time limit (120 s) reached before the task was complete");
+  EXPECT_EQ(db.trial(next).position, db.trial(aborted).position + 1);  // the slot was closed, not re-queued
+  // A second process (here: handle) cannot run the same participant meanwhile.
+  hl_study* second = hl_study_open(db_path_.c_str(), error_, sizeof error_);
+  ASSERT_NE(second, nullptr);
+  EXPECT_EQ(hl_study_start_session(second, "A1", nullptr, error_, sizeof error_), HL_ERROR_BUSY);
+  EXPECT_THAT(error_, HasSubstr("pid"));
+  EXPECT_EQ(hl_study_start_session(second, "B2", nullptr, error_, sizeof error_), HL_OK) << error_;
+  hl_study_close(second);  // ends B2's session as interrupted
+  EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK);
+}
+
+TEST_F(StudyApiTest, LoggingNeverBlocksAndEveryDropIsCounted) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  // Far more than the queue holds (2^14), as fast as possible: whatever the
+  // writer does not take in time is dropped, counted, and reported as such.
+  constexpr std::uint64_t kPushed = 200'000;
+  std::uint64_t accepted = 0, refused = 0;
+  for (std::uint64_t k = 0; k < kPushed; ++k) {
+    const hl_sample s = sample_at(k);
+    const int rc = hl_study_log_sample(study_, &s);
+    ASSERT_TRUE(rc == HL_OK || rc == HL_STUDY_DROPPED) << rc;
+    (rc == HL_OK ? accepted : refused) += 1;
+  }
+  std::uint64_t dropped = 0;
+  ASSERT_EQ(hl_study_dropped(study_, &dropped, nullptr), HL_OK);
+  EXPECT_EQ(dropped, refused);
+  RecordProperty("samples_dropped", std::to_string(refused));
+  const std::int64_t id = trial_.trial_id;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.sample_count(id, 0), accepted);  // every accepted sample is stored
+  const std::optional<db::LoopTimingRow> timing = db.loop_timing(id);
+  ASSERT_TRUE(timing.has_value());
+  EXPECT_EQ(timing->dropped_samples, refused);
+  ASSERT_TRUE(timing->timing.has_value());
+  EXPECT_EQ(timing->timing->count, kPushed);  // the application's periods, all of them
+  EXPECT_NEAR(timing->timing->mean_period_s, 0.001, 1e-12);
+}
+
+TEST_F(StudyApiTest, ClosingWithATrialOpenAbortsAndRequeuesIt) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  const std::int64_t id = trial_.trial_id;
+  const hl_sample s = sample_at(0);
+  ASSERT_EQ(hl_study_log_sample(study_, &s), HL_OK);
+  hl_study_close(study_);
+  study_ = nullptr;
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.trial(id).status, db::TrialStatus::kAborted);
+  EXPECT_EQ(db.trial(id).abort_reason, "the application closed the study with the trial open");
+  EXPECT_EQ(db.sample_count(id, 0), 1u);
+  EXPECT_EQ(db.session(*db.trial(id).session_id).status, db::SessionStatus::kInterrupted);
+  EXPECT_EQ(*db.next_planned_trial(db.trial(id).participant_id) > id, true);  // the re-queued copy is next
+  EXPECT_EQ(db.trial(*db.next_planned_trial(db.trial(id).participant_id)).position, db.trial(id).position);
+}
+
+}  // namespace
+}  // namespace hapticlab::sessions
