@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/common/csv_format.h"
 #include "core/common/random.h"
 #include "core/device/device_factory.h"
 #include "core/sim/task_event.h"
@@ -30,9 +31,9 @@ bool stop_requested(const SessionOptions& options) {
 void check_options(const SessionOptions& options) {
   if (options.participant.empty()) throw std::invalid_argument("participant: a participant code is required");
   if (!(options.rate_Hz >= 150.0 && options.rate_Hz <= 2000.0))
-    throw std::invalid_argument("rate_Hz: " + std::to_string(options.rate_Hz) + " is outside 150..2000 Hz");
+    throw std::invalid_argument("rate_Hz: " + format_number(options.rate_Hz) + " is outside 150..2000 Hz");
   if (!(options.max_trial_s > 0.0) || !std::isfinite(options.max_trial_s))
-    throw std::invalid_argument("max_trial_s: " + std::to_string(options.max_trial_s) +
+    throw std::invalid_argument("max_trial_s: " + format_number(options.max_trial_s) +
                                 " must be a positive number of seconds");
   if (options.training_trials && (*options.training_trials < 0 || *options.training_trials > 1000))
     throw std::invalid_argument("training_trials: " + std::to_string(*options.training_trials) +
@@ -243,7 +244,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
         break;
       case StopReason::kMaxDuration:
         outcome.status = db::TrialStatus::kAborted;
-        outcome.abort_reason = time_limit_reason(std::to_string(options.max_trial_s) + " s");
+        outcome.abort_reason = time_limit_reason(format_number(options.max_trial_s) + " s");
         break;
       default:
         outcome.status = db::TrialStatus::kAborted;

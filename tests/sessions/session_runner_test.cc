@@ -289,7 +289,11 @@ TEST_F(SessionFixture, ATimedOutSlotIsNotRequeuedEvenIfAnEarlierAttemptWasKilled
   for (const auto& t : trials) {
     if (t.position != first->position) continue;
     ++at_slot;
-    if (t.abort_reason.starts_with("time limit")) ++timed_out;
+    if (t.abort_reason.starts_with("time limit")) {
+      ++timed_out;
+      // The limit as the operator gave it, not "0.050000 s".
+      EXPECT_EQ(t.abort_reason, "time limit (0.05 s) reached before the task was complete");
+    }
     if (t.status == TrialStatus::kPlanned) ++planned_at_slot;
   }
   EXPECT_EQ(at_slot, 2) << "the killed attempt and its timed-out re-run";
