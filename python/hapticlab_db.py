@@ -271,6 +271,8 @@ def _decode_body(blob, fmt, count):
         out[name] = values
     if pos != size:
         raise ChunkError("structure", f"{size} bytes, more than {count} samples use")
+    # Any non-zero byte is "in contact", as HapticLab reads it (it writes 0 or 1).
+    out["in_contact"] = (out["in_contact"] != 0).astype(np.uint8)
     return out
 
 
