@@ -94,6 +94,8 @@ class SqliteExtensionTest : public ::testing::Test {
       if (e.path().string().ends_with("_samples.csv")) export_ = new fs::path(e.path());
     ASSERT_NE(export_, nullptr);
   }
+  // The suite's study must exist (a failed SetUpTestSuite fails every test).
+  void SetUp() override { ASSERT_NE(export_, nullptr) << "the study could not be built; see the first test's output"; }
   static void TearDownTestSuite() {
     fs::remove_all(*dir_);
     delete dir_;
