@@ -190,7 +190,11 @@ TEST(HapticLoopTest, VeGetsDegradedPositionsAndDeviceGetsTheVeForceOfTheSameUpda
   Engine engine(EngineSettings{}, {JointVector(0.10, 0.0, -0.15), JointVector(0.10, 0.0, -0.15)});
   RecordingVe ve;
   VirtualClock clock;
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), short_run(0.2));
+  // No ramp-in: this test follows the engine's force to the device
+  // unscaled (force_guard_test and safety_test check the ramp).
+  LoopConfig config = short_run(0.2);
+  config.safety.ramp_in_s = 0.0;
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config);
   ASSERT_EQ(loop.run(), StopReason::kMaxDuration);
   const std::vector<LoopSample> samples = drain(loop);
   ASSERT_EQ(samples.size(), loop.ticks());
