@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/loop/force_guard.h"
 #include "core/settings/settings_json.h"
 
 namespace hapticlab::protocols {
@@ -86,6 +87,9 @@ struct Protocol {
   std::vector<ParticipantSpec> participants;  // >= 1, unique codes
   Design design;
   std::uint64_t seed = 0;  // fixes the design search, task orders and schedules
+  // The optional "safety" object: force limits below the device's
+  // (protocols/safety_json.h, docs/safety.md). Default: the device's own.
+  OperatorForceLimits safety;
 
   int repetitions_of(Task task) const { return repetitions[static_cast<std::size_t>(task)]; }
   // Index into `settings` of the setting called `name`, or nullopt.

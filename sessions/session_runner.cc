@@ -15,6 +15,7 @@
 #include "core/sim/task_event.h"
 #include "db/session_lock.h"
 #include "protocols/rng.h"
+#include "protocols/safety_json.h"
 
 namespace hapticlab::sessions {
 namespace {
@@ -159,6 +160,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   const int training_per_task =
       options.training_trials.value_or(protocol_training_trials(study.protocol_json, options.participant));
   const std::int64_t training_setting = training_setting_id(db, study.id);
+  const OperatorForceLimits force_limits = protocols::safety_from_protocol_text(study.protocol_json, db.path());
   std::map<std::string, int> complete_by_task;  // practice so far
   int scheduled = 0, complete = 0;
   {
@@ -202,7 +204,21 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     c.clock = options.clock;
     c.rate_Hz = options.rate_Hz;
     c.max_duration_s = options.max_trial_s;
+    c.force_limits = force_limits;
     return c;
+  };
+
+  // The device would not be driven: nothing was started, so the session
+  // closes with the trial still planned.
+  auto refuse = [&](DeviceStatus status, const std::string& what) {
+    db.end_session(result.session_id, db::SessionStatus::kInterrupted);
+    const std::string device = "the " + options.device.describe() + " device";
+    throw DeviceNotReadyError(
+        status == DeviceStatus::kNotCalibrated
+            ? "device: " + device + " is not calibrated/homed; calibrate it, then run the session again (" + what +
+                  " was not started and stays planned)"
+            : "device: " + device + " could not be activated (" + to_string(status) + "); fix it, then run the " +
+                  "session again (" + what + " was not started and stays planned)");
   };
 
   while (!stop_requested(options)) {
@@ -240,7 +256,10 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
                                            static_cast<std::uint64_t>(k),
                                        k);
         c.publish_samples = false;
-        trained_s += run_sim_trial(c).duration_s;
+        const SimTrialResult practice = run_sim_trial(c);
+        if (practice.device_refused)
+          refuse(practice.device_status, "the training for trial " + std::to_string(trial.id));
+        trained_s += practice.duration_s;
         ++done;
       }
       row.ended_unix_s = db::unix_now_s();
@@ -267,6 +286,9 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     const Clock::time_point trial_start = Clock::now();
     SimRig rig(config);
     HapticLoop& loop = rig.loop();
+    // Powered before the trial is recorded as started, so a device that is
+    // not calibrated or homed leaves the trial planned, not aborted.
+    if (!loop.activate()) refuse(loop.device_status(), "trial " + std::to_string(trial.id));
     db.start_trial(trial.id, result.session_id);
     ++result.trials_run;
     db::TrialOutcome outcome;
@@ -307,6 +329,16 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           outcome.status = db::TrialStatus::kAborted;
           outcome.abort_reason = std::string(kTimeLimitReason) + " (" + std::to_string(options.max_trial_s) +
                                  " s) reached before the task was complete";
+          break;
+        case StopReason::kSafetyLimit:
+        case StopReason::kWatchdog:
+          // Zero force was commanded; re-queued like a device fault.
+          outcome.status = db::TrialStatus::kAborted;
+          outcome.abort_reason =
+              std::string(loop.stop_reason() == StopReason::kWatchdog ? "watchdog: " : "safety limit: ") +
+              describe(loop.safety_trip());
+          result.device_fault = true;
+          result.device_fault_reason = outcome.abort_reason;
           break;
         default:
           outcome.status = db::TrialStatus::kAborted;

@@ -38,18 +38,18 @@ TEST(ReadingGuardTest, VelocityIsMeasuredOverAtLeastHalfAMillisecond) {
   ReadingGuard guard(workstation_ratings(), 0.05);
   DeviceReading r = rest();
   EXPECT_FALSE(guard.check(r, 1e-3).tripped());  // anchors
-  // 1.5 mm in 0.1 ms would be 15 m/s, but the window is not complete yet;
-  // over the 1 ms that passes by the next reading it is 1.5 m/s (< 2 m/s).
-  r.position[0][kJointInsertion] += 0.0015;
+  // 3.5 mm in 0.1 ms would be 35 m/s, but the window is not complete yet;
+  // over the 1 ms that passes by the next reading it is 3.5 m/s (< 4 m/s).
+  r.position[0][kJointInsertion] += 0.0035;
   EXPECT_FALSE(guard.check(r, 0.1e-3).tripped());
   EXPECT_FALSE(guard.check(r, 0.9e-3).tripped());
-  // 2.5 mm in 1 ms: 2.5 m/s, above the 2 m/s insertion limit.
-  r.position[0][kJointInsertion] += 0.0025;
+  // 4.5 mm in 1 ms: 4.5 m/s, above the 4 m/s insertion limit.
+  r.position[0][kJointInsertion] += 0.0045;
   const SafetyTrip trip = guard.check(r, 1e-3);
   EXPECT_EQ(trip.kind, SafetyTripKind::kVelocityTooHigh);
   EXPECT_EQ(trip.joint, kJointInsertion);
-  EXPECT_NEAR(trip.value, 2.5, 1e-9);
-  EXPECT_EQ(trip.limit, 2.0);
+  EXPECT_NEAR(trip.value, 4.5, 1e-9);
+  EXPECT_EQ(trip.limit, 4.0);
 }
 
 TEST(ReadingGuardTest, ResetForgetsThePreviousReading) {

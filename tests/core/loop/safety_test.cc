@@ -208,9 +208,9 @@ TEST(SafetyTest, OneMetreJumpEndsAsASafetyLimitNamingTheJoint) {
 }
 
 TEST(SafetyTest, JointFasterThanItsMaxVelocityEndsAsASafetyLimit) {
-  // 0.03 rad per 1/1024 s is 30.72 rad/s on the pitch (limit 20 rad/s);
-  // half of it, 15.36 rad/s, passes. Both stay inside ±50°.
-  for (const double step_rad : {0.015, 0.03}) {
+  // 0.05 rad per 1/1024 s is 51.2 rad/s on the pitch (limit 40 rad/s);
+  // 0.03 rad, 30.72 rad/s, passes. Both stay inside ±50°.
+  for (const double step_rad : {0.03, 0.05}) {
     SCOPED_TRACE(step_rad);
     FakeDevice device;
     device.fast_from_read = 100;
@@ -220,7 +220,7 @@ TEST(SafetyTest, JointFasterThanItsMaxVelocityEndsAsASafetyLimit) {
     VirtualClock clock;
     HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(0.12));
     const StopReason reason = loop.run();
-    if (step_rad < 0.02) {
+    if (step_rad < 0.04) {
       EXPECT_EQ(reason, StopReason::kMaxDuration);
       continue;
     }
@@ -232,7 +232,7 @@ TEST(SafetyTest, JointFasterThanItsMaxVelocityEndsAsASafetyLimit) {
     const double expected = std::abs(FakeDevice::pose(0, 100)[kJointPitch] + step_rad -
                                      FakeDevice::pose(0, 99)[kJointPitch]) / kPeriod_s;
     EXPECT_NEAR(trip.value, expected, 1e-9);
-    EXPECT_EQ(trip.limit, 20.0);
+    EXPECT_EQ(trip.limit, 40.0);
     ASSERT_EQ(device.writes().size(), 101u);
     EXPECT_TRUE(all_zero(device.writes().back()));
   }
