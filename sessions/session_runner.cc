@@ -204,7 +204,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     c.clock = options.clock;
     c.rate_Hz = options.rate_Hz;
     c.max_duration_s = options.max_trial_s;
-    c.force_limits = force_limits;
+    c.safety.force_limits = force_limits;
     return c;
   };
 

@@ -85,7 +85,7 @@ SimRig::SimRig(const SimTrialConfig& config) {
                                           ? std::min<std::size_t>(config.sample_queue_capacity, 1 << 11)
                                           : config.sample_queue_capacity;
   loop_config.publish_samples = config.publish_samples;
-  loop_config.safety.force_limits = config.force_limits;
+  loop_config.safety = config.safety;
   if (!config.stop_when_complete) loop_config.linger_after_complete_s = config.max_duration_s;
   loop_ = std::make_unique<HapticLoop>(*device_, *engine_, *ve_, *clock_, std::move(schedule),
                                        loop_config, participant_.get());

@@ -55,9 +55,9 @@ struct SimTrialConfig {
   // max_duration_s passes. participant_seed, practice_trials and
   // inject_fault are then unused; trial_seed still lays out the task.
   std::shared_ptr<const std::vector<ReplayFrame>> replay;
-  // Force limits the operator set below the device's (the protocol's
-  // "safety" object); the loop's other protections keep their defaults.
-  OperatorForceLimits force_limits;
+  // The loop's protections (docs/safety.md); force_limits carries the
+  // protocol's "safety" object.
+  LoopSafetyConfig safety;
 };
 
 struct SimTrialResult {
