@@ -64,9 +64,9 @@ struct DeviceConfig {
 // What a device can do and take, per instrument and DeviceJoint. [X] = m
 // for insertion, rad otherwise; [F] = N or N·m. The loop's safety guard
 // never commands more than peak_force (and lowers it further if the
-// protocol asks), treats a reading outside [min_position, max_position] as
-// a fault, and zeroes the force when a joint moves faster than
-// max_velocity. Defaults: the Laparoscopic Surgical Workstation (thesis
+// protocol asks), treats a reading outside [min_position, max_position]
+// (widened by 5 % of the span) as a fault, and zeroes the force and ends
+// the trial when a joint moves faster than max_velocity (docs/safety.md). Defaults: the Laparoscopic Surgical Workstation (thesis
 // Table 2.1; core/device/workstation_spec.h).
 struct DeviceJointRating {
   double min_position = 0.0;     // [X]
