@@ -20,6 +20,7 @@
 #include "app/bench_loop.h"
 #include "app/export_command.h"
 #include "app/bench_db.h"
+#include "app/device_command.h"
 
 int main(int argc, char** argv) {
   // A file size limit (ulimit -f) should fail the write with EFBIG, which the
@@ -52,6 +53,10 @@ int main(int argc, char** argv) {
   hapticlab::app::add_stats_command(app);
   hapticlab::app::add_analyze_command(app);
   hapticlab::app::add_export_command(app);
+
+  CLI::App* device = app.add_subcommand("device", "Work with haptic devices");
+  device->require_subcommand(1);
+  hapticlab::app::add_device_check_command(*device);
 
   CLI::App* bench = app.add_subcommand("bench", "Measure performance");
   bench->require_subcommand(1);
