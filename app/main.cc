@@ -21,6 +21,7 @@
 #include "app/export_command.h"
 #include "app/bench_db.h"
 #include "app/device_command.h"
+#include "app/bench_device.h"
 
 int main(int argc, char** argv) {
   // A file size limit (ulimit -f) should fail the write with EFBIG, which the
@@ -64,6 +65,7 @@ int main(int argc, char** argv) {
   hapticlab::app::add_bench_loop_commands(*bench);
   hapticlab::app::add_bench_analyze_command(*bench);
   hapticlab::app::add_bench_db_command(*bench);
+  hapticlab::app::add_bench_device_command(*bench);
 
   if (argc == 1) {
     std::fputs(app.help().c_str(), stdout);
