@@ -96,8 +96,9 @@ TEST_F(DevicePluginSessionTest, ThePluginSessionLogsTheSameSamplesAsTheBuiltInSi
       // Trials of up to 4 s at 1 kHz with a moving participant.
       ASSERT_GT(sa.size(), 500u);
       for (std::size_t i = 0; i < sa.size(); ++i)
-        expect_same(sa[i], sb[i], "trial " + std::to_string(trials_a[k].id) + " instrument " +
-                                      std::to_string(instrument) + " sample " + std::to_string(i));
+        ASSERT_NO_FATAL_FAILURE(expect_same(sa[i], sb[i], "trial " + std::to_string(trials_a[k].id) +
+                                                              " instrument " + std::to_string(instrument) +
+                                                              " sample " + std::to_string(i)));
       compared += sa.size();
     }
   }
