@@ -114,8 +114,8 @@ void bench_device(std::string plugin, std::uint64_t updates, int rounds, bool js
 void add_bench_device_command(CLI::App& bench) {
   struct Opts {
     std::string plugin;
-    std::uint64_t updates = 200000;
-    int rounds = 5;
+    std::uint64_t updates = 50000;
+    int rounds = 30;
     bool json = false;
   };
   auto o = std::make_shared<Opts>();

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -194,9 +195,12 @@ DeviceStatus PluginDevice::write(const DeviceCommand& command) noexcept {
   bool finite = true;
   for (int i = 0; i < 2; ++i)
     for (int j = 0; j < kNumDeviceJoints; ++j) {
-      const double f = command.force[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+      const auto ui = static_cast<std::size_t>(i), uj = static_cast<std::size_t>(j);
+      const double f = command.force[ui][uj];
+      const double peak = ratings_.joint[ui][uj].peak_force;
       finite = finite && std::isfinite(f);
-      raw.force[i][j] = f;
+      // The plugin clips too; this holds even if it does not.
+      raw.force[i][j] = std::clamp(f, -peak, peak);
     }
   if (!finite) {
     // A non-finite value never reaches a motor: zero force instead.

@@ -11,7 +11,8 @@
 // The boundary is guarded both ways: a reading with a non-finite position is
 // kNonFiniteReading whatever the plugin said, and a command with a
 // non-finite force is never passed on (zero force is sent instead and
-// write() returns kWriteFailed). A status code the ABI does not define
+// write() returns kWriteFailed), and a force beyond the rated peak_force is
+// clipped to it before the plugin sees it. A status code the ABI does not define
 // counts as the call's failure status.
 //
 // A plugin with the simulation extension is also a HandAttachment, so the

@@ -101,7 +101,7 @@ TEST(DeviceCheckTest, OnlyZeroForceIsCommanded) {
   text << in.rdbuf();
   fs::remove(report);
   // One write per update, 0.1 s at 1 kHz, and none of them nonzero.
-  EXPECT_EQ(text.str(), "writes 100 nonzero_writes 0 halts 0\n");
+  EXPECT_EQ(text.str(), "writes 100 nonzero_writes 0 max_abs_force 0 halts 0\n");
 }
 
 TEST(DeviceCheckTest, ANotCalibratedDeviceIsNotDrivenAndSaysSo) {

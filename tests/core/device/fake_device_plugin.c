@@ -3,7 +3,7 @@
  * misbehaves on request. Written in C, against the installed-style header,
  * as a lab's plugin would be. Options:
  *   fault=none|crash_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create
- *   report=PATH   at destroy, write "writes N nonzero_writes M halts H" to PATH
+ *   report=PATH   at destroy, write "writes N nonzero_writes M max_abs_force F halts H" to PATH
  * Built three times (tests/core/device/CMakeLists.txt): as is, with
  * FAKE_ABI_VERSION=2, and with FAKE_NO_ENTRY (no entry point).
  */
@@ -26,6 +26,7 @@ struct hl_device {
   char report[512];
   int configured, active;
   long writes, nonzero_writes, halts;
+  double max_abs_force;
 };
 
 /* The fixed pose: inside the workstation's range on every joint. */
@@ -104,7 +105,10 @@ static hl_device_status fake_write(hl_device* d, const hl_device_command* comman
   int i, j, nonzero = 0;
   if (!d->active) return HL_DEVICE_NOT_ACTIVE;
   for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
-    for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) nonzero |= command->force[i][j] != 0.0;
+    for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) {
+      nonzero |= command->force[i][j] != 0.0;
+      if (fabs(command->force[i][j]) > d->max_abs_force) d->max_abs_force = fabs(command->force[i][j]);
+    }
   ++d->writes;
   d->nonzero_writes += nonzero;
   return HL_DEVICE_OK;
@@ -126,7 +130,8 @@ static void fake_destroy(hl_device* d) {
   if (d->report[0] != '\0') {
     FILE* f = fopen(d->report, "w");
     if (f != NULL) {
-      fprintf(f, "writes %ld nonzero_writes %ld halts %ld\n", d->writes, d->nonzero_writes, d->halts);
+      fprintf(f, "writes %ld nonzero_writes %ld max_abs_force %g halts %ld\n", d->writes, d->nonzero_writes,
+              d->max_abs_force, d->halts);
       fclose(f);
     }
   }

@@ -174,7 +174,7 @@ TEST(PluginDeviceTest, ANanReadingIsAFaultEvenWhenThePluginSaysOk) {
   EXPECT_EQ(device.read(reading), DeviceStatus::kNonFiniteReading);
 }
 
-TEST(PluginDeviceTest, ANonFiniteCommandNeverReachesThePluginAndHaltPassesThrough) {
+TEST(PluginDeviceTest, ANonFiniteCommandNeverReachesThePluginAForceBeyondPeakIsClippedHaltPassesThrough) {
   const fs::path report = temp_path("report.txt");
   {
     PluginDevice device(kFake, {{"report", report.string()}});
@@ -187,12 +187,12 @@ TEST(PluginDeviceTest, ANonFiniteCommandNeverReachesThePluginAndHaltPassesThroug
     command.force[0][kJointInsertion] = 2.0;
     EXPECT_EQ(device.write(command), DeviceStatus::kWriteFailed);  // sent as zero force
     command.force[1][kJointYaw] = 0.0;
-    EXPECT_EQ(device.write(command), DeviceStatus::kOk);  // sent as is
+    EXPECT_EQ(device.write(command), DeviceStatus::kOk);  // sent, clipped to the fake's peak 0.2 N
     device.halt();
   }  // destroy writes the report
   const std::string text = read_file(report);
   fs::remove(report);
-  EXPECT_EQ(text, "writes 2 nonzero_writes 1 halts 1\n");
+  EXPECT_EQ(text, "writes 2 nonzero_writes 1 max_abs_force 0.2 halts 1\n");
 }
 
 TEST(PluginDeviceTest, NotCalibratedComesBackFromActivate) {
