@@ -2,7 +2,7 @@
  * A fake hardware device plugin for the tests: it reads a fixed pose and
  * misbehaves on request. Written in C, against the installed-style header,
  * as a lab's plugin would be. Options:
- *   fault=none|crash_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create
+ *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create
  *   report=PATH   at destroy, write "writes N nonzero_writes M max_abs_force F halts H" to PATH
  * Built three times (tests/core/device/CMakeLists.txt): as is, with
  * FAKE_ABI_VERSION=2, and with FAKE_NO_ENTRY (no entry point).
@@ -14,12 +14,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #ifndef FAKE_ABI_VERSION
 #define FAKE_ABI_VERSION HL_DEVICE_PLUGIN_ABI_VERSION
 #endif
 
-enum fault { NONE, CRASH_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS };
+enum fault { NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS };
 
 struct hl_device {
   enum fault fault;
@@ -42,6 +43,7 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
       const char* v = values[i];
       if (strcmp(v, "none") == 0) d->fault = NONE;
       else if (strcmp(v, "crash_in_configure") == 0) d->fault = CRASH_IN_CONFIGURE;
+      else if (strcmp(v, "hang_in_configure") == 0) d->fault = HANG_IN_CONFIGURE;
       else if (strcmp(v, "not_calibrated") == 0) d->fault = NOT_CALIBRATED;
       else if (strcmp(v, "nan_read") == 0) d->fault = NAN_READ;
       else if (strcmp(v, "invalid_ratings") == 0) d->fault = INVALID_RATINGS;
@@ -65,6 +67,8 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
 static hl_device_status fake_configure(hl_device* d, double nominal_rate_Hz, uint64_t seed) {
   (void)seed;
   if (d->fault == CRASH_IN_CONFIGURE) raise(SIGSEGV);
+  if (d->fault == HANG_IN_CONFIGURE)
+    for (;;) pause(); /* a bus that never answers */
   if (!(nominal_rate_Hz >= 150.0 && nominal_rate_Hz <= 2000.0)) return HL_DEVICE_INVALID_CONFIG;
   d->configured = 1;
   return HL_DEVICE_OK;

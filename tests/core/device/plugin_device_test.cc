@@ -217,6 +217,12 @@ TEST(PluginProbeTest, AnExitInCreateIsNamedWithItsStatus) {
             "plugin " + kFake + " ended the process (exit status 7) in create; nothing was started");
 }
 
+TEST(PluginProbeTest, AHangInConfigureIsCutOffAfterTheTimeout) {
+  EXPECT_EQ(thrown<std::runtime_error>(
+                [] { probe_plugin(kFake, {{"fault", "hang_in_configure"}}, DeviceConfig{}, 0.3); }),
+            "plugin " + kFake + " did not return from configure within 0.3 s; nothing was started");
+}
+
 TEST(PluginProbeTest, TheLoadersOwnMessagesComeBackFromTheChild) {
   EXPECT_THAT(thrown<std::runtime_error>([] { probe_plugin(kFakeAbi2, {}, DeviceConfig{}); }),
               HasSubstr("was built for device ABI 2, this HapticLab supports 1"));
