@@ -94,6 +94,9 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   // The device is opened (a plugin loaded, a socket bound) and dropped
   // once before anything is stored, so a wrong path, option or port is
   // refused with nothing changed. Each trial opens it again.
+  // A plugin is first tried in a child process, which a crash in its code
+  // cannot take this one down with.
+  probe_device(options.device, DeviceConfig{options.rate_Hz, 0});
   (void)open_device(options.device);
   // Opening, the participant's lock, recovery, re-queueing and the session
   // row: the bookkeeping every runner shares (study_session.h).

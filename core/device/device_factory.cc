@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "core/device/plugin_device.h"
 #include "core/device/sim_device.h"
 
 namespace hapticlab {
@@ -19,17 +20,25 @@ std::unique_ptr<Device> open_device(const DeviceSpec& spec) {
   switch (spec.kind) {
     case DeviceSpec::Kind::kSim: {
       reject_options(spec);
-      // Sub-steps of 1 ms are plenty for a hand of a few hundred N/m on a
-      // few hundred grams (ω·h < 0.05) and keep a 1 kHz loop at one physics
-      // step per update.
-      SimDeviceParams params;
-      params.max_substep_s = 1e-3;
-      return std::make_unique<SimDevice>(params);
+      return std::make_unique<SimDevice>(sim_backend_params());
     }
-    case DeviceSpec::Kind::kPlugin:
+    case DeviceSpec::Kind::kPlugin: return std::make_unique<PluginDevice>(spec.path, spec.options);
     case DeviceSpec::Kind::kUdp: break;
   }
   throw std::runtime_error("device: " + spec.describe() + " cannot be opened by this build");
+}
+
+SimDeviceParams sim_backend_params() {
+  // Sub-steps of 1 ms are plenty for a hand of a few hundred N/m on a few
+  // hundred grams (ω·h < 0.05) and keep a 1 kHz loop at one physics step
+  // per update.
+  SimDeviceParams params;
+  params.max_substep_s = 1e-3;
+  return params;
+}
+
+void probe_device(const DeviceSpec& spec, const DeviceConfig& config) {
+  if (spec.kind == DeviceSpec::Kind::kPlugin) probe_plugin(spec.path, spec.options, config);
 }
 
 }  // namespace hapticlab
