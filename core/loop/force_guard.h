@@ -34,6 +34,13 @@ struct OperatorForceLimits {
 
 class ForceGuard {
  public:
+  // The default ramp-in of every backend (the loop's, and the study API's
+  // trial engines) [s]. 0.3 s is longer than a stretch reflex (~0.1 s), so
+  // the hand takes up the load instead of being jolted by it, and short
+  // against a task's tens of seconds (the simulated participant is still
+  // entering the trocar then).
+  static constexpr double kDefaultRampIn_s = 0.3;
+
   // Default: ramp 0 and limits of 0 everywhere (nothing reaches a motor
   // until the loop builds a guard from the device's ratings).
   ForceGuard() noexcept;

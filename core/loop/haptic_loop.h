@@ -73,11 +73,8 @@ const char* to_string(StopReason reason) noexcept;
 // clock only: the virtual clock's time does not pass while the loop waits,
 // so they could only fire spuriously and would break determinism.
 struct LoopSafetyConfig {
-  // Force ramp-in from the loop's start [s], 0..10 (0: none). 0.3 s is
-  // longer than a stretch reflex (~0.1 s), so the hand takes up the load
-  // instead of being jolted by it, and short against a task's tens of
-  // seconds (the simulated participant is still entering the trocar then).
-  double ramp_in_s = 0.3;
+  // Force ramp-in from the loop's start [s], 0..10 (0: none).
+  double ramp_in_s = ForceGuard::kDefaultRampIn_s;
   OperatorForceLimits force_limits;  // the protocol's "safety" object
   // Readings may lie this fraction of a joint's span beyond its rated
   // range, 0..1 (ReadingGuard).
