@@ -20,6 +20,8 @@
 #include "app/bench_loop.h"
 #include "app/export_command.h"
 #include "app/bench_db.h"
+#include "app/device_serve_sim.h"
+#include "app/bench_udp.h"
 
 int main(int argc, char** argv) {
   // A file size limit (ulimit -f) should fail the write with EFBIG, which the
@@ -52,6 +54,7 @@ int main(int argc, char** argv) {
   hapticlab::app::add_stats_command(app);
   hapticlab::app::add_analyze_command(app);
   hapticlab::app::add_export_command(app);
+  hapticlab::app::add_device_serve_sim_command(app);
 
   CLI::App* bench = app.add_subcommand("bench", "Measure performance");
   bench->require_subcommand(1);
@@ -59,6 +62,7 @@ int main(int argc, char** argv) {
   hapticlab::app::add_bench_loop_commands(*bench);
   hapticlab::app::add_bench_analyze_command(*bench);
   hapticlab::app::add_bench_db_command(*bench);
+  hapticlab::app::add_bench_udp_command(*bench);
 
   if (argc == 1) {
     std::fputs(app.help().c_str(), stdout);
