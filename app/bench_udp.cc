@@ -64,8 +64,8 @@ void bench_udp(double seconds, double rate_Hz, int port, bool json) {
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
-  std::printf("hapticlab bench udp: POLL -> STATE round trip over loopback, %.0f Hz, %.1f s, simulated workstation %s\n",
-              rate_Hz, seconds, server ? "served by a thread of this process" : "served by another process");
+  std::printf("hapticlab bench udp: POLL -> STATE round trip over loopback, %.0f Hz, %.1f s, %s udp:127.0.0.1:%d\n",
+              rate_Hz, seconds, server ? "simulated workstation served by this process on" : "the driver at", port);
   std::printf("polls %ld, round trip p50 %.0f us, p99 %.0f us (1 us bins); target p99 < 200 us: %s\n", updates,
               p50_us, p99_us, p99_us < 200.0 ? "met" : "NOT met");
   std::printf("failed reads %llu, timeouts %llu, stale %llu, out of order %llu, malformed %llu\n",
