@@ -181,7 +181,9 @@ DeviceStatus UdpDevice::read(DeviceReading& reading) noexcept {
   if (!active_) return DeviceStatus::kNotActive;
   const std::uint32_t seq = tx_sequence_.load(std::memory_order_relaxed) + 1;
   const std::int64_t sent_ns = steady_ns();
-  send(udp::Type::kPoll, now_s());
+  const double t_s = now_s();
+  last_poll_time_s_.store(t_s, std::memory_order_relaxed);
+  send(udp::Type::kPoll, t_s);
   if (!await(udp::Type::kState, seq, sent_ns + std::int64_t{options_.timeout_ms} * 1'000'000)) {
     timeouts_.fetch_add(1, std::memory_order_relaxed);
     return DeviceStatus::kTimeout;
@@ -212,7 +214,9 @@ DeviceStatus UdpDevice::write(const DeviceCommand& command) noexcept {
 
 void UdpDevice::halt() noexcept {
   halted_.store(true, std::memory_order_release);
-  send(udp::Type::kCommand, now_s(), udp::Command{});
+  // Any thread: the loop clock is the loop thread's, so the time of the
+  // last POLL stands in for it.
+  send(udp::Type::kCommand, last_poll_time_s_.load(std::memory_order_relaxed), udp::Command{});
 }
 
 DeviceStatus UdpDevice::deactivate() noexcept {

@@ -98,6 +98,7 @@ class UdpDevice final : public Device, public HandAttachment {
   const Clock* clock_ = nullptr;
   bool active_ = false;
   std::atomic<bool> halted_{false};
+  std::atomic<double> last_poll_time_s_{0.0};
   std::atomic<std::uint32_t> tx_sequence_{0};
   bool have_rx_sequence_ = false;
   std::uint32_t rx_sequence_ = 0;
