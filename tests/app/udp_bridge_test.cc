@@ -220,11 +220,13 @@ TEST_F(UdpBridgeTest, BridgeKilledMidTrialAbortsItAsDeviceTimeoutWithZeroForceAf
   Relay relay(server_port, server->pid(), kKillAt);
   const std::string db_path = create_study("killed");
   const std::string endpoint = "udp:127.0.0.1:" + std::to_string(relay.port());
+  // 200 ms rather than the default 10: a loaded CI machine can hold
+  // serve-sim off the CPU for tens of ms, which would end the trial early.
   const auto [code, out] = run_cli(kBinary, "session run --db " + db_path +
                                                 " --participant S1 --training-trials 0 --max-trials 2 --device " +
-                                                endpoint + " --device-option timeout_ms=50");
+                                                endpoint + " --device-option timeout_ms=200");
   EXPECT_EQ(code, 3) << out;  // the device fault exit code
-  EXPECT_THAT(out, HasSubstr("device_timeout: no answer from " + endpoint + " within 50 ms"));
+  EXPECT_THAT(out, HasSubstr("device_timeout: no answer from " + endpoint + " within 200 ms"));
   EXPECT_EQ(server->wait(), -SIGKILL);
 
   // The loop ended on the timeout and commanded zero from then on: the
