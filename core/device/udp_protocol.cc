@@ -28,7 +28,7 @@ class Out {
     n_ += size;
   }
   std::size_t finish() noexcept {
-    put(crc32c_bytes(p_, n_));
+    put(crc32c(0, std::span<const std::byte>(p_, n_)));
     return n_;
   }
 
@@ -172,7 +172,7 @@ bool decode_header(const std::byte* data, std::size_t size, Header& h) noexcept 
   if (payload == std::numeric_limits<std::size_t>::max() || size != kHeaderBytes + payload + kCrcBytes) return false;
   std::uint32_t crc;
   std::memcpy(&crc, data + size - kCrcBytes, 4);
-  if (crc != crc32c_bytes(data, size - kCrcBytes)) return false;
+  if (crc != crc32c(0, std::span<const std::byte>(data, size - kCrcBytes))) return false;
   h.type = static_cast<Type>(type);
   std::memcpy(&h.sequence, data + 8, 4);
   std::memcpy(&h.time_s, data + 12, 8);
