@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <cstring>
 #include <map>
 #include <string>
@@ -254,6 +255,17 @@ TEST_F(UdpBridgeTest, BridgeKilledMidTrialAbortsItAsDeviceTimeoutWithZeroForceAf
   for (const auto& [name, value] : db.device_counters(1)) counters[name] = value;
   EXPECT_GE(counters["timeouts"], 1u);  // the read (deactivate()'s unanswered ACK may add one)
   EXPECT_GE(counters["packets_received"], static_cast<std::uint64_t>(kKillAt - 1));
+
+  // The export carries them with the trial.
+  const auto [export_code, export_out] =
+      run_cli(kBinary, "export --db " + db_path + " --format csv --out " + (dir_ / "export").string());
+  ASSERT_EQ(export_code, 0) << export_out;
+  std::ifstream index(dir_ / "export" / "trials.csv");
+  std::string header, row;
+  std::getline(index, header);
+  std::getline(index, row);
+  EXPECT_THAT(header, ::testing::EndsWith(",device_counters"));
+  EXPECT_THAT(row, HasSubstr("timeouts=" + std::to_string(counters["timeouts"])));
 }
 
 TEST_F(UdpBridgeTest, ServeSimOnAPortInUseIsAClearError) {
