@@ -38,9 +38,11 @@ __all__ = [
     "SCHEMA_VERSION",
 ]
 
-# The schema whose chunks this module reads (db/schema.h kSchemaVersion):
-# the 5-byte chunk header exists from version 4 on.
-SCHEMA_VERSION = 4
+# The schemas whose chunks this module reads: the 5-byte chunk header exists
+# from version 4 on, unchanged up to db/schema.h's kSchemaVersion (version 5
+# added the device_counter table).
+OLDEST_SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 APPLICATION_ID = 0x484C4142  # "HLAB"
 
 # Chunk formats (byte 0 of the blob).
@@ -328,8 +330,9 @@ class StudyDatabase:
         if app_id != APPLICATION_ID:
             raise ValueError(f"{self.path}: not a HapticLab study database (application_id {app_id}, "
                              f"expected {APPLICATION_ID})")
-        if version < SCHEMA_VERSION:
-            raise ValueError(f"{self.path}: schema version {version}; this reader reads {SCHEMA_VERSION}. Open the "
+        if version < OLDEST_SCHEMA_VERSION:
+            raise ValueError(f"{self.path}: schema version {version}; this reader reads {OLDEST_SCHEMA_VERSION}.."
+                             f"{SCHEMA_VERSION}. Open the "
                              f"file once with `hapticlab analyze`, which migrates it")
         if version > SCHEMA_VERSION:
             raise ValueError(f"{self.path}: schema version {version} is newer than this reader ({SCHEMA_VERSION}); "

@@ -260,6 +260,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     outcome.dropped_samples = loop.dropped_samples();
     outcome.dropped_events = loop.dropped_events();
     outcome.timing = loop.timing();
+    outcome.device_counters = rig.device().counters();
     switch (loop.stop_reason()) {
       case StopReason::kTaskComplete: outcome.status = db::TrialStatus::kComplete; break;
       case StopReason::kStopRequested:
@@ -283,7 +284,13 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
         break;
       default:
         outcome.status = db::TrialStatus::kAborted;
-        outcome.abort_reason = std::string("device fault: ") + to_string(loop.device_status());
+        if (loop.device_status() == DeviceStatus::kTimeout) {
+          // "device_timeout" first, so a query can match the reason's start.
+          const std::string detail = rig.device().fault_detail();
+          outcome.abort_reason = std::string(to_string(DeviceStatus::kTimeout)) + (detail.empty() ? "" : ": " + detail);
+        } else {
+          outcome.abort_reason = std::string("device fault: ") + to_string(loop.device_status());
+        }
         result.device_fault = true;
         result.device_fault_reason = outcome.abort_reason;
         break;

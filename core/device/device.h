@@ -14,6 +14,9 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace hapticlab {
 
@@ -116,6 +119,15 @@ class Device {
   // A simulated device a simulated participant can hold; null for hardware,
   // which a person holds.
   virtual HandAttachment* hand_attachment() noexcept { return nullptr; }
+
+  // Control thread, after the loop: the device's own counts for the
+  // trial's record (the UDP bridge's lost and malformed packets, ...), as
+  // name/value pairs in a stable order. Default: none.
+  virtual std::vector<std::pair<std::string, std::uint64_t>> counters() const { return {}; }
+  // Control thread, after read() or write() failed: what went wrong, for
+  // the operator ("no answer from udp:127.0.0.1:5000 within 10 ms"); empty
+  // when the status says it all.
+  virtual std::string fault_detail() const { return {}; }
 };
 
 }  // namespace hapticlab

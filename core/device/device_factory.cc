@@ -4,6 +4,7 @@
 
 #include "core/device/plugin_device.h"
 #include "core/device/sim_device.h"
+#include "core/device/udp_device.h"
 
 namespace hapticlab {
 namespace {
@@ -12,6 +13,29 @@ void reject_options(const DeviceSpec& spec) {
   if (!spec.options.empty())
     throw std::invalid_argument("device-option: '" + spec.options.begin()->first + "' is not an option of the " +
                                 spec.describe() + " device, which takes none");
+}
+
+std::unique_ptr<Device> open_udp(const DeviceSpec& spec) {
+  UdpDeviceOptions options;
+  options.host = spec.host;
+  options.port = spec.port;
+  for (const auto& [key, value] : spec.options) {
+    if (key != "timeout_ms")
+      throw std::invalid_argument("device-option: '" + key + "' is not an option of the " + spec.describe() +
+                                  " device; it takes timeout_ms (1..1000, default 10)");
+    std::size_t end = 0;
+    int ms = 0;
+    try {
+      ms = std::stoi(value, &end);
+    } catch (const std::exception&) {
+      end = 0;
+    }
+    if (end == 0 || end != value.size() || ms < 1 || ms > 1000)
+      throw std::invalid_argument("device-option timeout_ms: '" + value +
+                                  "' is not a whole number of milliseconds in 1..1000");
+    options.timeout_ms = ms;
+  }
+  return std::make_unique<UdpDevice>(options);
 }
 
 }  // namespace
@@ -23,7 +47,7 @@ std::unique_ptr<Device> open_device(const DeviceSpec& spec) {
       return std::make_unique<SimDevice>(sim_backend_params());
     }
     case DeviceSpec::Kind::kPlugin: return std::make_unique<PluginDevice>(spec.path, spec.options);
-    case DeviceSpec::Kind::kUdp: break;
+    case DeviceSpec::Kind::kUdp: return open_udp(spec);
   }
   throw std::runtime_error("device: " + spec.describe() + " cannot be opened by this build");
 }

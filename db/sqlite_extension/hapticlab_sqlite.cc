@@ -35,9 +35,11 @@ using hapticlab::db::kChannelNames;
 using hapticlab::db::kChunkChannels;
 using hapticlab::db::StoredSample;
 
-// The schema this module reads: chunks with the 5-byte header (format 0 or
-// 1) exist from version 4 on (db/schema.h kSchemaVersion, kApplicationId).
-constexpr int kSchemaVersion = 4;
+// The schemas this module reads: chunks with the 5-byte header (format 0 or
+// 1) exist from version 4 on, unchanged up to this build's kSchemaVersion
+// (db/schema.h; version 5 added the device_counter table).
+constexpr int kOldestSchemaVersion = 4;
+constexpr int kSchemaVersion = 5;
 constexpr std::int64_t kApplicationId = 0x484C4142;  // "HLAB"
 
 // Columns: trial_id, instrument, tick, the channels, then the two hidden
@@ -285,9 +287,9 @@ void check_database(sqlite3* db) {
     throw QueryError{"samples: this is not a HapticLab study database (application_id " + std::to_string(app_id) +
                      ", expected " + std::to_string(kApplicationId) + " \"HLAB\"; table sample_chunk " +
                      (has_chunks ? "present" : "absent") + ")"};
-  if (version < kSchemaVersion)
+  if (version < kOldestSchemaVersion)
     throw QueryError{"samples: study database schema version " + std::to_string(version) + ", this extension reads " +
-                     std::to_string(kSchemaVersion) +
+                     std::to_string(kOldestSchemaVersion) + ".." + std::to_string(kSchemaVersion) +
                      "; open the file once with `hapticlab analyze` (it migrates), or run `hapticlab study check`"};
   if (version > kSchemaVersion)
     throw QueryError{"samples: study database schema version " + std::to_string(version) +
