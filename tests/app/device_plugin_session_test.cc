@@ -68,6 +68,47 @@ void expect_same(const db::StoredSample& a, const db::StoredSample& b, const std
   ASSERT_EQ(a.value.in_contact, b.value.in_contact) << where;
 }
 
+// Safety through a whole session (docs/safety.md): a device that is not
+// calibrated is never driven and its trial stays planned; a reading that
+// jumps 1 m stops the trial with zero force, and the trial is aborted with
+// the reason and re-queued, its samples up to then kept.
+TEST_F(DevicePluginSessionTest, ANotCalibratedDeviceLeavesTheTrialPlanned) {
+  const std::string db = create_study("cal.db");
+  const auto [status, out] = testing::run_cli(
+      kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --device plugin:" +
+                   kFake + " --device-option fault=not_calibrated");
+  EXPECT_EQ(status, 3) << out;
+  EXPECT_THAT(out, HasSubstr("not calibrated/homed; calibrate it, then run the session again"));
+  db::StudyDb study = open_read_only(db);
+  for (const db::TrialRow& t : study.trials(1)) EXPECT_EQ(t.status, db::TrialStatus::kPlanned) << t.id;
+}
+
+TEST_F(DevicePluginSessionTest, AReadingThatJumpsStopsTheTrialWhichIsRequeuedWithItsReason) {
+  const std::string db = create_study("jump.db");
+  const auto [status, out] = testing::run_cli(
+      kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5" +
+                   " --device plugin:" + kFake + " --device-option fault=jump");
+  EXPECT_EQ(status, 3) << out;
+  db::StudyDb study = open_read_only(db);
+  int aborted = 0, planned_copies = 0;
+  std::int64_t aborted_id = 0;
+  const std::vector<db::TrialRow> trials = study.trials(1);
+  for (const db::TrialRow& t : trials) {
+    if (t.status != db::TrialStatus::kAborted) continue;
+    ++aborted;
+    aborted_id = t.id;
+    EXPECT_THAT(t.abort_reason, ::testing::StartsWith("safety limit: "));
+    EXPECT_THAT(t.abort_reason, HasSubstr("insertion"));
+    for (const db::TrialRow& u : trials)
+      if (u.participant_id == t.participant_id && u.status == db::TrialStatus::kPlanned && u.position == t.position)
+        ++planned_copies;
+  }
+  EXPECT_EQ(aborted, 1);
+  EXPECT_EQ(planned_copies, 1);  // re-queued at its place
+  // 100 good readings were logged; the jump's update was not.
+  EXPECT_EQ(study.samples(aborted_id, 0).size(), 100u);
+}
+
 TEST_F(DevicePluginSessionTest, ThePluginSessionLogsTheSameSamplesAsTheBuiltInSim) {
   const std::string sim_db = create_study("sim.db"), plugin_db = create_study("plugin.db");
   const std::string run = " --participant S1 --training-trials 0 --max-trials 2 --max-trial-s 4 --clock virtual";

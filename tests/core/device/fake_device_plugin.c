@@ -2,7 +2,8 @@
  * A fake hardware device plugin for the tests: it reads a fixed pose and
  * misbehaves on request. Written in C, against the installed-style header,
  * as a lab's plugin would be. Options:
- *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create
+ *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create|jump
+ *     (jump: from the 101st read on, the left insertion reads 1 m further, as a slipped encoder would)
  *   report=PATH   at destroy, write "writes N nonzero_writes M max_abs_force F halts H" to PATH
  * Built three times (tests/core/device/CMakeLists.txt): as is, with
  * FAKE_ABI_VERSION=2, and with FAKE_NO_ENTRY (no entry point).
@@ -20,13 +21,13 @@
 #define FAKE_ABI_VERSION HL_DEVICE_PLUGIN_ABI_VERSION
 #endif
 
-enum fault { NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS };
+enum fault { NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS, JUMP };
 
 struct hl_device {
   enum fault fault;
   char report[512];
   int configured, active;
-  long writes, nonzero_writes, halts;
+  long reads, writes, nonzero_writes, halts;
   double max_abs_force;
 };
 
@@ -47,6 +48,7 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
       else if (strcmp(v, "not_calibrated") == 0) d->fault = NOT_CALIBRATED;
       else if (strcmp(v, "nan_read") == 0) d->fault = NAN_READ;
       else if (strcmp(v, "invalid_ratings") == 0) d->fault = INVALID_RATINGS;
+      else if (strcmp(v, "jump") == 0) d->fault = JUMP;
       else if (strcmp(v, "exit_in_create") == 0) exit(7);
       else {
         snprintf(error, error_size, "fault: '%s' is not a fault of the fake device", v);
@@ -101,6 +103,7 @@ static hl_device_status fake_read(hl_device* d, hl_device_reading* reading) {
     for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) reading->position[i][j] = kPose[j];
   /* Reported as fine: HapticLab must notice the NaN itself. */
   if (d->fault == NAN_READ) reading->position[0][1] = NAN;
+  if (d->fault == JUMP && ++d->reads > 100) reading->position[0][0] = kPose[0] + 1.0;
   reading->device_time_s = NAN;
   return HL_DEVICE_OK;
 }
