@@ -78,11 +78,16 @@ UdpDevice::UdpDevice(const UdpDeviceOptions& options)
 }
 
 UdpDevice::~UdpDevice() {
+  // The loop's clock may be gone by now (it need only outlive the loop that
+  // used it): the last POLL's time stands in for it.
+  clock_ = nullptr;
   if (active_) deactivate();
   if (fd_ >= 0) ::close(fd_);
 }
 
-double UdpDevice::now_s() const noexcept { return clock_ != nullptr ? clock_->now_s() : 0.0; }
+double UdpDevice::now_s() const noexcept {
+  return clock_ != nullptr ? clock_->now_s() : last_poll_time_s_.load(std::memory_order_relaxed);
+}
 
 void UdpDevice::send(udp::Type type, double time_s) noexcept {
   std::array<std::byte, udp::kMaxDatagramBytes> buf;
