@@ -33,6 +33,7 @@ struct AnalyzeOptions {
   std::size_t ks_block = 10;
   std::uint64_t seed = 1;
   bool no_plots = false;
+  std::size_t jobs = 0;
   bool quiet = false;
   bool json = false;
 };
@@ -86,6 +87,9 @@ void run_analyze(const AnalyzeOptions& o) {
   options.ks_stride = o.ks_stride;
   options.ks_block_length = o.ks_block;
   options.seed = o.seed;
+  options.threads = o.jobs;
+  // The within-trial quantile grids feed only the CDF figures.
+  if (o.no_plots) options.cdf_points = 0;
   options.validate();
 
   an::ReportOptions report;
@@ -161,6 +165,8 @@ void add_analyze_command(CLI::App& app) {
   cmd->add_option("--seed", opt->seed, "Seed of the KS bootstrap; same seed and data, same result")
       ->capture_default_str();
   cmd->add_flag("--no-plots", opt->no_plots, "Write the report without figures (gnuplot not needed)");
+  cmd->add_option("--jobs,-j", opt->jobs, "Trials read in parallel (0: one thread per core); the results do not "
+                  "depend on it")->capture_default_str()->check(CLI::Range(0, 256));
   cmd->add_flag("--json", opt->json,
                 "Print a JSON summary (counts, whole-design and pairwise results, files) instead of the tables");
   cmd->add_flag("--quiet", opt->quiet, "Do not print the headline tables");

@@ -1,14 +1,18 @@
 #include "app/bench_analyze.h"
 
+#include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <numbers>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -39,11 +43,101 @@ double cpu_s() {
 
 struct BenchOptions {
   std::string dir;
+  std::string db;        // an existing study database instead of the synthetic one
+  std::string compare;   // a comparator script (bench/analyze_numpy.py)
+  std::string python = "/usr/bin/python3";
+  int rounds = 5;
   bool keep = false;
   bool json = false;
   bool no_plots = false;
   double rate_hz = 1000.0;
 };
+
+// Runs argv to completion with stdout discarded and stderr into
+// `stderr_path`; returns the wall time in seconds. Throws with the command's
+// name, exit status and stderr if it fails: a ratio against a failed run
+// would mean nothing.
+double run_timed(const std::vector<std::string>& argv, const std::filesystem::path& stderr_path) {
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("bench analyze: cannot start " + argv[0] + " (fork failed)");
+  if (pid == 0) {
+    const int null_fd = ::open("/dev/null", O_WRONLY);
+    const int err_fd = ::open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (null_fd >= 0) ::dup2(null_fd, STDOUT_FILENO);
+    if (err_fd >= 0) ::dup2(err_fd, STDERR_FILENO);
+    ::execv(args[0], args.data());
+    std::fprintf(stderr, "cannot run %s\n", args[0]);
+    ::_exit(127);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0) {
+  }
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::string err;
+    if (std::FILE* f = std::fopen(stderr_path.c_str(), "r")) {
+      char buf[4096];
+      const std::size_t n = std::fread(buf, 1, sizeof buf, f);
+      err.assign(buf, n);
+      std::fclose(f);
+    }
+    throw std::runtime_error(argv[0] + (argv.size() > 1 ? " " + argv[1] : std::string()) + " failed (" +
+                             (WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status))
+                                                : "signal " + std::to_string(WTERMSIG(status))) +
+                             "): " + err);
+  }
+  return wall_s;
+}
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// `hapticlab analyze --no-ks --no-plots` and the comparator on the same
+// database, as two child processes, alternating so that a busy moment of
+// this shared machine hits both alike; the ratio of medians is the result.
+void run_compare(const BenchOptions& o, const std::filesystem::path& db_path, const std::filesystem::path& dir,
+                 std::size_t instrument_samples) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw std::runtime_error("bench analyze: cannot find this executable (/proc/self/exe)");
+  if (!fs::is_regular_file(o.compare)) {
+    throw std::runtime_error("--compare is '" + o.compare + "', but no such file exists (expected a script such as "
+                             "bench/analyze_numpy.py)");
+  }
+  const std::vector<std::string> ours = {self.string(), "analyze", "--db", db_path.string(), "--out",
+                                         (dir / "compare_out").string(), "--no-ks", "--no-plots"};
+  const std::vector<std::string> theirs = {o.python, o.compare, db_path.string()};
+  const fs::path err = dir / "compare_stderr.txt";
+  std::vector<double> ours_s, theirs_s;
+  if (!o.json) std::printf("alternating %d rounds: hapticlab analyze --no-ks --no-plots, then %s\n", o.rounds,
+                           o.compare.c_str());
+  for (int round = 0; round < o.rounds; ++round) {
+    ours_s.push_back(run_timed(ours, err));
+    theirs_s.push_back(run_timed(theirs, err));
+    if (!o.json) std::printf("  round %d: hapticlab %.3f s, comparator %.3f s\n", round + 1, ours_s.back(),
+                             theirs_s.back());
+    std::fflush(stdout);
+  }
+  const double ours_med = median_of(ours_s);
+  const double theirs_med = median_of(theirs_s);
+  const double ratio = theirs_med / ours_med;
+  if (o.json) {
+    std::printf("{\"instrument_samples\": %zu, \"rounds\": %d, \"hapticlab_median_s\": %.4f, "
+                "\"comparator_median_s\": %.4f, \"speedup\": %.3f, \"target_speedup\": 3}\n",
+                instrument_samples, o.rounds, ours_med, theirs_med, ratio);
+  } else {
+    std::printf("median: hapticlab %.3f s, comparator %.3f s: hapticlab is %.2fx faster (target >= 3x)\n",
+                ours_med, theirs_med, ratio);
+  }
+}
 
 double uniform(an::SplitMix64& rng, double lo, double hi) {
   return lo + (hi - lo) * static_cast<double>(rng.next() >> 11) * 0x1.0p-53;
@@ -193,14 +287,29 @@ void run_bench(const BenchOptions& o) {
   const fs::path dir = o.dir.empty() ? fs::temp_directory_path() / ("hapticlab_bench_analyze_" + std::to_string(::getpid()))
                                      : fs::path(o.dir);
   fs::create_directories(dir);
-  const fs::path db_path = dir / "study.db";
-  fs::remove(db_path);
-  if (!o.json) std::printf("building a thesis-sized study in %s (not timed) ...\n", db_path.c_str());
-  std::fflush(stdout);
+  const fs::path db_path = o.db.empty() ? dir / "study.db" : fs::path(o.db);
   std::size_t samples = 0;
-  const auto b0 = std::chrono::steady_clock::now();
-  const std::size_t trials = build_study(db_path, o.rate_hz, samples);
-  const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - b0).count();
+  std::size_t trials = 0;
+  double build_s = 0.0;
+  if (o.db.empty()) {
+    fs::remove(db_path);
+    if (!o.json) std::printf("building a thesis-sized study in %s (not timed) ...\n", db_path.c_str());
+    std::fflush(stdout);
+    const auto b0 = std::chrono::steady_clock::now();
+    trials = build_study(db_path, o.rate_hz, samples);
+    build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - b0).count();
+  } else if (!fs::is_regular_file(db_path)) {
+    throw std::runtime_error("--db is '" + o.db + "', but no such file exists (expected a study database)");
+  }
+  if (!o.compare.empty()) {
+    run_compare(o, db_path, dir, samples);
+    if (!o.keep) {
+      std::error_code ignored;
+      if (o.dir.empty()) fs::remove_all(dir, ignored);
+      else if (o.db.empty()) fs::remove(db_path, ignored);
+    }
+    return;
+  }
 
   // Timed: exactly what `hapticlab analyze` does.
   const double cpu0_s = cpu_s();
@@ -217,6 +326,9 @@ void run_bench(const BenchOptions& o) {
   const double analysis_s = std::chrono::duration<double>(t1 - t0).count();
   const double report_s = std::chrono::duration<double>(t2 - t1).count();
   const double db_mb = static_cast<double>(fs::file_size(db_path)) / 1e6;
+  if (trials == 0) {
+    trials = analysis.trials.size();
+  }
 
   if (o.json) {
     std::printf("{\"trials\": %zu, \"instrument_samples\": %zu, \"db_MB\": %.1f, \"build_s\": %.2f, "
@@ -235,7 +347,7 @@ void run_bench(const BenchOptions& o) {
   if (!o.keep) {
     std::error_code ignored;
     if (o.dir.empty()) fs::remove_all(dir, ignored);
-    else fs::remove(db_path, ignored);
+    else if (o.db.empty()) fs::remove(db_path, ignored);
   } else if (!o.json) {
     std::printf("kept %s and the report in %s\n", db_path.c_str(), (dir / "out").c_str());
   }
@@ -256,6 +368,16 @@ void add_bench_analyze_command(CLI::App& bench) {
   cmd->add_option("--rate-hz", opt->rate_hz, "Logging rate of the synthetic trials, Hz (> 0)")->capture_default_str()
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--no-plots", opt->no_plots, "Time the report without figures (gnuplot not needed)");
+  cmd->add_option("--db", opt->db,
+                  "Time this study database (e.g. the demo's demo-output/study.db) instead of a synthetic one")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--compare", opt->compare,
+                  "Run this comparator script (bench/analyze_numpy.py) and `hapticlab analyze --no-ks --no-plots` "
+                  "on the same database, alternating, and print the ratio of their median wall times")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--rounds", opt->rounds, "Rounds of each with --compare (1..100)")->capture_default_str()
+      ->check(CLI::Range(1, 100));
+  cmd->add_option("--python", opt->python, "Python 3 with numpy and scipy, for --compare")->capture_default_str();
   cmd->add_flag("--json", opt->json, "Print one JSON object instead of text");
   cmd->callback([opt] { run_bench(*opt); });
 }

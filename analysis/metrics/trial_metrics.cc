@@ -84,40 +84,58 @@ WindowValues window_values(const HandSeries& series, const TaskWindow& window, d
                     ", tip_velocity_m_per_s " + std::to_string(series.tip_velocity_m_per_s.size()) +
                     ", ve_force_N " + std::to_string(series.ve_force_N.size()) + ")");
   }
+  WindowValues out;
+  out.speed_m_per_s.reserve(n);
+  out.force_N.reserve(n);
+  WindowAccumulator acc;
+  acc.start(window, min_force_N, out);
+  for (std::size_t i = 0; i < n; ++i) {
+    acc.add(series.t_s[i], series.tip_position_m[i], series.tip_velocity_m_per_s[i], series.ve_force_N[i]);
+  }
+  return out;
+}
+
+void WindowAccumulator::start(const TaskWindow& window, double min_force_N, WindowValues& values) {
   if (!(std::isfinite(min_force_N) && min_force_N >= 0.0)) {
     throw DataError("task window: min_force_N is " + std::to_string(min_force_N) +
                     ", but must be finite and >= 0");
   }
-  WindowValues out;
-  out.speed_m_per_s.reserve(n);
-  out.force_N.reserve(n);
-  const Vec3d* previous = nullptr;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = series.t_s[i];
-    if (!std::isfinite(t)) {
-      throw DataError("task window: t_s of sample " + std::to_string(i) + " is not finite");
-    }
-    if (t < window.start_s || t > window.end_s) continue;
-    ++out.samples;
-    const double force = norm3(series.ve_force_N[i]);
-    const double speed = norm3(series.tip_velocity_m_per_s[i]);
-    const Vec3d& p = series.tip_position_m[i];
-    // A NaN would otherwise fail the threshold test and vanish silently.
-    if (!std::isfinite(force) || !std::isfinite(speed) || !std::isfinite(norm3(p))) {
-      throw DataError("task window: sample " + std::to_string(i) + " at t_s = " + std::to_string(t) +
-                      " has a non-finite " +
-                      (!std::isfinite(force) ? "ve_force_N" : !std::isfinite(speed) ? "tip_velocity_m_per_s"
-                                                                                     : "tip_position_m"));
-    }
-    if (force >= min_force_N) out.force_N.push_back(force);
-    out.speed_m_per_s.push_back(speed);
-    if (previous != nullptr) {
-      const Vec3d step{p[0] - (*previous)[0], p[1] - (*previous)[1], p[2] - (*previous)[2]};
-      out.path_length_m += norm3(step);
-    }
-    previous = &p;
+  window_ = window;
+  min_force_N_ = min_force_N;
+  values_ = &values;
+  values.samples = 0;
+  values.force_N.clear();
+  values.speed_m_per_s.clear();
+  values.path_length_m = 0.0;
+  index_ = 0;
+  have_previous_ = false;
+}
+
+void WindowAccumulator::add(double t, const Vec3d& p, const Vec3d& velocity_m_per_s, const Vec3d& force_N) {
+  const std::size_t i = index_++;
+  if (!std::isfinite(t)) {
+    throw DataError("task window: t_s of sample " + std::to_string(i) + " is not finite");
   }
-  return out;
+  if (t < window_.start_s || t > window_.end_s) return;
+  WindowValues& out = *values_;
+  ++out.samples;
+  const double force = norm3(force_N);
+  const double speed = norm3(velocity_m_per_s);
+  // A NaN would otherwise fail the threshold test and vanish silently.
+  if (!std::isfinite(force) || !std::isfinite(speed) || !std::isfinite(norm3(p))) {
+    throw DataError("task window: sample " + std::to_string(i) + " at t_s = " + std::to_string(t) +
+                    " has a non-finite " +
+                    (!std::isfinite(force) ? "ve_force_N" : !std::isfinite(speed) ? "tip_velocity_m_per_s"
+                                                                                   : "tip_position_m"));
+  }
+  if (force >= min_force_N_) out.force_N.push_back(force);
+  out.speed_m_per_s.push_back(speed);
+  if (have_previous_) {
+    const Vec3d step{p[0] - previous_m_[0], p[1] - previous_m_[1], p[2] - previous_m_[2]};
+    out.path_length_m += norm3(step);
+  }
+  previous_m_ = p;
+  have_previous_ = true;
 }
 
 namespace {

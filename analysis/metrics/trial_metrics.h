@@ -83,6 +83,28 @@ struct WindowValues {
 WindowValues window_values(const HandSeries& series, const TaskWindow& window,
                            double min_force_N = kMinContactForce_N);
 
+// window_values one sample at a time, for a reader that decodes chunks
+// straight into it (no whole-trial arrays): the same checks, and the same
+// arithmetic in the same order, so the values are equal to the bit.
+class WindowAccumulator {
+ public:
+  // Starts a hand: `values` is cleared (its capacity kept, for reuse) and
+  // filled by add(). window.end_s may be +infinity (a contact still open
+  // when the log stops: every sample from start_s on is in the window).
+  // Throws DataError for a negative or non-finite min_force_N.
+  void start(const TaskWindow& window, double min_force_N, WindowValues& values);
+  // The hand's next sample in time order. Throws DataError as window_values.
+  void add(double t_s, const Vec3d& position_m, const Vec3d& velocity_m_per_s, const Vec3d& force_N);
+
+ private:
+  TaskWindow window_;
+  double min_force_N_ = kMinContactForce_N;
+  WindowValues* values_ = nullptr;
+  std::size_t index_ = 0;  // of the sample in the hand's series, for messages
+  bool have_previous_ = false;
+  Vec3d previous_m_{};
+};
+
 struct HandMetrics {
   std::size_t samples = 0;        // samples in the window
   std::size_t force_samples = 0;  // of which |F| >= the contact threshold

@@ -5,10 +5,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <limits>
 #include <map>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 #include "analysis/stats/balanced_pair.h"
@@ -18,7 +20,7 @@
 #include "analysis/stats/friedman.h"
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/stats/skillings_mack.h"
-#include "analysis/study/sample_reader.h"
+#include "analysis/study/trial_reader.h"
 #include "db/study_db.h"
 
 namespace hapticlab::analysis {
@@ -74,7 +76,7 @@ void AnalysisOptions::validate() const {
   if (ks_resamples < 1) fail("ks_resamples", std::to_string(ks_resamples), ">= 1");
   if (ks_stride < 1) fail("ks_stride", std::to_string(ks_stride), ">= 1 sample");
   if (ks_block_length < 1) fail("ks_block_length", std::to_string(ks_block_length), ">= 1 sample");
-  if (cdf_points < 2) fail("cdf_points", std::to_string(cdf_points), ">= 2");
+  if (cdf_points == 1) fail("cdf_points", std::to_string(cdf_points), "0 (no CDF quantiles) or >= 2");
 }
 
 double TrialRecord::value(Measure m, int hand) const {
@@ -169,97 +171,6 @@ std::string normalized(const std::string& name) {
   return out;
 }
 
-std::optional<TaskEventType> event_type(const std::string& name) {
-  for (int i = 0; i < kNumTaskEventTypes; ++i) {
-    const auto type = static_cast<TaskEventType>(i);
-    if (name == to_string(type)) return type;
-  }
-  return std::nullopt;  // the runner's and writer's own events do not bound the task
-}
-
-std::vector<double> every_kth(const std::vector<double>& values, std::size_t k) {
-  std::vector<double> out;
-  out.reserve(values.size() / k + 1);
-  for (std::size_t i = 0; i < values.size(); i += k) out.push_back(values[i]);
-  return out;
-}
-
-void mark_missing(TrialRecord& record) {
-  for (auto& h : record.hands) {
-    h.force_median_N = h.force_p95_N = h.speed_median_m_per_s = h.path_length_m = kNaN;
-  }
-}
-
-// Sample buffers reused from trial to trial (a trial-hand is ~10^5 samples).
-struct ReadBuffers {
-  HandSeriesReader reader;
-  std::array<HandSeries, 2> series;
-};
-
-TrialRecord read_trial(db::StudyDb& db, const db::TrialRow& row, const AnalysisOptions& options,
-                       ReadBuffers& buffers) {
-  std::array<HandSeries, 2>& series = buffers.series;
-  TrialRecord rec;
-  rec.trial_id = row.id;
-  rec.participant = row.participant_code;
-  rec.task = row.task;
-  rec.setting = row.setting_name;
-  rec.repetition = row.repetition;
-  rec.block = row.block;
-  rec.position = row.position;
-  rec.status = db::to_string(row.status);
-
-  std::vector<TaskEvent> events;
-  for (const db::EventRow& e : db.events(row.id)) {
-    if (const auto type = event_type(e.type)) {
-      events.push_back({e.t_s, *type, static_cast<std::int8_t>(e.instrument), static_cast<std::int32_t>(e.item_index)});
-    }
-  }
-  double trial_end_s = -std::numeric_limits<double>::infinity();
-  for (std::size_t hand = 0; hand < 2; ++hand) {
-    buffers.reader.read(db, row.id, static_cast<int>(hand), series[hand]);
-    for (const db::BadChunk& c : buffers.reader.bad_chunks()) rec.damaged_chunks.push_back(db::describe(c));
-    if (series[hand].size() > 0) trial_end_s = std::max(trial_end_s, series[hand].t_s.back());
-  }
-  mark_missing(rec);
-  if (!rec.damaged_chunks.empty()) {
-    rec.problem =
-        std::to_string(rec.damaged_chunks.size()) + " damaged sample chunk(s) left out (hapticlab study check)";
-    return rec;
-  }
-  if (series[0].size() == 0 && series[1].size() == 0) {
-    rec.problem = "no samples logged";
-    return rec;
-  }
-  const TaskWindowResult window = task_window(events, trial_end_s);
-  if (!window.window) {
-    rec.problem = window.problem;
-    return rec;
-  }
-  try {
-    for (std::size_t hand = 0; hand < 2; ++hand) {
-      WindowValues values = window_values(series[hand], *window.window, options.min_force_N);
-      // The KS bootstrap needs the series in time order: decimate before sorting.
-      rec.force_series_N[hand] = every_kth(values.force_N, options.ks_stride);
-      rec.speed_series_m_per_s[hand] = every_kth(values.speed_m_per_s, options.ks_stride);
-      HandQuantiles quantiles;
-      rec.hands[hand] = summarize_window(values, options.percentile_method, options.cdf_points, &quantiles);
-      rec.force_quantiles_N[hand] = std::move(quantiles.force_N);
-      rec.speed_quantiles_m_per_s[hand] = std::move(quantiles.speed_m_per_s);
-    }
-    rec.window = window.window;
-  } catch (const DataError& e) {
-    // One damaged trial (a non-finite force, say) must not stop the study's analysis.
-    rec.problem = e.what();
-    mark_missing(rec);
-    for (auto* v : {&rec.force_series_N, &rec.speed_series_m_per_s, &rec.force_quantiles_N,
-                    &rec.speed_quantiles_m_per_s}) {
-      for (auto& x : *v) x.clear();
-    }
-  }
-  return rec;
-}
-
 void add_unique(std::vector<std::string>& list, const std::string& value) {
   if (std::find(list.begin(), list.end(), value) == list.end()) list.push_back(value);
 }
@@ -331,7 +242,7 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
     a.settings.insert(a.settings.begin(), a.control);
   }
 
-  ReadBuffers buffers;
+  std::vector<db::TrialRow> analysed;
   for (const auto& row : rows) {
     const bool aborted = row.status == db::TrialStatus::kAborted;
     if (row.status == db::TrialStatus::kComplete) {
@@ -345,10 +256,13 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
       ++a.counts.not_run;
       continue;
     }
-    a.trials.push_back(read_trial(db, row, options, buffers));
+    analysed.push_back(row);
+  }
+  a.trials = read_trials(db, analysed, options, options.threads);
+  for (const TrialRecord& t : a.trials) {
     ++a.counts.analysed;
-    if (!a.trials.back().window) ++a.counts.without_window;
-    a.counts.damaged_chunks += a.trials.back().damaged_chunks.size();
+    if (!t.window) ++a.counts.without_window;
+    a.counts.damaged_chunks += t.damaged_chunks.size();
   }
   run_statistics(a);
   return a;
@@ -361,11 +275,36 @@ StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const Ana
   }
   db::OpenOptions open;
   open.recover = false;  // reading must never abort a trial another process is running
-  // Full check: quick_check does not compare indexes with their tables, and
-  // a damaged index silently hides rows from the queries that use it.
-  open.integrity = db::OpenOptions::Integrity::kFull;
-  db::StudyDb db(db_path, open);
-  return analyze_study(db, options);
+  open.integrity = db::OpenOptions::Integrity::kSkip;
+  db::StudyDb db(db_path, open);  // migrates an old file first
+  // The full check (quick_check does not compare indexes with their tables,
+  // and a damaged index silently hides rows from the queries that use it)
+  // runs on its own connection while the trials are read, not before them;
+  // damage it finds fails the analysis just the same, and is named in place
+  // of whatever the damage made the analysis trip over.
+  std::exception_ptr damage;
+  std::thread check([&] {
+    try {
+      db::OpenOptions check_open;
+      check_open.recover = false;
+      check_open.read_only = true;
+      check_open.integrity = db::OpenOptions::Integrity::kFull;
+      db::StudyDb checked(db_path, check_open);
+    } catch (...) {
+      damage = std::current_exception();
+    }
+  });
+  std::optional<StudyAnalysis> result;
+  std::exception_ptr failure;
+  try {
+    result = analyze_study(db, options);
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  check.join();
+  if (damage) std::rethrow_exception(damage);
+  if (failure) std::rethrow_exception(failure);
+  return std::move(*result);
 }
 
 // ---------------------------------------------------------------------------

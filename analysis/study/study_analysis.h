@@ -66,7 +66,8 @@ struct AnalysisOptions {
   std::size_t ks_stride = 50;        // keep every k-th sample of a series (speed)
   std::size_t ks_block_length = 10;  // in kept samples, >= 1
   std::uint64_t seed = 1;
-  std::size_t cdf_points = 101;      // quantiles kept per trial and hand for the CDF plots, >= 2
+  std::size_t cdf_points = 101;      // quantiles kept per trial and hand for the CDF plots: 0 (none) or >= 2
+  std::size_t threads = 0;           // trials read in parallel; 0: one thread per core
 
   // Throws DataError naming the field, its value and the allowed range.
   void validate() const;

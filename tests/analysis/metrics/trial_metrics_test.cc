@@ -1,6 +1,7 @@
 #include "analysis/metrics/trial_metrics.h"
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -101,6 +102,29 @@ TEST(HandMetricsTest, WorkedExampleMatlab) {
   EXPECT_NEAR(m.speed_median_m_per_s, 3.0, kTolerance);
   EXPECT_NEAR(m.force_median_N, 2.0, kTolerance);
   EXPECT_NEAR(m.force_p95_N, 3.0, kTolerance);
+}
+
+// The accumulator, fed one sample at a time and reused for a second hand,
+// gives window_values' numbers; an open end (+inf, a contact still open when
+// the log stops) takes every sample from the start on: from t = 1 that adds
+// t = 5 (step |(100,0,0) - (3,4,12)| = sqrt(97^2 + 16 + 144) = sqrt(9569)).
+TEST(WindowAccumulatorTest, StreamsWhatWindowValuesComputesAndReusesItsBuffers) {
+  const HandSeries s = worked_series();
+  WindowValues values;
+  WindowAccumulator acc;
+  for (int round = 0; round < 2; ++round) {
+    acc.start({1.0, 4.0}, kMinContactForce_N, values);
+    for (std::size_t i = 0; i < s.size(); ++i) acc.add(s.t_s[i], s.tip_position_m[i], s.tip_velocity_m_per_s[i], s.ve_force_N[i]);
+    EXPECT_EQ(values.samples, 4u);
+    EXPECT_EQ(values.force_N, (std::vector<double>{0.5, 2.0, 3.0}));
+    EXPECT_EQ(values.speed_m_per_s, (std::vector<double>{1.0, 5.0, 2.0, 4.0}));
+    EXPECT_EQ(values.path_length_m, 17.0);
+  }
+  acc.start({1.0, std::numeric_limits<double>::infinity()}, kMinContactForce_N, values);
+  for (std::size_t i = 0; i < s.size(); ++i) acc.add(s.t_s[i], s.tip_position_m[i], s.tip_velocity_m_per_s[i], s.ve_force_N[i]);
+  EXPECT_EQ(values.samples, 5u);
+  EXPECT_EQ(values.force_N, (std::vector<double>{0.5, 2.0, 3.0, 70.0}));
+  EXPECT_NEAR(values.path_length_m, 17.0 + std::sqrt(9569.0), kTolerance);
 }
 
 // The percentile definition is the caller's: R type 7 puts the 95th of

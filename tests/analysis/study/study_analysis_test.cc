@@ -425,6 +425,39 @@ TEST_F(StudyAnalysisTest, HeadlineTablesShowThesisLayout) {
   EXPECT_THAT(text, HasSubstr("aborted left out: 1"));
 }
 
+// Trials are read on several threads, each with its own connection; the
+// records come back in schedule order and equal to the bit.
+TEST_F(StudyAnalysisTest, ResultsDoNotDependOnTheThreadCount) {
+  AnalysisOptions one;
+  one.threads = 1;
+  AnalysisOptions three;
+  three.threads = 3;
+  const StudyAnalysis a = analyze(one);
+  const StudyAnalysis b = analyze(three);
+  ASSERT_EQ(a.trials.size(), b.trials.size());
+  ASSERT_GT(a.trials.size(), 3u);
+  for (std::size_t i = 0; i < a.trials.size(); ++i) {
+    const TrialRecord& x = a.trials[i];
+    const TrialRecord& y = b.trials[i];
+    EXPECT_EQ(x.trial_id, y.trial_id);
+    EXPECT_EQ(x.problem, y.problem);
+    for (std::size_t h = 0; h < 2; ++h) {
+      for (Measure m : kAllMeasures) {
+        const double u = x.value(m, static_cast<int>(h));
+        const double v = y.value(m, static_cast<int>(h));
+        EXPECT_TRUE((std::isnan(u) && std::isnan(v)) || u == v) << x.trial_id << " " << measure_column(m);
+      }
+      EXPECT_EQ(x.force_quantiles_N[h], y.force_quantiles_N[h]);
+      EXPECT_EQ(x.speed_series_m_per_s[h], y.speed_series_m_per_s[h]);
+    }
+  }
+  EXPECT_EQ(format_headline_tables(a), format_headline_tables(b));
+  std::ostringstream csv_a, csv_b;
+  write_metrics_csv(a, csv_a);
+  write_metrics_csv(b, csv_b);
+  EXPECT_EQ(csv_a.str(), csv_b.str());
+}
+
 TEST_F(StudyAnalysisTest, ErrorsNameTheProblem) {
   EXPECT_THAT([&] { (void)analyze_study_file(dir_.path() / "missing.db", {}); },
               ::testing::ThrowsMessage<DataError>(HasSubstr("missing.db")));

@@ -1,0 +1,198 @@
+#include "analysis/study/trial_reader.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+
+#include "analysis/stats/data_error.h"
+#include "db/chunk_reader.h"
+
+namespace hapticlab::analysis {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::optional<TaskEventType> event_type(const std::string& name) {
+  for (int i = 0; i < kNumTaskEventTypes; ++i) {
+    const auto type = static_cast<TaskEventType>(i);
+    if (name == to_string(type)) return type;
+  }
+  return std::nullopt;  // the runner's and writer's own events do not bound the task
+}
+
+std::vector<double> every_kth(const std::vector<double>& values, std::size_t k) {
+  std::vector<double> out;
+  out.reserve(values.size() / k + 1);
+  for (std::size_t i = 0; i < values.size(); i += k) out.push_back(values[i]);
+  return out;
+}
+
+void mark_missing(TrialRecord& record) {
+  for (auto& h : record.hands) {
+    h.force_median_N = h.force_p95_N = h.speed_median_m_per_s = h.path_length_m = kNaN;
+  }
+  for (auto* v : {&record.force_series_N, &record.speed_series_m_per_s, &record.force_quantiles_N,
+                  &record.speed_quantiles_m_per_s}) {
+    for (auto& x : *v) x.clear();
+  }
+}
+
+// Per thread, reused from trial to trial (a trial-hand is ~10^5 samples).
+struct Buffers {
+  std::vector<db::StoredSample> chunk;
+  std::vector<db::BadChunk> bad;
+  std::array<WindowValues, 2> values;
+};
+
+TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOptions& options, Buffers& buf) {
+  TrialRecord rec;
+  rec.trial_id = row.id;
+  rec.participant = row.participant_code;
+  rec.task = row.task;
+  rec.setting = row.setting_name;
+  rec.repetition = row.repetition;
+  rec.block = row.block;
+  rec.position = row.position;
+  rec.status = db::to_string(row.status);
+
+  std::vector<TaskEvent> events;
+  for (const db::EventRow& e : db.events(row.id)) {
+    if (const auto type = event_type(e.type)) {
+      events.push_back({e.t_s, *type, static_cast<std::int8_t>(e.instrument), static_cast<std::int32_t>(e.item_index)});
+    }
+  }
+  // The window before the samples are read: a contact still open when the
+  // log stops ends at the trial's last sample, which is at or after every
+  // sample, so an open end (+inf) selects the same samples; the end itself
+  // is settled once the last sample is known.
+  const TaskWindowResult provisional = task_window(events, kInf);
+
+  double trial_end_s = -kInf;
+  std::size_t samples = 0;
+  std::string data_error;
+  buf.bad.clear();
+  for (std::size_t hand = 0; hand < 2; ++hand) {
+    WindowAccumulator acc;
+    bool accumulate = provisional.window.has_value() && data_error.empty();
+    if (accumulate) acc.start(*provisional.window, options.min_force_N, buf.values[hand]);
+    db::for_each_chunk(db.connection(), row.id, static_cast<int>(hand), buf.chunk,
+                       [&](std::span<const db::StoredSample> chunk) {
+                         samples += chunk.size();
+                         trial_end_s = std::max(trial_end_s, chunk.back().t_s);
+                         if (!accumulate) return;
+                         try {
+                           for (const db::StoredSample& x : chunk) {
+                             acc.add(x.t_s, x.value.tip_position_m, x.value.tip_velocity_m_per_s,
+                                     x.value.ve_force_N);
+                           }
+                         } catch (const DataError& e) {
+                           // Keep reading: a damaged chunk later on takes precedence.
+                           data_error = e.what();
+                           accumulate = false;
+                         }
+                       },
+                       buf.bad);
+  }
+  mark_missing(rec);
+  for (const db::BadChunk& c : buf.bad) rec.damaged_chunks.push_back(db::describe(c));
+  if (!rec.damaged_chunks.empty()) {
+    rec.problem =
+        std::to_string(rec.damaged_chunks.size()) + " damaged sample chunk(s) left out (hapticlab study check)";
+    return rec;
+  }
+  if (samples == 0) {
+    rec.problem = "no samples logged";
+    return rec;
+  }
+  const TaskWindowResult window =
+      std::isinf(provisional.window ? provisional.window->end_s : 0.0) ? task_window(events, trial_end_s) : provisional;
+  if (!window.window) {
+    rec.problem = window.problem;
+    return rec;
+  }
+  if (!data_error.empty()) {
+    rec.problem = data_error;
+    return rec;
+  }
+  try {
+    for (std::size_t hand = 0; hand < 2; ++hand) {
+      WindowValues& values = buf.values[hand];
+      // The KS bootstrap needs the series in time order: decimate before sorting.
+      rec.force_series_N[hand] = every_kth(values.force_N, options.ks_stride);
+      rec.speed_series_m_per_s[hand] = every_kth(values.speed_m_per_s, options.ks_stride);
+      HandQuantiles quantiles;
+      rec.hands[hand] = summarize_window(values, options.percentile_method, options.cdf_points, &quantiles);
+      rec.force_quantiles_N[hand] = std::move(quantiles.force_N);
+      rec.speed_quantiles_m_per_s[hand] = std::move(quantiles.speed_m_per_s);
+    }
+    rec.window = window.window;
+  } catch (const DataError& e) {
+    // One damaged trial (a non-finite force, say) must not stop the study's analysis.
+    rec.problem = e.what();
+    mark_missing(rec);
+  }
+  return rec;
+}
+
+}  // namespace
+
+TrialRecord read_trial(db::StudyDb& db, const db::TrialRow& row, const AnalysisOptions& options) {
+  Buffers buf;
+  return read_one(db, row, options, buf);
+}
+
+std::vector<TrialRecord> read_trials(db::StudyDb& db, const std::vector<db::TrialRow>& rows,
+                                     const AnalysisOptions& options, std::size_t threads) {
+  std::vector<TrialRecord> out(rows.size());
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = std::min(threads, rows.size());
+  // An in-memory or temporary database cannot be opened a second time.
+  const std::string& path = db.path();
+  if (path.empty() || path == ":memory:" || path.starts_with("file::memory:")) threads = std::min<std::size_t>(threads, 1);
+
+  std::atomic<std::size_t> next{0};
+  std::mutex error_mutex;
+  std::exception_ptr error;
+  auto work = [&](db::StudyDb& conn) {
+    Buffers buf;
+    for (std::size_t i = next++; i < rows.size(); i = next++) {
+      out[i] = read_one(conn, rows[i], options, buf);
+    }
+  };
+  auto guarded = [&](auto&& body) {
+    try {
+      body();
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      next = rows.size();  // the others stop after their current trial
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) {
+    pool.emplace_back([&] {
+      guarded([&] {
+        db::OpenOptions open;
+        open.recover = false;
+        open.read_only = true;
+        open.integrity = db::OpenOptions::Integrity::kSkip;
+        db::StudyDb conn(path, open);
+        work(conn);
+      });
+    });
+  }
+  guarded([&] { work(db); });
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+  return out;
+}
+
+}  // namespace hapticlab::analysis

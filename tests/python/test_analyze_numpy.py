@@ -1,0 +1,98 @@
+"""bench/analyze_numpy.py, the comparator of `hapticlab bench analyze
+--compare`, does the same work as `hapticlab analyze`: on a real session's
+database its per-trial metrics equal analyze's metrics.csv, and its Table 3.4
+Friedman statistics equal `hapticlab stats friedman` on that CSV. Only then
+is a speed ratio between the two meaningful. Run by ctest with
+/usr/bin/python3 (tests/python/CMakeLists.txt).
+"""
+
+import csv
+import json
+import math
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+from pathlib import Path
+
+import study_fixture as fx
+
+COMPARATOR = fx.SOURCE_DIR / "bench" / "analyze_numpy.py"
+MEASURES = ("completion_time_s", "force_median_N", "force_p95_N", "speed_median_m_per_s", "path_length_m")
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return {(r["trial_id"], r["hand"]): r for r in csv.DictReader(f)}
+
+
+def number(text):
+    return float(text) if text != "" else math.nan
+
+
+class ComparatorTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = Path(tempfile.mkdtemp(prefix="hapticlab_np_"))
+        db = cls.dir / "study.db"
+        fx.run_cli("study", "create", "--protocol", str(fx.SOURCE_DIR / "examples/protocols/thesis_quick.json"),
+                   "--db", str(db))
+        # One participant's whole session: 20 trials, 2 tasks x 5 settings x 2 repetitions.
+        fx.run_cli("session", "run", "--db", str(db), "--participant", "S1", "--training-trials", "0")
+        fx.run_cli("analyze", "--db", str(db), "--out", str(cls.dir / "analysis"), "--no-ks", "--no-plots")
+        cls.metrics_csv = cls.dir / "analysis" / "metrics.csv"
+        done = subprocess.run([sys.executable, str(COMPARATOR), str(db), "--metrics-out", str(cls.dir / "np.csv"),
+                               "--friedman-out", str(cls.dir / "np_friedman.csv")], capture_output=True, text=True)
+        if done.returncode != 0:
+            raise AssertionError(f"{COMPARATOR} exited {done.returncode}:\n{done.stdout}{done.stderr}")
+        cls.hapticlab = read_rows(cls.metrics_csv)
+        cls.numpy = read_rows(cls.dir / "np.csv")
+        with open(cls.dir / "np_friedman.csv", newline="") as f:
+            cls.friedman = list(csv.DictReader(f))
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.dir, ignore_errors=True)
+
+    def test_same_trials_and_hands(self):
+        self.assertEqual(len(self.hapticlab), 40)
+        self.assertEqual(set(self.hapticlab), set(self.numpy))
+
+    def test_metrics_are_equal(self):
+        checked = 0
+        for key, ours in self.hapticlab.items():
+            theirs = self.numpy[key]
+            for column in ("samples", "force_samples"):
+                self.assertEqual(int(ours[column]), int(theirs[column]), f"{key} {column}")
+            for m in MEASURES:
+                a, b = number(ours[m]), number(theirs[m])
+                if math.isnan(a) or math.isnan(b):
+                    self.assertTrue(math.isnan(a) and math.isnan(b), f"{key} {m}: {a} vs {b}")
+                    continue
+                checked += 1
+                if m == "path_length_m":
+                    # A sum of ~2e4 steps: HapticLab adds them in order, numpy
+                    # pairwise; each rounding is <= 2^-53 relative, so the two
+                    # can differ by n·2^-53 ~ 2e-12 at worst.
+                    self.assertLessEqual(abs(a - b), 1e-11 * abs(a), f"{key} {m}: {a!r} vs {b!r}")
+                else:
+                    # The same float64 operations in the same order: equal to the bit.
+                    self.assertEqual(a, b, f"{key} {m}")
+        self.assertGreater(checked, 150)
+
+    def test_friedman_equals_hapticlab_stats(self):
+        both = [r for r in self.friedman if r["hand"] == "both" and r["measure"] in ("force_p95_N", "path_length_m")]
+        self.assertEqual(len(both), 4)  # 2 tasks x 2 measures
+        for measure in ("force_p95_N", "path_length_m"):
+            out = fx.run_cli("stats", "friedman", "--csv", str(self.metrics_csv), "--block", "hand", "--treatment",
+                             "setting", "--replicate", "repetition", "--value", measure, "--group",
+                             "participant,task", "--json")
+            for group in json.loads(out)["groups"]:
+                (row,) = [r for r in both if r["measure"] == measure and r["task"] == group["group"]["task"]]
+                self.assertAlmostEqual(float(row["chi_square"]), group["statistic"], delta=1e-12 * group["statistic"])
+                self.assertAlmostEqual(float(row["p"]), group["p"], delta=1e-12)
+
+
+if __name__ == "__main__":
+    unittest.main()
