@@ -230,7 +230,23 @@ TEST_F(SessionFixture, KilledRunnerResumesAfterReopening) {
     }
     _exit(0);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  // Killed once a trial is running and some of its samples are on disk
+  // (polled, not a fixed sleep: on a loaded machine the child may take
+  // longer to get there).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  for (bool ready = false; !ready && std::chrono::steady_clock::now() < deadline;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    try {
+      db::OpenOptions open;
+      open.recover = false;
+      open.integrity = db::OpenOptions::Integrity::kSkip;
+      db::StudyDb db(db_path_, open);
+      for (const auto& t : trials_of(db_path_, "A1"))
+        if (t.status == TrialStatus::kRunning && db.sample_count(t.id, 1) > 0) ready = true;
+    } catch (const db::DbError&) {
+      // the child may be creating the schema; try again
+    }
+  }
   kill(child, SIGKILL);
   int status = 0;
   waitpid(child, &status, 0);
