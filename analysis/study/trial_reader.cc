@@ -20,14 +20,6 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::optional<TaskEventType> event_type(const std::string& name) {
-  for (int i = 0; i < kNumTaskEventTypes; ++i) {
-    const auto type = static_cast<TaskEventType>(i);
-    if (name == to_string(type)) return type;
-  }
-  return std::nullopt;  // the runner's and writer's own events do not bound the task
-}
-
 std::vector<double> every_kth(const std::vector<double>& values, std::size_t k) {
   std::vector<double> out;
   out.reserve(values.size() / k + 1);
@@ -49,7 +41,7 @@ void mark_missing(TrialRecord& record) {
 struct Buffers {
   std::vector<db::StoredSample> chunk;
   std::vector<db::BadChunk> bad;
-  std::array<WindowValues, 2> values;
+  TrialAccumulator trial;
 };
 
 TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOptions& options, Buffers& buf) {
@@ -65,66 +57,89 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
 
   std::vector<TaskEvent> events;
   for (const db::EventRow& e : db.events(row.id)) {
-    if (const auto type = event_type(e.type)) {
+    if (const auto type = task_event_type(e.type)) {
       events.push_back({e.t_s, *type, static_cast<std::int8_t>(e.instrument), static_cast<std::int32_t>(e.item_index)});
     }
   }
-  // The window before the samples are read: a contact still open when the
-  // log stops ends at the trial's last sample, which is at or after every
-  // sample, so an open end (+inf) selects the same samples; the end itself
-  // is settled once the last sample is known.
-  const TaskWindowResult provisional = task_window(events, kInf);
-
-  double trial_end_s = -kInf;
-  std::size_t samples = 0;
-  std::string data_error;
+  buf.trial.start(events, options);
   buf.bad.clear();
   for (std::size_t hand = 0; hand < 2; ++hand) {
-    WindowAccumulator acc;
-    bool accumulate = provisional.window.has_value() && data_error.empty();
-    if (accumulate) acc.start(*provisional.window, options.min_force_N, buf.values[hand]);
     db::for_each_chunk(db.connection(), row.id, static_cast<int>(hand), buf.chunk,
                        [&](std::span<const db::StoredSample> chunk) {
-                         samples += chunk.size();
-                         trial_end_s = std::max(trial_end_s, chunk.back().t_s);
-                         if (!accumulate) return;
-                         try {
-                           for (const db::StoredSample& x : chunk) {
-                             acc.add(x.t_s, x.value.tip_position_m, x.value.tip_velocity_m_per_s,
-                                     x.value.ve_force_N);
-                           }
-                         } catch (const DataError& e) {
-                           // Keep reading: a damaged chunk later on takes precedence.
-                           data_error = e.what();
-                           accumulate = false;
+                         for (const db::StoredSample& x : chunk) {
+                           buf.trial.add(hand, x.t_s, x.value.tip_position_m, x.value.tip_velocity_m_per_s,
+                                         x.value.ve_force_N);
                          }
                        },
                        buf.bad);
   }
+  std::vector<std::string> damaged;
+  for (const db::BadChunk& c : buf.bad) damaged.push_back(db::describe(c));
+  buf.trial.finish(rec, std::move(damaged));
+  return rec;
+}
+
+}  // namespace
+
+std::optional<TaskEventType> task_event_type(std::string_view name) {
+  for (int i = 0; i < kNumTaskEventTypes; ++i) {
+    const auto type = static_cast<TaskEventType>(i);
+    if (name == to_string(type)) return type;
+  }
+  return std::nullopt;  // the runner's and writer's own events do not bound the task
+}
+
+void TrialAccumulator::start(std::span<const TaskEvent> events, const AnalysisOptions& options) {
+  options_ = &options;
+  events_.assign(events.begin(), events.end());
+  // The window before the samples are read: a contact still open when the
+  // log stops ends at the trial's last sample, which is at or after every
+  // sample, so an open end (+inf) selects the same samples; the end itself
+  // is settled in finish(), once the last sample is known.
+  provisional_ = task_window(events_, kInf);
+  samples_ = 0;
+  trial_end_s_ = -kInf;
+  data_error_.clear();
+  accumulate_ = provisional_.window.has_value();
+  for (std::size_t hand = 0; hand < 2; ++hand) {
+    if (accumulate_) acc_[hand].start(*provisional_.window, options.min_force_N, values_[hand]);
+  }
+}
+
+void TrialAccumulator::fail(const std::string& why) {
+  // The first problem is the one reported; the rest of the trial is still
+  // counted (a damaged chunk found later takes precedence in finish()).
+  if (data_error_.empty()) data_error_ = why;
+  accumulate_ = false;
+}
+
+void TrialAccumulator::finish(TrialRecord& rec, std::vector<std::string> damaged_chunks) {
+  const AnalysisOptions& options = *options_;
   mark_missing(rec);
-  for (const db::BadChunk& c : buf.bad) rec.damaged_chunks.push_back(db::describe(c));
+  rec.window.reset();
+  rec.damaged_chunks = std::move(damaged_chunks);
   if (!rec.damaged_chunks.empty()) {
     rec.problem =
         std::to_string(rec.damaged_chunks.size()) + " damaged sample chunk(s) left out (hapticlab study check)";
-    return rec;
+    return;
   }
-  if (samples == 0) {
+  if (samples_ == 0) {
     rec.problem = "no samples logged";
-    return rec;
+    return;
   }
-  const TaskWindowResult window =
-      std::isinf(provisional.window ? provisional.window->end_s : 0.0) ? task_window(events, trial_end_s) : provisional;
+  const bool open_end = provisional_.window && std::isinf(provisional_.window->end_s);
+  const TaskWindowResult window = open_end ? task_window(events_, trial_end_s_) : provisional_;
   if (!window.window) {
     rec.problem = window.problem;
-    return rec;
+    return;
   }
-  if (!data_error.empty()) {
-    rec.problem = data_error;
-    return rec;
+  if (!data_error_.empty()) {
+    rec.problem = data_error_;
+    return;
   }
   try {
     for (std::size_t hand = 0; hand < 2; ++hand) {
-      WindowValues& values = buf.values[hand];
+      WindowValues& values = values_[hand];
       // The KS bootstrap needs the series in time order: decimate before sorting.
       rec.force_series_N[hand] = every_kth(values.force_N, options.ks_stride);
       rec.speed_series_m_per_s[hand] = every_kth(values.speed_m_per_s, options.ks_stride);
@@ -139,10 +154,7 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
     rec.problem = e.what();
     mark_missing(rec);
   }
-  return rec;
 }
-
-}  // namespace
 
 TrialRecord read_trial(db::StudyDb& db, const db::TrialRow& row, const AnalysisOptions& options) {
   Buffers buf;
