@@ -89,6 +89,11 @@ std::uint64_t trial_seed(std::uint64_t participant_seed, std::int64_t trial_id) 
   return r.next_u64();
 }
 
+std::uint64_t training_seed(std::uint64_t participant_seed, std::string_view task, int k) noexcept {
+  return Random::derive(participant_seed, protocols::fnv1a64("training:" + std::string(task))).next_u64() +
+         static_cast<std::uint64_t>(k);
+}
+
 SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options) {
   check_options(options);
   // The device is opened (a plugin loaded, a socket bound) and dropped
@@ -190,10 +195,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
                options.training_ends->load(std::memory_order_acquire) != ends_before;
       };
       for (int k = 0; k < training_per_task && !stop_requested(options) && !(k > 0 && operator_ended()); ++k) {
-        SimTrialConfig c = base_config(trial.task, control,
-                                       Random::derive(who, protocols::fnv1a64("training:" + trial.task)).next_u64() +
-                                           static_cast<std::uint64_t>(k),
-                                       k);
+        SimTrialConfig c = base_config(trial.task, control, training_seed(who, trial.task, k), k);
         c.publish_samples = false;
         const SimTrialResult practice = run_sim_trial(c);
         if (practice.device_refused)

@@ -119,5 +119,8 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
 // Seeds of simulated participants (documented above).
 std::uint64_t participant_seed(std::uint64_t study_seed, std::string_view code) noexcept;
 std::uint64_t trial_seed(std::uint64_t participant_seed, std::int64_t trial_id) noexcept;
+// The k-th (0-based) training trial of `task` before the participant's first
+// scheduled trial of it in a session.
+std::uint64_t training_seed(std::uint64_t participant_seed, std::string_view task, int k) noexcept;
 
 }  // namespace hapticlab::sessions

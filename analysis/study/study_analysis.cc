@@ -177,6 +177,29 @@ void add_unique(std::vector<std::string>& list, const std::string& value) {
 
 }  // namespace
 
+void choose_control(StudyAnalysis& a, const AnalysisOptions& options) {
+  if (!options.control_setting.empty()) {
+    if (std::find(a.settings.begin(), a.settings.end(), options.control_setting) == a.settings.end()) {
+      std::string names;
+      for (const auto& s : a.settings) names += (names.empty() ? "'" : ", '") + s + "'";
+      throw DataError("control setting is '" + options.control_setting + "', but the study's settings are: " + names);
+    }
+    a.control = options.control_setting;
+  } else {
+    for (const auto& s : a.settings)
+      if (normalized(s) == "high_fidelity") a.control = s;
+    if (a.control.empty() && !a.settings.empty()) {
+      std::string names;
+      for (const auto& s : a.settings) names += (names.empty() ? "'" : ", '") + s + "'";
+      throw DataError("no setting is named 'High Fidelity'; name the control with --control (settings: " + names + ")");
+    }
+  }
+  if (!a.control.empty()) {
+    a.settings.erase(std::find(a.settings.begin(), a.settings.end(), a.control));
+    a.settings.insert(a.settings.begin(), a.control);
+  }
+}
+
 StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   options.validate();
   StudyAnalysis a;
@@ -220,27 +243,7 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   setting_ids.erase(std::unique(setting_ids.begin(), setting_ids.end()), setting_ids.end());
   for (const auto& [id, name] : setting_ids) add_unique(a.settings, name);
 
-  // The control: named, or the setting called like "High Fidelity".
-  if (!options.control_setting.empty()) {
-    if (std::find(a.settings.begin(), a.settings.end(), options.control_setting) == a.settings.end()) {
-      std::string names;
-      for (const auto& s : a.settings) names += (names.empty() ? "'" : ", '") + s + "'";
-      throw DataError("control setting is '" + options.control_setting + "', but the study's settings are: " + names);
-    }
-    a.control = options.control_setting;
-  } else {
-    for (const auto& s : a.settings)
-      if (normalized(s) == "high_fidelity") a.control = s;
-    if (a.control.empty() && !a.settings.empty()) {
-      std::string names;
-      for (const auto& s : a.settings) names += (names.empty() ? "'" : ", '") + s + "'";
-      throw DataError("no setting is named 'High Fidelity'; name the control with --control (settings: " + names + ")");
-    }
-  }
-  if (!a.control.empty()) {
-    a.settings.erase(std::find(a.settings.begin(), a.settings.end(), a.control));
-    a.settings.insert(a.settings.begin(), a.control);
-  }
+  choose_control(a, options);
 
   std::vector<db::TrialRow> analysed;
   for (const auto& row : rows) {

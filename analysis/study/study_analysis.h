@@ -199,6 +199,11 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options);
 // then analyze_study. Throws DataError naming the path if it does not exist.
 StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const AnalysisOptions& options);
 
+// The control: options.control_setting, or the setting named like "High
+// Fidelity"; it is moved to the front of a.settings (the rest keep their
+// order). Throws DataError naming the settings when there is none.
+void choose_control(StudyAnalysis& a, const AnalysisOptions& options);
+
 // Runs the statistics on records already computed (analyze_study calls it;
 // tests can feed hand-made records). Fills every table of `analysis`.
 void run_statistics(StudyAnalysis& analysis);

@@ -1,0 +1,351 @@
+#include "app/plan_command.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/report/gnuplot.h"
+#include "app/interrupt_flag.h"
+#include "app/progress_line.h"
+#include "core/common/csv_format.h"
+#include "db/sha256.h"
+#include "planning/power.h"
+#include "planning/power_store.h"
+#include "protocols/protocol_json.h"
+
+namespace hapticlab::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct PlanPowerOptions {
+  std::string protocol;
+  std::vector<int> participants;
+  int studies = 200;
+  std::uint64_t seed = 1;
+  std::size_t jobs = 0;
+  std::string out = "plan-power";
+  std::string measure = "force_p95_N";
+  double max_trial_s = 300.0;
+  bool plots = true;
+  bool json = false;
+};
+
+std::string power_inputs(const PlanPowerOptions& o, const std::string& protocol_text,
+                         const planning::SimulatedStudyOptions& sim) {
+  return "protocol sha256 " + db::sha256_hex(protocol_text) + ", seed " + std::to_string(o.seed) + ", rate " +
+         format_number(sim.rate_Hz) + " Hz, max trial " + format_number(sim.max_trial_s) + " s, alpha " +
+         format_number(sim.analysis.alpha) + ", percentiles " +
+         std::string(analysis::percentile_method_name(sim.analysis.percentile_method));
+}
+
+void write_power_csv(const fs::path& path, const std::vector<planning::PowerRow>& rows) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << "participants,method,task,setting,participant_tests_or_studies,significant,rate,wilson_low,"
+           "wilson_high,measure\n";
+    for (const auto& r : rows) {
+      out << r.participants << ',' << r.method << ',' << csv_text(r.task) << ',' << csv_text(r.setting) << ','
+          << r.tests << ',' << r.significant << ',' << format_number(r.rate) << ',' << format_number(r.wilson_low)
+          << ',' << format_number(r.wilson_high) << ',' << r.measure << '\n';
+    }
+    out.flush();
+    if (!out) throw std::runtime_error(tmp.string() + ": cannot write (disk full?)");
+  }
+  fs::rename(tmp, path);
+}
+
+// One figure per task: power against the number of participants, one line
+// per setting, with Wilson 95 % intervals as error bars.
+std::vector<std::string> draw_power(const fs::path& out, const std::vector<planning::PowerRow>& rows,
+                                    const std::string& measure) {
+  analysis::GnuplotScript script;
+  std::vector<std::string> tasks;
+  for (const auto& r : rows)
+    if (std::find(tasks.begin(), tasks.end(), r.task) == tasks.end()) tasks.push_back(r.task);
+  for (const std::string& task : tasks) {
+    std::vector<std::string> settings;
+    std::ostringstream data;
+    for (const auto& r : rows)
+      if (r.method == "pairwise" && r.task == task && r.measure == measure &&
+          std::find(settings.begin(), settings.end(), r.setting) == settings.end())
+        settings.push_back(r.setting);
+    if (settings.empty()) continue;
+    for (const std::string& s : settings) {
+      for (const auto& r : rows)
+        if (r.method == "pairwise" && r.task == task && r.measure == measure && r.setting == s)
+          data << r.participants << ' ' << 100.0 * r.rate << ' ' << 100.0 * r.wilson_low << ' '
+               << 100.0 * r.wilson_high << '\n';
+      data << "\n\n";
+    }
+    std::string block = "power_";
+    for (char c : task) block += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+    script.add_datablock(block, data.str());
+    std::string plot = "set title " + analysis::gnuplot_quote(task + ": " + measure + ", each setting against the control") +
+                       "\nset xlabel 'participants'\nset ylabel 'studies significant [%]'\nset yrange [0:100]\n"
+                       "set key outside right\nset grid\nplot ";
+    for (std::size_t i = 0; i < settings.size(); ++i) {
+      plot += (i ? ", " : "") + std::string("$") + block + " index " + std::to_string(i) +
+              " using 1:2:3:4 with yerrorlines lw 2 title " + analysis::gnuplot_quote(settings[i]);
+    }
+    script.add_plot(block + ".svg", plot, 900, 500);
+  }
+  if (script.outputs().empty()) return {};
+  analysis::run_gnuplot(script, out, analysis::find_gnuplot());
+  return script.outputs();
+}
+
+int run_plan_power(const PlanPowerOptions& o) {
+  const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
+  const std::string protocol_text = protocols::read_protocol_text(o.protocol);
+  planning::SimulatedStudyOptions sim;
+  sim.max_trial_s = o.max_trial_s;
+  std::vector<int> counts = o.participants;
+  if (counts.empty()) counts.push_back(static_cast<int>(protocol.participants.size()));
+  std::sort(counts.begin(), counts.end());
+  counts.erase(std::unique(counts.begin(), counts.end()), counts.end());
+  // Refused before any simulation: a protocol without a control, or a
+  // design that cannot take a participant count.
+  {
+    analysis::StudyAnalysis names;
+    for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
+    try {
+      analysis::choose_control(names, sim.analysis);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(o.protocol + ": " + e.what() +
+                               "; plan power compares every setting with the control");
+    }
+    for (int n : counts) (void)planning::resized_protocol(protocol, n, o.seed);
+  }
+  if (o.plots) (void)analysis::find_gnuplot();
+
+  fs::create_directories(o.out);
+  planning::PowerStore store(fs::path(o.out) / "plan_power.db", power_inputs(o, protocol_text, sim));
+  const std::set<std::pair<int, int>> done = store.done();
+  std::vector<std::pair<int, int>> todo;
+  for (int n : counts)
+    for (int i = 0; i < o.studies; ++i)
+      if (!done.count({n, i})) todo.push_back({n, i});
+  const std::size_t total = counts.size() * static_cast<std::size_t>(o.studies);
+  const std::size_t already = total - todo.size();
+
+  ProgressLine line(o.json ? stderr : stdout);
+  const std::size_t jobs = std::min<std::size_t>(
+      o.jobs > 0 ? o.jobs : std::max(1u, std::thread::hardware_concurrency()), std::max<std::size_t>(1, todo.size()));
+  if (already > 0) line.print(std::to_string(already) + " of " + std::to_string(total) + " studies already in " +
+                              (fs::path(o.out) / "plan_power.db").string() + "; continuing");
+  line.print("simulating " + std::to_string(todo.size()) + " studies of " + protocol.study + " on " +
+             std::to_string(jobs) + " thread(s), no samples stored");
+
+  InterruptFlag interrupt;
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex m;
+  std::condition_variable cv;
+  std::deque<planning::StudyOutcome> finished;
+  std::exception_ptr error;
+  std::size_t running = jobs;
+  std::vector<std::thread> pool;
+  for (std::size_t t = 0; t < jobs; ++t) {
+    pool.emplace_back([&] {
+      try {
+        while (!interrupt.raised() && !failed) {
+          const std::size_t k = next++;
+          if (k >= todo.size()) break;
+          planning::StudyOutcome outcome =
+              planning::run_power_study(protocol, todo[k].first, todo[k].second, o.seed, sim);
+          const std::lock_guard<std::mutex> lock(m);
+          finished.push_back(std::move(outcome));
+          cv.notify_one();
+        }
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(m);
+        if (!error) error = std::current_exception();
+        failed = true;
+      }
+      const std::lock_guard<std::mutex> lock(m);
+      --running;
+      cv.notify_one();
+    });
+  }
+  const auto started = std::chrono::steady_clock::now();
+  std::size_t stored = 0;
+  std::uint64_t updates = 0;
+  std::exception_ptr store_error;
+  for (;;) {
+    std::unique_lock<std::mutex> lock(m);
+    cv.wait_for(lock, std::chrono::milliseconds(200), [&] { return !finished.empty() || running == 0; });
+    std::deque<planning::StudyOutcome> batch;
+    batch.swap(finished);
+    const bool all_stopped = running == 0;
+    lock.unlock();
+    for (const planning::StudyOutcome& s : batch) {
+      if (store_error) break;
+      try {
+        store.add(s);  // committed: an interrupted run keeps it
+      } catch (...) {
+        store_error = std::current_exception();
+        failed = true;
+        break;
+      }
+      ++stored;
+      updates += s.updates;
+    }
+    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    std::optional<double> eta;
+    if (stored > 0) eta = elapsed_s / static_cast<double>(stored) * static_cast<double>(todo.size() - stored);
+    line.update(static_cast<double>(already + stored) / static_cast<double>(total),
+                std::to_string(already + stored) + "/" + std::to_string(total) + " studies" +
+                    (interrupt.raised() ? " (stopping after the running ones)" : ""),
+                elapsed_s, eta);
+    if (all_stopped && batch.empty()) break;
+  }
+  for (std::thread& t : pool) t.join();
+  line.finish();
+  if (store_error) {
+    try {
+      std::rethrow_exception(store_error);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(std::string(e.what()) + "; the " + std::to_string(already + stored) +
+                               " studies stored before are kept: free space, then run the same command to resume");
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  if (interrupt.raised() && already + stored < total) {
+    std::fprintf(stderr, "hapticlab plan power: interrupted; %zu of %zu studies are stored in %s. Run the same "
+                         "command again to resume.\n", already + stored, total,
+                 (fs::path(o.out) / "plan_power.db").c_str());
+    return 130;
+  }
+
+  std::vector<std::string> setting_order;
+  for (const auto& s : protocol.settings) setting_order.push_back(s.settings.name);
+  const std::vector<planning::StudyOutcome> outcomes = store.load();
+  std::vector<planning::StudyOutcome> wanted;
+  for (const auto& s : outcomes)
+    if (std::find(counts.begin(), counts.end(), s.participants) != counts.end() && s.index < o.studies)
+      wanted.push_back(s);
+  const std::vector<planning::PowerRow> rows = planning::summarize_power(wanted, setting_order);
+  const fs::path csv = fs::path(o.out) / "power.csv";
+  write_power_csv(csv, rows);
+  std::vector<std::string> figures;
+  if (o.plots) figures = draw_power(o.out, rows, o.measure);
+
+  if (o.json) {
+    nlohmann::json j;
+    j["studies_per_count"] = o.studies;
+    j["participants"] = counts;
+    j["seconds_this_run"] = elapsed_s;
+    j["studies_this_run"] = stored;
+    j["csv"] = csv.string();
+    j["figures"] = figures;
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& r : rows) {
+      list.push_back({{"participants", r.participants}, {"method", r.method}, {"task", r.task},
+                      {"setting", r.setting}, {"measure", r.measure}, {"significant", r.significant},
+                      {"tests", r.tests}, {"rate", r.rate}, {"wilson_low", r.wilson_low},
+                      {"wilson_high", r.wilson_high}});
+    }
+    j["rows"] = list;
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  std::printf("\n%zu studies simulated in %.1f s (%.1f million loop updates, none stored)\n", stored, elapsed_s,
+              static_cast<double>(updates) / 1e6);
+  std::printf("\nPower for %s: share of simulated studies in which the setting differs significantly from the "
+              "control (Šidák level, thesis procedure), Wilson 95 %% interval\n", o.measure.c_str());
+  std::printf("%-12s %-24s", "task", "setting");
+  for (int n : counts) std::printf("  %16s", (std::to_string(n) + " participants").c_str());
+  std::printf("\n");
+  std::vector<std::pair<std::string, std::string>> lines;
+  for (const auto& r : rows)
+    if (r.method == "pairwise" && r.measure == o.measure &&
+        std::find(lines.begin(), lines.end(), std::make_pair(r.task, r.setting)) == lines.end())
+      lines.push_back({r.task, r.setting});
+  for (const auto& [task, setting] : lines) {
+    std::printf("%-12s %-24s", task.c_str(), setting.c_str());
+    for (int n : counts) {
+      const auto it = std::find_if(rows.begin(), rows.end(), [&](const planning::PowerRow& r) {
+        return r.method == "pairwise" && r.measure == o.measure && r.task == task && r.setting == setting &&
+               r.participants == n;
+      });
+      char cell[64] = "";
+      if (it != rows.end())
+        std::snprintf(cell, sizeof cell, "%3.0f%% [%2.0f,%3.0f]", 100 * it->rate, 100 * it->wilson_low,
+                      100 * it->wilson_high);
+      std::printf("  %16s", cell);
+    }
+    std::printf("\n");
+  }
+  std::printf("\nParticipant-level Friedman (Table 3.4) on %s: share of participants' tests significant\n",
+              o.measure.c_str());
+  for (const auto& r : rows)
+    if (r.method == "participant" && r.measure == o.measure)
+      std::printf("  %-12s %3d participants: %5.1f%% [%4.1f, %5.1f] of %d tests\n", r.task.c_str(), r.participants,
+                  100 * r.rate, 100 * r.wilson_low, 100 * r.wilson_high, r.tests);
+  std::printf("\nAll measures: %s", csv.c_str());
+  for (const auto& f : figures) std::printf(", %s", (fs::path(o.out) / f).c_str());
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace
+
+void add_plan_command(CLI::App& app) {
+  CLI::App* plan = app.add_subcommand("plan", "Plan a study before recruiting anyone: simulate it many times");
+  plan->require_subcommand(1);
+  auto opt = std::make_shared<PlanPowerOptions>();
+  CLI::App* cmd = plan->add_subcommand(
+      "power",
+      "Simulation-based power: run the protocol's study many times on the simulated rig (virtual clock, fresh "
+      "seeds, no samples stored), analyse each the thesis' way, and report how often each setting differs "
+      "significantly from the control, per number of participants, with Wilson 95 % intervals. Resumes when "
+      "run again with the same --out.");
+  cmd->add_option("--protocol", opt->protocol, "Protocol file (examples/protocols/*.json)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--participants", opt->participants,
+                  "Participant counts to simulate, comma-separated (default: the protocol's), each 1..999")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 999));
+  cmd->add_option("--studies", opt->studies, "Simulated studies per participant count, 1..100000")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  cmd->add_option("--seed", opt->seed, "Seed of the whole plan: the same seed gives the same studies")
+      ->capture_default_str();
+  cmd->add_option("--jobs,-j", opt->jobs, "Studies simulated at once (0: one per core)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
+  cmd->add_option("--out", opt->out, "Folder for plan_power.db (the finished studies), power.csv and figures")
+      ->capture_default_str();
+  cmd->add_option("--measure", opt->measure, "Measure of the printed table and figures (power.csv has all)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s",
+                             "path_length_m"}));
+  cmd->add_option("--max-trial-s", opt->max_trial_s, "Per-trial time limit [s], as session run's")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; }, "No figures (no gnuplot needed)");
+  cmd->add_flag("--json", opt->json, "Print the power table as JSON (progress goes to stderr)");
+  cmd->callback([opt] {
+    const int status = run_plan_power(*opt);
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+}
+
+}  // namespace hapticlab::app

@@ -1,0 +1,96 @@
+#include "planning/power.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <tuple>
+
+#include "analysis/stats/wilson.h"
+#include "core/common/random.h"
+#include "protocols/rng.h"
+
+namespace hapticlab::planning {
+
+std::uint64_t study_seed(std::uint64_t seed, int participants, int index) {
+  return Random::derive(seed, protocols::fnv1a64("plan power/participants=" + std::to_string(participants) +
+                                                 "/study=" + std::to_string(index)))
+      .next_u64();
+}
+
+std::vector<Finding> findings_of(const analysis::StudyAnalysis& a) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Finding> out;
+  for (const analysis::PairwiseCell& c : a.pairwise) {
+    Finding f;
+    f.method = "pairwise";
+    f.task = c.task;
+    f.setting = c.setting;
+    f.measure = analysis::measure_column(c.measure);
+    f.p = c.p.value_or(kNaN);
+    f.significant = c.significant && !c.gated;
+    out.push_back(std::move(f));
+  }
+  for (const analysis::FriedmanRow& r : a.friedman) {
+    if (r.hand != -1) continue;  // the table's row: both hands as blocks
+    Finding f;
+    f.method = "participant";
+    f.task = r.task;
+    f.measure = analysis::measure_column(r.measure);
+    f.participant = r.participant;
+    f.p = r.test.result ? r.test.result->p : kNaN;
+    f.significant = r.test.result && r.test.result->p < a.options.alpha;
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+StudyOutcome run_power_study(const protocols::Protocol& protocol, int participants, int index, std::uint64_t seed,
+                             const SimulatedStudyOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  StudyOutcome o;
+  o.participants = participants;
+  o.index = index;
+  o.seed = study_seed(seed, participants, index);
+  const SimulatedStudy s = simulate_study(protocol, participants, o.seed, options);
+  o.trials_run = s.trials_run;
+  o.trials_timed_out = s.trials_timed_out;
+  o.updates = s.updates;
+  o.findings = findings_of(s.analysis);
+  o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return o;
+}
+
+std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
+                                      const std::vector<std::string>& setting_order) {
+  auto rank = [&](const std::string& setting) {
+    const auto it = std::find(setting_order.begin(), setting_order.end(), setting);
+    return static_cast<std::size_t>(it - setting_order.begin());
+  };
+  using Key = std::tuple<int, std::string, std::string, std::size_t, std::string, std::string>;
+  std::map<Key, PowerRow> rows;
+  for (const StudyOutcome& o : outcomes) {
+    for (const Finding& f : o.findings) {
+      PowerRow& r = rows[{o.participants, f.method, f.task, rank(f.setting), f.setting, f.measure}];
+      r.participants = o.participants;
+      r.method = f.method;
+      r.task = f.task;
+      r.setting = f.setting;
+      r.measure = f.measure;
+      ++r.tests;
+      if (f.significant) ++r.significant;
+    }
+  }
+  std::vector<PowerRow> out;
+  for (auto& [key, r] : rows) {
+    r.rate = static_cast<double>(r.significant) / r.tests;
+    const analysis::ProportionInterval ci = analysis::wilson_interval(r.significant, r.tests);
+    r.wilson_low = ci.low;
+    r.wilson_high = ci.high;
+    out.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace hapticlab::planning

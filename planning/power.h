@@ -1,0 +1,76 @@
+#pragma once
+// What a design can detect, found by running it many times on the
+// simulated rig (simulated_study.h): for each number of participants,
+// `studies` complete studies with fresh seeds, each analysed the thesis'
+// way; the share of studies in which a comparison reaches significance is
+// its power (or, for a setting that changes nothing, its false-positive
+// rate), with a Wilson 95 % interval.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "analysis/study/study_analysis.h"
+#include "planning/simulated_study.h"
+#include "protocols/protocol.h"
+
+namespace hapticlab::planning {
+
+// One test of one simulated study.
+struct Finding {
+  // "pairwise": the setting against the control over all participants
+  // (Tables 3.5-3.6), significant at the Šidák level and, as the thesis
+  // did, only where some participant's Table 3.4 test was significant.
+  // "participant": one participant's Friedman across settings (Table 3.4,
+  // hands as blocks); `setting` is empty.
+  std::string method;
+  std::string task;
+  std::string setting;
+  std::string measure;  // metrics.csv column, e.g. force_p95_N
+  std::string participant;  // "participant" findings only
+  bool significant = false;
+  double p = 0.0;  // NaN when the test could not be computed (then not significant)
+};
+
+struct StudyOutcome {
+  int participants = 0;
+  int index = 0;  // 0-based study number for this participant count
+  std::uint64_t seed = 0;
+  int trials_run = 0;
+  int trials_timed_out = 0;
+  std::uint64_t updates = 0;
+  double seconds = 0.0;  // wall time to simulate and analyse it
+  std::vector<Finding> findings;
+};
+
+// The study seed of study `index` with `participants` participants under
+// the run's `seed`: a pure function, so a resumed or re-run plan simulates
+// the same studies.
+std::uint64_t study_seed(std::uint64_t seed, int participants, int index);
+
+// Every finding of an analysed study.
+std::vector<Finding> findings_of(const analysis::StudyAnalysis& analysis);
+
+// Simulates and analyses one study.
+StudyOutcome run_power_study(const protocols::Protocol& protocol, int participants, int index, std::uint64_t seed,
+                             const SimulatedStudyOptions& options);
+
+// One line of the power table: the share of studies (or, for
+// "participant", of participant tests) that reached significance.
+struct PowerRow {
+  int participants = 0;
+  std::string method;
+  std::string task;
+  std::string setting;
+  std::string measure;
+  int significant = 0;
+  int tests = 0;
+  double rate = 0.0;
+  double wilson_low = 0.0;  // 95 % Wilson score interval
+  double wilson_high = 0.0;
+};
+
+// Rows sorted by participants, method, task, setting (protocol order), measure.
+std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
+                                      const std::vector<std::string>& setting_order);
+
+}  // namespace hapticlab::planning

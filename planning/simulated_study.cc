@@ -1,0 +1,181 @@
+#include "planning/simulated_study.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <stdexcept>
+#include <vector>
+
+#include "analysis/study/trial_reader.h"
+#include "core/sim/trial_runner.h"
+#include "db/sample_codec.h"
+#include "protocols/schedule.h"
+#include "sessions/session_runner.h"
+
+namespace hapticlab::planning {
+namespace {
+
+std::string participant_code(int i, int count) {
+  char code[16];
+  std::snprintf(code, sizeof code, count >= 100 ? "P%03d" : "P%02d", i + 1);
+  return code;
+}
+
+// What the database keeps of a sample the measures read: position, velocity
+// and force as float32 (db/sample_codec.h), so the measures equal those of
+// the same study run through `session run` and `analyze`.
+struct KeptSample {
+  double t_s;
+  analysis::Vec3d position_m;
+  analysis::Vec3d velocity_m_per_s;
+  analysis::Vec3d force_N;
+};
+
+analysis::Vec3d as_stored(const Vec3& v) {
+  return {db::to_stored_float(v[0]), db::to_stored_float(v[1]), db::to_stored_float(v[2])};
+}
+
+void add_unique(std::vector<std::string>& list, const std::string& value) {
+  if (std::find(list.begin(), list.end(), value) == list.end()) list.push_back(value);
+}
+
+}  // namespace
+
+protocols::Protocol resized_protocol(const protocols::Protocol& protocol, int participants, std::uint64_t seed) {
+  if (participants < 1 || participants > 999) {
+    throw std::invalid_argument("participants: " + std::to_string(participants) + " is outside 1..999");
+  }
+  if (protocol.participants.empty()) throw std::invalid_argument("participants: the protocol has none");
+  protocols::Protocol p = protocol;
+  p.seed = seed;
+  p.participants.clear();
+  std::map<std::string, std::vector<std::string>> assignments;
+  const std::size_t m = protocol.participants.size();
+  for (int i = 0; i < participants; ++i) {
+    protocols::ParticipantSpec spec = protocol.participants[static_cast<std::size_t>(i) % m];
+    const std::string old_code = spec.code;
+    spec.code = participant_code(i, participants);
+    if (protocol.design.type == protocols::DesignType::kExplicit) {
+      assignments[spec.code] = protocol.design.assignments.at(old_code);
+    }
+    p.participants.push_back(std::move(spec));
+  }
+  if (protocol.design.type == protocols::DesignType::kExplicit) p.design.assignments = std::move(assignments);
+  protocols::validate_protocol(p, protocol.study + " with " + std::to_string(participants) + " participants");
+  return p;
+}
+
+SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participants, std::uint64_t seed,
+                              const SimulatedStudyOptions& options) {
+  options.analysis.validate();
+  const protocols::Protocol p = resized_protocol(protocol, participants, seed);
+  const protocols::StudyPlan plan = protocols::make_study_plan(p);
+
+  SimulatedStudy out;
+  analysis::StudyAnalysis& a = out.analysis;
+  a.options = options.analysis;
+  a.study_name = p.study;
+  for (const protocols::ProtocolSetting& s : p.settings) add_unique(a.settings, s.settings.name);
+  // Participants and tasks in order of first appearance, as analyze lists
+  // them (by code, then schedule position).
+  for (const protocols::ParticipantPlan& pp : plan.participants) {
+    add_unique(a.participants, pp.code);
+    for (const protocols::PlannedTrial& t : pp.trials) add_unique(a.tasks, std::string(protocols::task_name(t.task)));
+  }
+  analysis::choose_control(a, options.analysis);
+
+  // Training runs under the protocol's first setting, as session run's does.
+  const EngineSettings& training_settings = p.settings.front().settings.engine;
+  std::array<std::vector<KeptSample>, 2> kept;
+  std::vector<TaskEvent> events;
+  analysis::TrialAccumulator accumulator;
+  std::int64_t trial_id = 0;  // as study create numbers them: participants in order, then schedule order
+  for (const protocols::ParticipantPlan& pp : plan.participants) {
+    const std::uint64_t who = sessions::participant_seed(p.seed, pp.code);
+    std::map<std::string, int> complete_of_task;
+    std::map<std::string, bool> trained;
+    auto config = [&](const std::string& task, const EngineSettings& settings, std::uint64_t trial_seed,
+                      int practice) {
+      SimTrialConfig c;
+      c.task = parse_task_kind(task);
+      c.settings = settings;
+      c.participant_seed = who;
+      c.trial_seed = trial_seed;
+      c.practice_trials = practice;
+      c.clock = ClockKind::kVirtual;
+      c.rate_Hz = options.rate_Hz;
+      c.max_duration_s = options.max_trial_s;
+      c.safety.force_limits = p.safety;
+      return c;
+    };
+    for (const protocols::PlannedTrial& t : pp.trials) {
+      ++trial_id;
+      const std::string task(protocols::task_name(t.task));
+      if (pp.training_trials > 0 && !trained[task]) {
+        trained[task] = true;
+        for (int k = 0; k < pp.training_trials; ++k) {
+          SimTrialConfig c = config(task, training_settings, sessions::training_seed(who, task, k), k);
+          c.publish_samples = false;
+          const SimTrialResult r = run_sim_trial(c);
+          out.updates += r.samples;
+          ++out.training_trials;
+        }
+      }
+      const SimTrialConfig c = config(task, p.settings.at(t.setting_index).settings.engine,
+                                      sessions::trial_seed(who, trial_id),
+                                      pp.training_trials + complete_of_task[task]);
+      for (auto& k : kept) k.clear();
+      events.clear();
+      SimTrialSink sink;
+      sink.on_event = [&](const TaskEvent& e) { events.push_back(e); };
+      sink.on_sample = [&](const LoopSample& s) {
+        for (std::size_t hand = 0; hand < 2; ++hand) {
+          const InstrumentSample& x = s.instrument[hand];
+          kept[hand].push_back({s.t_s, as_stored(x.tip_position_m), as_stored(x.tip_velocity_m_per_s),
+                                as_stored(x.ve_force_N)});
+        }
+      };
+      const SimTrialResult r = run_sim_trial(c, sink);
+      out.updates += r.samples;
+      ++out.trials_run;
+      if (!r.task_complete) {
+        // Timed out (or faulted): session run records it aborted, and the
+        // analysis leaves aborted trials out unless told otherwise.
+        ++out.trials_timed_out;
+        if (!options.analysis.include_aborted) {
+          ++a.counts.aborted_excluded;
+          continue;
+        }
+      } else {
+        ++complete_of_task[task];
+      }
+      analysis::TrialRecord rec;
+      rec.trial_id = trial_id;
+      rec.participant = pp.code;
+      rec.task = task;
+      rec.setting = t.setting;
+      rec.repetition = t.repetition;
+      rec.block = t.block;
+      rec.position = t.position;
+      rec.status = r.task_complete ? "complete" : "aborted";
+      accumulator.start(events, options.analysis);
+      for (std::size_t hand = 0; hand < 2; ++hand) {
+        for (const KeptSample& k : kept[hand]) accumulator.add(hand, k.t_s, k.position_m, k.velocity_m_per_s, k.force_N);
+      }
+      accumulator.finish(rec);
+      a.trials.push_back(std::move(rec));
+    }
+  }
+  std::stable_sort(a.trials.begin(), a.trials.end(), [](const auto& x, const auto& y) {
+    return x.participant < y.participant;  // analyze's order: by code, then position
+  });
+  for (const analysis::TrialRecord& t : a.trials) {
+    ++a.counts.analysed;
+    if (t.status == "complete") ++a.counts.complete; else ++a.counts.aborted_included;
+    if (!t.window) ++a.counts.without_window;
+  }
+  analysis::run_statistics(a);
+  return out;
+}
+
+}  // namespace hapticlab::planning

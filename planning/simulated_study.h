@@ -1,0 +1,53 @@
+#pragma once
+// A whole study on the simulated rig, held in memory: the protocol's design
+// and schedules for any number of fresh participants, every session run on
+// the virtual clock exactly as `hapticlab session run` would run it
+// (training, trial seeds, practice), each trial's samples turned into its
+// measures as they would be read back from the database, then the study's
+// statistics. No sample is stored: a thesis-sized study runs in seconds, so
+// thousands of them can say what a design can detect (planning/power.h).
+#include <cstdint>
+#include <string>
+
+#include "analysis/study/study_analysis.h"
+#include "protocols/protocol.h"
+
+namespace hapticlab::planning {
+
+struct SimulatedStudyOptions {
+  double rate_Hz = 1000.0;     // the loop rate of every trial, 150..2000
+  double max_trial_s = 300.0;  // per-trial time limit, as session run's --max-trial-s
+  // The analysis (thesis procedure). Default: no KS bootstrap and no CDF
+  // quantiles, which a power estimate does not use.
+  analysis::AnalysisOptions analysis = default_analysis();
+
+  static analysis::AnalysisOptions default_analysis() {
+    analysis::AnalysisOptions o;
+    o.ks = false;
+    o.cdf_points = 0;
+    return o;
+  }
+};
+
+// The protocol with `participants` participants coded P01, P02, ... (P001
+// from 100 on): participant i takes the tasks and training of the protocol's
+// participant i mod m (m its participant count) and, in an explicit design,
+// that participant's settings; `seed` replaces the protocol's seed. Throws
+// ProtocolError if the result is not a valid protocol (e.g. an incomplete
+// design that cannot be balanced for that many participants).
+protocols::Protocol resized_protocol(const protocols::Protocol& protocol, int participants, std::uint64_t seed);
+
+struct SimulatedStudy {
+  analysis::StudyAnalysis analysis;  // trials (their measures) and every statistics table
+  int trials_run = 0;
+  int trials_timed_out = 0;      // reached max_trial_s: aborted, left out as session run would
+  int training_trials = 0;
+  std::uint64_t updates = 0;     // haptic-loop updates simulated (trials and training)
+};
+
+// Plans resized_protocol(protocol, participants, seed) and runs it.
+// Throws ProtocolError, std::invalid_argument (options), SettingsError.
+SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participants, std::uint64_t seed,
+                              const SimulatedStudyOptions& options);
+
+}  // namespace hapticlab::planning

@@ -1,0 +1,145 @@
+// `hapticlab plan power` through the real binary: deterministic for a seed
+// whatever the thread count, resumable after SIGKILL, and bad input
+// refused with the field named.
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tests/app/cli_process.h"
+#include "tests/testing/child_process.h"
+
+namespace hapticlab::app {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+fs::path source_dir() {
+  if (const char* env = std::getenv("HAPTICLAB_SOURCE_DIR")) return env;
+  return HAPTICLAB_SOURCE_DIR;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Studies stored so far, read through SQLite (read-only), as any reader may.
+int stored_studies(const fs::path& db) {
+  sqlite3* c = nullptr;
+  if (sqlite3_open_v2(db.c_str(), &c, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    sqlite3_close(c);
+    return -1;
+  }
+  sqlite3_busy_timeout(c, 2000);
+  sqlite3_stmt* s = nullptr;
+  int n = -1;
+  if (sqlite3_prepare_v2(c, "SELECT count(*) FROM study", -1, &s, nullptr) == SQLITE_OK && sqlite3_step(s) == SQLITE_ROW)
+    n = sqlite3_column_int(s, 0);
+  sqlite3_finalize(s);
+  sqlite3_close(c);
+  return n;
+}
+
+class PlanPowerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() / ("hapticlab_plan_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    protocol_ = write_protocol("tiny.json", "high_fidelity.json");
+  }
+  void TearDown() override {
+    std::error_code ignored;
+    fs::remove_all(dir_, ignored);
+  }
+  // A small study: one task, 2 repetitions of 2 settings, 2 participants.
+  fs::path write_protocol(const std::string& name, const std::string& first_setting) {
+    const fs::path settings = source_dir() / "examples" / "settings";
+    const fs::path p = dir_ / name;
+    std::ofstream(p) << R"({"study": "tiny", "tasks": ["clip"], "repetitions": {"clip": 2}, "settings": [")"
+                     << (settings / first_setting).string() << R"(", ")"
+                     << (settings / "no_force_feedback.json").string()
+                     << R"("], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 5})";
+    return p;
+  }
+  std::pair<int, std::string> plan(const std::string& args) {
+    return testing::run_cli(HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() + " " + args);
+  }
+  fs::path dir_, protocol_;
+};
+
+TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
+  const auto [one_rc, one] = plan("--participants 2,3 --studies 2 --seed 9 --jobs 1 --no-plots --out " + (dir_ / "one").string());
+  ASSERT_EQ(one_rc, 0) << one;
+  const auto [two_rc, two] = plan("--participants 3,2 --studies 2 --seed 9 --jobs 2 --no-plots --out " + (dir_ / "two").string());
+  ASSERT_EQ(two_rc, 0) << two;
+  const std::string csv = read_text(dir_ / "one" / "power.csv");
+  EXPECT_EQ(csv, read_text(dir_ / "two" / "power.csv"));
+  EXPECT_THAT(csv, HasSubstr("2,pairwise,clip,No Force Feedback,2,"));
+  EXPECT_THAT(csv, HasSubstr("3,participant,clip,,6,"));  // 2 studies x 3 participants' Table 3.4 tests
+  EXPECT_THAT(one, HasSubstr("4 studies simulated"));
+  // Another seed, other studies (with 2 x 2 x 5 measures x 2 methods, some rate differs).
+  const auto [other_rc, other] = plan("--participants 2,3 --studies 2 --seed 10 --no-plots --out " + (dir_ / "other").string());
+  ASSERT_EQ(other_rc, 0) << other;
+  EXPECT_NE(csv, read_text(dir_ / "other" / "power.csv"));
+}
+
+TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
+  const fs::path out = dir_ / "killed";
+  testing::ChildProcess child({HAPTICLAB_CLI_PATH, "plan", "power", "--protocol", protocol_.string(), "--participants",
+                               "2", "--studies", "6", "--jobs", "1", "--no-plots", "--out", out.string()},
+                              (dir_ / "child.log").string());
+  ASSERT_TRUE(testing::wait_until([&] { return fs::exists(out / "plan_power.db") && stored_studies(out / "plan_power.db") >= 2; },
+                                  std::chrono::seconds(60)))
+      << read_text(dir_ / "child.log");
+  child.kill(SIGKILL);
+  child.wait();
+  const int kept = stored_studies(out / "plan_power.db");
+  ASSERT_GE(kept, 2);
+  ASSERT_LT(kept, 6) << "the run finished before it was killed; the test proves nothing";
+  const auto [rc, text] = plan("--participants 2 --studies 6 --jobs 1 --no-plots --out " + out.string());
+  ASSERT_EQ(rc, 0) << text;
+  EXPECT_THAT(text, HasSubstr(std::to_string(kept) + " of 6 studies already in"));
+  EXPECT_EQ(stored_studies(out / "plan_power.db"), 6);
+  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 6 --no-plots --out " + (dir_ / "fresh").string());
+  ASSERT_EQ(fresh_rc, 0) << fresh;
+  EXPECT_EQ(read_text(out / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
+}
+
+TEST_F(PlanPowerTest, BadInputIsNamed) {
+  auto [rc, text] = plan("--studies 0 --out " + (dir_ / "a").string());
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, HasSubstr("--studies"));
+  std::tie(rc, text) = plan("--participants 0 --out " + (dir_ / "b").string());
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, HasSubstr("--participants"));
+  // No setting is a control: named, with the settings.
+  protocol_ = write_protocol("no_control.json", "friction.json");
+  std::tie(rc, text) = plan("--studies 1 --out " + (dir_ / "c").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr("no setting is named 'High Fidelity'"), HasSubstr("'Friction'")));
+  EXPECT_FALSE(fs::exists(dir_ / "c" / "plan_power.db"));
+  // Another protocol into a folder that holds a plan: refused, not mixed.
+  protocol_ = dir_ / "tiny.json";
+  std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "d").string());
+  ASSERT_EQ(rc, 0) << text;
+  protocol_ = write_protocol("tiny2.json", "high_fidelity.json");
+  std::ofstream(protocol_, std::ios::app) << "\n";  // same study, other text: another hash
+  std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "d").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, HasSubstr("holds the studies of another plan"));
+}
+
+}  // namespace
+}  // namespace hapticlab::app

@@ -1,0 +1,125 @@
+#include "planning/simulated_study.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "db/study_db.h"
+#include "protocols/protocol_error.h"
+#include "protocols/protocol_json.h"
+#include "sessions/session_runner.h"
+#include "sessions/study_setup.h"
+
+namespace hapticlab::planning {
+namespace {
+
+std::filesystem::path source_dir() {
+  if (const char* env = std::getenv("HAPTICLAB_SOURCE_DIR")) return env;
+  return HAPTICLAB_SOURCE_DIR;
+}
+
+class SimulatedStudyTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = std::filesystem::temp_directory_path() /
+           ("hapticlab_planning_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+    const std::filesystem::path settings = source_dir() / "examples" / "settings";
+    protocol_path_ = dir_ / "protocol.json";
+    // Codes P01, P02 and the seed as resized_protocol makes them, so the
+    // protocol run through the database is the simulated one.
+    std::ofstream(protocol_path_) << R"({
+      "study": "planning test",
+      "tasks": ["clip"],
+      "repetitions": {"clip": 2},
+      "settings": [")" << (settings / "high_fidelity.json").string()
+                                  << R"(", ")" << (settings / "no_force_feedback.json").string() << R"("],
+      "participants": ["P01", "P02"],
+      "design": {"type": "complete"},
+      "training_trials": 1,
+      "seed": 7
+    })";
+  }
+  void TearDown() override {
+    std::error_code ignored;
+    std::filesystem::remove_all(dir_, ignored);
+  }
+  std::filesystem::path dir_, protocol_path_;
+};
+
+bool same(double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
+
+// The whole point of the in-memory study: it is the study `study create`,
+// `session run` and `analyze` would give, trial for trial and bit for bit,
+// without storing a sample.
+TEST_F(SimulatedStudyTest, EqualsTheStudyRunThroughTheDatabase) {
+  const std::filesystem::path db_path = dir_ / "study.db";
+  {
+    db::StudyDb db(db_path);
+    sessions::create_study(db, protocol_path_, "test");
+  }
+  for (const char* code : {"P01", "P02"}) {
+    sessions::SessionOptions o;
+    o.participant = code;
+    sessions::run_session(db_path, o);
+  }
+  const SimulatedStudyOptions options;
+  const analysis::StudyAnalysis stored = analysis::analyze_study_file(db_path, options.analysis);
+
+  const SimulatedStudy simulated =
+      simulate_study(protocols::load_protocol_file(protocol_path_), 2, 7, options);
+  const analysis::StudyAnalysis& mem = simulated.analysis;
+  EXPECT_EQ(simulated.trials_run, 8);
+  EXPECT_EQ(simulated.training_trials, 2);  // one per participant, one task
+  EXPECT_GT(simulated.updates, 8u * 1000u);
+  EXPECT_EQ(mem.settings, stored.settings);
+  EXPECT_EQ(mem.participants, stored.participants);
+  ASSERT_EQ(mem.trials.size(), stored.trials.size());
+  for (std::size_t i = 0; i < mem.trials.size(); ++i) {
+    const analysis::TrialRecord& x = mem.trials[i];
+    const analysis::TrialRecord& y = stored.trials[i];
+    EXPECT_EQ(x.trial_id, y.trial_id);
+    EXPECT_EQ(x.participant, y.participant);
+    EXPECT_EQ(x.setting, y.setting);
+    EXPECT_EQ(x.repetition, y.repetition);
+    EXPECT_EQ(x.problem, y.problem);
+    for (int h = 0; h < 2; ++h) {
+      for (analysis::Measure m : analysis::kAllMeasures) {
+        EXPECT_TRUE(same(x.value(m, h), y.value(m, h)))
+            << "trial " << x.trial_id << " hand " << h << " " << analysis::measure_column(m) << ": "
+            << x.value(m, h) << " vs " << y.value(m, h);
+      }
+    }
+  }
+  ASSERT_EQ(mem.friedman.size(), stored.friedman.size());
+  for (std::size_t i = 0; i < mem.friedman.size(); ++i) {
+    ASSERT_EQ(mem.friedman[i].test.result.has_value(), stored.friedman[i].test.result.has_value());
+    if (mem.friedman[i].test.result) {
+      EXPECT_EQ(mem.friedman[i].test.result->p, stored.friedman[i].test.result->p);
+    }
+  }
+}
+
+TEST_F(SimulatedStudyTest, ResizingCyclesTheProtocolsParticipants) {
+  const protocols::Protocol p = protocols::load_protocol_file(source_dir() / "examples/protocols/thesis_as_run.json");
+  const protocols::Protocol five = resized_protocol(p, 5, 99);
+  ASSERT_EQ(five.participants.size(), 5u);
+  EXPECT_EQ(five.participants[0].code, "P01");
+  EXPECT_EQ(five.participants[4].code, "P05");
+  EXPECT_EQ(five.seed, 99u);
+  // Explicit design: P03 takes S3's settings and tasks (dissection only), P04 S1's.
+  EXPECT_EQ(five.design.assignments.at("P03"), p.design.assignments.at("S3"));
+  EXPECT_EQ(five.participants[2].tasks, p.participants[2].tasks);
+  EXPECT_EQ(five.design.assignments.at("P04"), p.design.assignments.at("S1"));
+  EXPECT_THROW(resized_protocol(p, 0, 1), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace hapticlab::planning
