@@ -41,6 +41,8 @@ def rewrites():
          "bench loop measures in wall-clock time; 1 s shows it runs"),
         ("--port 5000", "--port " + port, "port 5000 may be taken on a CI machine"),
         ("127.0.0.1:5000", "127.0.0.1:" + port, "the same free port"),
+        ("--participants 3,5,8 --studies 200", "--participants 3 --studies 2",
+         "plan power's 600 studies take about half an hour on 2 cores; 2 show it runs"),
     ]
 
 
