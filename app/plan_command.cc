@@ -56,12 +56,12 @@ void write_power_csv(const fs::path& path, const std::vector<planning::PowerRow>
   const fs::path tmp = path.string() + ".tmp";
   {
     std::ofstream out(tmp);
-    out << "participants,method,task,setting,participant_tests_or_studies,significant,rate,wilson_low,"
-           "wilson_high,measure\n";
+    // tests: studies (pairwise) or participants' Table 3.4 tests (participant).
+    out << "participants,method,task,setting,measure,tests,significant,rate,wilson_low,wilson_high\n";
     for (const auto& r : rows) {
       out << r.participants << ',' << r.method << ',' << csv_text(r.task) << ',' << csv_text(r.setting) << ','
-          << r.tests << ',' << r.significant << ',' << format_number(r.rate) << ',' << format_number(r.wilson_low)
-          << ',' << format_number(r.wilson_high) << ',' << r.measure << '\n';
+          << r.measure << ',' << r.tests << ',' << r.significant << ',' << format_number(r.rate) << ','
+          << format_number(r.wilson_low) << ',' << format_number(r.wilson_high) << '\n';
     }
     out.flush();
     if (!out) throw std::runtime_error(tmp.string() + ": cannot write (disk full?)");

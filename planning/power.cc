@@ -23,6 +23,8 @@ std::vector<Finding> findings_of(const analysis::StudyAnalysis& a) {
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   std::vector<Finding> out;
   for (const analysis::PairwiseCell& c : a.pairwise) {
+    // No participant did both settings (in this task): not a test at all.
+    if (!c.p) continue;
     Finding f;
     f.method = "pairwise";
     f.task = c.task;
@@ -34,6 +36,7 @@ std::vector<Finding> findings_of(const analysis::StudyAnalysis& a) {
   }
   for (const analysis::FriedmanRow& r : a.friedman) {
     if (r.hand != -1) continue;  // the table's row: both hands as blocks
+    if (!r.test.result) continue;  // fewer than 2 settings with data: no test
     Finding f;
     f.method = "participant";
     f.task = r.task;
@@ -72,6 +75,7 @@ std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
   std::map<Key, PowerRow> rows;
   for (const StudyOutcome& o : outcomes) {
     for (const Finding& f : o.findings) {
+      if (std::isnan(f.p)) continue;  // not computable: not a test (see findings_of)
       PowerRow& r = rows[{o.participants, f.method, f.task, rank(f.setting), f.setting, f.measure}];
       r.participants = o.participants;
       r.method = f.method;

@@ -28,7 +28,7 @@ struct Finding {
   std::string measure;  // metrics.csv column, e.g. force_p95_N
   std::string participant;  // "participant" findings only
   bool significant = false;
-  double p = 0.0;  // NaN when the test could not be computed (then not significant)
+  double p = 0.0;  // tests that could not be computed (no data) are not findings
 };
 
 struct StudyOutcome {

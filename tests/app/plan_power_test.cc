@@ -86,8 +86,8 @@ TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
   ASSERT_EQ(two_rc, 0) << two;
   const std::string csv = read_text(dir_ / "one" / "power.csv");
   EXPECT_EQ(csv, read_text(dir_ / "two" / "power.csv"));
-  EXPECT_THAT(csv, HasSubstr("2,pairwise,clip,No Force Feedback,2,"));
-  EXPECT_THAT(csv, HasSubstr("3,participant,clip,,6,"));  // 2 studies x 3 participants' Table 3.4 tests
+  EXPECT_THAT(csv, HasSubstr("2,pairwise,clip,No Force Feedback,force_p95_N,2,"));
+  EXPECT_THAT(csv, HasSubstr("3,participant,clip,,force_p95_N,6,"));  // 2 studies x 3 participants' Table 3.4 tests
   EXPECT_THAT(one, HasSubstr("4 studies simulated"));
   // Another seed, other studies (with 2 x 2 x 5 measures x 2 methods, some rate differs).
   const auto [other_rc, other] = plan("--participants 2,3 --studies 2 --seed 10 --no-plots --out " + (dir_ / "other").string());
