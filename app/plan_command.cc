@@ -21,6 +21,7 @@
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
 #include "core/common/csv_format.h"
+#include "core/settings/settings_json.h"
 #include "db/sha256.h"
 #include "planning/power.h"
 #include "planning/power_store.h"
@@ -120,6 +121,7 @@ int run_plan_power(const PlanPowerOptions& o) {
   counts.erase(std::unique(counts.begin(), counts.end()), counts.end());
   // Refused before any simulation: a protocol without a control, or a
   // design that cannot take a participant count.
+  std::set<std::string> null_settings;
   {
     analysis::StudyAnalysis names;
     for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
@@ -130,6 +132,19 @@ int run_plan_power(const PlanPowerOptions& o) {
                                "; plan power compares every setting with the control");
     }
     for (int n : counts) (void)planning::resized_protocol(protocol, n, o.seed);
+    // A null setting: the control's parameters under another name. Any
+    // difference found for it is a false positive.
+    auto parameters = [](const NamedSettings& s) {
+      nlohmann::json j = settings_to_json(s);
+      j.erase("name");
+      j.erase("description");
+      return j;
+    };
+    const auto control = std::find_if(protocol.settings.begin(), protocol.settings.end(),
+                                      [&](const auto& s) { return s.settings.name == names.control; });
+    for (const auto& s : protocol.settings)
+      if (s.settings.name != names.control && parameters(s.settings) == parameters(control->settings))
+        null_settings.insert(s.settings.name);
   }
   if (o.plots) (void)analysis::find_gnuplot();
 
@@ -246,6 +261,7 @@ int run_plan_power(const PlanPowerOptions& o) {
     if (std::find(counts.begin(), counts.end(), s.participants) != counts.end() && s.index < o.studies)
       wanted.push_back(s);
   const std::vector<planning::PowerRow> rows = planning::summarize_power(wanted, setting_order);
+  const std::vector<planning::FalsePositiveRow> fp = planning::false_positive_rates(wanted, null_settings);
   const fs::path csv = fs::path(o.out) / "power.csv";
   write_power_csv(csv, rows);
   std::vector<std::string> figures;
@@ -267,35 +283,56 @@ int run_plan_power(const PlanPowerOptions& o) {
                       {"wilson_high", r.wilson_high}});
     }
     j["rows"] = list;
+    j["null_settings"] = null_settings;
+    nlohmann::json fps = nlohmann::json::array();
+    for (const auto& r : fp)
+      fps.push_back({{"participants", r.participants}, {"method", r.method}, {"measure", r.measure},
+                     {"studies", r.studies}, {"with_false_positive", r.with_false_positive}, {"rate", r.rate},
+                     {"wilson_low", r.wilson_low}, {"wilson_high", r.wilson_high}});
+    j["family_wise_false_positives"] = fps;
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
   std::printf("\n%zu studies simulated in %.1f s (%.1f million loop updates, none stored)\n", stored, elapsed_s,
               static_cast<double>(updates) / 1e6);
-  std::printf("\nPower for %s: share of simulated studies in which the setting differs significantly from the "
-              "control (Šidák level, thesis procedure), Wilson 95 %% interval\n", o.measure.c_str());
-  std::printf("%-12s %-24s", "task", "setting");
-  for (int n : counts) std::printf("  %16s", (std::to_string(n) + " participants").c_str());
-  std::printf("\n");
-  std::vector<std::pair<std::string, std::string>> lines;
-  for (const auto& r : rows)
-    if (r.method == "pairwise" && r.measure == o.measure &&
-        std::find(lines.begin(), lines.end(), std::make_pair(r.task, r.setting)) == lines.end())
-      lines.push_back({r.task, r.setting});
-  for (const auto& [task, setting] : lines) {
-    std::printf("%-12s %-24s", task.c_str(), setting.c_str());
-    for (int n : counts) {
-      const auto it = std::find_if(rows.begin(), rows.end(), [&](const planning::PowerRow& r) {
-        return r.method == "pairwise" && r.measure == o.measure && r.task == task && r.setting == setting &&
-               r.participants == n;
-      });
-      char cell[64] = "";
-      if (it != rows.end())
-        std::snprintf(cell, sizeof cell, "%3.0f%% [%2.0f,%3.0f]", 100 * it->rate, 100 * it->wilson_low,
-                      100 * it->wilson_high);
-      std::printf("  %16s", cell);
-    }
+  auto print_table = [&](const std::string& method, const char* title) {
+    std::printf("\n%s, %s: share of simulated studies in which the setting differs significantly from the "
+                "control (Šidák level), Wilson 95 %% interval\n", title, o.measure.c_str());
+    std::printf("%-12s %-32s", "task", "setting");
+    for (int n : counts) std::printf("  %16s", (std::to_string(n) + " participants").c_str());
     std::printf("\n");
+    std::vector<std::pair<std::string, std::string>> lines;
+    for (const auto& r : rows)
+      if (r.method == method && r.measure == o.measure &&
+          std::find(lines.begin(), lines.end(), std::make_pair(r.task, r.setting)) == lines.end())
+        lines.push_back({r.task, r.setting});
+    for (const auto& [task, setting] : lines) {
+      const std::string label = setting + (null_settings.count(setting) ? " (null)" : "");
+      std::printf("%-12s %-32s", task.c_str(), label.c_str());
+      for (int n : counts) {
+        const auto it = std::find_if(rows.begin(), rows.end(), [&](const planning::PowerRow& r) {
+          return r.method == method && r.measure == o.measure && r.task == task && r.setting == setting &&
+                 r.participants == n;
+        });
+        char cell[64] = "";
+        if (it != rows.end())
+          std::snprintf(cell, sizeof cell, "%3.0f%% [%2.0f,%3.0f]", 100 * it->rate, 100 * it->wilson_low,
+                        100 * it->wilson_high);
+        std::printf("  %16s", cell);
+      }
+      std::printf("\n");
+    }
+  };
+  print_table("pairwise", "Thesis procedure (pairwise Friedman, repetitions and hands as replicates)");
+  print_table("participant_pairwise", "Participant level (one value per participant, sign-flip test)");
+  if (!fp.empty()) {
+    std::printf("\nFamily-wise false positives: share of studies in which any comparison of a null setting "
+                "(a copy of the control) came out significant, %s\n", o.measure.c_str());
+    for (const auto& r : fp)
+      if (r.measure == o.measure)
+        std::printf("  %-22s %3d participants: %5.1f%% [%4.1f, %5.1f] of %d studies (nominal %g%%)\n",
+                    r.method.c_str(), r.participants, 100 * r.rate, 100 * r.wilson_low, 100 * r.wilson_high,
+                    r.studies, 100 * sim.analysis.alpha);
   }
   std::printf("\nParticipant-level Friedman (Table 3.4) on %s: share of participants' tests significant\n",
               o.measure.c_str());

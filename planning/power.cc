@@ -5,9 +5,11 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <tuple>
 
 #include "analysis/stats/wilson.h"
+#include "analysis/study/participant_level.h"
 #include "core/common/random.h"
 #include "protocols/rng.h"
 
@@ -32,6 +34,17 @@ std::vector<Finding> findings_of(const analysis::StudyAnalysis& a) {
     f.measure = analysis::measure_column(c.measure);
     f.p = c.p.value_or(kNaN);
     f.significant = c.significant && !c.gated;
+    out.push_back(std::move(f));
+  }
+  for (const analysis::ParticipantPairwiseCell& c : analysis::participant_pairwise(a)) {
+    if (!c.p) continue;
+    Finding f;
+    f.method = "participant_pairwise";
+    f.task = c.task;
+    f.setting = c.setting;
+    f.measure = analysis::measure_column(c.measure);
+    f.p = *c.p;
+    f.significant = c.significant;
     out.push_back(std::move(f));
   }
   for (const analysis::FriedmanRow& r : a.friedman) {
@@ -90,6 +103,42 @@ std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
   for (auto& [key, r] : rows) {
     r.rate = static_cast<double>(r.significant) / r.tests;
     const analysis::ProportionInterval ci = analysis::wilson_interval(r.significant, r.tests);
+    r.wilson_low = ci.low;
+    r.wilson_high = ci.high;
+    out.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace hapticlab::planning
+
+namespace hapticlab::planning {
+
+std::vector<FalsePositiveRow> false_positive_rates(const std::vector<StudyOutcome>& outcomes,
+                                                   const std::set<std::string>& null_settings) {
+  std::map<std::tuple<int, std::string, std::string>, FalsePositiveRow> rows;
+  if (null_settings.empty()) return {};
+  for (const StudyOutcome& o : outcomes) {
+    // Per study: did any comparison of a null setting (any task) come out significant?
+    std::map<std::pair<std::string, std::string>, bool> any;
+    for (const Finding& f : o.findings) {
+      if (f.method == "participant" || !null_settings.count(f.setting) || std::isnan(f.p)) continue;
+      bool& hit = any[{f.method, f.measure}];
+      hit = hit || f.significant;
+    }
+    for (const auto& [key, hit] : any) {
+      FalsePositiveRow& r = rows[{o.participants, key.first, key.second}];
+      r.participants = o.participants;
+      r.method = key.first;
+      r.measure = key.second;
+      ++r.studies;
+      if (hit) ++r.with_false_positive;
+    }
+  }
+  std::vector<FalsePositiveRow> out;
+  for (auto& [key, r] : rows) {
+    r.rate = static_cast<double>(r.with_false_positive) / r.studies;
+    const analysis::ProportionInterval ci = analysis::wilson_interval(r.with_false_positive, r.studies);
     r.wilson_low = ci.low;
     r.wilson_high = ci.high;
     out.push_back(r);

@@ -6,6 +6,7 @@
 // its power (or, for a setting that changes nothing, its false-positive
 // rate), with a Wilson 95 % interval.
 #include <cstdint>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,8 @@ struct Finding {
   // "pairwise": the setting against the control over all participants
   // (Tables 3.5-3.6), significant at the Šidák level and, as the thesis
   // did, only where some participant's Table 3.4 test was significant.
+  // "participant_pairwise": the setting against the control with one value
+  // per participant (analysis/study/participant_level.h), Šidák level.
   // "participant": one participant's Friedman across settings (Table 3.4,
   // hands as blocks); `setting` is empty.
   std::string method;
@@ -72,5 +75,22 @@ struct PowerRow {
 // Rows sorted by participants, method, task, setting (protocol order), measure.
 std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
                                       const std::vector<std::string>& setting_order);
+
+// The family-wise false-positive rate of each method: the share of studies
+// in which at least one comparison of a null setting (a copy of the control
+// under another name: nothing differs but the name) came out significant,
+// over every task, for one measure.
+struct FalsePositiveRow {
+  int participants = 0;
+  std::string method;
+  std::string measure;
+  int with_false_positive = 0;
+  int studies = 0;
+  double rate = 0.0;
+  double wilson_low = 0.0;
+  double wilson_high = 0.0;
+};
+std::vector<FalsePositiveRow> false_positive_rates(const std::vector<StudyOutcome>& outcomes,
+                                                   const std::set<std::string>& null_settings);
 
 }  // namespace hapticlab::planning

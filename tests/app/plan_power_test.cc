@@ -6,11 +6,14 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
 
 #include "tests/app/cli_process.h"
 #include "tests/testing/child_process.h"
@@ -115,6 +118,33 @@ TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
   const auto [fresh_rc, fresh] = plan("--participants 2 --studies 6 --no-plots --out " + (dir_ / "fresh").string());
   ASSERT_EQ(fresh_rc, 0) << fresh;
   EXPECT_EQ(read_text(out / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
+}
+
+// A copy of the control under another name is found as a null setting;
+// its comparisons are false positives, counted per method over the study.
+TEST_F(PlanPowerTest, ANullSettingIsFoundAndItsFalsePositivesCounted) {
+  const fs::path settings = source_dir() / "examples" / "settings";
+  protocol_ = dir_ / "null.json";
+  std::ofstream(protocol_) << R"({"study": "null", "tasks": ["clip"], "repetitions": {"clip": 2}, "settings": [")"
+                           << (settings / "high_fidelity.json").string()
+                           << R"(", {"name": "Copy", "description": "the control again"}, ")"
+                           << (settings / "friction.json").string()
+                           << R"("], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 5})";
+  const auto [rc, text] = plan("--studies 2 --no-plots --json --out " + (dir_ / "null").string());
+  ASSERT_EQ(rc, 0) << text;
+  const nlohmann::json j = nlohmann::json::parse(text.substr(text.find('{')));
+  EXPECT_EQ(j.at("null_settings"), nlohmann::json::array({"Copy"}));
+  std::set<std::string> methods;
+  for (const auto& r : j.at("family_wise_false_positives")) {
+    methods.insert(r.at("method").get<std::string>());
+    EXPECT_EQ(r.at("studies"), 2);
+  }
+  EXPECT_EQ(methods, (std::set<std::string>{"pairwise", "participant_pairwise"}));
+  // The null setting is compared like any other, by both methods.
+  int copy_rows = 0;
+  for (const auto& r : j.at("rows"))
+    if (r.at("setting") == "Copy") ++copy_rows;
+  EXPECT_EQ(copy_rows, 2 * 5);  // 2 methods x 5 measures, one task
 }
 
 TEST_F(PlanPowerTest, BadInputIsNamed) {
