@@ -148,7 +148,8 @@ TEST(ProtocolExamplesTest, EveryShippedProtocolLoadsAndPlans) {
     EXPECT_FALSE(plan.participants.empty()) << entry.path();
     ++count;
   }
-  EXPECT_EQ(count, 5);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch
+  EXPECT_EQ(count, 6);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch,
+                       // null_setting_check
 }
 
 TEST(ProtocolExamplesTest, ExternalPegTouchIsTheLabsOwnTask) {
