@@ -147,6 +147,34 @@ TEST_F(PlanPowerTest, ANullSettingIsFoundAndItsFalsePositivesCounted) {
   EXPECT_EQ(copy_rows, 2 * 5);  // 2 methods x 5 measures, one task
 }
 
+// A full disk while writing the output, for real (a small tmpfs in a
+// private mount namespace, as StorageFailureTest does): named, with what is
+// kept; the kept studies resume to the table of an undisturbed run.
+TEST_F(PlanPowerTest, AFullDiskIsNamedAndTheStoredStudiesResume) {
+  if (std::system("unshare -m sh -c 'mount -t tmpfs -o size=64k tmpfs /mnt' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "mounting a tmpfs needs root in a mount namespace";
+  const fs::path mnt = dir_ / "mnt";
+  fs::create_directories(mnt);
+  const std::string run = std::string(HAPTICLAB_CLI_PATH) + " plan power --protocol " + protocol_.string() +
+                          " --participants 2 --studies 5 --jobs 1 --no-plots --out ";
+  // 128 kB: the database and about 3 studies (its WAL grows ~30 kB a study).
+  const std::string script = "mount -t tmpfs -o size=128k tmpfs " + mnt.string() + " && " + run + mnt.string() +
+                             "/plan; rc=$?; mkdir -p " + (dir_ / "kept").string() + " && cp " + mnt.string() +
+                             "/plan/plan_power.db* " + (dir_ / "kept").string() + "/; exit $rc";
+  const auto [status, out] = testing::run_cli("unshare", "-m sh -c '" + script + "'");
+  EXPECT_EQ(status, 1) << out;
+  EXPECT_THAT(out, HasSubstr("disk is full"));
+  EXPECT_THAT(out, HasSubstr("studies stored before are kept"));
+  const int kept = stored_studies(dir_ / "kept" / "plan_power.db");
+  ASSERT_GE(kept, 0) << "the database on the full disk is unreadable";
+  ASSERT_LT(kept, 5);
+  const auto [rc, text] = testing::run_cli(HAPTICLAB_CLI_PATH, run.substr(run.find("plan power")) + (dir_ / "kept").string());
+  ASSERT_EQ(rc, 0) << text;
+  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 5 --no-plots --out " + (dir_ / "fresh").string());
+  ASSERT_EQ(fresh_rc, 0) << fresh;
+  EXPECT_EQ(read_text(dir_ / "kept" / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
+}
+
 TEST_F(PlanPowerTest, BadInputIsNamed) {
   auto [rc, text] = plan("--studies 0 --out " + (dir_ / "a").string());
   EXPECT_EQ(rc, 2);
