@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/study/headline_format.h"
 #include "analysis/report/gnuplot.h"
 #include "analysis/report/report.h"
 #include "analysis/stats/data_error.h"

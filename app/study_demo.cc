@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/common/build_info.h"
+#include "analysis/study/headline_format.h"
 #include "analysis/report/report.h"
 #include "analysis/study/metrics_csv.h"
 #include "analysis/study/study_analysis.h"

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "analysis/study/ordered_names.h"
+#include "analysis/study/statistics_tables.h"
 #include "analysis/study/trial_reader.h"
 #include "core/sim/trial_runner.h"
 #include "db/sample_codec.h"
@@ -14,6 +16,8 @@
 
 namespace hapticlab::planning {
 namespace {
+
+using analysis::add_unique;
 
 std::string participant_code(int i, int count) {
   char code[16];
@@ -33,10 +37,6 @@ struct KeptSample {
 
 analysis::Vec3d as_stored(const Vec3& v) {
   return {db::to_stored_float(v[0]), db::to_stored_float(v[1]), db::to_stored_float(v[2])};
-}
-
-void add_unique(std::vector<std::string>& list, const std::string& value) {
-  if (std::find(list.begin(), list.end(), value) == list.end()) list.push_back(value);
 }
 
 }  // namespace

@@ -1,3 +1,4 @@
+#include "analysis/study/headline_format.h"
 #include "analysis/report/report.h"
 
 #include <algorithm>

@@ -204,28 +204,4 @@ StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const Ana
 // order). Throws DataError naming the settings when there is none.
 void choose_control(StudyAnalysis& a, const AnalysisOptions& options);
 
-// Runs the statistics on records already computed (analyze_study calls it;
-// tests can feed hand-made records). Fills every table of `analysis`.
-void run_statistics(StudyAnalysis& analysis);
-
-// Short label for a setting in plots: initials of multi-word names
-// ("No Force Feedback" -> "NFF", "Inertia + Backlash" -> "I+B"), else the name.
-std::string setting_abbreviation(const std::string& name);
-
-// p-value as the thesis prints it: 2 significant digits, scientific below 1e-3.
-std::string format_p(double p);
-
-// A decision level as tables print it: 4 significant digits ("0.007301").
-std::string format_level(double level);
-
-// p printed next to its decision level: the thesis' form, with more
-// significant digits when that would hide which side of the level p is on
-// (0.00729 and 0.00734 against 0.007301 print as "0.00729" and "0.00734",
-// not both "0.0073"). The printed value compares with format_level(level) as
-// p compares with level.
-std::string format_p(double p, double level);
-
-// Tables 3.4–3.6 (plus the trial counts) as plain text for a terminal.
-std::string format_headline_tables(const StudyAnalysis& analysis);
-
 }  // namespace hapticlab::analysis

@@ -1,3 +1,5 @@
+#include "analysis/study/headline_format.h"
+#include "analysis/study/statistics_tables.h"
 #include "analysis/study/study_analysis.h"
 
 #include <cmath>
