@@ -83,17 +83,17 @@ class PlanPowerTest : public ::testing::Test {
 };
 
 TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
-  const auto [one_rc, one] = plan("--participants 2,3 --studies 2 --seed 9 --jobs 1 --no-plots --out " + (dir_ / "one").string());
+  const auto [one_rc, one] = plan("--participants 2 --studies 2 --seed 9 --jobs 1 --no-plots --out " + (dir_ / "one").string());
   ASSERT_EQ(one_rc, 0) << one;
-  const auto [two_rc, two] = plan("--participants 3,2 --studies 2 --seed 9 --jobs 2 --no-plots --out " + (dir_ / "two").string());
+  const auto [two_rc, two] = plan("--participants 2 --studies 2 --seed 9 --jobs 2 --no-plots --out " + (dir_ / "two").string());
   ASSERT_EQ(two_rc, 0) << two;
   const std::string csv = read_text(dir_ / "one" / "power.csv");
   EXPECT_EQ(csv, read_text(dir_ / "two" / "power.csv"));
   EXPECT_THAT(csv, HasSubstr("2,pairwise,clip,No Force Feedback,force_p95_N,2,"));
-  EXPECT_THAT(csv, HasSubstr("3,participant,clip,,force_p95_N,6,"));  // 2 studies x 3 participants' Table 3.4 tests
-  EXPECT_THAT(one, HasSubstr("4 studies simulated"));
-  // Another seed, other studies (with 2 x 2 x 5 measures x 2 methods, some rate differs).
-  const auto [other_rc, other] = plan("--participants 2,3 --studies 2 --seed 10 --no-plots --out " + (dir_ / "other").string());
+  EXPECT_THAT(csv, HasSubstr("2,participant,clip,,force_p95_N,4,"));  // 2 studies x 2 participants' Table 3.4 tests
+  EXPECT_THAT(one, HasSubstr("2 studies simulated"));
+  // Another seed, other studies (2 studies x 5 measures x 3 methods: some rate differs).
+  const auto [other_rc, other] = plan("--participants 2 --studies 2 --seed 10 --no-plots --out " + (dir_ / "other").string());
   ASSERT_EQ(other_rc, 0) << other;
   EXPECT_NE(csv, read_text(dir_ / "other" / "power.csv"));
 }
@@ -101,7 +101,7 @@ TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
 TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
   const fs::path out = dir_ / "killed";
   testing::ChildProcess child({HAPTICLAB_CLI_PATH, "plan", "power", "--protocol", protocol_.string(), "--participants",
-                               "2", "--studies", "6", "--jobs", "1", "--no-plots", "--out", out.string()},
+                               "2", "--studies", "4", "--jobs", "1", "--no-plots", "--out", out.string()},
                               (dir_ / "child.log").string());
   ASSERT_TRUE(testing::wait_until([&] { return fs::exists(out / "plan_power.db") && stored_studies(out / "plan_power.db") >= 2; },
                                   std::chrono::seconds(60)))
@@ -110,12 +110,12 @@ TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
   child.wait();
   const int kept = stored_studies(out / "plan_power.db");
   ASSERT_GE(kept, 2);
-  ASSERT_LT(kept, 6) << "the run finished before it was killed; the test proves nothing";
-  const auto [rc, text] = plan("--participants 2 --studies 6 --jobs 1 --no-plots --out " + out.string());
+  ASSERT_LT(kept, 4) << "the run finished before it was killed; the test proves nothing";
+  const auto [rc, text] = plan("--participants 2 --studies 4 --jobs 1 --no-plots --out " + out.string());
   ASSERT_EQ(rc, 0) << text;
-  EXPECT_THAT(text, HasSubstr(std::to_string(kept) + " of 6 studies already in"));
-  EXPECT_EQ(stored_studies(out / "plan_power.db"), 6);
-  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 6 --no-plots --out " + (dir_ / "fresh").string());
+  EXPECT_THAT(text, HasSubstr(std::to_string(kept) + " of 4 studies already in"));
+  EXPECT_EQ(stored_studies(out / "plan_power.db"), 4);
+  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 4 --no-plots --out " + (dir_ / "fresh").string());
   ASSERT_EQ(fresh_rc, 0) << fresh;
   EXPECT_EQ(read_text(out / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
 }
@@ -156,7 +156,7 @@ TEST_F(PlanPowerTest, AFullDiskIsNamedAndTheStoredStudiesResume) {
   const fs::path mnt = dir_ / "mnt";
   fs::create_directories(mnt);
   const std::string run = std::string(HAPTICLAB_CLI_PATH) + " plan power --protocol " + protocol_.string() +
-                          " --participants 2 --studies 5 --jobs 1 --no-plots --out ";
+                          " --participants 2 --studies 4 --jobs 1 --no-plots --out ";
   // 128 kB: the database and about 3 studies (its WAL grows ~30 kB a study).
   const std::string script = "mount -t tmpfs -o size=128k tmpfs " + mnt.string() + " && " + run + mnt.string() +
                              "/plan; rc=$?; mkdir -p " + (dir_ / "kept").string() + " && cp " + mnt.string() +
@@ -167,10 +167,10 @@ TEST_F(PlanPowerTest, AFullDiskIsNamedAndTheStoredStudiesResume) {
   EXPECT_THAT(out, HasSubstr("studies stored before are kept"));
   const int kept = stored_studies(dir_ / "kept" / "plan_power.db");
   ASSERT_GE(kept, 0) << "the database on the full disk is unreadable";
-  ASSERT_LT(kept, 5);
+  ASSERT_LT(kept, 4);
   const auto [rc, text] = testing::run_cli(HAPTICLAB_CLI_PATH, run.substr(run.find("plan power")) + (dir_ / "kept").string());
   ASSERT_EQ(rc, 0) << text;
-  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 5 --no-plots --out " + (dir_ / "fresh").string());
+  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 4 --no-plots --out " + (dir_ / "fresh").string());
   ASSERT_EQ(fresh_rc, 0) << fresh;
   EXPECT_EQ(read_text(dir_ / "kept" / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
 }
