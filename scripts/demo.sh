@@ -3,5 +3,7 @@
 #   scripts/demo.sh [demo options...]    (e.g. --out DIR, --quick)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh build
+# Only what the demo runs: the hapticlab tool (the test suite is most of a
+# full build; scripts/test.sh builds it in the same directory).
+HAPTICLAB_TARGETS=hapticlab_cli scripts/setup.sh build
 build/app/hapticlab demo "$@"

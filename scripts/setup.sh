@@ -2,6 +2,8 @@
 # Installs HapticLab's build dependencies (Debian 12 packages) if any is
 # missing, then configures and builds into a build directory.
 #   scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
+# HAPTICLAB_TARGETS="t1 t2" builds only those targets (scripts/demo.sh:
+# the command-line tool alone, not the test suite); default: everything.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -26,4 +28,6 @@ fi
 
 echo "==> building in $build_dir"
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
-cmake --build "$build_dir" -j "$(nproc)"
+targets=()
+for t in ${HAPTICLAB_TARGETS:-}; do targets+=(--target "$t"); done
+cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}"
