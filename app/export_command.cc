@@ -5,11 +5,13 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "db/export_csv.h"
+#include "db/sample_codec.h"
 #include "db/study_db.h"
 
 namespace hapticlab::app {
@@ -22,7 +24,17 @@ struct ExportOptions {
   std::optional<std::int64_t> trial;
   std::string format;
   std::string out;
+  std::vector<std::string> channels;
+  std::vector<std::string> participants, settings, statuses;
+  db::ExportSelection selection;
 };
+
+// "--channels": every name must be a channel; the message lists them.
+std::string all_channel_names() {
+  std::string names;
+  for (const char* n : db::kChannelNames) names += (names.empty() ? "" : ", ") + std::string(n);
+  return names;
+}
 
 // "1..12", or the ids listed when they are not contiguous (re-queued
 // trials and several studies leave gaps only rarely; a short list helps).
@@ -60,6 +72,28 @@ void run_export(const ExportOptions& opt) {
   options.integrity = db::OpenOptions::Integrity::kFull;
   db::StudyDb db(opt.db, options);
   std::vector<db::BadChunk> bad;
+  db::ExportSelection selection = opt.selection;
+  for (const std::string& name : opt.channels) selection.channels.push_back(*db::channel_index(name));
+  selection.participants.insert(opt.participants.begin(), opt.participants.end());
+  selection.settings.insert(opt.settings.begin(), opt.settings.end());
+  selection.statuses.insert(opt.statuses.begin(), opt.statuses.end());
+  if (opt.trial && (!selection.participants.empty() || !selection.settings.empty() || !selection.statuses.empty() ||
+                    selection.one_file))
+    throw CLI::ValidationError("--trial", "exports one trial; --participant, --setting, --status and --one-file "
+                                          "select from a whole study: give one or the other");
+  // A selection naming nothing in the study is a typo, not an empty export.
+  auto check_names = [&](const std::set<std::string>& wanted, const char* option, auto field) {
+    std::set<std::string> known;
+    for (const db::TrialRow& t : db.trials()) known.insert(field(t));
+    for (const std::string& w : wanted) {
+      if (known.count(w)) continue;
+      std::string list;
+      for (const std::string& k : known) list += (list.empty() ? "" : ", ") + ("'" + k + "'");
+      throw CLI::ValidationError(option, "'" + w + "' is not in " + opt.db + "; it holds: " + list);
+    }
+  };
+  check_names(selection.participants, "--participant", [](const db::TrialRow& t) { return t.participant_code; });
+  check_names(selection.settings, "--setting", [](const db::TrialRow& t) { return t.setting_name; });
 
   std::vector<fs::path> files;
   if (opt.trial) {
@@ -69,7 +103,7 @@ void run_export(const ExportOptions& opt) {
     if (!found)
       throw std::runtime_error("--trial: no trial " + std::to_string(*opt.trial) + " in " + opt.db + "; " +
                                trial_range(trials));
-    files = db::export_trial_csv(db, *opt.trial, opt.out, &bad);
+    files = db::export_trial_csv(db, *opt.trial, opt.out, &bad, selection);
   } else {
     const std::vector<db::StudyRow> studies = db.studies();
     if (studies.empty())
@@ -78,7 +112,7 @@ void run_export(const ExportOptions& opt) {
       // One study per file is the rule; should there be more, each gets a
       // folder so their trials.csv do not overwrite each other.
       const fs::path dir = studies.size() == 1 ? fs::path(opt.out) : fs::path(opt.out) / ("study" + std::to_string(s.id));
-      const std::vector<fs::path> written = db::export_study_csv(db, s.id, dir, &bad);
+      const std::vector<fs::path> written = db::export_study_csv(db, s.id, dir, &bad, selection);
       files.insert(files.end(), written.begin(), written.end());
     }
   }
@@ -117,6 +151,27 @@ void add_export_command(CLI::App& app) {
                   "_samples.csv (one row per update per instrument, SI units in the column names) and "
                   "_events.csv; each file is written to NAME.tmp and renamed when complete")
       ->required();
+  cmd->add_option("--channels", opt->channels,
+                  "Only these sample channels, comma-separated, in this order (default: all): " + all_channel_names())
+      ->delimiter(',')
+      ->check(CLI::Validator(
+          [](std::string& name) {
+            return db::channel_index(name) ? std::string() : "'" + name + "' is not a channel; channels: " +
+                                                                  all_channel_names();
+          },
+          "CHANNEL"));
+  cmd->add_option("--every", opt->selection.every,
+                  "Keep every N-th update (rows whose tick is a multiple of N; both instruments), N >= 1")
+      ->capture_default_str()
+      ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1000000}));
+  cmd->add_option("--participant", opt->participants, "Only this participant's trials (repeatable)");
+  cmd->add_option("--setting", opt->settings, "Only trials under this setting name (repeatable)");
+  cmd->add_option("--status", opt->statuses, "Only trials with this status (repeatable): complete, aborted, running")
+      ->check(CLI::IsMember({"complete", "aborted", "running"}));
+  cmd->add_flag("--one-file", opt->selection.one_file,
+                "One samples.csv and one events.csv for all the selected trials (beside trials.csv), not a pair "
+                "per trial");
+  cmd->add_flag("--gzip", opt->selection.gzip, "Write FILE.csv.gz (gzip) instead of FILE.csv");
   cmd->callback([opt] { run_export(*opt); });
 }
 

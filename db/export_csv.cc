@@ -1,12 +1,15 @@
 #include "db/export_csv.h"
 
 #include <cctype>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 #include "core/common/csv_format.h"
 #include "core/io/output_file.h"
 #include "db/sample_codec.h"
+
+#include <zlib.h>
 
 namespace hapticlab::db {
 namespace {
@@ -24,19 +27,56 @@ std::string slug(std::string_view text) {
 
 // One export file, complete or absent (core/io/output_file.h): a full disk
 // names the file and the cause, and leaves no truncated CSV.
+// With gzip, the text goes through zlib's deflate (gzip header, level 6)
+// on its way into the file.
 class CsvFile {
  public:
-  explicit CsvFile(std::filesystem::path path) : file_(std::move(path)) {}
+  CsvFile(std::filesystem::path path, bool gzip)
+      : file_(gzip ? std::filesystem::path(path.string() + ".gz") : std::move(path)), gzip_(gzip) {
+    if (gzip_ && deflateInit2(&z_, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+      throw std::runtime_error(file_.path().string() + ": zlib could not start");
+  }
+  ~CsvFile() {
+    if (gzip_) deflateEnd(&z_);
+  }
+  CsvFile(const CsvFile&) = delete;
+  CsvFile& operator=(const CsvFile&) = delete;
   void line(std::string& text) {
     text += '\n';
-    file_.stream().write(text.data(), static_cast<std::streamsize>(text.size()));
+    if (gzip_) {
+      buffer_ += text;
+      if (buffer_.size() >= (1u << 16)) deflate_buffer(Z_NO_FLUSH);
+    } else {
+      file_.stream().write(text.data(), static_cast<std::streamsize>(text.size()));
+    }
     text.clear();
   }
-  void commit() { file_.commit(); }
+  void commit() {
+    if (gzip_) deflate_buffer(Z_FINISH);
+    file_.commit();
+  }
   const std::filesystem::path& path() const { return file_.path(); }
 
  private:
+  void deflate_buffer(int flush) {
+    z_.next_in = reinterpret_cast<Bytef*>(buffer_.data());
+    z_.avail_in = static_cast<uInt>(buffer_.size());
+    char out[1 << 15];
+    int rc = Z_OK;
+    do {
+      z_.next_out = reinterpret_cast<Bytef*>(out);
+      z_.avail_out = sizeof out;
+      rc = deflate(&z_, flush);
+      if (rc == Z_STREAM_ERROR) throw std::runtime_error(file_.path().string() + ": zlib deflate failed");
+      file_.stream().write(out, static_cast<std::streamsize>(sizeof out - z_.avail_out));
+    } while (z_.avail_out == 0 || (flush == Z_FINISH && rc != Z_STREAM_END));
+    buffer_.clear();
+  }
+
   AtomicOutputFile file_;
+  bool gzip_;
+  z_stream z_{};
+  std::string buffer_;
 };
 
 void put_trial_key(std::string& line, const TrialRow& t) {
@@ -51,32 +91,41 @@ void put_trial_key(std::string& line, const TrialRow& t) {
   append_number(line, t.repetition);
 }
 
-void put_sample(std::string& line, const StoredSample& s) {
+// Channel c of kChannelNames (sample_codec.h): dt_s, t_s, then the 23
+// float32 channels, then engine_status, device_status, in_contact.
+void put_channel(std::string& line, const StoredSample& s, std::size_t c) {
   const InstrumentSample& v = s.value;
   line += ',';
-  append_number(line, s.tick);
-  line += ',';
-  append_number(line, s.dt_s);
-  line += ',';
-  append_number(line, s.t_s);
   // Stored as float32: printing the float keeps the text short and exact.
-  auto f = [&](double x) {
-    line += ',';
-    append_number(line, to_stored_float(x));
-  };
-  for (double x : v.raw_position) f(x);
-  for (double x : v.degraded_position) f(x);
-  for (double x : v.tip_position_m) f(x);
-  for (double x : v.tip_velocity_m_per_s) f(x);
-  for (double x : v.ve_force_N) f(x);
-  for (double x : v.displayed_force_N) f(x);
-  for (double x : v.joint_force) f(x);
-  line += ',';
-  append_number(line, v.engine_status);
-  line += ',';
-  append_number(line, s.device_status);
-  line += v.in_contact ? ",1" : ",0";
+  auto f = [&](double x) { append_number(line, to_stored_float(x)); };
+  if (c == 0) append_number(line, s.dt_s);
+  else if (c == 1) append_number(line, s.t_s);
+  else if (c < 7) f(v.raw_position[c - 2]);
+  else if (c < 10) f(v.degraded_position[c - 7]);
+  else if (c < 13) f(v.tip_position_m[c - 10]);
+  else if (c < 16) f(v.tip_velocity_m_per_s[c - 13]);
+  else if (c < 19) f(v.ve_force_N[c - 16]);
+  else if (c < 22) f(v.displayed_force_N[c - 19]);
+  else if (c < 25) f(v.joint_force[c - 22]);
+  else if (c == 25) append_number(line, v.engine_status);
+  else if (c == 26) append_number(line, s.device_status);
+  else line += v.in_contact ? "1" : "0";
 }
+
+std::vector<std::size_t> channels_of(const ExportSelection& selection) {
+  if (!selection.channels.empty()) return selection.channels;
+  std::vector<std::size_t> all(kChunkChannels);
+  for (std::size_t c = 0; c < all.size(); ++c) all[c] = c;
+  return all;
+}
+
+std::string samples_header(const std::vector<std::size_t>& channels) {
+  std::string line = "trial_id,participant,task,setting,repetition,instrument,tick";
+  for (std::size_t c : channels) line += std::string(",") + kChannelNames[c];
+  return line;
+}
+
+const char* const kEventsHeader = "trial_id,participant,task,setting,repetition,t_s,type,instrument,item_index,detail";
 
 // Damaged chunks with nobody to report them to are an error.
 void refuse_unreported(const StudyDb& db, const std::vector<BadChunk>& bad) {
@@ -93,22 +142,17 @@ std::filesystem::path trial_stem(const std::filesystem::path& dir, const TrialRo
 
 }  // namespace
 
-std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t trial_id,
-                                                    const std::filesystem::path& out_dir,
-                                                    std::vector<BadChunk>* bad_chunks) {
-  const TrialRow t = db.trial(trial_id);
-  std::filesystem::create_directories(out_dir);
-  const std::string stem = trial_stem(out_dir, t).string();
-  std::string line;
+namespace {
 
-  CsvFile samples(stem + "_samples.csv");
-  line = "trial_id,participant,task,setting,repetition,instrument,tick";
-  for (const char* name : kChannelNames) line += std::string(",") + name;
-  samples.line(line);
+// The trial's sample rows and event rows, appended to the two files.
+void write_trial_rows(StudyDb& db, const TrialRow& t, CsvFile& samples, CsvFile& events,
+                      std::vector<BadChunk>* bad_chunks, const ExportSelection& selection) {
+  const std::vector<std::size_t> channels = channels_of(selection);
+  std::string line;
   std::vector<StoredSample> left, right;
   std::vector<BadChunk> bad;
-  read_samples(db.connection(), trial_id, 0, left, bad);
-  read_samples(db.connection(), trial_id, 1, right, bad);
+  read_samples(db.connection(), t.id, 0, left, bad);
+  read_samples(db.connection(), t.id, 1, right, bad);
   if (bad_chunks == nullptr) refuse_unreported(db, bad);
   else bad_chunks->insert(bad_chunks->end(), bad.begin(), bad.end());
   // Merge by tick, left first within a tick.
@@ -116,16 +160,14 @@ std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t tr
   while (i < left.size() || k < right.size()) {
     const bool take_left = k == right.size() || (i < left.size() && left[i].tick <= right[k].tick);
     const StoredSample& s = take_left ? left[i++] : right[k++];
+    if (s.tick % selection.every != 0) continue;
     put_trial_key(line, t);
-    line += take_left ? ",0" : ",1";
-    put_sample(line, s);
+    line += take_left ? ",0," : ",1,";
+    append_number(line, s.tick);
+    for (std::size_t c : channels) put_channel(line, s, c);
     samples.line(line);
   }
-
-  CsvFile events(stem + "_events.csv");
-  line = "trial_id,participant,task,setting,repetition,t_s,type,instrument,index,detail";
-  events.line(line);
-  for (const EventRow& e : db.events(trial_id)) {
+  for (const EventRow& e : db.events(t.id)) {
     put_trial_key(line, t);
     line += ',';
     append_number(line, e.t_s);
@@ -139,6 +181,36 @@ std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t tr
     append_csv_text(line, e.detail);
     events.line(line);
   }
+}
+
+bool selected(const TrialRow& t, const ExportSelection& s) {
+  return (s.participants.empty() || s.participants.count(t.participant_code)) &&
+         (s.settings.empty() || s.settings.count(t.setting_name)) &&
+         (s.statuses.empty() || s.statuses.count(to_string(t.status)));
+}
+
+}  // namespace
+
+std::optional<std::size_t> channel_index(std::string_view name) {
+  for (std::size_t c = 0; c < kChannelNames.size(); ++c)
+    if (name == kChannelNames[c]) return c;
+  return std::nullopt;
+}
+
+std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t trial_id,
+                                                    const std::filesystem::path& out_dir,
+                                                    std::vector<BadChunk>* bad_chunks,
+                                                    const ExportSelection& selection) {
+  const TrialRow t = db.trial(trial_id);
+  std::filesystem::create_directories(out_dir);
+  const std::string stem = trial_stem(out_dir, t).string();
+  CsvFile samples(stem + "_samples.csv", selection.gzip);
+  CsvFile events(stem + "_events.csv", selection.gzip);
+  std::string line = samples_header(channels_of(selection));
+  samples.line(line);
+  line = kEventsHeader;
+  events.line(line);
+  write_trial_rows(db, t, samples, events, bad_chunks, selection);
   samples.commit();
   events.commit();
   return {samples.path(), events.path()};
@@ -146,16 +218,27 @@ std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t tr
 
 std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t study_id,
                                                     const std::filesystem::path& out_dir,
-                                                    std::vector<BadChunk>* bad_chunks) {
+                                                    std::vector<BadChunk>* bad_chunks,
+                                                    const ExportSelection& selection) {
   std::filesystem::create_directories(out_dir);
   std::vector<std::filesystem::path> written;
-  CsvFile index(out_dir / "trials.csv");
+  CsvFile index(out_dir / "trials.csv", selection.gzip);
+  std::optional<CsvFile> all_samples, all_events;
+  if (selection.one_file) {
+    all_samples.emplace(out_dir / "samples.csv", selection.gzip);
+    all_events.emplace(out_dir / "events.csv", selection.gzip);
+    std::string header = samples_header(channels_of(selection));
+    all_samples->line(header);
+    header = kEventsHeader;
+    all_events->line(header);
+  }
   std::string line =
       "trial_id,participant,task,setting,repetition,block,position,status,started_unix_s,ended_unix_s,"
       "abort_reason,updates,loop_count,loop_p50_period_s,loop_p99_period_s,loop_max_period_s,"
       "loop_mean_period_s,loop_overruns,dropped_samples,dropped_events,device_counters";
   index.line(line);
   for (const TrialRow& t : db.trials(study_id)) {
+    if (!selected(t, selection)) continue;
     put_trial_key(line, t);
     line += ',';
     append_number(line, t.block);
@@ -194,10 +277,19 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
     line += ',';
     append_csv_text(line, counters);
     index.line(line);
-    if (t.status != TrialStatus::kPlanned) {
-      const auto files = export_trial_csv(db, t.id, out_dir, bad_chunks);
+    if (t.status == TrialStatus::kPlanned) continue;
+    if (selection.one_file) {
+      write_trial_rows(db, t, *all_samples, *all_events, bad_chunks, selection);
+    } else {
+      const auto files = export_trial_csv(db, t.id, out_dir, bad_chunks, selection);
       written.insert(written.end(), files.begin(), files.end());
     }
+  }
+  if (selection.one_file) {
+    all_samples->commit();
+    all_events->commit();
+    written.push_back(all_samples->path());
+    written.push_back(all_events->path());
   }
   index.commit();
   written.push_back(index.path());

@@ -8,6 +8,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include "db/study_db.h"
 
@@ -137,6 +138,67 @@ TEST_F(ExportCommandTest, ErrorsNameTheValueAndWhatIsAllowed) {
   EXPECT_THAT(error_of({"--db", text.string(), "--format", "csv", "--out", out}),
               AllOf(HasSubstr(text.string()), HasSubstr("not an SQLite database")));
   EXPECT_FALSE(fs::exists(out)) << "nothing is written when the command fails";
+}
+
+}  // namespace
+}  // namespace hapticlab::app
+
+namespace hapticlab::app {
+namespace {
+
+// Export options (issue 16): channels, every N-th update, selection, one
+// file, gzip. The fixture's complete trial has ticks 0..2 of both hands.
+TEST_F(ExportCommandTest, ChannelsEveryAndSelection) {
+  const fs::path out = dir_ / "sel";
+  run({"--db", db_path_.string(), "--format", "csv", "--out", out.string(), "--channels", "t_s,ve_force_z_N",
+       "--every", "2", "--status", "complete", "--one-file"});
+  const std::vector<std::string> samples = lines(out / "samples.csv");
+  // Ticks 0 and 2 (multiples of 2), left then right: 4 rows.
+  ASSERT_EQ(samples.size(), 1u + 4u);
+  EXPECT_EQ(samples[0], "trial_id,participant,task,setting,repetition,instrument,tick,t_s,ve_force_z_N");
+  const std::string id = std::to_string(complete_);
+  EXPECT_EQ(samples[1], id + ",S07,clip,No FFB,1,0,0,0,0.5");
+  EXPECT_EQ(samples[2], id + ",S07,clip,No FFB,1,1,0,0,1");
+  EXPECT_EQ(samples[3], id + ",S07,clip,No FFB,1,0,2,0.002,0.5");
+  // Only the complete trial: trials.csv lists it alone; the running one's event file is not written.
+  const std::vector<std::string> trials = lines(out / "trials.csv");
+  ASSERT_EQ(trials.size(), 2u);
+  EXPECT_THAT(trials[1], HasSubstr(",complete,"));
+  EXPECT_EQ(lines(out / "events.csv").size(), 2u);
+  EXPECT_EQ(lines(out / "events.csv")[0], "trial_id,participant,task,setting,repetition,t_s,type,instrument,item_index,detail");
+}
+
+// The gzip file decompresses to the plain file, byte for byte (zlib here,
+// gzip -dc from the shell in the README).
+TEST_F(ExportCommandTest, GzipIsThePlainFileCompressed) {
+  run({"--db", db_path_.string(), "--format", "csv", "--out", (dir_ / "plain").string(), "--one-file"});
+  run({"--db", db_path_.string(), "--format", "csv", "--out", (dir_ / "gz").string(), "--one-file", "--gzip"});
+  for (const char* name : {"samples.csv", "events.csv", "trials.csv"}) {
+    ASSERT_FALSE(fs::exists(dir_ / "gz" / name));
+    gzFile gz = gzopen((dir_ / "gz" / (std::string(name) + ".gz")).c_str(), "rb");
+    ASSERT_NE(gz, nullptr) << name;
+    std::string text;
+    char buffer[4096];
+    for (int n; (n = gzread(gz, buffer, sizeof buffer)) > 0;) text.append(buffer, static_cast<std::size_t>(n));
+    gzclose(gz);
+    std::ifstream plain(dir_ / "plain" / name, std::ios::binary);
+    const std::string expected((std::istreambuf_iterator<char>(plain)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text, expected) << name;
+    EXPECT_GT(text.size(), 10u);
+  }
+}
+
+TEST_F(ExportCommandTest, BadSelectionsAreNamed) {
+  const std::string out = (dir_ / "bad").string();
+  EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--channels", "t_s,force"}),
+              AllOf(HasSubstr("'force' is not a channel"), HasSubstr("ve_force_z_N")));
+  EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--setting", "Friction"}),
+              AllOf(HasSubstr("--setting"), HasSubstr("'Friction' is not in"), HasSubstr("'No FFB'")));
+  EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--every", "0"}),
+              HasSubstr("--every"));
+  EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--trial",
+                        std::to_string(complete_), "--participant", "S07"}),
+              HasSubstr("--trial"));
 }
 
 }  // namespace

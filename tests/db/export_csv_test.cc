@@ -169,7 +169,7 @@ TEST(ExportCsv, OneTrialWritesEverySampleAndEventReadingBackToTheStoredValues) {
   const std::vector<Row> events = read_csv(files[1]);
   ASSERT_EQ(events.size(), 3u);
   EXPECT_EQ(events[0], (Row{"trial_id", "participant", "task", "setting", "repetition", "t_s", "type", "instrument",
-                            "index", "detail"}));
+                            "item_index", "detail"}));
   const std::string id = std::to_string(s.complete);
   EXPECT_EQ(events[1], (Row{id, "P01", "dissection", "All Degradations", "1", "0.012", "contact_start", "1", "0", ""}));
   EXPECT_EQ(events[2], (Row{id, "P01", "dissection", "All Degradations", "1", "0.03", "operator_note", "-1", "0",
