@@ -39,6 +39,11 @@ void bench_wall_loop(double seconds, double rate_Hz, double probe_s, const Realt
   const SimTrialResult r = run_sim_trial(c, sink);
   const LoopTimingSummary& t = r.timing;
   const double nominal_us = 1e6 / rate_Hz;
+  // A machine that stalls the loop past the watchdog's limit ends the run
+  // early, as it would end a trial (docs/safety.md): the figures cover less.
+  if (r.stop_reason == StopReason::kWatchdog || r.stop_reason == StopReason::kSafetyLimit)
+    std::fprintf(stderr, "hapticlab bench loop: stopped after %.2f s by the %s: %s\n", r.duration_s,
+                 to_string(r.stop_reason), describe(r.safety_trip).c_str());
   if (json) {
     nlohmann::json j = {{"benchmark", "loop"},       {"clock", "wall"},
                         {"rate_Hz", rate_Hz},        {"seconds", seconds},

@@ -107,7 +107,7 @@ void add_export_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "export",
       "Export samples and events from a study database: one trial, or every started trial of the "
-      "study plus trials.csv (plan, status, times, loop timing, drops). Read-only: safe while a "
+      "study plus trials.csv (plan, status, times, loop timing, drops, device counters). Read-only: safe while a "
       "session runs.");
   cmd->add_option("--db", opt->db, "Study database (FILE.db)")->required();
   cmd->add_option("--trial", opt->trial, "Trial id (as in `hapticlab study show`); default: the whole study");

@@ -19,6 +19,10 @@
 #include "app/bench_loop.h"
 #include "app/export_command.h"
 #include "app/bench_db.h"
+#include "app/device_command.h"
+#include "app/bench_device.h"
+#include "app/device_serve_sim.h"
+#include "app/bench_udp.h"
 #include "app/cli_errors.h"
 #include "core/common/build_info.h"
 
@@ -54,6 +58,10 @@ int main(int argc, char** argv) {
   hapticlab::app::add_stats_command(app);
   hapticlab::app::add_analyze_command(app);
   hapticlab::app::add_export_command(app);
+  CLI::App* device = app.add_subcommand("device", "Work with haptic devices: check one, serve the simulated one");
+  device->require_subcommand(1);
+  hapticlab::app::add_device_check_command(*device);
+  hapticlab::app::add_device_serve_sim_command(*device);
 
   CLI::App* bench = app.add_subcommand("bench", "Measure performance");
   bench->require_subcommand(1);
@@ -61,6 +69,8 @@ int main(int argc, char** argv) {
   hapticlab::app::add_bench_loop_commands(*bench);
   hapticlab::app::add_bench_analyze_command(*bench);
   hapticlab::app::add_bench_db_command(*bench);
+  hapticlab::app::add_bench_device_command(*bench);
+  hapticlab::app::add_bench_udp_command(*bench);
 
   hapticlab::app::add_help_command(app);
   app.footer(hapticlab::app::exit_status_help());

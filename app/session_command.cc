@@ -100,7 +100,14 @@ int run(const SessionCommandOptions& opt) {
       }
     }
   };
-  const sessions::SessionResult r = sessions::run_session(opt.db, options);
+  sessions::SessionResult r;
+  try {
+    r = sessions::run_session(opt.db, options);
+  } catch (const sessions::DeviceNotReadyError& e) {
+    line.finish();
+    std::fprintf(stderr, "hapticlab session run: %s\n", e.what());
+    return 3;
+  }
   line.finish();
   if (r.stale_session)
     std::fprintf(stderr, "hapticlab session run: took over the lock of %s's previous session (%s), which had "
@@ -155,7 +162,8 @@ void add_session_command(CLI::App& app) {
       "Train, then run the participant's planned trials in schedule order, logging every sample into the "
       "study database. Ctrl-C aborts the running trial (its samples are kept and marked), re-queues it and "
       "closes the session; running the command again continues with the next unfinished trial. "
-      "Exit status 0 when done, 130 when stopped, 3 on a device fault.");
+      "Exit status 0 when done, 130 when stopped, 3 on a device fault, a safety limit or watchdog (docs/safety.md), "
+      "or a device that is not calibrated.");
   cmd->add_option("--db", opt->db, "Study database (from `hapticlab study create`)")->required();
   cmd->add_option("--participant", opt->participant, "Participant code, as in the protocol")->required();
   cmd->add_option("--device", opt->device,

@@ -110,6 +110,10 @@ int run(const SimReplayOptions& opt) {
     std::fprintf(stderr, "hapticlab sim replay: the recording has a bad reading: %s\n", to_string(r.device_status));
     return 3;
   }
+  if (r.stop_reason == StopReason::kWatchdog) {
+    std::fprintf(stderr, "hapticlab sim replay: watchdog: %s (docs/safety.md)\n", describe(r.safety_trip).c_str());
+    return 3;
+  }
   return 0;
 }
 

@@ -68,6 +68,11 @@ int run(const SimRunOptions& opt) {
     std::fprintf(stderr, "hapticlab sim run: device fault: %s\n", to_string(r.device_status));
     return 3;
   }
+  if (r.stop_reason == StopReason::kSafetyLimit || r.stop_reason == StopReason::kWatchdog) {
+    std::fprintf(stderr, "hapticlab sim run: %s: %s (docs/safety.md)\n", to_string(r.stop_reason),
+                 describe(r.safety_trip).c_str());
+    return 3;
+  }
   return r.task_complete ? 0 : 4;
 }
 

@@ -92,9 +92,11 @@ void check(const StudyOptions& opt) {
   db::ChunkCheck chunks;
   try {
     const int version = db::check_schema_version(conn);
-    if (version != db::kSchemaVersion)
+    // Version 4 added the checksums; later versions keep them.
+    constexpr int kChecksumVersion = 4;
+    if (version < kChecksumVersion)
       schema_problem = "schema version " + std::to_string(version) + " has no chunk checksums (version " +
-                       std::to_string(db::kSchemaVersion) + " adds them); a command that opens it read-write "
+                       std::to_string(kChecksumVersion) + " adds them); a command that opens it read-write "
                        "(`hapticlab analyze`) migrates it, then check again";
     else
       chunks = db::check_all_chunks(conn);

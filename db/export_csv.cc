@@ -153,7 +153,7 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
   std::string line =
       "trial_id,participant,task,setting,repetition,block,position,status,started_unix_s,ended_unix_s,"
       "abort_reason,updates,loop_count,loop_p50_period_s,loop_p99_period_s,loop_max_period_s,"
-      "loop_mean_period_s,loop_overruns,dropped_samples,dropped_events";
+      "loop_mean_period_s,loop_overruns,dropped_samples,dropped_events,device_counters";
   index.line(line);
   for (const TrialRow& t : db.trials(study_id)) {
     put_trial_key(line, t);
@@ -186,6 +186,13 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
     if (timing) append_number(line, timing->dropped_samples);
     line += ',';
     if (timing) append_number(line, timing->dropped_events);
+    // The device's own counts (device_counter), as name=value;... : one
+    // column whatever the device, empty for devices that count nothing.
+    std::string counters;
+    for (const auto& [name, value] : db.device_counters(t.id))
+      counters += (counters.empty() ? "" : ";") + name + "=" + std::to_string(value);
+    line += ',';
+    append_csv_text(line, counters);
     index.line(line);
     if (t.status != TrialStatus::kPlanned) {
       const auto files = export_trial_csv(db, t.id, out_dir, bad_chunks);

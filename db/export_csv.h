@@ -26,7 +26,8 @@
 // them, so nothing is left out silently.
 //
 // Study export adds trials.csv: one row per trial with its plan, status,
-// times, abort reason, loop timing and drop counts.
+// times, abort reason, loop timing, drop counts and the device's own counts
+// (device_counters: name=value;..., empty for most devices).
 
 #include <cstdint>
 #include <filesystem>

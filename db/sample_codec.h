@@ -49,6 +49,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/crc32c.h"
 #include "core/loop/loop_sample.h"
 
 namespace hapticlab::db {
@@ -106,12 +107,9 @@ void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const s
 std::vector<std::byte> checksum_legacy_chunk(std::uint64_t first_tick, std::size_t count,
                                              std::span<const std::byte> legacy_blob);
 
-// CRC-32C (Castagnoli, reflected polynomial 0x82F63B78), continuing from
-// `crc` (0 to start): crc32c(crc32c(0, a), b) == crc32c(0, a + b).
-// Uses the CPU's CRC32 instruction when it has one (x86-64 SSE 4.2), else
-// crc32c_portable (tables, slicing by 8); both give the same value.
-std::uint32_t crc32c(std::uint32_t crc, std::span<const std::byte> data) noexcept;
-std::uint32_t crc32c_portable(std::uint32_t crc, std::span<const std::byte> data) noexcept;
+// CRC-32C: core/common/crc32c.h (shared with the UDP bridge).
+using hapticlab::crc32c;
+using hapticlab::crc32c_portable;
 
 // The value stored for a float32 channel: nearest float, ±inf beyond range.
 float to_stored_float(double value) noexcept;

@@ -270,6 +270,7 @@ void SampleWriter::finish(const TrialOutcome& outcome) {
 void SampleWriter::close_trial(const TrialOutcome& outcome) {
   Transaction tx(db_->connection());
   db_->set_loop_timing(trial_id_, outcome.timing, outcome.dropped_samples, outcome.dropped_events);
+  if (!outcome.device_counters.empty()) db_->set_device_counters(trial_id_, outcome.device_counters);
   if (outcome.dropped_samples > 0)
     db_->add_event({trial_id_, last_t_s_, "samples_dropped", -1, static_cast<std::int64_t>(outcome.dropped_samples),
                     "the haptic loop's sample queue was full: " + std::to_string(outcome.dropped_samples) +

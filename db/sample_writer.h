@@ -86,6 +86,8 @@ struct TrialOutcome {
   std::uint64_t dropped_samples = 0;            // HapticLoop::dropped_samples()
   std::uint64_t dropped_events = 0;             // HapticLoop::dropped_events()
   LoopTimingSummary timing;                     // HapticLoop::timing()
+  // Device::counters(), stored in device_counter; empty for most devices.
+  std::vector<std::pair<std::string, std::uint64_t>> device_counters;
   // Events the caller adds to the trial's record (an operator's stop), in the
   // closing transaction: after every event the loop queued, so at an equal
   // time they sort last, and together with the status. trial_id is set here.

@@ -173,6 +173,18 @@ void checksum_old_chunks(Database& db) {
   }
 }
 
+// Version 5: what a device counted during a trial (the UDP bridge's lost,
+// stale and malformed packets, ...), one row per counter; the names are the
+// device's (Device::counters()).
+constexpr const char* kV5 = R"sql(
+CREATE TABLE device_counter (
+  trial_id INTEGER NOT NULL REFERENCES trial (id),
+  name     TEXT NOT NULL,
+  value    INTEGER NOT NULL,
+  PRIMARY KEY (trial_id, name)
+);
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
@@ -180,6 +192,7 @@ constexpr Migration kMigrations[] = {
      kV3},
     {4, "sample_chunk.data: a CRC-32C in every chunk; chunks written before get theirs now (format 0)", kV4,
      checksum_old_chunks},
+    {5, "device_counter table: a device's own counts per trial (UDP bridge packet losses, ...)", kV5},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 

@@ -470,6 +470,27 @@ void StudyDb::set_loop_timing(std::int64_t trial_id, const LoopTimingSummary& t,
   s.run();
 }
 
+void StudyDb::set_device_counters(std::int64_t trial_id,
+                                  const std::vector<std::pair<std::string, std::uint64_t>>& counters) {
+  Statement clear = db_.prepare("DELETE FROM device_counter WHERE trial_id = ?1");
+  clear.bind(1, trial_id);
+  clear.run();
+  Statement s = db_.prepare("INSERT OR REPLACE INTO device_counter (trial_id, name, value) VALUES (?1, ?2, ?3)");
+  for (const auto& [name, value] : counters) {
+    s.reset();
+    s.bind(1, trial_id).bind(2, name).bind(3, static_cast<std::int64_t>(value));
+    s.run();
+  }
+}
+
+std::vector<std::pair<std::string, std::uint64_t>> StudyDb::device_counters(std::int64_t trial_id) {
+  Statement s = db_.prepare("SELECT name, value FROM device_counter WHERE trial_id = ?1 ORDER BY name");
+  s.bind(1, trial_id);
+  std::vector<std::pair<std::string, std::uint64_t>> out;
+  while (s.step()) out.emplace_back(s.column_text(0), static_cast<std::uint64_t>(s.column_int64(1)));
+  return out;
+}
+
 std::optional<LoopTimingRow> StudyDb::loop_timing(std::int64_t trial_id) {
   Statement s = db_.prepare(
       "SELECT count, p50_period_s, p99_period_s, max_period_s, mean_period_s, overruns, rejected_periods, "

@@ -196,6 +196,11 @@ class StudyDb {
   void set_loop_timing(std::int64_t trial_id, const LoopTimingSummary& timing, std::uint64_t dropped_samples,
                        std::uint64_t dropped_events);
   std::optional<LoopTimingRow> loop_timing(std::int64_t trial_id);
+  // A device's own counts for a trial (Device::counters()), replacing any
+  // stored before; read back in name order.
+  void set_device_counters(std::int64_t trial_id,
+                           const std::vector<std::pair<std::string, std::uint64_t>>& counters);
+  std::vector<std::pair<std::string, std::uint64_t>> device_counters(std::int64_t trial_id);
 
   // --- samples (sample_codec.h)
   // Inserts a chunk; returns its row id. `samples` as for encode_chunk.

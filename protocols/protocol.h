@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/loop/force_guard.h"
 #include "core/settings/settings_json.h"
 
 namespace hapticlab::protocols {
@@ -119,6 +120,9 @@ struct Protocol {
   std::vector<ParticipantSpec> participants;  // >= 1, unique codes
   Design design;
   std::uint64_t seed = 0;  // fixes the design search, task orders and schedules
+  // The optional "safety" object: force limits below the device's
+  // (protocols/safety_json.h, docs/safety.md). Default: the device's own.
+  OperatorForceLimits safety;
 
   // 0 for a task without repetitions.
   int repetitions_of(const Task& task) const {

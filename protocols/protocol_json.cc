@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/io/input_file.h"
+#include "protocols/safety_json.h"
 
 namespace hapticlab::protocols {
 namespace {
@@ -36,7 +37,7 @@ class Reader {
   Protocol read(const json& j) {
     expect_object(j, "(top level)");
     check_keys(j, "", {"study", "description", "ve", "tasks", "repetitions", "settings", "participants", "design",
-                       "seed", "training_trials"});
+                       "seed", "training_trials", "safety"});
     Protocol p;
     p.study = as_string(require(j, "study", ""), "study");
     if (j.contains("description")) p.description = as_string(j["description"], "description");
@@ -56,6 +57,7 @@ class Reader {
     read_participants(require(j, "participants", ""), p, default_training);
     read_design(require(j, "design", ""), p);
     p.seed = as_seed(require(j, "seed", ""), "seed");
+    if (j.contains("safety")) p.safety = safety_from_json(j["safety"], source_);
     validate_protocol(p, source_);
     return p;
   }

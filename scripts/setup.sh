@@ -10,7 +10,7 @@ shift || true
 
 packages=(g++ make cmake pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
           libgtest-dev libgmock-dev libsqlite3-dev sqlite3 libboost-math-dev
-          libbenchmark-dev gnuplot-nox)
+          libbenchmark-dev gnuplot-nox python3 python3-numpy)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

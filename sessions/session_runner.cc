@@ -14,6 +14,7 @@
 #include "core/sim/task_event.h"
 #include "sessions/study_session.h"
 #include "protocols/rng.h"
+#include "protocols/safety_json.h"
 
 namespace hapticlab::sessions {
 namespace {
@@ -93,6 +94,9 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   // The device is opened (a plugin loaded, a socket bound) and dropped
   // once before anything is stored, so a wrong path, option or port is
   // refused with nothing changed. Each trial opens it again.
+  // A plugin is first tried in a child process, which a crash in its code
+  // cannot take this one down with.
+  probe_device(options.device, DeviceConfig{options.rate_Hz, 0});
   (void)open_device(options.device);
   // Opening, the participant's lock, recovery, re-queueing and the session
   // row: the bookkeeping every runner shares (study_session.h).
@@ -110,6 +114,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   const std::int64_t training_setting = training_setting_id(db, study.id);
   const int scheduled = session.scheduled();
   result.session_id = session.session_id();
+  const OperatorForceLimits force_limits = protocols::safety_from_protocol_text(study.protocol_json, db.path());
   const Clock::time_point session_start = Clock::now();
   std::set<std::string> trained;
   double trial_wall_s = 0.0;  // wall time of trials finished in this session
@@ -138,7 +143,21 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     c.rate_Hz = options.rate_Hz;
     c.realtime = options.realtime;
     c.max_duration_s = options.max_trial_s;
+    c.safety.force_limits = force_limits;
     return c;
+  };
+
+  // The device would not be driven: nothing was started, so the session
+  // closes with the trial still planned.
+  auto refuse = [&](DeviceStatus status, const std::string& what) {
+    session.end(db::SessionStatus::kInterrupted);
+    const std::string device = "the " + options.device.describe() + " device";
+    throw DeviceNotReadyError(
+        status == DeviceStatus::kNotCalibrated
+            ? "device: " + device + " is not calibrated/homed; calibrate it, then run the session again (" + what +
+                  " was not started and stays planned)"
+            : "device: " + device + " could not be activated (" + to_string(status) + "); fix it, then run the " +
+                  "session again (" + what + " was not started and stays planned)");
   };
 
   while (!stop_requested(options)) {
@@ -176,7 +195,10 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
                                            static_cast<std::uint64_t>(k),
                                        k);
         c.publish_samples = false;
-        trained_s += run_sim_trial(c).duration_s;
+        const SimTrialResult practice = run_sim_trial(c);
+        if (practice.device_refused)
+          refuse(practice.device_status, "the training for trial " + std::to_string(trial.id));
+        trained_s += practice.duration_s;
         ++done;
       }
       row.ended_unix_s = db::unix_now_s();
@@ -203,6 +225,9 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     const Clock::time_point trial_start = Clock::now();
     SimRig rig(config);
     HapticLoop& loop = rig.loop();
+    // Powered before the trial is recorded as started, so a device that is
+    // not calibrated or homed leaves the trial planned, not aborted.
+    if (!loop.activate()) refuse(loop.device_status(), "trial " + std::to_string(trial.id));
     ++result.trials_run;
     db::TrialOutcome outcome;
     session.start_trial(trial, loop.samples(), loop.events(), options.writer);
@@ -235,6 +260,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     outcome.dropped_samples = loop.dropped_samples();
     outcome.dropped_events = loop.dropped_events();
     outcome.timing = loop.timing();
+    outcome.device_counters = rig.device().counters();
     switch (loop.stop_reason()) {
       case StopReason::kTaskComplete: outcome.status = db::TrialStatus::kComplete; break;
       case StopReason::kStopRequested:
@@ -246,9 +272,25 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
         outcome.status = db::TrialStatus::kAborted;
         outcome.abort_reason = time_limit_reason(format_number(options.max_trial_s) + " s");
         break;
+      case StopReason::kSafetyLimit:
+      case StopReason::kWatchdog:
+        // Zero force was commanded; re-queued like a device fault.
+        outcome.status = db::TrialStatus::kAborted;
+        outcome.abort_reason =
+            std::string(loop.stop_reason() == StopReason::kWatchdog ? "watchdog: " : "safety limit: ") +
+            describe(loop.safety_trip());
+        result.device_fault = true;
+        result.device_fault_reason = outcome.abort_reason;
+        break;
       default:
         outcome.status = db::TrialStatus::kAborted;
-        outcome.abort_reason = std::string("device fault: ") + to_string(loop.device_status());
+        if (loop.device_status() == DeviceStatus::kTimeout) {
+          // "device_timeout" first, so a query can match the reason's start.
+          const std::string detail = rig.device().fault_detail();
+          outcome.abort_reason = std::string(to_string(DeviceStatus::kTimeout)) + (detail.empty() ? "" : ": " + detail);
+        } else {
+          outcome.abort_reason = std::string("device fault: ") + to_string(loop.device_status());
+        }
         result.device_fault = true;
         result.device_fault_reason = outcome.abort_reason;
         break;

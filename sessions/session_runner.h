@@ -23,6 +23,7 @@
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "core/device/device_spec.h"
@@ -96,12 +97,23 @@ struct SessionResult {
   std::optional<std::string> stale_session;
 };
 
+// The device refused to be driven when a trial (or training) was about to
+// start: not calibrated or homed (DeviceStatus::kNotCalibrated), or it
+// would not activate at all. Nothing was started for that trial, which
+// stays planned; the session was closed as interrupted. what() tells the
+// operator what to do.
+class DeviceNotReadyError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // Opens (and recovers) the database, takes the participant's SessionLock
 // (db/session_lock.h), runs the session, returns what happened. Throws
 // std::invalid_argument for bad options (naming them), db::SessionBusyError
 // when the participant has a live session elsewhere (naming its pid),
 // std::runtime_error for an unknown participant or a database without a
-// study, db::DbError for a database failure.
+// study, DeviceNotReadyError when the device refuses to activate, db::DbError
+// for a database failure.
 SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options);
 
 // Seeds of simulated participants (documented above).

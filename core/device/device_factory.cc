@@ -2,7 +2,9 @@
 
 #include <stdexcept>
 
+#include "core/device/plugin_device.h"
 #include "core/device/sim_device.h"
+#include "core/device/udp_device.h"
 
 namespace hapticlab {
 namespace {
@@ -13,23 +15,54 @@ void reject_options(const DeviceSpec& spec) {
                                 spec.describe() + " device, which takes none");
 }
 
+std::unique_ptr<Device> open_udp(const DeviceSpec& spec) {
+  UdpDeviceOptions options;
+  options.host = spec.host;
+  options.port = spec.port;
+  for (const auto& [key, value] : spec.options) {
+    if (key != "timeout_ms")
+      throw std::invalid_argument("device-option: '" + key + "' is not an option of the " + spec.describe() +
+                                  " device; it takes timeout_ms (1..1000, default 10)");
+    std::size_t end = 0;
+    int ms = 0;
+    try {
+      ms = std::stoi(value, &end);
+    } catch (const std::exception&) {
+      end = 0;
+    }
+    if (end == 0 || end != value.size() || ms < 1 || ms > 1000)
+      throw std::invalid_argument("device-option timeout_ms: '" + value +
+                                  "' is not a whole number of milliseconds in 1..1000");
+    options.timeout_ms = ms;
+  }
+  return std::make_unique<UdpDevice>(options);
+}
+
 }  // namespace
 
 std::unique_ptr<Device> open_device(const DeviceSpec& spec) {
   switch (spec.kind) {
     case DeviceSpec::Kind::kSim: {
       reject_options(spec);
-      // Sub-steps of 1 ms are plenty for a hand of a few hundred N/m on a
-      // few hundred grams (ω·h < 0.05) and keep a 1 kHz loop at one physics
-      // step per update.
-      SimDeviceParams params;
-      params.max_substep_s = 1e-3;
-      return std::make_unique<SimDevice>(params);
+      return std::make_unique<SimDevice>(sim_backend_params());
     }
-    case DeviceSpec::Kind::kPlugin:
-    case DeviceSpec::Kind::kUdp: break;
+    case DeviceSpec::Kind::kPlugin: return std::make_unique<PluginDevice>(spec.path, spec.options);
+    case DeviceSpec::Kind::kUdp: return open_udp(spec);
   }
   throw std::runtime_error("device: " + spec.describe() + " cannot be opened by this build");
+}
+
+SimDeviceParams sim_backend_params() {
+  // Sub-steps of 1 ms are plenty for a hand of a few hundred N/m on a few
+  // hundred grams (ω·h < 0.05) and keep a 1 kHz loop at one physics step
+  // per update.
+  SimDeviceParams params;
+  params.max_substep_s = 1e-3;
+  return params;
+}
+
+void probe_device(const DeviceSpec& spec, const DeviceConfig& config) {
+  if (spec.kind == DeviceSpec::Kind::kPlugin) probe_plugin(spec.path, spec.options, config);
 }
 
 }  // namespace hapticlab

@@ -6,6 +6,7 @@
 
 #include "core/device/device.h"
 #include "core/device/device_spec.h"
+#include "core/device/sim_device.h"
 
 namespace hapticlab {
 
@@ -13,5 +14,15 @@ namespace hapticlab {
 // when the device cannot be opened (a plugin file missing or of another
 // ABI version, ...), with a message for the operator.
 std::unique_ptr<Device> open_device(const DeviceSpec& spec);
+
+// Before a session or a check: a device plugin is loaded, created and
+// configured (with `config`) in a child process, so one that crashes is
+// reported ("plugin PATH crashed (SIGSEGV) in configure; nothing was
+// started") instead of taking the session down. Other backends: nothing.
+// Throws std::runtime_error with the message.
+void probe_device(const DeviceSpec& spec, const DeviceConfig& config);
+
+// The simulated workstation as the "sim" backend (and the sim plugin) runs it.
+SimDeviceParams sim_backend_params();
 
 }  // namespace hapticlab

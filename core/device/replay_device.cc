@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -61,6 +62,18 @@ DeviceStatus ReplayDevice::activate(const Clock& clock) {
 DeviceStatus ReplayDevice::deactivate() noexcept {
   active_ = false;
   return DeviceStatus::kOk;
+}
+
+DeviceRatings ReplayDevice::ratings() const noexcept {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  DeviceRatings r = workstation_ratings();
+  for (auto& instrument : r.joint)
+    for (DeviceJointRating& joint : instrument) {
+      joint.min_position = -kInf;
+      joint.max_position = kInf;
+      joint.max_velocity = kInf;
+    }
+  return r;
 }
 
 DeviceStatus ReplayDevice::read(DeviceReading& reading) noexcept {

@@ -48,6 +48,11 @@ class ReplayDevice final : public Device {
   DeviceStatus write(const DeviceCommand& command) noexcept override;
   DeviceStatus deactivate() noexcept override;
   const char* name() const noexcept override { return "replay"; }
+  // No motors and nobody at a handle: the loop's range and velocity checks
+  // have nothing to protect, and a recording may come from other hardware
+  // (above), so the ranges and velocities are unbounded. The force ratings
+  // stay the workstation's.
+  DeviceRatings ratings() const noexcept override;
 
   // The command of the last write() while active (zero before any).
   const DeviceCommand& last_command() const noexcept { return last_command_; }

@@ -85,6 +85,7 @@ DeviceStatus SimDevice::configure(const DeviceConfig& config) {
 
 DeviceStatus SimDevice::activate(const Clock& clock) {
   if (!configured_) return DeviceStatus::kNotConfigured;
+  if (not_calibrated_) return DeviceStatus::kNotCalibrated;
   const double now_s = clock.now_s();
   if (!std::isfinite(now_s)) return DeviceStatus::kInvalidConfig;
   clock_ = &clock;
@@ -101,6 +102,7 @@ DeviceStatus SimDevice::activate(const Clock& clock) {
       s.hand_force = 0.0;
     }
   }
+  halted_.store(false, std::memory_order_release);
   active_ = true;
   return DeviceStatus::kOk;
 }
@@ -125,7 +127,7 @@ DeviceStatus SimDevice::read(DeviceReading& reading) noexcept {
   advance_to(clock_->now_s());
 
   const bool faulted = time_s_ >= fault_time_s_;
-  if (faulted && fault_ == DeviceStatus::kReadFailed) return DeviceStatus::kReadFailed;
+  if (faulted && (fault_ == DeviceStatus::kReadFailed || fault_ == DeviceStatus::kTimeout)) return fault_;
 
   // (true positions) => (sensor counts × resolution): round to the nearest count.
   for (int i = 0; i < 2; ++i) {
@@ -249,7 +251,7 @@ void SimDevice::substep(double end_s, double thermal_alpha) noexcept {
 
       // (command, heat) => (motor force): peak clip, continuous clip while hot.
       double f_motor = 0.0;
-      if (is_actuated(static_cast<DeviceJoint>(j))) {
+      if (is_actuated(static_cast<DeviceJoint>(j)) && !halted_.load(std::memory_order_relaxed)) {
         const double continuous = spec.continuous_force;
         const double limit = s.heat > continuous * continuous ? continuous : spec.peak_force;
         f_motor = std::clamp(s.command, -limit, limit);
@@ -322,7 +324,12 @@ void SimDevice::inject_fault(DeviceStatus status, double at_time_s) {
     case DeviceStatus::kOk:
       fault_ = DeviceStatus::kOk;
       fault_time_s_ = std::numeric_limits<double>::infinity();
+      not_calibrated_ = false;
       return;
+    case DeviceStatus::kNotCalibrated:
+      not_calibrated_ = true;
+      return;
+    case DeviceStatus::kTimeout:
     case DeviceStatus::kReadFailed:
     case DeviceStatus::kNonFiniteReading:
     case DeviceStatus::kOutOfRange:
@@ -331,8 +338,8 @@ void SimDevice::inject_fault(DeviceStatus status, double at_time_s) {
     default:
       throw std::invalid_argument(std::string("SimDevice::inject_fault(): status is ") +
                                   to_string(status) +
-                                  ", but must be read_failed, non_finite_reading, out_of_range, "
-                                  "write_failed or ok");
+                                  ", but must be read_failed, device_timeout, non_finite_reading, "
+                                  "out_of_range, write_failed, not_calibrated or ok");
   }
   if (std::isnan(at_time_s)) {
     throw std::invalid_argument("SimDevice::inject_fault(): at_time_s is NaN, but must be a time");

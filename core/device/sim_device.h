@@ -23,13 +23,15 @@
 //
 // Threads: configure/activate/deactivate/set_position/inject_fault on the
 // control thread (not while the loop runs); read/write/set_hand and the
-// accessors on the loop thread. read/write/set_hand neither allocate, lock
-// nor do I/O.
+// accessors on the loop thread; halt() and halted() on any thread at any
+// time (one atomic flag). read/write/set_hand neither allocate, lock nor do
+// I/O.
 //
 // Not copyable or movable: the loop and the simulated participant hold
 // pointers to the one device the hand is on.
 
 #include <array>
+#include <atomic>
 #include <limits>
 
 #include "core/device/device.h"
@@ -93,6 +95,9 @@ class SimDevice final : public Device, public HandAttachment {
   // returns kWriteFailed.
   DeviceStatus write(const DeviceCommand& command) noexcept override;
   DeviceStatus deactivate() noexcept override;
+  // Latches the motors at zero (every sub-step, whatever write() stores)
+  // until the next activate(), like an amplifier's enable line.
+  void halt() noexcept override { halted_.store(true, std::memory_order_release); }
   const char* name() const noexcept override { return "sim"; }
   HandAttachment* hand_attachment() noexcept override { return this; }
 
@@ -119,6 +124,9 @@ class SimDevice final : public Device, public HandAttachment {
   //   kNonFiniteReading  the reading holds a NaN (instrument 0, insertion);
   //   kOutOfRange        instrument 0's insertion reads 20 mm beyond its end stop;
   //   kWriteFailed       (for write) commands are refused and the motors zeroed;
+  //   kTimeout           like kReadFailed, as a device that stops answering;
+  //   kNotCalibrated     activate() refuses with it (at_time_s is not used), as
+  //                      a device that has not been homed;
   //   kOk                clears an injected fault.
   // The physics keeps running underneath. Throws std::invalid_argument for
   // any other status or a non-finite time.
@@ -137,6 +145,8 @@ class SimDevice final : public Device, public HandAttachment {
   // Physics time [s] (the clock's time at the last read).
   double time_s() const noexcept { return time_s_; }
   int rejected_hand_updates() const noexcept { return rejected_hand_updates_; }
+  // Whether halt() latched the motors off since the last activate().
+  bool halted() const noexcept { return halted_.load(std::memory_order_acquire); }
 
   const SimDeviceParams& params() const noexcept { return params_; }
 
@@ -169,6 +179,8 @@ class SimDevice final : public Device, public HandAttachment {
   DeviceStatus fault_ = DeviceStatus::kOk;
   double fault_time_s_ = std::numeric_limits<double>::infinity();
   int rejected_hand_updates_ = 0;
+  bool not_calibrated_ = false;  // injected: activate() refuses
+  std::atomic<bool> halted_{false};
 };
 
 }  // namespace hapticlab

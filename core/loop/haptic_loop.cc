@@ -2,6 +2,9 @@
 
 #include <cmath>
 #include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
 
 #include "core/sim/workspace.h"
 
@@ -15,8 +18,41 @@ const char* to_string(StopReason reason) noexcept {
     case StopReason::kStopRequested: return "stop_requested";
     case StopReason::kDeviceFault: return "device_fault";
     case StopReason::kEndOfData: return "end_of_data";
+    case StopReason::kSafetyLimit: return "safety_limit";
+    case StopReason::kWatchdog: return "watchdog";
   }
   return "unknown";
+}
+
+namespace {
+
+void check_range(const char* field, double value, double lo, double hi) {
+  if (value >= lo && value <= hi) return;  // NaN fails
+  std::ostringstream message;
+  message << "safety." << field << " is " << value << ", but must be >= " << lo << " and <= " << hi;
+  throw std::invalid_argument(message.str());
+}
+
+void check_limit(const char* field, double value) {
+  if (value >= 0.0) return;  // infinity (no limit) passes, NaN fails
+  std::ostringstream message;
+  message << "safety.force_limits." << field << " is " << value << ", but must be >= 0 (infinity: no limit)";
+  throw std::invalid_argument(message.str());
+}
+
+}  // namespace
+
+void validate(const LoopSafetyConfig& c) {
+  check_range("ramp_in_s", c.ramp_in_s, 0.0, 10.0);
+  check_range("force_limits.peak_force_fraction", c.force_limits.peak_force_fraction, 0.0, 1.0);
+  check_limit("insertion_force_N", c.force_limits.insertion_force_N);
+  check_limit("pitch_yaw_torque_Nm", c.force_limits.pitch_yaw_torque_Nm);
+  check_limit("twist_torque_Nm", c.force_limits.twist_torque_Nm);
+  check_limit("grip_torque_Nm", c.force_limits.grip_torque_Nm);
+  check_range("position_tolerance_fraction", c.position_tolerance_fraction, 0.0, 1.0);
+  check_range("max_lateness_s", c.max_lateness_s, 0.001, 10.0);
+  check_range("watchdog_timeout_s", c.watchdog_timeout_s, 0.001, 10.0);
+  check_range("writer_stall_s", c.writer_stall_s, 0.001, 60.0);
 }
 
 namespace {
@@ -65,26 +101,47 @@ HapticLoop::HapticLoop(Device& device, Engine& engine, VirtualEnvironment& ve, C
       // Nothing is ever pushed when samples are not published: a full-size
       // queue would only cost its zeroing (megabytes) per loop.
       samples_(config.publish_samples ? config.sample_queue_capacity : 1),
-      events_(config.publish_samples ? config.event_queue_capacity : 1) {}
+      events_(config.publish_samples ? config.event_queue_capacity : 1) {
+  validate(config.safety);
+}
 
 HapticLoop::~HapticLoop() {
   request_stop();
   join();
+  if (activated_) {  // activated, never run: amplifiers off again
+    device_.deactivate();
+    running_.store(false, std::memory_order_release);
+  }
 }
 
 bool HapticLoop::activate() {
+  if (activated_) return true;
   const DeviceStatus status = device_.activate(clock_);
   device_status_.store(static_cast<std::int32_t>(status), std::memory_order_release);
   if (status != DeviceStatus::kOk) {
     stop_reason_.store(StopReason::kDeviceFault, std::memory_order_release);
     return false;
   }
+  // Ratings are fixed once the device is configured; taken here, off the
+  // loop thread.
+  const DeviceRatings ratings = device_.ratings();
+  force_guard_ = ForceGuard(ratings, config_.safety.force_limits, config_.safety.ramp_in_s);
+  reading_guard_ = ReadingGuard(ratings, config_.safety.position_tolerance_fraction);
+  activated_ = true;
   running_.store(true, std::memory_order_release);
   return true;
 }
 
+void HapticLoop::start_watchdog() {
+  if (clock_.is_virtual()) return;
+  watchdog_ = std::make_unique<Watchdog>(ticks_, device_, config_.safety.watchdog_timeout_s);
+  watchdog_->start();
+}
+
 bool HapticLoop::start() {
   if (!activate()) return false;
+  activated_ = false;  // the loop owns the activation from here
+  start_watchdog();
   thread_ = std::thread([this] {
     realtime_result_ = apply_realtime_to_this_thread(config_.realtime);
     loop_body();
@@ -94,14 +151,30 @@ bool HapticLoop::start() {
 
 StopReason HapticLoop::run() {
   if (!activate()) return StopReason::kDeviceFault;
-  return loop_body();
+  activated_ = false;
+  start_watchdog();
+  const StopReason reason = loop_body();
+  if (watchdog_) watchdog_->stop();
+  return reason;
 }
 
 void HapticLoop::join() {
   if (thread_.joinable()) thread_.join();
+  if (watchdog_) watchdog_->stop();
+}
+
+bool HapticLoop::lateness_trips(double late_s) const noexcept {
+  return !clock_.is_virtual() && late_s > config_.safety.max_lateness_s;
+}
+
+StopReason HapticLoop::trip(StopReason reason, const SafetyTrip& why) noexcept {
+  trip_ = why;
+  finish(reason);
+  return reason;
 }
 
 void HapticLoop::finish(StopReason reason) noexcept {
+  if (watchdog_) watchdog_->disarm();
   device_.write(DeviceCommand{});
   device_.deactivate();
   stop_reason_.store(reason, std::memory_order_release);
@@ -123,7 +196,17 @@ StopReason HapticLoop::loop_body() {
   double deadline_s = t0_s;           // scheduled start of the current update
   double last_start_s = t0_s;
   double complete_at_s = -1.0;
+  double queue_full_since_s = -1.0;  // wall clock: when the sample queue last became full
   bool first = true;
+  const auto watchdog_trip = [this] {
+    return SafetyTrip{.kind = SafetyTripKind::kLoopStalled,
+                      .value = watchdog_->stalled_for_s(),
+                      .limit = watchdog_->timeout_s()};
+  };
+  const auto late_trip = [this](double late_s) {
+    return SafetyTrip{.kind = SafetyTripKind::kDeadlineMissed, .value = late_s, .limit = config_.safety.max_lateness_s};
+  };
+  reading_guard_.reset();
 
   for (std::uint64_t tick = 0;; ++tick) {
     const double now_s = clock_.now_s();
@@ -138,8 +221,12 @@ StopReason HapticLoop::loop_body() {
       finish(StopReason::kStopRequested);
       return StopReason::kStopRequested;
     }
+    // (wall clock) => watchdog: this update should have started at deadline_s.
+    if (lateness_trips(now_s - deadline_s)) return trip(StopReason::kWatchdog, late_trip(now_s - deadline_s));
 
     const DeviceStatus read_status = device_.read(reading);
+    // A read that hung: the watchdog has halted the device meanwhile.
+    if (watchdog_ && watchdog_->tripped()) return trip(StopReason::kWatchdog, watchdog_trip());
     if (read_status == DeviceStatus::kEndOfData) {
       finish(StopReason::kEndOfData);
       return StopReason::kEndOfData;
@@ -151,6 +238,9 @@ StopReason HapticLoop::loop_body() {
       finish(StopReason::kDeviceFault);
       return StopReason::kDeviceFault;
     }
+    // (reading, ratings) => range and velocity checks, before anything is computed from it.
+    if (const SafetyTrip why = reading_guard_.check(reading, dt_s); why.tripped())
+      return trip(StopReason::kSafetyLimit, why);
 
     events.clear();
     ve_in.t_s = t_s;
@@ -191,6 +281,18 @@ StopReason HapticLoop::loop_body() {
       f[kJointTwist] = 0.0;
       f[kJointGrip] = ve_out.grip_torque_Nm[ui];
     }
+    // A VE or agent that stalled: the watchdog has halted the device, and
+    // this update's force is as stale as the stall was long.
+    if (watchdog_ && watchdog_->tripped()) return trip(StopReason::kWatchdog, watchdog_trip());
+    // (wall clock) => an update whose own work ran past the lateness limit
+    // writes nothing it computed.
+    if (!clock_.is_virtual()) {
+      const double late_s = clock_.now_s() - deadline_s;
+      if (lateness_trips(late_s)) return trip(StopReason::kWatchdog, late_trip(late_s));
+    }
+    // (command, t) => ramp-in and limits: the last stage before the motors.
+    if (const int limited = force_guard_.apply(command, t_s); limited > 0)
+      limited_commands_.fetch_add(static_cast<std::uint64_t>(limited), std::memory_order_relaxed);
     const DeviceStatus write_status = device_.write(command);
     if (write_status != DeviceStatus::kOk) {
       device_status_.store(static_cast<std::int32_t>(write_status), std::memory_order_release);
@@ -222,15 +324,31 @@ StopReason HapticLoop::loop_body() {
         s.tip_velocity_m_per_s = to_vec3(tip_velocity[ui]);
         s.ve_force_N = to_vec3(ve_out.tip_force_N[ui]);
         s.displayed_force_N = to_vec3(o.displayed_force_N);
-        s.joint_force = {o.joint_force[0], o.joint_force[1], o.joint_force[2]};
+        // What the motors were commanded, after the ramp and the limits.
+        s.joint_force = {command.force[ui][kJointInsertion], command.force[ui][kJointPitch],
+                         command.force[ui][kJointYaw]};
         s.engine_status = o.status;
         s.in_contact = ve_out.in_contact[ui];
       }
       const bool wait = config_.wait_when_full_virtual && clock_.is_virtual();
       for (int e = 0; e < events.size(); ++e) push_or_count(events_, events[e], wait, dropped_events_);
+      const std::uint64_t dropped_before = dropped_samples_.load(std::memory_order_relaxed);
       push_or_count(samples_, sample, wait, dropped_samples_);
       if (events.overflow() > 0)
         dropped_events_.fetch_add(static_cast<std::uint64_t>(events.overflow()), std::memory_order_relaxed);
+      // (wall clock) => writer watchdog: a queue that stays full means the
+      // writer has stalled.
+      if (!clock_.is_virtual()) {
+        if (dropped_samples_.load(std::memory_order_relaxed) == dropped_before) {
+          queue_full_since_s = -1.0;
+        } else if (queue_full_since_s < 0.0) {
+          queue_full_since_s = now_s;
+        } else if (now_s - queue_full_since_s > config_.safety.writer_stall_s) {
+          return trip(StopReason::kWatchdog, SafetyTrip{.kind = SafetyTripKind::kWriterStalled,
+                                                        .value = now_s - queue_full_since_s,
+                                                        .limit = config_.safety.writer_stall_s});
+        }
+      }
     }
     ticks_.store(tick + 1, std::memory_order_relaxed);
     elapsed_s_.store(t_s, std::memory_order_relaxed);
@@ -247,9 +365,12 @@ StopReason HapticLoop::loop_body() {
     }
 
     deadline_s += schedule_.next_period_s();
+    // (wall clock) => watchdog: an update that overran makes the next one late.
+    const double end_s = clock_.now_s();
+    if (lateness_trips(end_s - deadline_s)) return trip(StopReason::kWatchdog, late_trip(end_s - deadline_s));
     // After a stall longer than a period, restart the schedule from now
     // instead of firing a burst of catch-up updates.
-    if (clock_.now_s() > deadline_s + schedule_.nominal_period_s()) deadline_s = clock_.now_s();
+    if (end_s > deadline_s + schedule_.nominal_period_s()) deadline_s = end_s;
     clock_.sleep_until(deadline_s);
   }
 }

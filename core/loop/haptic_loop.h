@@ -21,6 +21,18 @@
 // forces, records the fault and ends the loop (StopReason::kDeviceFault). A
 // replay that runs out of recording (kEndOfData) ends it the same way but as
 // StopReason::kEndOfData, with the device status left kOk.
+//
+// Safety (docs/safety.md, LoopSafetyConfig): every command passes the
+// ForceGuard (ramp-in from zero at the loop's start, then the device's peak
+// ratings and the operator's lower limits); every reading passes the
+// ReadingGuard (range and velocity; a violation writes zero and ends the
+// loop with StopReason::kSafetyLimit). On the wall clock a watchdog thread
+// halts the device if the loop completes no update for watchdog_timeout_s,
+// and an update that starts more than max_lateness_s late, or a sample
+// queue that stays full for writer_stall_s, writes zero and ends the loop
+// with StopReason::kWatchdog. safety_trip() says which limit and by how much.
+// A stop request is honoured at the start of an update and again just
+// before its write, so at most the write already under way carries force.
 
 #include <array>
 #include <atomic>
@@ -31,11 +43,15 @@
 #include "core/device/device.h"
 #include "core/engine/engine.h"
 #include "core/loop/clock.h"
+#include "core/loop/force_guard.h"
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
 #include "core/loop/rate_schedule.h"
 #include "core/loop/realtime.h"
+#include "core/loop/reading_guard.h"
+#include "core/loop/safety_trip.h"
 #include "core/loop/spsc_queue.h"
+#include "core/loop/watchdog.h"
 #include "core/sim/task_event.h"
 #include "core/sim/virtual_environment.h"
 
@@ -48,8 +64,36 @@ enum class StopReason : std::uint8_t {
   kStopRequested,   // request_stop() (operator abort, Ctrl-C)
   kDeviceFault,     // a device read or write failed, or returned non-finite values
   kEndOfData,       // a replay device ran out of recording: a normal end, not a fault
+  kSafetyLimit,     // a reading outside the device's range or faster than its max velocity
+  kWatchdog,        // the loop ran late, stalled, or its sample writer fell behind (wall clock)
 };
 const char* to_string(StopReason reason) noexcept;
+
+// The loop's protections (docs/safety.md). The last three act on the wall
+// clock only: the virtual clock's time does not pass while the loop waits,
+// so they could only fire spuriously and would break determinism.
+struct LoopSafetyConfig {
+  // Force ramp-in from the loop's start [s], 0..10 (0: none).
+  double ramp_in_s = ForceGuard::kDefaultRampIn_s;
+  OperatorForceLimits force_limits;  // the protocol's "safety" object
+  // Readings may lie this fraction of a joint's span beyond its rated
+  // range, 0..1 (ReadingGuard).
+  double position_tolerance_fraction = ReadingGuard::kDefaultPositionToleranceFraction;
+  // An update starting later than this after its deadline ends the loop
+  // [s], 0.001..10. 20 ms: twenty missed updates at 1 kHz, three at the
+  // slowest 150 Hz; a stiff virtual wall rendered that late already
+  // pushes back with energy it should not have.
+  double max_lateness_s = 0.020;
+  // The watchdog thread halts the device when no update completes for this
+  // long [s], 0.001..10.
+  double watchdog_timeout_s = 0.020;
+  // A sample queue that stays full (samples dropped) this long ends the
+  // loop [s], 0.001..60: the writer has stalled and the trial is no longer
+  // recorded, which on a healthy host does not happen.
+  double writer_stall_s = 0.25;
+};
+// Throws std::invalid_argument naming the field, the value and its range.
+void validate(const LoopSafetyConfig& config);
 
 struct LoopConfig {
   double max_duration_s = 600.0;       // > 0
@@ -64,6 +108,7 @@ struct LoopConfig {
   // Applied to the loop thread by start() (not by run(), whose thread is the
   // caller's); what it got is realtime_result().
   RealtimeOptions realtime;
+  LoopSafetyConfig safety;
 };
 
 // What a simulated participant sees after the VE step of one update.
@@ -87,13 +132,21 @@ class LoopAgent {
 class HapticLoop {
  public:
   // All references must outlive the loop. The device must be configured;
-  // the loop activates and deactivates it.
+  // the loop activates and deactivates it. Throws std::invalid_argument
+  // for a LoopSafetyConfig out of range.
   HapticLoop(Device& device, Engine& engine, VirtualEnvironment& ve, Clock& clock,
              RateSchedule schedule, const LoopConfig& config, LoopAgent* agent = nullptr);
   ~HapticLoop();
   HapticLoop(const HapticLoop&) = delete;
   HapticLoop& operator=(const HapticLoop&) = delete;
 
+  // Control thread: activates the device (amplifiers on, no force yet) and
+  // takes its ratings for the guards, without starting the loop, so a
+  // caller can check the device is ready (kNotCalibrated, ...) before it
+  // records anything. Returns false if the device refuses; device_status()
+  // tells why. start()/run() activate themselves unless this succeeded; a
+  // loop activated and never started deactivates the device when destroyed.
+  bool activate();
   // Runs the loop on a new thread. Returns false (and does not start) if the
   // device refuses to activate; device_status() tells why.
   bool start();
@@ -115,15 +168,23 @@ class HapticLoop {
   LoopTimingSummary timing() const { return timing_.summary(); }
   // After join(): what LoopConfig::realtime got (all false when not asked).
   RealtimeResult realtime_result() const noexcept { return realtime_result_; }
+  // Why kSafetyLimit or kWatchdog ended the loop; read once running() is false.
+  const SafetyTrip& safety_trip() const noexcept { return trip_; }
+  // Command entries the force limits (not the ramp) changed so far.
+  std::uint64_t limited_commands() const noexcept { return limited_commands_.load(std::memory_order_relaxed); }
+  // The guard the commands pass; valid after activate().
+  const ForceGuard& force_guard() const noexcept { return force_guard_; }
 
   // Consumer side of the queues (one consumer thread).
   SpscQueue<LoopSample>& samples() noexcept { return samples_; }
   SpscQueue<TaskEvent>& events() noexcept { return events_; }
 
  private:
-  bool activate();
+  void start_watchdog();
   StopReason loop_body();
   void finish(StopReason reason) noexcept;
+  StopReason trip(StopReason reason, const SafetyTrip& why) noexcept;
+  bool lateness_trips(double late_s) const noexcept;
   template <typename T>
   void push_or_count(SpscQueue<T>& queue, const T& item, bool wait,
                      std::atomic<std::uint64_t>& dropped) noexcept;
@@ -141,6 +202,11 @@ class HapticLoop {
   LoopTimingStats timing_;
   std::thread thread_;
   RealtimeResult realtime_result_;  // written by the loop thread, read after join()
+  ForceGuard force_guard_;
+  ReadingGuard reading_guard_;
+  SafetyTrip trip_;
+  std::unique_ptr<Watchdog> watchdog_;
+  bool activated_ = false;  // control thread: activate() succeeded, loop not yet run
 
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> running_{false};
@@ -150,6 +216,7 @@ class HapticLoop {
   std::atomic<double> elapsed_s_{0.0};
   std::atomic<std::uint64_t> dropped_samples_{0};
   std::atomic<std::uint64_t> dropped_events_{0};
+  std::atomic<std::uint64_t> limited_commands_{0};
 };
 
 }  // namespace hapticlab

@@ -86,6 +86,7 @@ SimRig::SimRig(const SimTrialConfig& config) {
                                           : config.sample_queue_capacity;
   loop_config.publish_samples = config.publish_samples;
   loop_config.realtime = config.realtime;
+  loop_config.safety = config.safety;
   if (!config.stop_when_complete) loop_config.linger_after_complete_s = config.max_duration_s;
   loop_ = std::make_unique<HapticLoop>(*device_, *engine_, *ve_, *clock_, std::move(schedule),
                                        loop_config, participant_.get());
@@ -129,6 +130,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
   if (!loop.start()) {
     result.stop_reason = loop.stop_reason();
     result.device_status = loop.device_status();
+    result.device_refused = true;
     return result;
   }
   while (loop.running()) {
@@ -140,6 +142,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
 
   result.stop_reason = loop.stop_reason();
   result.device_status = loop.device_status();
+  result.safety_trip = loop.safety_trip();
   result.task_complete = rig.ve().complete();
   result.duration_s = loop.elapsed_s();
   result.dropped_samples = loop.dropped_samples();

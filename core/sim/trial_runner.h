@@ -56,11 +56,16 @@ struct SimTrialConfig {
   // max_duration_s passes. participant_seed, practice_trials and
   // inject_fault are then unused; trial_seed still lays out the task.
   std::shared_ptr<const std::vector<ReplayFrame>> replay;
+  // The loop's protections (docs/safety.md); force_limits carries the
+  // protocol's "safety" object.
+  LoopSafetyConfig safety;
 };
 
 struct SimTrialResult {
   StopReason stop_reason = StopReason::kNotStopped;
   DeviceStatus device_status = DeviceStatus::kOk;
+  bool device_refused = false;  // activate() failed (device_status says why): nothing ran
+  SafetyTrip safety_trip;       // stop_reason kSafetyLimit or kWatchdog: which limit
   bool task_complete = false;
   double duration_s = 0.0;          // loop time at the last update
   std::uint64_t samples = 0;

@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 
+#include "core/loop/force_guard.h"
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
 #include "core/loop/spsc_queue.h"
@@ -204,6 +205,8 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
                       " of the study cannot configure an engine: " + engine_error);
       return HL_ERROR_DATABASE;
     }
+    // The trial starts with its forces ramping in, as in HapticLab's own loop.
+    hl_engine_set_ramp_in(engine, hl::ForceGuard::kDefaultRampIn_s);
     // Whatever a late call left in the queues belongs to no trial; the
     // writer is not running, so this thread may consume.
     hl::LoopSample stale_sample;

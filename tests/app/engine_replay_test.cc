@@ -149,6 +149,24 @@ TEST_F(EngineReplayTest, FrictionOpposesInsertionVelocityAtTheSlipLevel) {
   EXPECT_GT(checked, 3000);
 }
 
+// The trajectory the README's "Using the engine" replays: at High Fidelity
+// the device shows the VE's tissue force as is, 300 N/m x 5 mm = 1.5 N up
+// the shaft at the deepest point, and nothing on the resting left tool.
+TEST_F(EngineReplayTest, TheShippedExampleTrajectoryReplays) {
+  const fs::path source = HAPTICLAB_SOURCE_DIR;
+  const fs::path out = dir_ / "out.csv";
+  replay(source / "examples/settings/high_fidelity.json", source / "examples/trajectories/probe_and_press.csv", out);
+  const Csv csv = read_csv(out);
+  ASSERT_EQ(csv.rows.size(), 2002u);
+  double peak_right_N = 0.0, peak_left_N = 0.0;
+  for (const auto& row : csv.rows) {
+    double& peak = row.at("instrument") == 1.0 ? peak_right_N : peak_left_N;
+    peak = std::max(peak, row.at("displayed_force_z_N"));
+  }
+  EXPECT_NEAR(peak_right_N, 1.5, 1e-6);
+  EXPECT_EQ(peak_left_N, 0.0);
+}
+
 TEST_F(EngineReplayTest, OutputHasTheDocumentedColumnsInOrder) {
   const fs::path settings = write_file("s.json", R"({"name":"hi-fi"})");
   const fs::path input = write_file(

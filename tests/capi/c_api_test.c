@@ -179,6 +179,39 @@ static void test_refresh_forces_edge_cases(void) {
   hl_engine_destroy(e);
 }
 
+/* Ramp-in: a constant VE force of 2 N down the shaft (High Fidelity shows
+ * it as is) comes out scaled by t / 0.3 s, t the sum of dt, then in full. */
+static void test_ramp_in_scales_force_by_elapsed_time(void) {
+  char error[512];
+  hl_engine* e = hl_engine_create_from_file(HAPTICLAB_EXAMPLES_DIR "/high_fidelity.json", error, sizeof error);
+  CHECK(e != NULL, "create failed: %s", error);
+  if (e == NULL) return;
+  CHECK(hl_engine_set_ramp_in(e, -1.0) == HL_ERROR_INVALID_ARGUMENT, "negative ramp accepted");
+  CHECK(hl_engine_set_ramp_in(NULL, 0.3) == HL_ERROR_INVALID_ARGUMENT, "NULL engine accepted");
+  CHECK(hl_engine_set_ramp_in(e, 0.3) == HL_OK, "ramp refused");
+  hl_input in;
+  hl_output out;
+  memset(&in, 0, sizeof in);
+  in.insertion_m = 0.1;
+  in.ve_force_N[2] = 2.0;
+  double first = -1.0, at_150ms = -1.0, at_400ms = -1.0;
+  unsigned status_150ms = 0, status_400ms = 0;
+  for (int k = 1; k <= 400; ++k) {
+    in.dt_s = 0.001;
+    CHECK(hl_engine_update(e, 0, &in, &out) == HL_OK, "update failed");
+    if (k == 1) first = out.displayed_force_N[2];
+    if (k == 150) { at_150ms = out.displayed_force_N[2]; status_150ms = out.status; }
+    if (k == 400) { at_400ms = out.displayed_force_N[2]; status_400ms = out.status; }
+  }
+  /* 1 ms of 300: 2 N / 300; 150 ms: half; after 300 ms: all of it. */
+  CHECK(fabs(first - 2.0 / 300.0) < 1e-9, "first update %g N", first);
+  CHECK(fabs(at_150ms - 1.0) < 1e-9 && (status_150ms & HL_RAMPING), "at 150 ms %g N, status %u", at_150ms,
+        status_150ms);
+  CHECK(fabs(at_400ms - 2.0) < 1e-9 && !(status_400ms & HL_RAMPING), "at 400 ms %g N, status %u", at_400ms,
+        status_400ms);
+  hl_engine_destroy(e);
+}
+
 int main(void) {
   CHECK(strlen(hl_version()) > 0, "no version");
   test_bad_settings_give_a_message();
@@ -187,6 +220,7 @@ int main(void) {
   test_refresh_forces_matches_update("cogging.json");
   test_refresh_forces_matches_update("force_saturation.json");
   test_refresh_forces_edge_cases();
+  test_ramp_in_scales_force_by_elapsed_time();
   if (failures) {
     fprintf(stderr, "c_api_test: %d check(s) failed\n", failures);
     return 1;

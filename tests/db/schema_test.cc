@@ -57,8 +57,8 @@ TEST(Schema, FreshDatabaseIsAtTheCurrentVersionWithEveryTable) {
   EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
   EXPECT_EQ(db.connection().pragma_int("application_id"), kApplicationId);
   EXPECT_EQ(tables(db.connection()),
-            (std::vector<std::string>{"event", "loop_timing", "participant", "sample_chunk", "session", "setting",
-                                      "study", "training", "trial"}));
+            (std::vector<std::string>{"device_counter", "event", "loop_timing", "participant", "sample_chunk",
+                                      "session", "setting", "study", "training", "trial"}));
   Statement s = db.connection().prepare("PRAGMA journal_mode");
   ASSERT_TRUE(s.step());
   EXPECT_EQ(s.column_text(0), "wal");

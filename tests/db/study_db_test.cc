@@ -124,6 +124,16 @@ TEST(StudyDb, AbortedTrialIsRequeuedInPlaceAndRunsBeforeLaterPositions) {
   EXPECT_THROW(db.add_trial({p, "clip", hf, 1, 1, 1}), DbError);
 }
 
+TEST(StudyDb, DeviceCountersReplaceAndReadBackInNameOrder) {
+  StudyDb db(":memory:");
+  const std::int64_t trial = testing::make_trial(db);
+  EXPECT_TRUE(db.device_counters(trial).empty());
+  db.set_device_counters(trial, {{"timeouts", 1}, {"packets_sent", 5'000'000'000}});
+  db.set_device_counters(trial, {{"timeouts", 2}, {"stale", 7}});  // replaces, never adds up
+  const std::vector<std::pair<std::string, std::uint64_t>> expected = {{"stale", 7}, {"timeouts", 2}};
+  EXPECT_EQ(db.device_counters(trial), expected);
+}
+
 TEST(StudyDb, LoopTimingAndEvents) {
   StudyDb db(":memory:");
   const std::int64_t trial = testing::make_trial(db);

@@ -153,7 +153,13 @@ TEST_F(StudyApiTest, TrialsComeInScheduleOrderBlindedWithTheirSettingsEngine) {
     if (planned[i].setting_name == "No Force Feedback") {
       EXPECT_EQ(out.displayed_force_N[2], 0.0);
     } else {
+      // Each trial's force ramps in over 0.3 s, as in HapticLab's own loop:
+      // 2 ms into the trial, 2/300 of it.
+      EXPECT_NEAR(out.displayed_force_N[2], 2.0 * 0.002 / 0.3, 1e-12) << planned[i].setting_name;
+      EXPECT_NE(out.status & HL_RAMPING, 0u);
+      for (int k = 0; k < 300; ++k) ASSERT_EQ(hl_engine_update(trial_.engine, 0, &in, &out), HL_OK);
       EXPECT_NEAR(out.displayed_force_N[2], 2.0, 1e-9) << planned[i].setting_name;
+      EXPECT_EQ(out.status & HL_RAMPING, 0u);
     }
     ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
   }
@@ -176,10 +182,12 @@ TEST_F(StudyApiTest, OperatorStopZeroesTheForceFromTheNextUpdateAndRequeuesTheTr
   in.insertion_m = 0.1;
   in.ve_force_N[2] = 2.0;
   hl_output out{};
-  for (std::uint64_t k = 0; k < 3; ++k) {
+  for (std::uint64_t k = 0; k < 310; ++k) {  // past the 0.3 s ramp-in
     ASSERT_EQ(hl_engine_update(trial_.engine, 0, &in, &out), HL_OK);
-    const hl_sample s = sample_at(k);
-    ASSERT_EQ(hl_study_log_sample(study_, &s), HL_OK);
+    if (k < 3) {
+      const hl_sample s = sample_at(k);
+      ASSERT_EQ(hl_study_log_sample(study_, &s), HL_OK);
+    }
   }
   ASSERT_NEAR(out.displayed_force_N[2], 2.0, 1e-9);
   ASSERT_EQ(out.status & HL_HALTED, 0u);

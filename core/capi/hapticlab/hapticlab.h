@@ -56,6 +56,8 @@ typedef struct hl_engine hl_engine;
 /* The engine was halted (hl_engine_halt): force is zero, for good. Not an
  * engine fault, so not in HL_FAULT_MASK; test it on its own. */
 #define HL_HALTED 0x8000u
+/* The force was scaled down by the ramp-in (hl_engine_set_ramp_in). */
+#define HL_RAMPING 0x4000u
 
 typedef struct hl_input {
   double dt_s;           /* time since this instrument's previous update, s */
@@ -148,6 +150,19 @@ HL_API int hl_engine_set_settings(hl_engine* engine, const char* settings_json, 
  * the loop runs (an atomic flag; no lock). NULL is ignored.
  */
 HL_API void hl_engine_halt(hl_engine* engine);
+
+/*
+ * Force ramp-in, so that a trial never begins with a step to a large force
+ * (a VE that starts in contact, a degradation with a standing force): each
+ * instrument's forces and joint commands are scaled by min(1, t / ramp_s),
+ * t being the sum of that instrument's dt since this call, with HL_RAMPING
+ * in status while the scale is below 1. ramp_s = 0 turns it off (the
+ * default of hl_engine_create). The engines of the study API's trials ramp
+ * in over 0.3 s, as HapticLab's own loop does (docs/safety.md). Call it
+ * before the loop runs, or between trials; returns HL_ERROR_INVALID_ARGUMENT
+ * for a NULL engine or a ramp_s that is negative, NaN or above 10 s.
+ */
+HL_API int hl_engine_set_ramp_in(hl_engine* engine, double ramp_s);
 
 HL_API void hl_engine_destroy(hl_engine* engine);
 

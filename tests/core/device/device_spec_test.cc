@@ -1,6 +1,7 @@
 #include "core/device/device_spec.h"
 
 #include <stdexcept>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -52,6 +53,31 @@ TEST(DeviceFactory, TheSimDeviceIsHeldByASimulatedHandAndTakesNoOptions) {
   DeviceSpec spec;
   spec.options["gain"] = "2";
   EXPECT_THROW(open_device(spec), std::invalid_argument);
+}
+
+TEST(DeviceFactory, TheUdpDeviceTakesOnlyATimeoutInItsRange) {
+  // Options are checked before any packet goes out, so no driver is needed.
+  for (const char* bad : {"timeout_ms=0", "timeout_ms=1001", "timeout_ms=10ms", "timeout_ms="}) {
+    DeviceSpec spec = parse_device_spec("udp:5000");
+    add_device_options(spec, {bad});
+    try {
+      open_device(spec);
+      ADD_FAILURE() << bad;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("timeout_ms"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("1..1000"), std::string::npos) << e.what();
+    }
+  }
+  DeviceSpec spec = parse_device_spec("udp:5000");
+  add_device_options(spec, {"gain=2"});
+  try {
+    open_device(spec);
+    ADD_FAILURE() << "took an unknown option";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'gain' is not an option of the udp:127.0.0.1:5000 device"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

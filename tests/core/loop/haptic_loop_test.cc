@@ -190,7 +190,11 @@ TEST(HapticLoopTest, VeGetsDegradedPositionsAndDeviceGetsTheVeForceOfTheSameUpda
   Engine engine(EngineSettings{}, {JointVector(0.10, 0.0, -0.15), JointVector(0.10, 0.0, -0.15)});
   RecordingVe ve;
   VirtualClock clock;
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), short_run(0.2));
+  // No ramp-in: this test follows the engine's force to the device
+  // unscaled (force_guard_test and safety_test check the ramp).
+  LoopConfig config = short_run(0.2);
+  config.safety.ramp_in_s = 0.0;
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config);
   ASSERT_EQ(loop.run(), StopReason::kMaxDuration);
   const std::vector<LoopSample> samples = drain(loop);
   ASSERT_EQ(samples.size(), loop.ticks());
@@ -386,7 +390,11 @@ TEST(HapticLoopTest, RequestStopFromAnotherThreadStopsAWallClockLoopPromptly) {
   Engine engine(EngineSettings{});
   RecordingVe ve;
   WallClock clock;
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(1000.0), short_run(600.0));
+  LoopConfig config = short_run(600.0);
+  // A loaded test machine must not trip the 20 ms watchdogs here: this test
+  // is about the stop (safety_test covers the watchdogs).
+  config.safety.max_lateness_s = config.safety.watchdog_timeout_s = 1.0;
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(1000.0), config);
   ASSERT_TRUE(loop.start());
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   EXPECT_TRUE(loop.running());
@@ -444,6 +452,9 @@ TEST(HapticLoopTest, FullQueueWithTheWallClockDropsAndCountsSamples) {
   WallClock clock;
   LoopConfig config = short_run(0.1);
   config.sample_queue_capacity = 8;
+  // Full for most of the 0.1 s run, below the 0.25 s writer watchdog; and
+  // a loaded test machine must not trip the 20 ms ones.
+  config.safety.max_lateness_s = config.safety.watchdog_timeout_s = 1.0;
   HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(1000.0), config);
   EXPECT_EQ(loop.run(), StopReason::kMaxDuration);  // nobody consumes
   ASSERT_GT(loop.ticks(), 50u);

@@ -1,0 +1,97 @@
+#pragma once
+// PluginDevice, the "plugin:PATH" backend: a Device implemented by a shared
+// library through the C ABI of core/capi/hapticlab/device_plugin.h.
+//
+// Loading refuses, with a message naming the file and the value: a missing
+// file, a library that does not load or lacks hl_device_plugin_entry, a
+// table of another ABI version or size, a required function left NULL, and
+// options the plugin's create() rejects. configure() also fetches the
+// ratings and refuses invalid ones (configure_error() says which).
+//
+// The boundary is guarded both ways: a reading with a non-finite position is
+// kNonFiniteReading whatever the plugin said, and a command with a
+// non-finite force is never passed on (zero force is sent instead and
+// write() returns kWriteFailed), and a force beyond the rated peak_force is
+// clipped to it before the plugin sees it. A status code the ABI does not define
+// counts as the call's failure status.
+//
+// A plugin with the simulation extension is also a HandAttachment, so the
+// simulated participant holds it exactly as it holds the built-in sim.
+//
+// Threads as for Device. Not copyable or movable: the loop and the
+// participant hold pointers to it, and the plugin's clock callback holds one
+// to the loop's clock.
+
+#include <map>
+#include <string>
+
+#include "core/capi/hapticlab/device_plugin.h"
+#include "core/device/device.h"
+#include "core/device/hand_attachment.h"
+
+namespace hapticlab {
+
+class PluginDevice final : public Device, public HandAttachment {
+ public:
+  // Called with the name of each loading step before it runs ("load",
+  // "create", ...), so a probe can say where a plugin crashed.
+  using StageHook = void (*)(void* context, const char* stage);
+
+  // Loads `path` and creates the device with `options`. Throws
+  // std::runtime_error for a file that is not a usable plugin and
+  // std::invalid_argument when the plugin rejects an option, both with a
+  // message for the operator.
+  PluginDevice(const std::string& path, const std::map<std::string, std::string>& options,
+               StageHook stage = nullptr, void* stage_context = nullptr);
+  ~PluginDevice() override;
+  PluginDevice(const PluginDevice&) = delete;
+  PluginDevice& operator=(const PluginDevice&) = delete;
+
+  // --- Device
+  DeviceStatus configure(const DeviceConfig& config) override;
+  DeviceStatus activate(const Clock& clock) override;
+  DeviceStatus read(DeviceReading& reading) noexcept override;
+  DeviceStatus write(const DeviceCommand& command) noexcept override;
+  DeviceStatus deactivate() noexcept override;
+  void halt() noexcept override;
+  const char* name() const noexcept override;
+  DeviceRatings ratings() const noexcept override { return ratings_; }
+  HandAttachment* hand_attachment() noexcept override { return table_->sim != nullptr ? this : nullptr; }
+
+  // --- HandAttachment (only with the plugin's simulation extension)
+  bool set_start_pose(int instrument, const DeviceJoints& position) noexcept override;
+  void set_hand(int instrument, const HandCouplings& hand) noexcept override;
+  DeviceJoints hand_force(int instrument) const noexcept override;
+  DeviceJoints motor_force(int instrument) const noexcept override;
+
+  // Why the last configure() failed, for the operator ("" after a success).
+  const std::string& configure_error() const noexcept { return configure_error_; }
+  const std::string& path() const noexcept { return path_; }
+
+ private:
+  std::string path_;
+  void* library_ = nullptr;
+  const hl_device_plugin* table_ = nullptr;
+  hl_device* device_ = nullptr;
+  hl_device_clock clock_{};
+  DeviceRatings ratings_ = workstation_ratings();
+  std::string configure_error_;
+  bool active_ = false;
+};
+
+// The rules of DeviceRatings: every value finite, max_position >
+// min_position, continuous_force >= 0, peak_force >= continuous_force,
+// max_velocity > 0. Returns "" if they hold, else a message naming
+// `source`, the instrument, the joint, the field and its value.
+std::string check_ratings(const std::string& source, const DeviceRatings& ratings);
+
+// Loads the plugin in a child process and runs create, configure (with
+// `config`), ratings and destroy there; the parent only waits. Returns
+// normally if all succeeded. Throws std::runtime_error with the loader's
+// message for a plugin that is refused, and for one that crashes, exits or
+// hangs (longer than timeout_s) in a step:
+//   "plugin PATH crashed (SIGSEGV) in configure; nothing was started".
+void probe_plugin(const std::string& path, const std::map<std::string, std::string>& options,
+                  const DeviceConfig& config, double timeout_s = 10.0);
+
+}  // namespace hapticlab

@@ -1,0 +1,297 @@
+#include "core/device/udp_device.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include "core/loop/clock.h"
+
+namespace hapticlab {
+namespace {
+
+std::int64_t steady_ns() noexcept {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Sequence numbers wrap after 2^32 datagrams (50 days at 1 kHz); compared
+// modulo 2^32 so the wrap is not an error.
+bool newer(std::uint32_t a, std::uint32_t b) noexcept { return static_cast<std::int32_t>(a - b) > 0; }
+
+}  // namespace
+
+UdpDevice::UdpDevice(const UdpDeviceOptions& options)
+    : endpoint_("udp:" + options.host + ":" + std::to_string(options.port)), options_(options) {
+  if (options.port < 1 || options.port > 65535)
+    throw std::invalid_argument("device " + endpoint_ + ": port " + std::to_string(options.port) +
+                                " is outside 1..65535");
+  if (options.timeout_ms < 1 || options.timeout_ms > 1000)
+    throw std::invalid_argument("device-option timeout_ms: " + std::to_string(options.timeout_ms) +
+                                " is outside 1..1000 (milliseconds)");
+  sockaddr_in peer{};
+  peer.sin_family = AF_INET;
+  peer.sin_port = htons(static_cast<std::uint16_t>(options.port));
+  if (inet_pton(AF_INET, options.host.c_str(), &peer.sin_addr) != 1)
+    throw std::invalid_argument("device " + endpoint_ + ": host '" + options.host +
+                                "' is not an IPv4 address such as 127.0.0.1");
+  fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd_ < 0) throw std::runtime_error("device " + endpoint_ + ": cannot create a UDP socket: " + std::strerror(errno));
+  // Connected: the kernel drops datagrams from anyone but the driver.
+  if (::connect(fd_, reinterpret_cast<const sockaddr*>(&peer), sizeof peer) != 0) {
+    const std::string why = std::strerror(errno);
+    ::close(fd_);
+    throw std::runtime_error("device " + endpoint_ + ": cannot reach it: " + why);
+  }
+
+  // Handshake. HELLO again every 100 ms: the first may have gone out
+  // before the driver's socket existed.
+  const std::int64_t end_ns = steady_ns() + std::int64_t{options.handshake_timeout_ms} * 1'000'000;
+  bool answered = false;
+  while (!answered && steady_ns() < end_ns) {
+    const std::uint32_t seq = tx_sequence_.load(std::memory_order_relaxed) + 1;
+    send(udp::Type::kHello, 0.0);
+    answered = await(udp::Type::kHelloReply, seq, std::min(end_ns, steady_ns() + 100'000'000));
+  }
+  if (!answered) {
+    ::close(fd_);
+    throw std::runtime_error("device: no device answers at " + endpoint_ + " within " +
+                             std::to_string(options.handshake_timeout_ms) +
+                             " ms; is `hapticlab device serve-sim --port " + std::to_string(options.port) +
+                             "` or your driver running?");
+  }
+  udp::HelloReply hello;
+  udp::decode(rx_.data(), hello);
+  name_ = hello.name;
+  if (name_[0] == '\0') std::memcpy(name_.data(), "udp", 4);
+  ratings_ = hello.ratings;
+  simulated_ = (hello.flags & udp::kFlagSimulated) != 0;
+}
+
+UdpDevice::~UdpDevice() {
+  // The loop's clock may be gone by now (it need only outlive the loop that
+  // used it): the last POLL's time stands in for it.
+  clock_ = nullptr;
+  if (active_) deactivate();
+  if (fd_ >= 0) ::close(fd_);
+}
+
+double UdpDevice::now_s() const noexcept {
+  return clock_ != nullptr ? clock_->now_s() : last_poll_time_s_.load(std::memory_order_relaxed);
+}
+
+void UdpDevice::send(udp::Type type, double time_s) noexcept {
+  std::array<std::byte, udp::kMaxDatagramBytes> buf;
+  const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s};
+  const std::size_t n = udp::encode(h, buf.data());
+  // A lost datagram shows up as a timeout of the request it belonged to.
+  if (::send(fd_, buf.data(), n, MSG_NOSIGNAL) == static_cast<ssize_t>(n))
+    sent_.fetch_add(1, std::memory_order_relaxed);
+}
+
+template <typename Payload>
+void UdpDevice::send(udp::Type type, double time_s, const Payload& payload) noexcept {
+  std::array<std::byte, udp::kMaxDatagramBytes> buf;
+  const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s};
+  const std::size_t n = udp::encode(h, payload, buf.data());
+  if (::send(fd_, buf.data(), n, MSG_NOSIGNAL) == static_cast<ssize_t>(n))
+    sent_.fetch_add(1, std::memory_order_relaxed);
+}
+
+bool UdpDevice::await(udp::Type type, std::uint32_t sequence, std::int64_t deadline_ns) noexcept {
+  for (;;) {
+    const ssize_t n = ::recv(fd_, rx_.data(), rx_.size(), MSG_DONTWAIT);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      // EAGAIN: nothing yet. ECONNREFUSED: the driver's port is closed (it
+      // died); keep waiting, it may come back within the timeout.
+      const std::int64_t left_ns = deadline_ns - steady_ns();
+      if (left_ns <= 0) return false;
+      pollfd p{fd_, POLLIN, 0};
+      const timespec ts{static_cast<time_t>(left_ns / 1'000'000'000), static_cast<long>(left_ns % 1'000'000'000)};
+      ::ppoll(&p, 1, &ts, nullptr);
+      continue;
+    }
+    received_.fetch_add(1, std::memory_order_relaxed);
+    udp::Header h;
+    if (!udp::decode_header(rx_.data(), static_cast<std::size_t>(n), h)) {
+      malformed_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    if (have_rx_sequence_ && !newer(h.sequence, rx_sequence_)) {
+      out_of_order_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    have_rx_sequence_ = true;
+    rx_sequence_ = h.sequence;
+    // Every reply starts with the sequence of the request it answers.
+    std::uint32_t echo = 0;
+    std::memcpy(&echo, rx_.data() + udp::kHeaderBytes, sizeof echo);
+    const bool is_reply = h.type == udp::Type::kHelloReply || h.type == udp::Type::kAck || h.type == udp::Type::kState;
+    if (!is_reply || newer(echo, sequence)) {
+      // A request type, or an answer to a request not yet sent: not from a
+      // driver that follows the format.
+      malformed_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    if (echo != sequence || h.type != type) {
+      stale_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    rx_size_ = static_cast<std::size_t>(n);
+    return true;
+  }
+}
+
+DeviceStatus UdpDevice::request_ack(udp::Type type, double time_s, const void* payload, int timeout_ms) noexcept {
+  const std::uint32_t seq = tx_sequence_.load(std::memory_order_relaxed) + 1;
+  switch (type) {
+    case udp::Type::kConfigure: send(type, time_s, *static_cast<const udp::Configure*>(payload)); break;
+    case udp::Type::kSetStartPose: send(type, time_s, *static_cast<const udp::StartPose*>(payload)); break;
+    default: send(type, time_s); break;
+  }
+  if (!await(udp::Type::kAck, seq, steady_ns() + std::int64_t{timeout_ms} * 1'000'000)) {
+    timeouts_.fetch_add(1, std::memory_order_relaxed);
+    return DeviceStatus::kTimeout;
+  }
+  udp::Ack ack;
+  udp::decode(rx_.data(), ack);
+  return ack.status;
+}
+
+DeviceStatus UdpDevice::configure(const DeviceConfig& config) {
+  if (active_) return DeviceStatus::kInvalidConfig;
+  const udp::Configure c{config.nominal_rate_Hz, config.seed};
+  return request_ack(udp::Type::kConfigure, 0.0, &c, options_.handshake_timeout_ms);
+}
+
+DeviceStatus UdpDevice::activate(const Clock& clock) {
+  clock_ = &clock;
+  halted_.store(false, std::memory_order_release);
+  const DeviceStatus s = request_ack(udp::Type::kActivate, clock.now_s(), nullptr, options_.handshake_timeout_ms);
+  active_ = s == DeviceStatus::kOk;
+  return s;
+}
+
+DeviceStatus UdpDevice::read(DeviceReading& reading) noexcept {
+  if (!active_) return DeviceStatus::kNotActive;
+  const std::uint32_t seq = tx_sequence_.load(std::memory_order_relaxed) + 1;
+  const std::int64_t sent_ns = steady_ns();
+  const double t_s = now_s();
+  last_poll_time_s_.store(t_s, std::memory_order_relaxed);
+  send(udp::Type::kPoll, t_s);
+  if (!await(udp::Type::kState, seq, sent_ns + std::int64_t{options_.timeout_ms} * 1'000'000)) {
+    timeouts_.fetch_add(1, std::memory_order_relaxed);
+    return DeviceStatus::kTimeout;
+  }
+  const std::int64_t rtt_us = (steady_ns() - sent_ns) / 1000;
+  ++round_trip_us_[static_cast<std::size_t>(std::clamp<std::int64_t>(rtt_us, 0, kRoundTripBins - 1))];
+  ++round_trips_;
+  udp::decode(rx_.data(), state_);
+  if (state_.status != DeviceStatus::kOk) return state_.status;
+  for (const DeviceJoints& j : state_.position)
+    for (double v : j)
+      if (!std::isfinite(v)) return DeviceStatus::kNonFiniteReading;
+  reading.position = state_.position;
+  reading.device_time_s = state_.device_time_s;
+  return DeviceStatus::kOk;
+}
+
+DeviceStatus UdpDevice::write(const DeviceCommand& command) noexcept {
+  if (!active_) return DeviceStatus::kNotActive;
+  udp::Command c;
+  bool finite = true;
+  for (const DeviceJoints& j : command.force)
+    for (double v : j) finite = finite && std::isfinite(v);
+  if (finite && !halted_.load(std::memory_order_acquire)) c.force = command.force;
+  send(udp::Type::kCommand, now_s(), c);
+  return finite ? DeviceStatus::kOk : DeviceStatus::kWriteFailed;
+}
+
+void UdpDevice::halt() noexcept {
+  halted_.store(true, std::memory_order_release);
+  // Any thread: the loop clock is the loop thread's, so the time of the
+  // last POLL stands in for it.
+  send(udp::Type::kCommand, last_poll_time_s_.load(std::memory_order_relaxed), udp::Command{});
+}
+
+DeviceStatus UdpDevice::deactivate() noexcept {
+  if (!active_) return DeviceStatus::kOk;
+  active_ = false;
+  send(udp::Type::kCommand, now_s(), udp::Command{});
+  // The driver may be gone (that is often why we stop): wait one read
+  // timeout for its ACK, not a handshake's.
+  const DeviceStatus s = request_ack(udp::Type::kDeactivate, now_s(), nullptr, options_.timeout_ms);
+  return s == DeviceStatus::kTimeout ? DeviceStatus::kOk : s;
+}
+
+bool UdpDevice::set_start_pose(int instrument, const DeviceJoints& position) noexcept {
+  if (!simulated_ || active_ || (instrument != 0 && instrument != 1)) return false;
+  const udp::StartPose p{static_cast<std::uint32_t>(instrument), position};
+  return request_ack(udp::Type::kSetStartPose, 0.0, &p, options_.handshake_timeout_ms) == DeviceStatus::kOk;
+}
+
+void UdpDevice::set_hand(int instrument, const HandCouplings& hand) noexcept {
+  if (!simulated_ || (instrument != 0 && instrument != 1)) return;
+  send(udp::Type::kHand, now_s(), udp::Hand{static_cast<std::uint32_t>(instrument), hand});
+}
+
+DeviceJoints UdpDevice::hand_force(int instrument) const noexcept {
+  if (instrument != 0 && instrument != 1) return {};
+  return state_.hand_force[static_cast<std::size_t>(instrument)];
+}
+
+DeviceJoints UdpDevice::motor_force(int instrument) const noexcept {
+  if (instrument != 0 && instrument != 1) return {};
+  return state_.motor_force[static_cast<std::size_t>(instrument)];
+}
+
+UdpDevice::Counts UdpDevice::counts() const noexcept {
+  Counts c;
+  c.sent = sent_.load(std::memory_order_relaxed);
+  c.received = received_.load(std::memory_order_relaxed);
+  c.stale = stale_.load(std::memory_order_relaxed);
+  c.out_of_order = out_of_order_.load(std::memory_order_relaxed);
+  c.malformed = malformed_.load(std::memory_order_relaxed);
+  c.timeouts = timeouts_.load(std::memory_order_relaxed);
+  return c;
+}
+
+double UdpDevice::round_trip_quantile_s(double q) const noexcept {
+  if (round_trips_ == 0) return std::numeric_limits<double>::quiet_NaN();
+  const auto rank = static_cast<std::uint64_t>(std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(round_trips_)));
+  std::uint64_t seen = 0;
+  for (int us = 0; us < kRoundTripBins; ++us) {
+    seen += round_trip_us_[static_cast<std::size_t>(us)];
+    if (seen >= std::max<std::uint64_t>(rank, 1)) return us * 1e-6;
+  }
+  return (kRoundTripBins - 1) * 1e-6;
+}
+
+std::vector<std::pair<std::string, std::uint64_t>> UdpDevice::counters() const {
+  const Counts c = counts();
+  std::vector<std::pair<std::string, std::uint64_t>> out = {
+      {"packets_sent", c.sent},   {"packets_received", c.received}, {"stale", c.stale},
+      {"out_of_order", c.out_of_order}, {"malformed", c.malformed}, {"timeouts", c.timeouts}};
+  if (round_trips_ > 0) {
+    out.emplace_back("round_trip_p50_us", static_cast<std::uint64_t>(std::lround(round_trip_quantile_s(0.5) * 1e6)));
+    out.emplace_back("round_trip_p99_us", static_cast<std::uint64_t>(std::lround(round_trip_quantile_s(0.99) * 1e6)));
+  }
+  return out;
+}
+
+std::string UdpDevice::fault_detail() const {
+  if (timeouts_.load(std::memory_order_relaxed) == 0) return {};
+  return "no answer from " + endpoint_ + " within " + std::to_string(options_.timeout_ms) + " ms";
+}
+
+}  // namespace hapticlab

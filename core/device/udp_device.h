@@ -1,0 +1,116 @@
+#pragma once
+// UdpDevice, the "udp" backend: a device driver in another process or on
+// another PC, reached through the UDP bridge (docs/udp_bridge.md,
+// udp_protocol.h). Each read() sends a POLL carrying the loop clock's time
+// and waits for the STATE that echoes it; each write() sends a COMMAND.
+// Request/response keeps a virtual-clock session deterministic: a simulated
+// device behind the bridge advances its physics to the time in the POLL.
+//
+// Faults: no valid STATE within timeout_ms -> read() returns kTimeout (the
+// loop then ends the trial and commands zero force). A datagram that is
+// malformed (magic, version, type, length, CRC), out of order (an older
+// device sequence than one already seen) or stale (it answers an earlier
+// request) is ignored and counted; counters() reports the counts.
+//
+// When the far side says it is simulated, the device is also a
+// HandAttachment: SET_START_POSE and HAND datagrams carry the simulated
+// participant's hand, and STATE carries the hand and motor forces back.
+//
+// Threads as for Device. read/write/set_hand/halt neither allocate nor
+// lock; they block only in the socket calls. Not copyable: the loop and the
+// participant hold pointers to it.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+#include "core/device/device.h"
+#include "core/device/hand_attachment.h"
+#include "core/device/udp_protocol.h"
+
+namespace hapticlab {
+
+struct UdpDeviceOptions {
+  std::string host = "127.0.0.1";  // IPv4 address
+  int port = 0;                    // 1..65535
+  int timeout_ms = 10;             // 1..1000: longest wait for a STATE
+  int handshake_timeout_ms = 1000; // longest wait for HELLO_REPLY and for each ACK
+};
+
+class UdpDevice final : public Device, public HandAttachment {
+ public:
+  // Opens the socket and shakes hands. Throws std::invalid_argument for a
+  // bad host or option, std::runtime_error when nothing answers in time.
+  explicit UdpDevice(const UdpDeviceOptions& options);
+  ~UdpDevice() override;
+  UdpDevice(const UdpDevice&) = delete;
+  UdpDevice& operator=(const UdpDevice&) = delete;
+
+  // --- Device
+  DeviceStatus configure(const DeviceConfig& config) override;
+  DeviceStatus activate(const Clock& clock) override;
+  DeviceStatus read(DeviceReading& reading) noexcept override;
+  // A non-finite entry never leaves this process: a zero COMMAND goes out
+  // instead and the call returns kWriteFailed.
+  DeviceStatus write(const DeviceCommand& command) noexcept override;
+  DeviceStatus deactivate() noexcept override;
+  void halt() noexcept override;
+  const char* name() const noexcept override { return name_.data(); }
+  DeviceRatings ratings() const noexcept override { return ratings_; }
+  HandAttachment* hand_attachment() noexcept override { return simulated_ ? this : nullptr; }
+  std::vector<std::pair<std::string, std::uint64_t>> counters() const override;
+  std::string fault_detail() const override;
+
+  // --- HandAttachment (only when the far side is simulated)
+  bool set_start_pose(int instrument, const DeviceJoints& position) noexcept override;
+  void set_hand(int instrument, const HandCouplings& hand) noexcept override;
+  DeviceJoints hand_force(int instrument) const noexcept override;
+  DeviceJoints motor_force(int instrument) const noexcept override;
+
+  struct Counts {
+    std::uint64_t sent = 0, received = 0;
+    std::uint64_t stale = 0, out_of_order = 0, malformed = 0, timeouts = 0;
+  };
+  Counts counts() const noexcept;
+  // Round trip POLL -> STATE [s], from a histogram of 1 µs bins up to 10 ms
+  // (longer ones count as 10 ms); NaN before the first.
+  double round_trip_quantile_s(double q) const noexcept;
+  bool simulated() const noexcept { return simulated_; }
+
+ private:
+  void send(udp::Type type, double time_s) noexcept;
+  template <typename Payload>
+  void send(udp::Type type, double time_s, const Payload& payload) noexcept;
+  // Waits until `deadline_ns` (steady clock) for a datagram of `type`
+  // echoing `sequence`; on success the datagram is in rx_. Everything else
+  // that arrives is counted and dropped.
+  bool await(udp::Type type, std::uint32_t sequence, std::int64_t deadline_ns) noexcept;
+  DeviceStatus request_ack(udp::Type type, double time_s, const void* payload, int timeout_ms) noexcept;
+  double now_s() const noexcept;
+
+  std::string endpoint_;  // "udp:HOST:PORT", for messages
+  UdpDeviceOptions options_;
+  int fd_ = -1;
+  std::array<char, udp::kNameBytes> name_{};
+  DeviceRatings ratings_;
+  bool simulated_ = false;
+  const Clock* clock_ = nullptr;
+  bool active_ = false;
+  std::atomic<bool> halted_{false};
+  std::atomic<double> last_poll_time_s_{0.0};
+  std::atomic<std::uint32_t> tx_sequence_{0};
+  bool have_rx_sequence_ = false;
+  std::uint32_t rx_sequence_ = 0;
+  std::array<std::byte, udp::kMaxDatagramBytes + 16> rx_{};
+  std::size_t rx_size_ = 0;
+  udp::State state_;
+  // Counts are written by the loop thread and read after it: relaxed atomics
+  // keep a concurrent read (a progress line) well defined.
+  std::atomic<std::uint64_t> sent_{0}, received_{0}, stale_{0}, out_of_order_{0}, malformed_{0}, timeouts_{0};
+  static constexpr int kRoundTripBins = 10001;  // 1 µs each; the last holds >= 10 ms
+  std::array<std::uint32_t, kRoundTripBins> round_trip_us_{};
+  std::uint64_t round_trips_ = 0;
+};
+
+}  // namespace hapticlab

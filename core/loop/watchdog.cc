@@ -1,0 +1,63 @@
+#include "core/loop/watchdog.h"
+
+#include <algorithm>
+#include <chrono>
+
+namespace hapticlab {
+
+Watchdog::Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s) noexcept
+    : heartbeat_(heartbeat), device_(device), timeout_s_(timeout_s) {}
+
+Watchdog::~Watchdog() { stop(); }
+
+void Watchdog::start() {
+  stop();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = false;
+  }
+  tripped_.store(false, std::memory_order_release);
+  stalled_for_s_.store(0.0, std::memory_order_release);
+  armed_.store(true, std::memory_order_release);
+  thread_ = std::thread([this] { watch(); });
+}
+
+void Watchdog::stop() noexcept {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void Watchdog::watch() {
+  using Steady = std::chrono::steady_clock;
+  const auto timeout = std::chrono::duration<double>(timeout_s_);
+  const auto poll = std::max<Steady::duration>(std::chrono::duration_cast<Steady::duration>(timeout / 4),
+                                               std::chrono::milliseconds(1));
+  std::uint64_t last_beat = heartbeat_.load(std::memory_order_relaxed);
+  Steady::time_point last_change = Steady::now();
+
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stopping_) {
+    wake_.wait_for(lock, poll, [this] { return stopping_; });
+    if (stopping_) break;
+    const std::uint64_t beat = heartbeat_.load(std::memory_order_relaxed);
+    const Steady::time_point now = Steady::now();
+    if (beat != last_beat) {
+      last_beat = beat;
+      last_change = now;
+      continue;
+    }
+    const std::chrono::duration<double> quiet = now - last_change;
+    if (quiet > timeout && armed_.exchange(false, std::memory_order_acq_rel)) {
+      // Cut the force first; the loop reads the flag when it comes back.
+      device_.halt();
+      stalled_for_s_.store(quiet.count(), std::memory_order_release);
+      tripped_.store(true, std::memory_order_release);
+    }
+  }
+}
+
+}  // namespace hapticlab

@@ -1,0 +1,65 @@
+#pragma once
+// Watchdog: a thread of its own that watches the haptic loop's heartbeat (a
+// counter the loop advances once per completed update) and, if it has not
+// moved for longer than timeout_s, calls Device::halt() from that thread —
+// the force is cut while the loop itself is still stuck (a device read that
+// hangs, a VE step that stalls), not once it comes back. It halts once per
+// start(); tripped() and stalled_for_s() tell the loop afterwards.
+//
+// Wall clock only: on the virtual clock the loop may wait for a slow
+// consumer by design, and simulated time does not pass meanwhile.
+//
+// The thread checks every timeout_s / 4 (at least every 1 ms), so it halts
+// between timeout_s and 1.25·timeout_s after the last completed update,
+// plus whatever the OS delays the watchdog thread itself.
+//
+// Threads: start(), stop() and the destructor on the control thread;
+// disarm() from any thread (the loop, as it ends) without locking;
+// tripped()/stalled_for_s() from any thread. Not copyable or movable.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+
+#include "core/device/device.h"
+
+namespace hapticlab {
+
+class Watchdog {
+ public:
+  // timeout_s > 0. `heartbeat` and `device` must outlive the watchdog.
+  Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s) noexcept;
+  ~Watchdog();
+  Watchdog(const Watchdog&) = delete;
+  Watchdog& operator=(const Watchdog&) = delete;
+
+  // Arms and starts the thread; the heartbeat counts as fresh now.
+  void start();
+  // Stops and joins the thread. Safe to call twice or without start().
+  void stop() noexcept;
+  // No halt from now on (the loop ended by itself).
+  void disarm() noexcept { armed_.store(false, std::memory_order_release); }
+
+  bool tripped() const noexcept { return tripped_.load(std::memory_order_acquire); }
+  // How long the heartbeat had not moved when the watchdog halted [s].
+  double stalled_for_s() const noexcept { return stalled_for_s_.load(std::memory_order_acquire); }
+  double timeout_s() const noexcept { return timeout_s_; }
+
+ private:
+  void watch();
+
+  const std::atomic<std::uint64_t>& heartbeat_;
+  Device& device_;
+  double timeout_s_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stopping_ = false;  // under mutex_
+  std::atomic<bool> armed_{false};
+  std::atomic<bool> tripped_{false};
+  std::atomic<double> stalled_for_s_{0.0};
+};
+
+}  // namespace hapticlab

@@ -1,0 +1,157 @@
+/*
+ * A fake hardware device plugin for the tests: it reads a fixed pose and
+ * misbehaves on request. Written in C, against the installed-style header,
+ * as a lab's plugin would be. Options:
+ *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create|jump
+ *     (jump: from the 101st read on, the left insertion reads 1 m further, as a slipped encoder would)
+ *   report=PATH   at destroy, write "writes N nonzero_writes M max_abs_force F halts H" to PATH
+ * Built three times (tests/core/device/CMakeLists.txt): as is, with
+ * FAKE_ABI_VERSION=2, and with FAKE_NO_ENTRY (no entry point).
+ */
+#include <hapticlab/device_plugin.h>
+
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#ifndef FAKE_ABI_VERSION
+#define FAKE_ABI_VERSION HL_DEVICE_PLUGIN_ABI_VERSION
+#endif
+
+enum fault { NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS, JUMP };
+
+struct hl_device {
+  enum fault fault;
+  char report[512];
+  int configured, active;
+  long reads, writes, nonzero_writes, halts;
+  double max_abs_force;
+};
+
+/* The fixed pose: inside the workstation's range on every joint. */
+static const double kPose[HL_DEVICE_NUM_JOINTS] = {0.05, 0.1, -0.1, 0.0, 0.2};
+
+static hl_device* fake_create(const char* const* keys, const char* const* values, size_t count, char* error,
+                              size_t error_size) {
+  hl_device* d = calloc(1, sizeof *d);
+  size_t i;
+  if (d == NULL) return NULL;
+  for (i = 0; i < count; ++i) {
+    if (strcmp(keys[i], "fault") == 0) {
+      const char* v = values[i];
+      if (strcmp(v, "none") == 0) d->fault = NONE;
+      else if (strcmp(v, "crash_in_configure") == 0) d->fault = CRASH_IN_CONFIGURE;
+      else if (strcmp(v, "hang_in_configure") == 0) d->fault = HANG_IN_CONFIGURE;
+      else if (strcmp(v, "not_calibrated") == 0) d->fault = NOT_CALIBRATED;
+      else if (strcmp(v, "nan_read") == 0) d->fault = NAN_READ;
+      else if (strcmp(v, "invalid_ratings") == 0) d->fault = INVALID_RATINGS;
+      else if (strcmp(v, "jump") == 0) d->fault = JUMP;
+      else if (strcmp(v, "exit_in_create") == 0) exit(7);
+      else {
+        snprintf(error, error_size, "fault: '%s' is not a fault of the fake device", v);
+        free(d);
+        return NULL;
+      }
+    } else if (strcmp(keys[i], "report") == 0) {
+      snprintf(d->report, sizeof d->report, "%s", values[i]);
+    } else {
+      snprintf(error, error_size, "'%s' is not an option of the fake device; it takes fault, report", keys[i]);
+      free(d);
+      return NULL;
+    }
+  }
+  return d;
+}
+
+static hl_device_status fake_configure(hl_device* d, double nominal_rate_Hz, uint64_t seed) {
+  (void)seed;
+  if (d->fault == CRASH_IN_CONFIGURE) raise(SIGSEGV);
+  if (d->fault == HANG_IN_CONFIGURE)
+    for (;;) pause(); /* a bus that never answers */
+  if (!(nominal_rate_Hz >= 150.0 && nominal_rate_Hz <= 2000.0)) return HL_DEVICE_INVALID_CONFIG;
+  d->configured = 1;
+  return HL_DEVICE_OK;
+}
+
+static hl_device_status fake_ratings(const hl_device* d, hl_device_ratings* out) {
+  int i, j;
+  for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
+    for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) {
+      hl_device_joint_rating r = {-1.0, 1.0, 0.1, 0.2, 10.0};
+      out->joint[i][j] = r;
+    }
+  /* The right grip: peak below continuous. */
+  if (d->fault == INVALID_RATINGS) out->joint[1][4].peak_force = 0.05;
+  return HL_DEVICE_OK;
+}
+
+static hl_device_status fake_activate(hl_device* d, const hl_device_clock* clock) {
+  (void)clock;
+  if (!d->configured) return HL_DEVICE_NOT_CONFIGURED;
+  if (d->fault == NOT_CALIBRATED) return HL_DEVICE_NOT_CALIBRATED;
+  d->active = 1;
+  return HL_DEVICE_OK;
+}
+
+static hl_device_status fake_read(hl_device* d, hl_device_reading* reading) {
+  int i, j;
+  if (!d->active) return HL_DEVICE_NOT_ACTIVE;
+  for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
+    for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) reading->position[i][j] = kPose[j];
+  /* Reported as fine: HapticLab must notice the NaN itself. */
+  if (d->fault == NAN_READ) reading->position[0][1] = NAN;
+  if (d->fault == JUMP && ++d->reads > 100) reading->position[0][0] = kPose[0] + 1.0;
+  reading->device_time_s = NAN;
+  return HL_DEVICE_OK;
+}
+
+static hl_device_status fake_write(hl_device* d, const hl_device_command* command) {
+  int i, j, nonzero = 0;
+  if (!d->active) return HL_DEVICE_NOT_ACTIVE;
+  for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
+    for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) {
+      nonzero |= command->force[i][j] != 0.0;
+      if (fabs(command->force[i][j]) > d->max_abs_force) d->max_abs_force = fabs(command->force[i][j]);
+    }
+  ++d->writes;
+  d->nonzero_writes += nonzero;
+  return HL_DEVICE_OK;
+}
+
+static hl_device_status fake_deactivate(hl_device* d) {
+  d->active = 0;
+  return HL_DEVICE_OK;
+}
+
+static void fake_halt(hl_device* d) { ++d->halts; }
+
+static const char* fake_name(const hl_device* d) {
+  (void)d;
+  return "fake";
+}
+
+static void fake_destroy(hl_device* d) {
+  if (d->report[0] != '\0') {
+    FILE* f = fopen(d->report, "w");
+    if (f != NULL) {
+      fprintf(f, "writes %ld nonzero_writes %ld max_abs_force %g halts %ld\n", d->writes, d->nonzero_writes,
+              d->max_abs_force, d->halts);
+      fclose(f);
+    }
+  }
+  free(d);
+}
+
+static const hl_device_plugin kPlugin = {FAKE_ABI_VERSION, sizeof(hl_device_plugin), fake_create, fake_configure,
+                                         fake_ratings, fake_activate, fake_read, fake_write, fake_deactivate,
+                                         fake_halt, fake_name, fake_destroy, NULL};
+
+#ifndef FAKE_NO_ENTRY
+const hl_device_plugin* hl_device_plugin_entry(void) { return &kPlugin; }
+#else
+/* Something exported, so the library loads but has no entry point. */
+HL_DEVICE_PLUGIN_EXPORT const hl_device_plugin* not_the_entry_point(void) { return &kPlugin; }
+#endif

@@ -1,0 +1,204 @@
+"""python/hapticlab_db.py against the real thing: a study database from a
+real session, and `hapticlab export`'s CSV of its trial. The reader must
+give every channel bit for bit, list the study, and detect damage through
+the CRC-32C. Run by ctest with /usr/bin/python3 (tests/python/CMakeLists.txt).
+"""
+
+import os
+import sqlite3
+import struct
+import unittest
+
+import numpy as np
+
+import study_fixture as fx
+import hapticlab_db as h
+
+STUDY = None
+
+
+def setUpModule():
+    global STUDY
+    STUDY = fx.Study()
+
+
+def tearDownModule():
+    STUDY.remove()
+
+
+def flip_byte(path, chunk_id, offset):
+    """A stray write: one byte of a chunk blob inverted, through SQLite."""
+    conn = sqlite3.connect(path)
+    blob = bytearray(conn.execute("SELECT data FROM sample_chunk WHERE id = ?", (chunk_id,)).fetchone()[0])
+    blob[offset] ^= 0xFF
+    conn.execute("UPDATE sample_chunk SET data = ? WHERE id = ?", (bytes(blob), chunk_id))
+    conn.commit()
+    conn.close()
+
+
+class Crc32cTest(unittest.TestCase):
+    def test_standard_check_value(self):
+        # CRC-32C of "123456789" (the catalogue's check value for CRC-32/ISCSI).
+        self.assertEqual(h.crc32c(b"123456789"), 0xE3069283)
+        self.assertEqual(h._crc32c_bytewise(b"123456789"), 0xE3069283)
+
+    def test_vectorized_equals_bytewise_at_segment_edges(self):
+        rng = np.random.default_rng(7)
+        lengths = [4, 5, 17, 255, 256, 257, 511, 512, 513, 3000]
+        messages = [rng.integers(0, 256, n, dtype=np.uint8).tobytes() for n in lengths]
+        self.assertEqual([int(c) for c in h._crc32c_many(messages)], [h._crc32c_bytewise(m) for m in messages])
+
+    def test_continues_like_the_cpp_one(self):
+        self.assertEqual(h.crc32c(b"56789", h.crc32c(b"1234")), 0xE3069283)
+
+
+class StudyListingTest(unittest.TestCase):
+    def test_studies_participants_trials(self):
+        with h.open_study(STUDY.db) as db:
+            (study,) = db.studies()
+            self.assertEqual(study["name"], "Thesis study as run, quick (2 repetitions)")
+            self.assertEqual(study["seed"], "2004")
+            self.assertEqual([p["code"] for p in db.participants(study["id"])], ["S1", "S2", "S3"])
+            self.assertEqual(len(db.settings()), 8)
+            trials = db.trials()
+            self.assertEqual(len(trials), 50)  # 20 + 20 + 10 in thesis_quick.json
+            (done,) = db.trials(status="complete")
+            self.assertEqual((done["id"], done["participant"], done["position"]), (1, "S1", 1))
+            self.assertGreater(done["chunks"], 2)
+            self.assertEqual(len(db.trials(participant="S3")), 10)
+
+    def test_opened_read_only(self):
+        with h.open_study(STUDY.db) as db:
+            with self.assertRaisesRegex(sqlite3.OperationalError, "readonly"):
+                db.connection.execute("DELETE FROM event")
+
+
+class SamplesEqualExportTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.header, cls.csv = fx.read_export(STUDY.samples_csv)
+        with h.open_study(STUDY.db) as db:
+            cls.samples = db.samples(1)
+            cls.left = db.samples(1, instrument=0)
+
+    def test_same_columns_as_the_export(self):
+        channels = self.header[len(fx.KEY_COLUMNS):]
+        self.assertEqual(list(h.CHANNEL_NAMES), channels)
+        self.assertEqual(list(self.samples.dtype.names), ["trial_id", "instrument", "tick"] + channels)
+
+    def test_every_channel_bit_for_bit(self):
+        n = len(self.csv["tick"])
+        self.assertGreater(n, 1000, "the trial must have stored samples")
+        self.assertEqual(self.samples.size, n)
+        for name in ("trial_id", "instrument", "tick"):
+            want = np.array([int(t) for t in self.csv[name]])
+            self.assertTrue(np.array_equal(self.samples[name].astype(np.int64), want), name)
+        for name, code in h.CHANNELS:
+            kind = np.dtype(code)
+            text = self.csv[name]
+            if kind == np.float64:
+                want = fx.parse_float64(text)
+            elif kind == np.float32:
+                want = fx.parse_float32(text)
+            else:
+                want = np.array([int(t) for t in text]).astype(kind.newbyteorder("="))
+            got = self.samples[name]
+            self.assertTrue(fx.same_bits(got, want), f"{name}: {fx.first_difference(got, want)}")
+
+    def test_one_instrument_is_the_exports_rows_of_it(self):
+        rows = [i for i, k in enumerate(self.csv["instrument"]) if k == "0"]
+        self.assertEqual(self.left.size, len(rows))
+        self.assertTrue(np.all(self.left["instrument"] == 0))
+        want = fx.parse_float32([self.csv["tip_x_m"][i] for i in rows])
+        self.assertTrue(fx.same_bits(self.left["tip_x_m"], want))
+        self.assertTrue(fx.same_bits(self.left["t_s"], fx.parse_float64([self.csv["t_s"][i] for i in rows])))
+
+    def test_dict_and_dataframe_forms(self):
+        with h.open_study(STUDY.db) as db:
+            d = db.samples_dict(1)
+            self.assertTrue(fx.same_bits(d["ve_force_z_N"], self.samples["ve_force_z_N"]))
+            try:
+                import pandas  # noqa: F401  (optional)
+            except ImportError:
+                with self.assertRaises(ImportError):
+                    db.to_dataframe(1)
+                return
+            frame = db.to_dataframe(1)
+            self.assertEqual(list(frame.columns), list(self.samples.dtype.names))
+            self.assertEqual(len(frame), self.samples.size)
+
+
+class DamageTest(unittest.TestCase):
+    def chunk(self, path, instrument, offset_rows):
+        conn = sqlite3.connect(path)
+        row = conn.execute("SELECT id, first_tick, count FROM sample_chunk WHERE trial_id = 1 AND instrument = ? "
+                           "ORDER BY first_tick LIMIT 1 OFFSET ?", (instrument, offset_rows)).fetchone()
+        conn.close()
+        return row
+
+    def test_a_flipped_byte_is_a_checksum_error_naming_the_chunk(self):
+        path = STUDY.copy("flipped.db")
+        chunk_id, first, count = self.chunk(path, 1, 1)
+        flip_byte(path, chunk_id, 40)
+        with h.open_study(path) as db:
+            with self.assertRaises(h.ChunkError) as caught:
+                db.samples(1)
+            e = caught.exception
+            self.assertEqual((e.kind, e.trial_id, e.instrument, e.first_tick, e.count), ("checksum", 1, 1, first, count))
+            self.assertIn(f"damaged sample chunk: trial 1, right instrument (1), ticks {first}..{first + count - 1}: "
+                          "checksum mismatch", str(e))
+            # The other instrument still reads; the check lists exactly the one chunk.
+            self.assertGreater(db.samples(1, instrument=0).size, 1000)
+            (bad,) = db.check_chunks()
+            self.assertEqual((bad.trial_id, bad.instrument, bad.first_tick), (1, 1, first))
+
+    def test_a_damaged_format_byte_or_moved_chunk_is_damage_too(self):
+        path = STUDY.copy("format.db")
+        chunk_id, first, count = self.chunk(path, 0, 0)
+        flip_byte(path, chunk_id, 0)  # format 1 -> 0xFE: damage, not "a newer format"
+        with h.open_study(path) as db:
+            with self.assertRaises(h.ChunkError) as caught:
+                db.samples(1, instrument=0)
+            self.assertEqual(caught.exception.kind, "checksum")
+        path = STUDY.copy("moved.db")
+        chunk_id, first, count = self.chunk(path, 0, 1)
+        conn = sqlite3.connect(path)
+        # first_tick is in the checksum: a chunk shifted in time is caught.
+        conn.execute("UPDATE sample_chunk SET first_tick = first_tick + 100000 WHERE id = ?", (chunk_id,))
+        conn.commit()
+        conn.close()
+        with h.open_study(path) as db:
+            with self.assertRaises(h.ChunkError) as caught:
+                db.samples(1)
+            self.assertEqual((caught.exception.kind, caught.exception.first_tick), ("checksum", first + 100000))
+
+    def test_a_migrated_chunk_decodes_and_an_unknown_format_is_named(self):
+        with h.open_study(STUDY.db) as db:
+            first, count, blob = db.connection.execute(
+                "SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = 1 ORDER BY id LIMIT 1").fetchone()
+        current = h.decode_chunk(first, count, blob)
+        # Format 0 (db/README.md, "Damage"): the pre-version-4 blob (byte 1,
+        # then the body) behind a header whose checksum the migration made.
+        legacy = b"\x01" + blob[h.HEADER_BYTES:]
+        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x00" + legacy)
+        migrated = h.decode_chunk(first, count, b"\x00" + struct.pack("<I", crc) + legacy)
+        for name in current:
+            self.assertTrue(fx.same_bits(current[name], migrated[name]), name)
+        # A format from a newer HapticLab, correctly checksummed, is named as such.
+        body = blob[h.HEADER_BYTES:]
+        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x02" + body)
+        with self.assertRaisesRegex(h.ChunkError, "chunk format 2 is not one this reader reads") as caught:
+            h.decode_chunk(first, count, b"\x02" + struct.pack("<I", crc) + body)
+        self.assertEqual(caught.exception.kind, "format")
+
+    def test_an_old_schema_is_refused_with_what_to_do(self):
+        path = STUDY.copy("old.db")
+        conn = sqlite3.connect(path)
+        conn.execute("PRAGMA user_version = 3")
+        conn.close()
+        with self.assertRaisesRegex(ValueError, "schema version 3; this reader reads 4..5.*hapticlab analyze"):
+            h.open_study(path)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
