@@ -12,7 +12,12 @@ shift || true
 
 packages=(g++ make cmake pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
           libgtest-dev libgmock-dev libsqlite3-dev sqlite3 libboost-math-dev
-          libbenchmark-dev gnuplot-nox python3 python3-numpy python3-scipy zlib1g-dev)
+          libbenchmark-dev gnuplot-nox python3 python3-numpy zlib1g-dev)
+# Only the test suite needs these (a browser for the report check, scipy for
+# the numpy comparator): not installed for a demo build (HAPTICLAB_TARGETS).
+if [[ -z ${HAPTICLAB_TARGETS:-} ]]; then
+  packages+=(python3-scipy chromium chromium-driver python3-selenium)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -49,6 +49,47 @@ std::string gnuplot_quote(const std::string& s) {
   return out + '"';
 }
 
+namespace {
+constexpr const char* kOkabeItoLinetypes =
+    "set linetype 1 lc rgb '#0072B2'\nset linetype 2 lc rgb '#D55E00'\nset linetype 3 lc rgb '#009E73'\n"
+    "set linetype 4 lc rgb '#CC79A7'\nset linetype 5 lc rgb '#9A6700'\nset linetype 6 lc rgb '#AA4499'\n"
+    "set linetype 7 lc rgb '#000000'\nset linetype 8 lc rgb '#6F6F6F'\nset linetype cycle 8\n";
+}  // namespace
+
+std::string inline_svg(const std::string& svg, const std::string& id_prefix) {
+  const auto start = svg.find("<svg");
+  const std::string body = start == std::string::npos ? svg : svg.substr(start);
+  // Attribute values that name an id, in both quote styles gnuplot uses.
+  static const std::vector<std::string> openers = {"id=\"", "id='", "href=\"#", "href='#", "url(#"};
+  std::string out;
+  out.reserve(body.size() + 64);
+  std::size_t i = 0;
+  while (i < body.size()) {
+    std::size_t best = std::string::npos;
+    std::size_t best_len = 0;
+    for (const auto& o : openers) {
+      std::size_t at = body.find(o, i);
+      // " id=" only: "grid=" or "xml:id" inside other names must not match.
+      while (o[0] == 'i' && at != std::string::npos && at > 0 && body[at - 1] != ' ' && body[at - 1] != '\t' &&
+             body[at - 1] != '\n') {
+        at = body.find(o, at + 1);
+      }
+      if (at < best) {
+        best = at;
+        best_len = o.size();
+      }
+    }
+    if (best == std::string::npos) {
+      out.append(body, i, std::string::npos);
+      break;
+    }
+    out.append(body, i, best - i + best_len);
+    out += id_prefix;
+    i = best + best_len;
+  }
+  return out;
+}
+
 void GnuplotScript::add_datablock(const std::string& name, const std::string& rows) {
   text_ += "$" + name + " << EOD\n" + rows;
   if (!rows.empty() && rows.back() != '\n') text_ += '\n';
@@ -59,7 +100,10 @@ void GnuplotScript::add_plot(const std::string& svg_name, const std::string& com
                              int height_px) {
   text_ += "reset\n";
   text_ += "set terminal svg size " + std::to_string(width_px) + "," + std::to_string(height_px) +
-           " font 'Helvetica,12' background rgb 'white'\n";
+           " font 'Helvetica,14' background rgb 'white'\n";
+  // Okabe & Ito's colour-blind-safe colours, without their yellow (1.1:1
+  // against white); gnuplot's default line type 5 is that yellow.
+  text_ += kOkabeItoLinetypes;
   text_ += "set output " + gnuplot_quote(svg_name) + "\n";
   text_ += commands;
   if (!commands.empty() && commands.back() != '\n') text_ += '\n';

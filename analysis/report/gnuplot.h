@@ -40,6 +40,13 @@ class GnuplotScript {
 void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
                  const std::filesystem::path& gnuplot);
 
+// The <svg> element of a gnuplot SVG file without the XML prolog, ready to
+// sit inside HTML, with every id (gnuplot_canvas, the point symbols gpPt0...)
+// and every reference to one (href='#id', url(#id)) prefixed by `id_prefix`:
+// gnuplot gives every figure the same ids, and an HTML page with several
+// figures must not repeat one.
+std::string inline_svg(const std::string& svg, const std::string& id_prefix);
+
 // Quotes a string for a gnuplot script ("..." with \ and " escaped).
 std::string gnuplot_quote(const std::string& s);
 

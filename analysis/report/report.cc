@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <ctime>
 #include <map>
 #include <sstream>
 #include <string>
@@ -12,6 +13,7 @@
 #include "analysis/report/box_stats.h"
 #include "analysis/report/gnuplot.h"
 #include "analysis/stats/data_error.h"
+#include "core/common/build_info.h"
 #include "core/io/output_file.h"
 
 namespace hapticlab::analysis {
@@ -97,13 +99,6 @@ void write_file(const std::filesystem::path& path, const std::string& text) {
   }
 }
 
-// The <svg> element of a gnuplot SVG file, without the XML prolog, so it can
-// sit inside HTML.
-std::string inline_svg(const std::string& svg) {
-  const auto start = svg.find("<svg");
-  return start == std::string::npos ? svg : svg.substr(start);
-}
-
 std::string render_html(const std::string& title, const std::vector<Section>& sections,
                         const std::filesystem::path& dir) {
   std::ostringstream h;
@@ -112,12 +107,20 @@ std::string render_html(const std::string& title, const std::vector<Section>& se
        "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}\n"
        "table{border-collapse:collapse;margin:0.5em 0 0.3em}th,td{border:1px solid #bbb;padding:3px 8px;"
        "text-align:left}th{background:#eee}td.b{font-weight:bold}\n"
-       "p.note{font-size:0.9em;color:#555;margin-top:0}figure{display:inline-block;margin:0.5em}"
-       "figcaption{font-size:0.9em;color:#444;max-width:640px}\n"
-       "svg{max-width:100%;height:auto}\n</style></head><body>\n";
+       "p.note{font-size:0.9em;color:#555;margin-top:0}figure{display:block;margin:1em 0}"
+       "figcaption{font-size:0.9em;color:#444}\n"
+       "summary{cursor:pointer;font-weight:bold}\n"
+       // Figures span the text column, as in a journal; the SVG scales (its viewBox keeps the proportions).
+       "figure svg{display:block;width:100%;height:auto}\n</style></head><body>\n";
   h << "<h1>" << html_escape(title) << "</h1>\n";
+  h << "<nav><h2 id=\"contents\">Contents</h2><ol>\n";
+  for (std::size_t i = 0; i < sections.size(); ++i)
+    h << "<li><a href=\"#section-" << i + 1 << "\">" << html_escape(sections[i].title) << "</a></li>\n";
+  h << "</ol></nav>\n";
+  int figure_number = 0;
+  std::size_t section_number = 0;
   for (const Section& s : sections) {
-    h << "<h2>" << html_escape(s.title) << "</h2>\n";
+    h << "<h2 id=\"section-" << ++section_number << "\">" << html_escape(s.title) << "</h2>\n";
     if (!s.intro.empty()) h << "<p>" << html_escape(s.intro) << "</p>\n";
     for (const Table& t : s.tables) {
       if (!t.title.empty()) h << "<h3>" << html_escape(t.title) << "</h3>\n";
@@ -132,10 +135,16 @@ std::string render_html(const std::string& title, const std::vector<Section>& se
       h << "</table>\n";
       if (!t.note.empty()) h << "<p class=\"note\">" << html_escape(t.note) << "</p>\n";
     }
+    // Figures of one kind fold away together: a study gives dozens.
+    if (!s.figures.empty())
+      h << "<details><summary>" << s.figures.size() << (s.figures.size() == 1 ? " figure" : " figures")
+        << "</summary>\n";
     for (const Figure& f : s.figures) {
-      h << "<figure>" << inline_svg(read_file(dir / f.file)) << "<figcaption>" << html_escape(f.caption)
+      ++figure_number;
+      h << "<figure>" << inline_svg(read_file(dir / f.file), "fig" + std::to_string(figure_number) + "_") << "<figcaption>" << html_escape(f.caption)
         << "</figcaption></figure>\n";
     }
+    if (!s.figures.empty()) h << "</details>\n";
   }
   h << "</body></html>\n";
   return h.str();
@@ -181,6 +190,30 @@ Cell p_cell(const std::optional<TestResult>& r, double level) {
   return {format_p(r->p, level), r->p < level};
 }
 
+// The report's own date: when it was written, not when the study ran.
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return buf;
+}
+
+// The analysis options as `hapticlab analyze` takes them, so a reader can rerun it.
+std::string analysis_options_text(const AnalysisOptions& o) {
+  std::string out = "alpha " + num(o.alpha) + ", control '" + (o.control_setting.empty() ? "auto" : o.control_setting) +
+                    "', percentile " + std::string(percentile_method_name(o.percentile_method)) + ", contact " +
+                    num(o.min_force_N * 1e3) + " mN, aborted trials " + (o.include_aborted ? "included" : "left out");
+  if (o.ks) {
+    out += ", KS bootstrap: " + std::to_string(o.ks_resamples) + " resamples, stride " + std::to_string(o.ks_stride) +
+           ", block " + std::to_string(o.ks_block_length) + ", seed " + std::to_string(o.seed);
+  } else {
+    out += ", KS bootstrap off";
+  }
+  return out + ", CDF points " + std::to_string(o.cdf_points);
+}
+
 Section summary_section(const StudyAnalysis& a) {
   Section s;
   s.title = "Study and data";
@@ -188,6 +221,13 @@ Section summary_section(const StudyAnalysis& a) {
   Table t;
   t.header = {"Item", "Value"};
   t.rows = {{{"Study"}, {a.study_name + " (id " + std::to_string(a.study_id) + ")"}},
+            {{"Study created (UTC)"}, {a.study_created_utc}},
+            {{"Study created by"}, {a.study_software_version}},
+            {{"Study seed"}, {std::to_string(a.study_seed)}},
+            {{"Protocol SHA-256"}, {a.protocol_sha256}},
+            {{"Report written by"}, {software_version()}},
+            {{"Report written (UTC)"}, {utc_now()}},
+            {{"Analysis options"}, {analysis_options_text(a.options)}},
             {{"Database"}, {a.db_path.string()}},
             {{"Participants"}, {std::to_string(a.participants.size())}},
             {{"Tasks"}, {std::to_string(a.tasks.size())}},
@@ -202,7 +242,7 @@ Section summary_section(const StudyAnalysis& a) {
             {{"Contact threshold |F|"}, {num(a.options.min_force_N * 1e3) + " mN"}},
             {{"Significance level alpha"}, {num(a.options.alpha)}}};
   s.tables.push_back(std::move(t));
-  s.intro = std::to_string(c.aborted_excluded) + " aborted trial(s) were left out" +
+  s.intro = (c.aborted_excluded == 1 ? std::string("1 aborted trial was") : std::to_string(c.aborted_excluded) + " aborted trials were") + " left out" +
             (a.options.include_aborted ? " (none: --include-aborted was given)" : "") +
             ". Measures are computed over each trial's task window, from the first 20 mm insertion to the last "
             "tissue contact; the per-trial values are in metrics.csv.";
@@ -336,13 +376,33 @@ Section whole_design_section(const StudyAnalysis& a) {
 
 std::string correlation_hand(const CorrelationRow& r) { return r.hand < 0 ? "both" : hand_name(r.hand); }
 
-Section correlation_section(const StudyAnalysis& a) {
+// "1 trial", "2 trials".
+std::string count_of(std::size_t n, const std::string& noun) {
+  return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
+}
+
+// The legends name settings by their initials (HF, NFF, I+B): each figure
+// section says what they stand for.
+std::string abbreviation_key(const std::vector<std::string>& settings) {
+  std::string key;
+  for (const auto& name : settings) {
+    const std::string a = setting_abbreviation(name);
+    if (a == name) continue;
+    key += (key.empty() ? "" : "; ") + a + " = " + name;
+  }
+  return key.empty() ? key : "Legend abbreviations: " + key + ".";
+}
+
+Section correlation_section(const StudyAnalysis& a, const ReportOptions& report_options) {
   Section s;
   s.title = "Table 3.7: Correlations with the trial number";
   s.intro = "Pearson r between each measure and the trial number (the trial's position in the participant's "
-            "schedule), with its two-sided p. |r| >= 0.7 is strong, 0.3 <= |r| < 0.7 weak.";
+            "schedule), with its two-sided p. A correlation is called strong when |r| >= 0.7 and weak when "
+            "0.3 <= |r| < 0.7, and only when p < " + num(a.options.alpha) +
+            "; a non-significant r gets no label. The figures of measures against trial number show |r| >= " +
+            num(report_options.correlation_plot_min_abs_r) + ", significant or not.";
   Table t;
-  t.title = "Strong and weak correlations";
+  t.title = "Significant strong and weak correlations";
   t.header = {"Perf. measure", "Task", "Participant", "Hand", "R", "P", "Strength"};
   Table all;
   all.title = "All correlations";
@@ -351,11 +411,15 @@ Section correlation_section(const StudyAnalysis& a) {
   all.header.emplace_back("Note");
   for (const auto& r : a.correlations) {
     if (r.result) {
-      const std::string strength(correlation_strength_name(r.result->strength));
+      // A label for r says the trend is there; without significance it may be noise.
+      const bool significant = r.result->p < a.options.alpha;
+      const std::string strength = significant && r.result->strength != CorrelationStrength::kNone
+                                       ? std::string(correlation_strength_name(r.result->strength))
+                                       : std::string(significant ? "" : "n.s.");
       std::vector<Cell> row{{measure_label(r.measure)}, {r.task}, {r.participant}, {correlation_hand(r)},
                             {num(r.result->r, "%.2f")}, {format_p(r.result->p, a.options.alpha)},
-                            {strength, r.result->strength == CorrelationStrength::kStrong}};
-      if (r.result->strength != CorrelationStrength::kNone) t.rows.push_back(row);
+                            {strength, significant && r.result->strength == CorrelationStrength::kStrong}};
+      if (significant && r.result->strength != CorrelationStrength::kNone) t.rows.push_back(row);
       row.push_back({std::to_string(r.result->n)});
       row.push_back({r.note});
       all.rows.push_back(std::move(row));
@@ -364,7 +428,7 @@ Section correlation_section(const StudyAnalysis& a) {
                           {"N/A"}, {""}, {std::to_string(r.values.size())}, {r.note}});
     }
   }
-  if (t.rows.empty()) t.note = "No correlation reached |r| >= 0.3.";
+  if (t.rows.empty()) t.note = "No significant correlation reached |r| >= 0.3.";
   s.tables.push_back(std::move(t));
   s.tables.push_back(std::move(all));
   return s;
@@ -575,7 +639,8 @@ class FigureBuilder {
   // Figures 3-15 to 3-17: measure against trial number, with the least-squares line.
   Section correlations() {
     Section s;
-    s.title = "Figures 3-15 to 3-17: measures against trial number";
+    // Titled by what it shows: the thesis' Figures 3-15 to 3-17 were three
+    // such plots, a study may give any number.
     std::vector<const CorrelationRow*> rows;
     for (const auto& r : a_.correlations)
       if (r.result && std::abs(r.result->r) >= o_.correlation_plot_min_abs_r) rows.push_back(&r);
@@ -583,6 +648,8 @@ class FigureBuilder {
       return std::abs(x->result->r) > std::abs(y->result->r);
     });
     const std::size_t shown = std::min(rows.size(), o_.max_correlation_plots);
+    s.title = std::string(shown == 1 ? "Measure" : "Measures") + " against trial number (" + count_of(shown, "figure") +
+              ", like the thesis' Figures 3-15 to 3-17)";
     s.intro = "Correlations with |r| >= " + num(o_.correlation_plot_min_abs_r) + " (the thesis' reporting threshold): " +
               std::to_string(rows.size()) + (shown < rows.size() ? ", the strongest " + std::to_string(shown) + " shown" : "") +
               ". The line is the least-squares trend; markers show the setting.";
@@ -707,7 +774,8 @@ class FigureBuilder {
     std::ostringstream cmd;
     cmd << "set title " << gnuplot_quote(title) << "\nset ylabel "
         << gnuplot_quote(std::string(measure_label(m)) + " [" + measure_unit(m) + "]") << "\nset xtics (" << tics.str()
-        << ")\nset xrange [0.3:" << static_cast<double>(groups.size()) + 0.7 << "]\nset boxwidth 0.5\nset grid y\n"
+        // Two-line tick labels ("P1\nleft") need room below the axis, or the SVG clips the second line.
+        << ")\nset bmargin 5\nset xrange [0.3:" << static_cast<double>(groups.size()) + 0.7 << "]\nset boxwidth 0.5\nset grid y\n"
         << "plot $" << b << " using 1:2:3:4:5 with candlesticks whiskerbars 0.5 lc rgb 'black' fs empty notitle, $" << b
         << " using 1:6:6:6:6 with candlesticks lc rgb 'red' lw 2 notitle, $" << o
         << " using 1:2 with points pt 1 ps 1 lc rgb 'black' notitle\n";
@@ -736,7 +804,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
   int number = 5;
   for (const auto& task : a.tasks) sections.push_back(pairwise_section(a, task, number++));
   sections.push_back(whole_design_section(a));
-  sections.push_back(correlation_section(a));
+  sections.push_back(correlation_section(a, options));
   sections.push_back(ks_section(a));
 
   ReportFiles files;
@@ -748,6 +816,9 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
     sections.push_back(figures.boxes());
     sections.push_back(figures.correlations());
     if (a.options.ks) sections.push_back(figures.ks());
+    const std::string key = abbreviation_key(a.settings);
+    for (auto& s : sections)
+      if (!s.figures.empty() && !key.empty()) s.intro += (s.intro.empty() ? "" : " ") + key;
     run_gnuplot(figures.script(), out_dir / "figures", gnuplot);
     for (const auto& s : sections)
       for (const auto& f : s.figures) files.figures.push_back(out_dir / f.file);

@@ -161,6 +161,10 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   }
   a.study_id = study->id;
   a.study_name = study->name;
+  a.study_seed = study->seed;
+  a.study_software_version = study->software_version;
+  a.protocol_sha256 = study->protocol_sha256;
+  a.study_created_utc = study->created_utc;
 
   // Trials, and the study's names in a stable order: settings by id (the
   // protocol's order), participants and tasks by first appearance.

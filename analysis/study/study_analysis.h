@@ -175,6 +175,11 @@ struct StudyAnalysis {
   std::filesystem::path db_path;
   std::int64_t study_id = 0;
   std::string study_name;
+  // Provenance of the study, as its database stores it.
+  std::uint64_t study_seed = 0;
+  std::string study_software_version;  // the version that created the study
+  std::string protocol_sha256;         // lower-case hex
+  std::string study_created_utc;       // ISO 8601
   std::string control;                    // the control setting's name
   std::vector<std::string> tasks;         // in schedule order
   std::vector<std::string> participants;  // in schedule order

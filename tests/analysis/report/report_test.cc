@@ -2,10 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -53,7 +59,7 @@ TEST_F(ReportTest, TablesOnlyWithoutGnuplot) {
     EXPECT_THAT(s, HasSubstr("Table 3.7"));
     EXPECT_THAT(s, HasSubstr("All participants at once"));
     EXPECT_THAT(s, HasSubstr("Appendix I"));
-    EXPECT_THAT(s, HasSubstr("1 aborted trial(s) were left out"));
+    EXPECT_THAT(s, HasSubstr("1 aborted trial was left out"));
     EXPECT_THAT(s, HasSubstr("No Force Feedback (2)"));
   }
 }
@@ -151,6 +157,16 @@ TEST_F(ReportTest, FiguresInlineInHtmlAndLinkedFromMarkdown) {
                            "ks_force_dissection.svg"}) {
     EXPECT_TRUE(std::filesystem::exists(dir_.path() / "out" / "figures" / name)) << name;
   }
+  // Every id once in the page, though gnuplot gives each SVG the same ones.
+  std::map<std::string, int> ids;
+  for (const char* opener : {" id=\"", " id='"}) {
+    for (auto pos = html.find(opener); pos != std::string::npos; pos = html.find(opener, pos + 1)) {
+      const auto begin = pos + std::strlen(opener);
+      ++ids[html.substr(begin, html.find_first_of("\"'", begin) - begin)];
+    }
+  }
+  EXPECT_GT(ids.size(), files.figures.size());
+  for (const auto& [id, count] : ids) EXPECT_EQ(count, 1) << id;
   // The script stays for restyling by hand.
   EXPECT_TRUE(std::filesystem::exists(dir_.path() / "out" / "figures" / "plots.gp"));
 }
@@ -171,6 +187,56 @@ TEST(GnuplotTest, QuotesAndScript) {
   EXPECT_THAT(s.text(), HasSubstr("$d0 << EOD\n1 2\nEOD\n"));
   EXPECT_THAT(s.text(), HasSubstr("set output \"x.svg\""));
   EXPECT_EQ(s.outputs(), (std::vector<std::string>{"x.svg"}));
+}
+
+// Ids and the references to them get the prefix; names that merely end in
+// "id" (grid=) and the XML prolog do not survive.
+TEST(GnuplotTest, InlineSvgPrefixesIdsAndReferences) {
+  const std::string svg =
+      "<?xml version=\"1.0\"?>\n<svg id=\"gnuplot_canvas\" grid='x'>\n<defs><path id='gpPt0'/>"
+      "<use xlink:href='#gpPt0' id='gpPt6'/></defs><g clip-path=\"url(#c1)\"><use href=\"#gpPt6\"/></g></svg>";
+  EXPECT_EQ(inline_svg(svg, "f3_"),
+            "<svg id=\"f3_gnuplot_canvas\" grid='x'>\n<defs><path id='f3_gpPt0'/>"
+            "<use xlink:href='#f3_gpPt0' id='f3_gpPt6'/></defs><g clip-path=\"url(#f3_c1)\"><use href=\"#f3_gpPt6\"/>"
+            "</g></svg>");
+}
+
+// Relative luminance (WCAG 2) of an sRGB colour given as 0-255 channels.
+double luminance(int r, int g, int b) {
+  auto lin = [](int c) {
+    const double v = c / 255.0;
+    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+  };
+  return 0.2126 * lin(r) + 0.7152 * lin(g) + 0.0722 * lin(b);
+}
+
+// Eight curves drawn by gnuplot with the report's line types: every stroke
+// colour has at least WCAG's 3:1 contrast against the white background
+// (gnuplot's default yellow, rgb(240,228,66)... has 1.3:1), and no two of the
+// eight are the same.
+TEST(GnuplotTest, LineColoursContrastWithWhite) {
+  std::filesystem::path gnuplot;
+  try {
+    gnuplot = find_gnuplot();
+  } catch (const DataError& e) {
+    GTEST_SKIP() << e.what();
+  }
+  const auto dir = std::filesystem::temp_directory_path() / ("gp_colours_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  GnuplotScript s;
+  s.add_plot("c.svg", "plot for [i=1:8] i*x with lines title sprintf('c%d', i)");
+  run_gnuplot(s, dir, gnuplot);
+  const std::string svg = slurp(dir / "c.svg");
+  std::filesystem::remove_all(dir);
+  std::set<std::string> colours;
+  for (auto pos = svg.find("stroke='rgb("); pos != std::string::npos; pos = svg.find("stroke='rgb(", pos + 1)) {
+    int r = 0, g = 0, b = 0;
+    ASSERT_EQ(std::sscanf(svg.c_str() + pos + 12, "%d, %d, %d", &r, &g, &b), 3);
+    if (r == 255 && g == 255 && b == 255) continue;  // the background
+    colours.insert(std::to_string(r) + "," + std::to_string(g) + "," + std::to_string(b));
+    EXPECT_GE(1.05 / (luminance(r, g, b) + 0.05), 3.0) << "rgb(" << r << "," << g << "," << b << ")";
+  }
+  EXPECT_GE(colours.size(), 8u);
 }
 
 }  // namespace
