@@ -20,6 +20,7 @@
 #include "analysis/stats/friedman.h"
 #include "analysis/stats/kolmogorov_smirnov.h"
 #include "analysis/stats/ks_bootstrap.h"
+#include "analysis/stats/effect_size.h"
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/stats/percentile.h"
 #include "analysis/stats/skillings_mack.h"
@@ -213,8 +214,20 @@ void run_block_test(const CommonOptions& opt, const std::string& test,
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped(test, csv, opt.group, opt.json, [&](const Group& g) {
     const an::TestResult r = run(table_for(observations, g));
-    if (!opt.json) print_test(r);
-    return test_json(r);
+    json j = test_json(r);
+    if (test == "friedman") {
+      // Replicates per cell: the test needs them equal (friedman.h).
+      const std::size_t reps = r.observations / (r.blocks * r.treatments);
+      const double w = an::kendalls_w(r.statistic, r.blocks, r.treatments, reps);
+      j["kendalls_w"] = w;
+      if (!opt.json) {
+        print_test(r);
+        std::cout << "  effect size: Kendall's W = " << num(w) << " (0: no agreement between blocks, 1: all rank alike)\n";
+      }
+    } else if (!opt.json) {
+      print_test(r);
+    }
+    return j;
   });
 }
 
@@ -247,8 +260,8 @@ void run_pairwise(const PairwiseOptions& opt) {
       std::cout << "Friedman, " << opt.control << " vs each other treatment; significant when p < "
                 << num(level) << " (Sidak, alpha = " << num(opt.alpha) << ", m = "
                 << comparisons.size() << ")\n";
-      std::printf("%-24s %7s %12s %12s  %s\n", "treatment", "blocks", "chi-square", "p",
-                  "significant");
+      std::printf("%-24s %7s %12s %12s  %-11s  %s\n", "treatment", "blocks", "chi-square", "p",
+                  "significant", "rank-biserial r");
       std::fflush(stdout);
     }
     for (const auto& c : comparisons) {
@@ -261,12 +274,14 @@ void run_pairwise(const PairwiseOptions& opt) {
                 {"replicates", c.replicates},
                 {"dropped_observations", c.dropped_observations},
                 {"blocks_left_out", c.blocks_left_out},
-                {"significant", c.significant}};
+                {"significant", c.significant},
+                {"rank_biserial", c.rank_biserial ? json(*c.rank_biserial) : json(nullptr)}};
       j["comparisons"].push_back(std::move(e));
       if (!opt.common.json) {
-        std::printf("%-24s %7zu %12s %12s  %s\n", c.treatment.c_str(), c.n_blocks,
+        std::printf("%-24s %7zu %12s %12s  %-11s  %s\n", c.treatment.c_str(), c.n_blocks,
                     c.statistic ? num(*c.statistic).c_str() : "N/A",
-                    c.p ? num(*c.p).c_str() : "N/A", c.p ? (c.significant ? "yes" : "no") : "N/A");
+                    c.p ? num(*c.p).c_str() : "N/A", c.p ? (c.significant ? "yes" : "no") : "N/A",
+                    c.rank_biserial ? num(*c.rank_biserial).c_str() : "N/A");
         std::fflush(stdout);
       }
     }

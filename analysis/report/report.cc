@@ -294,6 +294,30 @@ Section friedman_section(const StudyAnalysis& a) {
   t.note = notes;
   s.tables.push_back(std::move(t));
 
+  // Effect sizes of the same tests.
+  Table w;
+  w.title = "Effect size: Kendall's W";
+  w.header = measure_header("");
+  for (const auto& task : a.tasks) {
+    for (const auto& participant : a.participants) {
+      std::vector<Cell> row{{task + " " + participant}};
+      bool any = false;
+      for (Measure m : kAllMeasures) {
+        Cell cell{"N/A"};
+        for (const auto& r : a.friedman) {
+          if (r.task != task || r.participant != participant || r.hand != -1 || r.measure != m) continue;
+          any = true;
+          if (r.test.kendalls_w) cell = {num(*r.test.kendalls_w, "%.2f")};
+        }
+        row.push_back(cell);
+      }
+      if (any) w.rows.push_back(std::move(row));
+    }
+  }
+  w.note = "Kendall's W: how alike the blocks rank the settings, 0 (not at all) to 1 (every block the same); "
+           "with replicates, the Friedman statistic over its largest possible value (docs/analysis.md).";
+  s.tables.push_back(std::move(w));
+
   Table h;
   h.title = "Per hand";
   h.header = {"Task", "Participant", "Hand"};
@@ -349,6 +373,48 @@ Section pairwise_section(const StudyAnalysis& a, const std::string& task, int nu
     t.note += c.setting + " " + measure_label(c.measure) + ": " + c.note + ". ";
   }
   s.tables.push_back(std::move(t));
+
+  // Effect size and direction of the same comparisons.
+  Table e;
+  e.title = "Effect size: matched-pairs rank-biserial r, and direction";
+  e.header = measure_header(a.control + " compared to:");
+  for (std::size_t si = 1; si < a.settings.size(); ++si) {
+    std::vector<Cell> row{{a.settings[si]}};
+    for (Measure m : kAllMeasures) {
+      Cell cell{"N/A"};
+      for (const auto& c : a.pairwise)
+        if (c.task == task && c.setting == a.settings[si] && c.measure == m && c.rank_biserial)
+          cell = {(*c.rank_biserial > 0 ? "+" : "") + num(*c.rank_biserial, "%.2f") + " " + c.direction};
+      row.push_back(cell);
+    }
+    e.rows.push_back(std::move(row));
+  }
+  e.note = "r over the test's blocks (participant and hand) of the setting's median minus " + a.control +
+           "'s: +1 when every block is higher under the setting, -1 when every block is lower (Kerby 2014).";
+  s.tables.push_back(std::move(e));
+
+  // What the p values are about.
+  Table d;
+  d.title = "Median [interquartile range] per setting";
+  d.header = {"Setting"};
+  for (Measure m : kAllMeasures) d.header.push_back(std::string(measure_label(m)) + " [" + measure_unit(m) + "]");
+  for (const std::string& setting : a.settings) {
+    std::vector<Cell> row{{setting}};
+    bool any = false;
+    for (Measure m : kAllMeasures) {
+      Cell cell{"N/A"};
+      for (const auto& r : a.descriptive)
+        if (r.task == task && r.setting == setting && r.measure == m && r.n > 0) {
+          cell = {num(r.median) + " [" + num(r.q1) + ", " + num(r.q3) + "]"};
+          any = true;
+        }
+      row.push_back(cell);
+    }
+    if (any) d.rows.push_back(std::move(row));
+  }
+  d.note = "Every analysed trial of the task (and both hands for per-hand measures) pooled; percentiles as "
+           "the analysis computes them (" + std::string(percentile_method_name(a.options.percentile_method)) + ").";
+  s.tables.push_back(std::move(d));
   return s;
 }
 

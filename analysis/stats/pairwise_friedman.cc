@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "analysis/stats/data_error.h"
+#include "analysis/stats/effect_size.h"
 #include "analysis/stats/friedman.h"
 
 namespace hapticlab::analysis {
@@ -44,6 +45,8 @@ std::vector<PairwiseComparison> pairwise_friedman_vs_control(const BlockTable& t
       cmp.df = r.df;
       cmp.n_observations = r.observations;
       cmp.significant = r.p < level;
+      cmp.rank_biserial = paired_rank_biserial(pair.table, pair.table.treatment_index(control),
+                                               pair.table.treatment_index(cmp.treatment));
     }
     out.push_back(std::move(cmp));
   }

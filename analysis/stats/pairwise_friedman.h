@@ -22,6 +22,9 @@ struct PairwiseComparison {
   std::size_t n_blocks = 0;     // blocks that entered the test
   std::size_t n_observations = 0;  // values in those blocks, both cells, all replicates
   bool significant = false;     // p < sidak_level
+  // Effect size over the same blocks (effect_size.h paired_rank_biserial):
+  // +1 every block higher under the treatment than the control, -1 lower.
+  std::optional<double> rank_biserial;
   // Balancing (see balanced_pair.h): replicates per cell, and what was left
   // out to reach them.
   std::size_t replicates = 0;

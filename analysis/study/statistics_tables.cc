@@ -15,6 +15,8 @@
 #include "analysis/stats/block_table.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/stats/durbin.h"
+#include "analysis/stats/effect_size.h"
+#include "analysis/stats/percentile.h"
 #include "analysis/stats/friedman.h"
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/stats/skillings_mack.h"
@@ -108,6 +110,7 @@ OptionalTest balanced_friedman(const StudyAnalysis& a, const std::vector<Point>&
   out.replicates = r;
   try {
     out.result = friedman_test(table);
+    out.kendalls_w = kendalls_w(out.result->statistic, table.block_names.size(), out.settings.size(), r);
   } catch (const DataError& e) {
     out.note = e.what();
   }
@@ -157,6 +160,7 @@ OptionalTest whole_design_test(const StudyAnalysis& a, const std::vector<Point>&
   try {
     if (complete) {
       out.result = friedman_test(table);
+      out.kendalls_w = kendalls_w(out.result->statistic, blocks.size(), out.settings.size(), 1);
     } else {
       try {
         out.result = durbin_test(table).chi_square;
@@ -238,11 +242,41 @@ void run_statistics(StudyAnalysis& a) {
             cell.p = r.p;
             cell.statistic = r.statistic;
             cell.significant = r.p < a.sidak_level;
+            // Effect size over the same blocks: each block's median under
+            // the setting minus its median under the control.
+            cell.rank_biserial =
+                paired_rank_biserial(table, table.treatment_index(a.control), table.treatment_index(setting));
+            cell.direction = *cell.rank_biserial > 0 ? "higher" : *cell.rank_biserial < 0 ? "lower" : "equal";
           } catch (const DataError& e) {
             cell.note = e.what();
           }
         }
         a.pairwise.push_back(std::move(cell));
+      }
+    }
+  }
+
+  // What the tests are about: each setting's median and IQR per task.
+  a.descriptive.clear();
+  for (const auto& task : a.tasks) {
+    for (const auto& setting : a.settings) {
+      for (Measure m : kAllMeasures) {
+        DescriptiveRow d;
+        d.task = task;
+        d.setting = setting;
+        d.measure = m;
+        std::vector<double> v;
+        for (const Point& p : collect(a, "", task, m, -1))
+          if (p.setting == setting) v.push_back(p.value);
+        d.n = v.size();
+        d.median = d.q1 = d.q3 = std::numeric_limits<double>::quiet_NaN();
+        if (!v.empty()) {
+          std::sort(v.begin(), v.end());
+          d.q1 = percentile_sorted(v, 25.0, o.percentile_method);
+          d.median = percentile_sorted(v, 50.0, o.percentile_method);
+          d.q3 = percentile_sorted(v, 75.0, o.percentile_method);
+        }
+        a.descriptive.push_back(d);
       }
     }
   }

@@ -118,6 +118,9 @@ struct OptionalTest {
   std::size_t replicates = 0;        // per cell after balancing (Friedman)
   std::size_t dropped = 0;           // observations dropped to balance replicates
   std::vector<std::string> settings; // settings that entered the test
+  // Effect size of a Friedman result: Kendall's W in [0, 1]
+  // (stats/effect_size.h; with replicates, the statistic over its maximum).
+  std::optional<double> kendalls_w;
 };
 
 // Table 3.4 (hand == -1: hands as blocks; 0 / 1: that hand alone).
@@ -141,6 +144,22 @@ struct PairwiseCell {
   bool significant = false;      // p < Šidák level
   bool gated = false;            // no participant's Table 3.4 test was significant
   std::string note;
+  // Effect size: matched-pairs rank-biserial correlation over the blocks of
+  // the test (each block's median under the setting minus its median under
+  // the control), in [-1, 1]; direction "higher", "lower" or "equal" than
+  // the control.
+  std::optional<double> rank_biserial;
+  std::string direction;
+};
+
+// Median and interquartile range of a measure under one setting in one
+// task, every analysed trial (and hand) pooled: what the p values are about.
+struct DescriptiveRow {
+  std::string task;
+  std::string setting;
+  Measure measure = Measure::kForceMedian;
+  std::size_t n = 0;  // values (trials x hands for per-hand measures)
+  double median = 0.0, q1 = 0.0, q3 = 0.0;  // in the measure's unit; NaN when n == 0
 };
 
 struct WholeDesignRow {
@@ -193,6 +212,7 @@ struct StudyAnalysis {
   std::vector<WholeDesignRow> whole_design;
   std::vector<CorrelationRow> correlations;
   std::vector<KsRow> ks;
+  std::vector<DescriptiveRow> descriptive;
 };
 
 // Reads the study (options.study_id, or the only one) and runs everything.

@@ -73,6 +73,7 @@ TEST_F(StatsCommandTest, FriedmanTable) {
   EXPECT_THAT(out, HasSubstr("chi-square = 11.1429"));
   EXPECT_THAT(out, HasSubstr("df = 2"));
   EXPECT_THAT(out, HasSubstr("p = 0.00380"));
+  EXPECT_THAT(out, HasSubstr("Kendall's W = 0.253"));
 }
 
 TEST_F(StatsCommandTest, FriedmanJson) {
@@ -83,6 +84,9 @@ TEST_F(StatsCommandTest, FriedmanJson) {
   EXPECT_EQ(j.at("df").get<double>(), 2.0);
   EXPECT_NEAR(j.at("p").get<double>(), 0.003805, 5e-7);
   EXPECT_EQ(j.at("n").get<int>(), 66);
+  // Kendall's W = chi2 / (b (k - 1)) = 11.1429 / (22 * 2) = 0.2532, as R's
+  // rstatix::friedman_effsize reports for RoundingTimes.
+  EXPECT_NEAR(j.at("kendalls_w").get<double>(), 0.25325, 5e-5);
 }
 
 // Per-group results (thesis Table 3.4: one Friedman test per participant).

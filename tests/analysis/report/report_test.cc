@@ -61,6 +61,11 @@ TEST_F(ReportTest, TablesOnlyWithoutGnuplot) {
     EXPECT_THAT(s, HasSubstr("Appendix I"));
     EXPECT_THAT(s, HasSubstr("1 aborted trial was left out"));
     EXPECT_THAT(s, HasSubstr("No Force Feedback (2)"));
+    // Beside every table of p values: its effect sizes and the medians.
+    EXPECT_THAT(s, HasSubstr("Effect size: Kendall's W"));
+    EXPECT_THAT(s, HasSubstr("Effect size: matched-pairs rank-biserial r, and direction"));
+    EXPECT_THAT(s, HasSubstr("Median [interquartile range] per setting"));
+    EXPECT_THAT(s, HasSubstr("95p force [N]"));
   }
 }
 
