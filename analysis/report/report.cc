@@ -548,11 +548,12 @@ class FigureBuilder {
     s.title = force ? "Figure 3-4: CDFs of tool-tip force" : "Figure 3-5: CDFs of tool-tip speed";
     s.intro = std::string("Cumulative distribution of ") +
               (force ? "|F| (samples with |F| >= the contact threshold)" : "|v|") +
-              " in the task window, the repetitions of a setting pooled with equal weight. Axes are the same "
+              " in the task window, the repetitions of a setting pooled with equal weight (speed on a log axis: it spans decades). Axes are the same "
               "within a task.";
     for (const auto& task : a_.tasks) {
       // Same x range on every plot of a task (as in the thesis): the largest 99th percentile.
       double x_max = 0.0;
+      double x_min = std::numeric_limits<double>::infinity();
       std::vector<std::tuple<std::string, int, std::vector<std::pair<std::string, std::vector<double>>>>> plots;
       for (const auto& participant : a_.participants) {
         for (int hand = 0; hand < 2; ++hand) {
@@ -568,6 +569,13 @@ class FigureBuilder {
             if (pooled.empty()) continue;
             std::sort(pooled.begin(), pooled.end());
             x_max = std::max(x_max, percentile_sorted(pooled, 99.0, a_.options.percentile_method));
+            // Speeds spread over decades (a hand at rest and one moving): a
+            // log axis from the smallest 1st percentile that is above zero.
+            for (double v : pooled)
+              if (v > 0.0 && v >= percentile_sorted(pooled, 1.0, a_.options.percentile_method)) {
+                x_min = std::min(x_min, v);
+                break;
+              }
             curves.emplace_back(setting, std::move(pooled));
           }
           if (!curves.empty()) plots.emplace_back(participant, hand, std::move(curves));
@@ -582,7 +590,9 @@ class FigureBuilder {
           const std::size_t points = std::max<std::size_t>(o_.cdf_curve_points, 2);
           for (std::size_t i = 0; i < points; ++i) {
             const double p = static_cast<double>(i) / static_cast<double>(points - 1);
-            data << percentile_sorted(pooled, 100.0 * p, a_.options.percentile_method) << ' ' << p << '\n';
+            const double x = percentile_sorted(pooled, 100.0 * p, a_.options.percentile_method);
+            if (!force && x <= 0.0) continue;  // not on a log axis
+            data << x << ' ' << p << '\n';
           }
           data << "\n\n";
           plot << (c ? ", " : "") << "$" << block_name() << " index " << c << " with lines lw 2 title "
@@ -595,8 +605,15 @@ class FigureBuilder {
         std::ostringstream cmd;
         cmd << "set title " << gnuplot_quote(task + ", " + participant + ", " + hand_name(hand) + " hand") << "\n"
             << "set xlabel " << gnuplot_quote(force ? "|F| [N]" : "|v| [m/s]") << "\n"
-            << "set ylabel 'cumulative probability'\nset yrange [0:1]\nset xrange [0:" << (x_max > 0 ? x_max : 1)
-            << "]\nset key right bottom\nset grid\n"
+            << "set ylabel 'cumulative probability'\nset yrange [0:1]\n";
+        if (force || !(x_min < x_max)) {
+          cmd << "set xrange [0:" << (x_max > 0 ? x_max : 1) << "]\n";
+        } else {
+          // At most three decades: a hand held still (backlash can stop
+          // the tool exactly) gives speeds down to 1e-35 m/s.
+          cmd << "set logscale x\nset xrange [" << std::max(x_min, x_max * 1e-3) << ":" << x_max << "]\n";
+        }
+        cmd << (force ? "set key right bottom\n" : "set key left top\n") << "set grid\n"
             << plot.str() << "\n";
         add(s, file, cmd.str(),
             std::string(force ? "Force" : "Speed") + " CDF: " + task + ", " + participant + ", " + hand_name(hand) +
