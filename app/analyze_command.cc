@@ -35,6 +35,7 @@ struct AnalyzeOptions {
   std::uint64_t seed = 1;
   bool no_plots = false;
   std::size_t jobs = 0;
+  bool pdf = false;
   bool quiet = false;
   bool json = false;
 };
@@ -95,6 +96,8 @@ void run_analyze(const AnalyzeOptions& o) {
 
   an::ReportOptions report;
   report.plots = !o.no_plots;
+  report.pdf = o.pdf;
+  if (o.pdf && o.no_plots) throw CLI::ValidationError("--pdf", "writes the figures as PDF too; --no-plots writes none");
   // Fail on a missing gnuplot before minutes of analysis, not after.
   if (report.plots) an::find_gnuplot();
 
@@ -166,6 +169,7 @@ void add_analyze_command(CLI::App& app) {
   cmd->add_option("--seed", opt->seed, "Seed of the KS bootstrap; same seed and data, same result")
       ->capture_default_str();
   cmd->add_flag("--no-plots", opt->no_plots, "Write the report without figures (gnuplot not needed)");
+  cmd->add_flag("--pdf", opt->pdf, "Also write each figure as figures/NAME.pdf (vector, for a paper)");
   cmd->add_option("--jobs,-j", opt->jobs, "Trials read in parallel (0: one thread per core); the results do not "
                   "depend on it")->capture_default_str()->check(CLI::Range(0, 256));
   cmd->add_flag("--json", opt->json,

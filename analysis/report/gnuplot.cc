@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -109,6 +110,14 @@ void GnuplotScript::add_plot(const std::string& svg_name, const std::string& com
   if (!commands.empty() && commands.back() != '\n') text_ += '\n';
   text_ += "unset output\n";
   outputs_.push_back(svg_name);
+  if (pdf_) {
+    const std::string pdf_name = svg_name.substr(0, svg_name.rfind('.')) + ".pdf";
+    char size[64];
+    std::snprintf(size, sizeof size, "%.2fin,%.2fin", width_px / 96.0, height_px / 96.0);
+    text_ += "set terminal pdfcairo size " + std::string(size) + " font 'Helvetica,10'\n";
+    text_ += "set output " + gnuplot_quote(pdf_name) + "\nreplot\nunset output\n";
+    pdf_outputs_.push_back(pdf_name);
+  }
 }
 
 namespace {
@@ -146,6 +155,18 @@ bool complete_svg(const std::filesystem::path& path) {
   in.seekg(size - tail);
   in.read(end.data(), tail);
   return in && end.find("</svg>") != std::string::npos;
+}
+
+// A PDF ends with its %%EOF marker.
+bool complete_pdf(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return false;
+  const std::streamoff size = in.tellg();
+  const std::streamoff tail = std::min<std::streamoff>(size, 32);
+  std::string end(static_cast<std::size_t>(tail), '\0');
+  in.seekg(size - tail);
+  in.read(end.data(), tail);
+  return in && end.find("%%EOF") != std::string::npos;
 }
 
 }  // namespace
@@ -200,7 +221,14 @@ void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
       throw DataError("gnuplot wrote no complete " + (dir / name).string() + " (disk full?): " + messages.str());
     }
   }
+  for (const auto& name : script.pdf_outputs()) {
+    if (!complete_pdf(staging.path() / name)) {
+      throw DataError("gnuplot wrote no complete " + (dir / name).string() + " (disk full, or no pdfcairo "
+                      "terminal in this gnuplot?): " + messages.str());
+    }
+  }
   for (const auto& name : script.outputs()) std::filesystem::rename(staging.path() / name, dir / name);
+  for (const auto& name : script.pdf_outputs()) std::filesystem::rename(staging.path() / name, dir / name);
   std::filesystem::rename(script_path, final_script);
 }
 

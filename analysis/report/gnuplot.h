@@ -25,12 +25,18 @@ class GnuplotScript {
   // name relative to the script's directory. Every plot starts from `reset`.
   void add_plot(const std::string& svg_name, const std::string& commands, int width_px = 640,
                 int height_px = 420);
+  // Also draw every later plot as a PDF beside its SVG (same name, .pdf;
+  // pdfcairo, sized as the SVG at 96 px per inch), for a paper.
+  void set_pdf(bool pdf) { pdf_ = pdf; }
   const std::vector<std::string>& outputs() const { return outputs_; }
+  const std::vector<std::string>& pdf_outputs() const { return pdf_outputs_; }
   std::string text() const { return text_; }
 
  private:
   std::string text_;
   std::vector<std::string> outputs_;
+  std::vector<std::string> pdf_outputs_;
+  bool pdf_ = false;
 };
 
 // Runs the script in a staging directory inside `dir`, then moves the

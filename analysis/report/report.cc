@@ -537,7 +537,7 @@ Section ks_section(const StudyAnalysis& a) {
 // ---------------------------------------------------------------------------
 class FigureBuilder {
  public:
-  FigureBuilder(const StudyAnalysis& a, const ReportOptions& o) : a_(a), o_(o) {}
+  FigureBuilder(const StudyAnalysis& a, const ReportOptions& o) : a_(a), o_(o) { script_.set_pdf(o.pdf); }
 
   GnuplotScript& script() { return script_; }
 

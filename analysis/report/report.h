@@ -19,6 +19,7 @@ struct ReportOptions {
   std::size_t max_correlation_plots = 24;
   double correlation_plot_min_abs_r = 0.45;  // the thesis reported |R| > 0.45 (3.4.2.2)
   std::size_t cdf_curve_points = 101;        // points per drawn CDF curve, >= 2
+  bool pdf = false;  // also each figure as figures/NAME.pdf (for a paper)
 };
 
 struct ReportFiles {

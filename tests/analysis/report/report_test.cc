@@ -176,6 +176,27 @@ TEST_F(ReportTest, FiguresInlineInHtmlAndLinkedFromMarkdown) {
   EXPECT_TRUE(std::filesystem::exists(dir_.path() / "out" / "figures" / "plots.gp"));
 }
 
+// For a paper: every figure also as a complete PDF beside its SVG.
+TEST_F(ReportTest, EveryFigureAlsoAsPdf) {
+  try {
+    (void)find_gnuplot();
+  } catch (const DataError& e) {
+    GTEST_SKIP() << e.what();
+  }
+  ReportOptions o;
+  o.pdf = true;
+  const ReportFiles files = write_report(analysis_, dir_.path() / "out", o);
+  ASSERT_FALSE(files.figures.empty());
+  for (const auto& svg : files.figures) {
+    std::filesystem::path pdf = svg;
+    pdf.replace_extension(".pdf");
+    ASSERT_TRUE(std::filesystem::exists(pdf)) << pdf;
+    const std::string text = slurp(pdf);
+    EXPECT_EQ(text.substr(0, 5), "%PDF-") << pdf;
+    EXPECT_NE(text.find("%%EOF", text.size() - 32), std::string::npos) << pdf;
+  }
+}
+
 TEST_F(ReportTest, MissingGnuplotIsAClearErrorBeforeAnythingIsWritten) {
   ::setenv("HAPTICLAB_GNUPLOT", (dir_.path() / "no-gnuplot-here").c_str(), 1);
   EXPECT_THAT([&] { (void)write_report(analysis_, dir_.path() / "out2", {}); },
