@@ -1,5 +1,7 @@
 #include "db/sample_codec.h"
 
+#include "core/loop/sample_channels.h"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -11,16 +13,8 @@
 
 namespace hapticlab::db {
 
-const std::array<const char*, kChunkChannels> kChannelNames = {
-    "dt_s",           "t_s",
-    "raw_insertion_m", "raw_pitch_rad", "raw_yaw_rad", "raw_twist_rad", "raw_grip_rad",
-    "degraded_insertion_m", "degraded_pitch_rad", "degraded_yaw_rad",
-    "tip_x_m",        "tip_y_m",        "tip_z_m",
-    "tip_vx_m_per_s", "tip_vy_m_per_s", "tip_vz_m_per_s",
-    "ve_force_x_N",   "ve_force_y_N",   "ve_force_z_N",
-    "displayed_force_x_N", "displayed_force_y_N", "displayed_force_z_N",
-    "insertion_force_N", "pitch_torque_Nm", "yaw_torque_Nm",
-    "engine_status",  "device_status",  "in_contact"};
+// One list for every sample table (core/loop/sample_channels.h).
+const std::array<const char*, kChunkChannels> kChannelNames = kSampleChannelNames;
 
 namespace {
 

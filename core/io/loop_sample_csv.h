@@ -1,16 +1,17 @@
 #pragma once
-// CSV of haptic-loop samples: one row per update, both instruments side by
-// side, with the task events of that update in the last column.
+// CSV of haptic-loop samples in the long layout every HapticLab sample
+// table uses (core/loop/sample_channels.h): one row per instrument and
+// update, left before right within an update.
 //
-// Columns: tick, t_s, dt_s, device_status, then for p in left_, right_:
-//   p raw_insertion_m raw_pitch_rad raw_yaw_rad raw_twist_rad raw_grip_rad
-//   p degraded_insertion_m degraded_pitch_rad degraded_yaw_rad
-//   p tip_x_m tip_y_m tip_z_m  p tip_vx_m_per_s tip_vy_m_per_s tip_vz_m_per_s
-//   p ve_force_x_N ve_force_y_N ve_force_z_N
-//   p displayed_force_x_N displayed_force_y_N displayed_force_z_N
-//   p insertion_force_N pitch_torque_Nm yaw_torque_Nm  p engine_status p contact
-// and events: "left:contact_start;task:task_complete" (instrument or "task",
-// event name, and "#index" for tissue cells and clips).
+// Columns: instrument (0 left, 1 right), tick, then the channels of
+// kSampleChannelNames (dt_s, t_s, raw_*, degraded_*, tip_*, ve_force_*,
+// displayed_force_*, insertion_force_N, pitch_torque_Nm, yaw_torque_Nm,
+// engine_status, device_status, in_contact), then events: the task events
+// of that update for that instrument, ';'-separated, as
+// "right:tissue_removed#3" (instrument or "task", event name, "#index" for
+// tissue cells and clips); events of the task as a whole go in the left
+// (instrument 0) row. Values are the loop's doubles (`export` gives the
+// database's float32 of the same channels).
 // Numbers are written in the shortest form that reads back to the same
 // double (core/common/csv_format.h, as every HapticLab CSV).
 

@@ -186,16 +186,17 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
     if (e.path().string().ends_with("_samples.csv")) samples_csv = e.path();
   ASSERT_FALSE(samples_csv.empty());
 
-  const auto recorded = testing::read_csv_rows(samples_csv);  // a row per instrument and update
-  const auto replayed = testing::read_csv_rows(replay_csv);   // a row per update, both instruments
-  ASSERT_EQ(recorded.size(), 2 * replayed.size());
+  // One layout: a row per instrument and update, in the same order.
+  const auto recorded = testing::read_csv_rows(samples_csv);
+  const auto replayed = testing::read_csv_rows(replay_csv);
+  ASSERT_EQ(recorded.size(), replayed.size());
   double worst_N = 0.0, peak_N = 0.0;
-  for (const auto& r : recorded) {
-    const std::size_t tick = std::stoul(r.at("tick"));
-    ASSERT_LT(tick, replayed.size());
-    const std::string side = r.at("instrument") == "0" ? "left_" : "right_";
+  for (std::size_t k = 0; k < recorded.size(); ++k) {
+    const auto& r = recorded[k];
+    ASSERT_EQ(r.at("tick"), replayed[k].at("tick"));
+    ASSERT_EQ(r.at("instrument"), replayed[k].at("instrument"));
     const double f_N = magnitude(r, "ve_force_");
-    worst_N = std::max(worst_N, std::abs(f_N - magnitude(replayed[tick], side + "ve_force_")));
+    worst_N = std::max(worst_N, std::abs(f_N - magnitude(replayed[k], "ve_force_")));
     peak_N = std::max(peak_N, f_N);
   }
   EXPECT_GT(peak_N, 0.1);  // the trial touched tissue
@@ -210,10 +211,8 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
   EXPECT_THAT(summary4, HasSubstr("through No Force Feedback"));
   double ve_peak_N = 0.0, displayed_peak_N = 0.0;
   for (const auto& row : testing::read_csv_rows(no_ffb_csv)) {
-    for (const std::string side : {"left_", "right_"}) {
-      ve_peak_N = std::max(ve_peak_N, magnitude(row, side + "ve_force_"));
-      displayed_peak_N = std::max(displayed_peak_N, magnitude(row, side + "displayed_force_"));
-    }
+    ve_peak_N = std::max(ve_peak_N, magnitude(row, "ve_force_"));
+    displayed_peak_N = std::max(displayed_peak_N, magnitude(row, "displayed_force_"));
   }
   EXPECT_GT(ve_peak_N, 0.1);
   EXPECT_EQ(displayed_peak_N, 0.0);
