@@ -15,6 +15,24 @@
 
 namespace hapticlab::planning {
 
+namespace {
+
+// The rows of a tally, each with its rate and 95 % Wilson interval.
+template <typename Map, typename Row>
+std::vector<Row> with_rates(Map& rows, int Row::*hits, int Row::*total) {
+  std::vector<Row> out;
+  for (auto& [key, r] : rows) {
+    r.rate = static_cast<double>(r.*hits) / r.*total;
+    const analysis::ProportionInterval ci = analysis::wilson_interval(r.*hits, r.*total);
+    r.wilson_low = ci.low;
+    r.wilson_high = ci.high;
+    out.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace
+
 std::uint64_t study_seed(std::uint64_t seed, int participants, int index) {
   return Random::derive(seed, protocols::fnv1a64("plan power/participants=" + std::to_string(participants) +
                                                  "/study=" + std::to_string(index)))
@@ -99,20 +117,8 @@ std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
       if (f.significant) ++r.significant;
     }
   }
-  std::vector<PowerRow> out;
-  for (auto& [key, r] : rows) {
-    r.rate = static_cast<double>(r.significant) / r.tests;
-    const analysis::ProportionInterval ci = analysis::wilson_interval(r.significant, r.tests);
-    r.wilson_low = ci.low;
-    r.wilson_high = ci.high;
-    out.push_back(r);
-  }
-  return out;
+  return with_rates(rows, &PowerRow::significant, &PowerRow::tests);
 }
-
-}  // namespace hapticlab::planning
-
-namespace hapticlab::planning {
 
 std::vector<FalsePositiveRow> false_positive_rates(const std::vector<StudyOutcome>& outcomes,
                                                    const std::set<std::string>& null_settings) {
@@ -135,15 +141,7 @@ std::vector<FalsePositiveRow> false_positive_rates(const std::vector<StudyOutcom
       if (hit) ++r.with_false_positive;
     }
   }
-  std::vector<FalsePositiveRow> out;
-  for (auto& [key, r] : rows) {
-    r.rate = static_cast<double>(r.with_false_positive) / r.studies;
-    const analysis::ProportionInterval ci = analysis::wilson_interval(r.with_false_positive, r.studies);
-    r.wilson_low = ci.low;
-    r.wilson_high = ci.high;
-    out.push_back(r);
-  }
-  return out;
+  return with_rates(rows, &FalsePositiveRow::with_false_positive, &FalsePositiveRow::studies);
 }
 
 }  // namespace hapticlab::planning

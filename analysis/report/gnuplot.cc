@@ -143,31 +143,23 @@ class StagingDir {
   std::filesystem::path path_;
 };
 
-// gnuplot does not always fail when its output cannot be written (a full
-// disk truncates the SVG and gnuplot still exits 0), so an SVG counts only
-// when its closing tag made it to the file.
-bool complete_svg(const std::filesystem::path& path) {
+// Whether the last `tail` bytes of the file hold `marker`. gnuplot does not
+// always fail when its output cannot be written (a full disk truncates the
+// file and gnuplot still exits 0), so a figure counts only when its end made
+// it to the file: an SVG's closing tag, a PDF's %%EOF.
+bool ends_with_marker(const std::filesystem::path& path, const std::string& marker, std::streamoff tail_bytes) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return false;
   const std::streamoff size = in.tellg();
-  const std::streamoff tail = std::min<std::streamoff>(size, 64);
+  const std::streamoff tail = std::min<std::streamoff>(size, tail_bytes);
   std::string end(static_cast<std::size_t>(tail), '\0');
   in.seekg(size - tail);
   in.read(end.data(), tail);
-  return in && end.find("</svg>") != std::string::npos;
+  return in && end.find(marker) != std::string::npos;
 }
 
-// A PDF ends with its %%EOF marker.
-bool complete_pdf(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) return false;
-  const std::streamoff size = in.tellg();
-  const std::streamoff tail = std::min<std::streamoff>(size, 32);
-  std::string end(static_cast<std::size_t>(tail), '\0');
-  in.seekg(size - tail);
-  in.read(end.data(), tail);
-  return in && end.find("%%EOF") != std::string::npos;
-}
+bool complete_svg(const std::filesystem::path& path) { return ends_with_marker(path, "</svg>", 64); }
+bool complete_pdf(const std::filesystem::path& path) { return ends_with_marker(path, "%%EOF", 32); }
 
 }  // namespace
 

@@ -2,6 +2,7 @@
 #include "analysis/report/report.h"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -265,55 +266,48 @@ Section friedman_section(const StudyAnalysis& a) {
   s.intro = "P values of intra-participant Friedman tests across settings: hands are the blocks, repetitions the "
             "replicates ranked within each block (completion time: one block per participant). Bold: p < " +
             num(a.options.alpha) + ".";
-  Table t;
-  t.header = measure_header("");
-  std::string notes;
-  for (const auto& task : a.tasks) {
-    for (const auto& participant : a.participants) {
-      std::vector<Cell> row{{task + " " + participant}};
-      bool any = false;
-      for (Measure m : kAllMeasures) {
-        Cell cell{"N/A"};
-        for (const auto& r : a.friedman) {
-          if (r.task != task || r.participant != participant || r.hand != -1 || r.measure != m) continue;
-          any = true;
-          cell = p_cell(r.test.result, a.options.alpha);
-          if (r.test.dropped > 0 || !r.test.note.empty()) {
-            notes += task + " " + participant + " " + measure_label(m) + ": " +
-                     (r.test.dropped > 0 ? std::to_string(r.test.dropped) + " observation(s) dropped to balance to " +
-                                               std::to_string(r.test.replicates) + " replicate(s)"
-                                         : std::string()) +
-                     (r.test.dropped > 0 && !r.test.note.empty() ? "; " : "") + r.test.note + ". ";
+  // One row per task and participant, a cell per measure from that
+  // participant's Table 3.4 test (both hands as blocks).
+  auto per_participant = [&](const std::function<Cell(const FriedmanRow&)>& cell_of) {
+    Table t;
+    t.header = measure_header("");
+    for (const auto& task : a.tasks) {
+      for (const auto& participant : a.participants) {
+        std::vector<Cell> row{{task + " " + participant}};
+        bool any = false;
+        for (Measure m : kAllMeasures) {
+          Cell cell{"N/A"};
+          for (const auto& r : a.friedman) {
+            if (r.task != task || r.participant != participant || r.hand != -1 || r.measure != m) continue;
+            any = true;
+            cell = cell_of(r);
           }
+          row.push_back(cell);
         }
-        row.push_back(cell);
+        if (any) t.rows.push_back(std::move(row));
       }
-      if (any) t.rows.push_back(std::move(row));
     }
-  }
+    return t;
+  };
+  std::string notes;
+  Table t = per_participant([&](const FriedmanRow& r) {
+    if (r.test.dropped > 0 || !r.test.note.empty()) {
+      notes += r.task + " " + r.participant + " " + measure_label(r.measure) + ": " +
+               (r.test.dropped > 0 ? std::to_string(r.test.dropped) + " observation(s) dropped to balance to " +
+                                         std::to_string(r.test.replicates) + " replicate(s)"
+                                   : std::string()) +
+               (r.test.dropped > 0 && !r.test.note.empty() ? "; " : "") + r.test.note + ". ";
+    }
+    return p_cell(r.test.result, a.options.alpha);
+  });
   t.note = notes;
   s.tables.push_back(std::move(t));
 
   // Effect sizes of the same tests.
-  Table w;
+  Table w = per_participant([](const FriedmanRow& r) {
+    return r.test.kendalls_w ? Cell{num(*r.test.kendalls_w, "%.2f")} : Cell{"N/A"};
+  });
   w.title = "Effect size: Kendall's W";
-  w.header = measure_header("");
-  for (const auto& task : a.tasks) {
-    for (const auto& participant : a.participants) {
-      std::vector<Cell> row{{task + " " + participant}};
-      bool any = false;
-      for (Measure m : kAllMeasures) {
-        Cell cell{"N/A"};
-        for (const auto& r : a.friedman) {
-          if (r.task != task || r.participant != participant || r.hand != -1 || r.measure != m) continue;
-          any = true;
-          if (r.test.kendalls_w) cell = {num(*r.test.kendalls_w, "%.2f")};
-        }
-        row.push_back(cell);
-      }
-      if (any) w.rows.push_back(std::move(row));
-    }
-  }
   w.note = "Kendall's W: how alike the blocks rank the settings, 0 (not at all) to 1 (every block the same); "
            "with replicates, the Friedman statistic over its largest possible value (docs/analysis.md).";
   s.tables.push_back(std::move(w));
