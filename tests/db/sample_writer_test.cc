@@ -200,7 +200,11 @@ TEST(SampleWriter, DataIsCommittedWithinTheIntervalWithoutFinish) {
   while (std::chrono::steady_clock::now() < deadline) {
     StudyDb db(f.path, reader);
     seen = db.sample_count(f.trial, 1);
-    if (seen == 40 && db.events(f.trial).size() == 1) break;
+    // The writer counts what it committed just after the commit: a reader
+    // can see the rows a moment before the counters move (it failed so once
+    // on a loaded machine), so both are waited for.
+    if (seen == 40 && db.events(f.trial).size() == 1 && writer.stats().updates == 40 && writer.stats().events == 1)
+      break;
     std::this_thread::sleep_for(5ms);
   }
   EXPECT_EQ(seen, 40u);
