@@ -117,7 +117,7 @@ void add_drop_missing_flag(CLI::App& cmd, bool& drop_missing) {
 void add_common_options(CLI::App& cmd, CommonOptions& opt, bool with_group) {
   add_csv_option(cmd, opt.csv);
   cmd.add_option("--block", opt.columns.block,
-                 "Column naming the block (participant, or participant x hand)")
+                 "Column naming the block (participant, or participant x instrument)")
       ->capture_default_str();
   cmd.add_option("--treatment", opt.columns.treatment,
                  "Column naming the treatment (hardware setting)")

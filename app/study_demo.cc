@@ -148,7 +148,7 @@ int run(const DemoOptions& opt) {
   std::printf("4. Results in %s:\n", out.c_str());
   std::printf("   database  %s   (hapticlab study show --db %s; schema: db/README.md)\n", db_path.c_str(),
               db_path.c_str());
-  std::printf("   metrics   %s   (one row per trial and hand)\n", metrics.c_str());
+  std::printf("   metrics   %s   (one row per trial and instrument)\n", metrics.c_str());
   std::printf("   report    %s   (open in a browser; Markdown: %s)\n", report.html.c_str(), report.markdown.c_str());
   std::printf("Done in %s.\n", format_duration(elapsed_s()).c_str());
   return 0;

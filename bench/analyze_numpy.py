@@ -122,7 +122,7 @@ def trial_metrics(conn):
         window = task_window(events, max(ends)) if ends else None
         for hand in (0, 1):
             row = {"trial_id": trial_id, "participant": participant, "task": task, "setting": setting,
-                   "repetition": repetition, "hand": "left" if hand == 0 else "right"}
+                   "repetition": repetition, "instrument": hand}
             if window is None or hands[hand] is None:
                 row.update({m: float("nan") for m in MEASURES})
             else:
@@ -157,28 +157,28 @@ def friedman_replicates(cells):
 
 
 def table_3_4(rows):
-    """Friedman per participant, task, measure: both hands as blocks (hand
-    "both"), then each hand alone; settings missing from a block left out,
+    """Friedman per participant, task, measure: both instruments as blocks
+    (instrument "both"), then each alone; settings missing from a block left out,
     each cell cut to the smallest replicate count."""
     out = []
     keys = sorted({(r["participant"], r["task"]) for r in rows})
     for participant, task in keys:
         mine = sorted([r for r in rows if r["participant"] == participant and r["task"] == task],
                       key=lambda r: r["repetition"])
-        for hand in ("both", "left", "right"):
+        for hand in ("both", 0, 1):
             for m in MEASURES:
                 if hand != "both" and m not in PER_HAND:
                     continue
                 cells = {}
                 for r in mine:
-                    if m not in PER_HAND and r["hand"] != "left":
+                    if m not in PER_HAND and r["instrument"] != 0:
                         continue  # one value per trial
-                    if hand != "both" and r["hand"] != hand:
+                    if hand != "both" and r["instrument"] != hand:
                         continue
                     value = r[m]
                     if not np.isfinite(value):
                         continue
-                    block = r["hand"] if m in PER_HAND else "trial"
+                    block = r["instrument"] if m in PER_HAND else "trial"
                     cells.setdefault(block, {}).setdefault(r["setting"], []).append(value)
                 settings = sorted({s for block in cells.values() for s in block})
                 settings = [s for s in settings if all(s in block for block in cells.values())]
@@ -187,7 +187,7 @@ def table_3_4(rows):
                 reps = min(len(block[s]) for block in cells.values() for s in settings)
                 table = [[block[s][:reps] for s in settings] for block in cells.values()]
                 q, p = friedman_replicates(table)
-                out.append({"participant": participant, "task": task, "hand": hand, "measure": m,
+                out.append({"participant": participant, "task": task, "instrument": hand, "measure": m,
                             "chi_square": q, "p": p})
     return out
 

@@ -17,7 +17,7 @@ std::string number(double v) { return std::isfinite(v) ? format_number(v) : std:
 }  // namespace
 
 void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
-  out << "trial_id,participant,task,setting,repetition,block,trial_number,status,hand,task_start_s,task_end_s,"
+  out << "trial_id,participant,task,setting,repetition,block,trial_number,status,instrument,task_start_s,task_end_s,"
          "completion_time_s,samples,force_samples,force_median_N,force_p95_N,speed_median_m_per_s,path_length_m,"
          "note\n";
   for (const TrialRecord& t : a.trials) {
@@ -27,7 +27,7 @@ void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
       std::string note = t.problem;
       if (have && h.force_samples == 0) note = "no sample reached the contact threshold: force measures missing";
       out << t.trial_id << ',' << csv_text(t.participant) << ',' << csv_text(t.task) << ',' << csv_text(t.setting) << ','
-          << t.repetition << ',' << t.block << ',' << t.position << ',' << t.status << ',' << hand_name(hand) << ','
+          << t.repetition << ',' << t.block << ',' << t.position << ',' << t.status << ',' << hand << ','
           << (have ? number(t.window->start_s) : "") << ',' << (have ? number(t.window->end_s) : "") << ','
           << number(t.value(Measure::kCompletionTime, hand)) << ',' << (have ? std::to_string(h.samples) : "")
           << ',' << (have ? std::to_string(h.force_samples) : "") << ',' << number(t.value(Measure::kForceMedian, hand))

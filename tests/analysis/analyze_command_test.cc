@@ -74,7 +74,7 @@ TEST_F(AnalyzeCommandTest, IncludeAbortedAndPercentileMethodReachTheAnalysis) {
   bool seen = false;
   for (std::size_t r = 0; r < csv.row_count(); ++r) {
     if (csv.text(r, csv.column("participant")) == "P1" && csv.text(r, csv.column("setting")) == "High Fidelity" &&
-        csv.text(r, csv.column("repetition")) == "1" && csv.text(r, csv.column("hand")) == "left") {
+        csv.text(r, csv.column("repetition")) == "1" && csv.text(r, csv.column("instrument")) == "0") {
       seen = true;
       EXPECT_NEAR(csv.number(r, csv.column("force_p95_N")), 4.8 * f, 1e-6);
     }

@@ -24,7 +24,7 @@ MEASURES = ("completion_time_s", "force_median_N", "force_p95_N", "speed_median_
 
 def read_rows(path):
     with open(path, newline="") as f:
-        return {(r["trial_id"], r["hand"]): r for r in csv.DictReader(f)}
+        return {(r["trial_id"], r["instrument"]): r for r in csv.DictReader(f)}
 
 
 def number(text):
@@ -55,7 +55,7 @@ class ComparatorTest(unittest.TestCase):
     def tearDownClass(cls):
         shutil.rmtree(cls.dir, ignore_errors=True)
 
-    def test_same_trials_and_hands(self):
+    def test_same_trials_and_instruments(self):
         self.assertEqual(len(self.hapticlab), 40)
         self.assertEqual(set(self.hapticlab), set(self.numpy))
 
@@ -82,10 +82,10 @@ class ComparatorTest(unittest.TestCase):
         self.assertGreater(checked, 150)
 
     def test_friedman_equals_hapticlab_stats(self):
-        both = [r for r in self.friedman if r["hand"] == "both" and r["measure"] in ("force_p95_N", "path_length_m")]
+        both = [r for r in self.friedman if r["instrument"] == "both" and r["measure"] in ("force_p95_N", "path_length_m")]
         self.assertEqual(len(both), 4)  # 2 tasks x 2 measures
         for measure in ("force_p95_N", "path_length_m"):
-            out = fx.run_cli("stats", "friedman", "--csv", str(self.metrics_csv), "--block", "hand", "--treatment",
+            out = fx.run_cli("stats", "friedman", "--csv", str(self.metrics_csv), "--block", "instrument", "--treatment",
                              "setting", "--replicate", "repetition", "--value", measure, "--group",
                              "participant,task", "--json")
             for group in json.loads(out)["groups"]:

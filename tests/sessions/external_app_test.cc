@@ -143,7 +143,7 @@ TEST_F(ExternalAppTest, KilledMidTrialResumesAndTheLabsTaskIsAnalysed) {
   // relative (float's 6e-8, summed over the path's steps).
   int rows = 0;
   for (const auto& row : testing::read_csv_rows(out / "metrics.csv")) {
-    if (row.at("hand") != "left") continue;
+    if (row.at("instrument") != "0") continue;
     ++rows;
     EXPECT_EQ(row.at("task"), "peg touch");
     EXPECT_EQ(row.at("status"), "complete");

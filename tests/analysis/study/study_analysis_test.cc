@@ -366,7 +366,7 @@ TEST_F(StudyAnalysisTest, MetricsCsvOneRowPerTrialAndHand) {
   write_metrics_csv(a, out);
   const LongCsv csv = LongCsv::parse(out.str(), "metrics.csv");
   ASSERT_EQ(csv.row_count(), 20u);
-  for (const char* column : {"participant", "task", "setting", "repetition", "trial_number", "hand",
+  for (const char* column : {"participant", "task", "setting", "repetition", "trial_number", "instrument",
                              "completion_time_s", "force_median_N", "force_p95_N", "speed_median_m_per_s",
                              "path_length_m"}) {
     EXPECT_NO_THROW(csv.column(column)) << column;
@@ -374,7 +374,7 @@ TEST_F(StudyAnalysisTest, MetricsCsvOneRowPerTrialAndHand) {
   int checked = 0;
   for (std::size_t row = 0; row < csv.row_count(); ++row) {
     if (csv.text(row, csv.column("participant")) != "P2" || csv.text(row, csv.column("setting")) != "High Fidelity" ||
-        csv.text(row, csv.column("repetition")) != "1" || csv.text(row, csv.column("hand")) != "right")
+        csv.text(row, csv.column("repetition")) != "1" || csv.text(row, csv.column("instrument")) != "1")
       continue;
     ++checked;
     const double f = trial_force_N(2, 0, 1);
