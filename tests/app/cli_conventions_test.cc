@@ -8,6 +8,7 @@
 
 #include "app/cli_errors.h"
 #include "app/cli_process.h"
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -16,7 +17,6 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 using ::testing::StartsWith;
 
-const std::string kBinary = HAPTICLAB_CLI_PATH;
 
 TEST(CliConventions, AMistypedCommandIsNamedWithTheNearestOneAtItsLevel) {
   auto [status, out] = testing::run_cli(kBinary, "stduy show");

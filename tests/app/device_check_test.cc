@@ -15,6 +15,7 @@
 #include "app/cli_process.h"
 #include "core/device/workstation_spec.h"
 #include "core/sim/participant.h"
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -23,9 +24,6 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-const std::string kBinary = HAPTICLAB_CLI_PATH;
-const std::string kSimPlugin = HAPTICLAB_SIM_PLUGIN_PATH;
-const std::string kFake = HAPTICLAB_FAKE_PLUGIN_PATH;
 const std::string kFakeAbi2 = HAPTICLAB_FAKE_PLUGIN_ABI2_PATH;
 const std::string kFakeNoEntry = HAPTICLAB_FAKE_PLUGIN_NO_ENTRY_PATH;
 constexpr int kExitDeviceFault = 3;

@@ -12,6 +12,7 @@
 
 #include "app/cli_process.h"
 #include "db/study_db.h"
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -19,9 +20,6 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-const std::string kBinary = HAPTICLAB_CLI_PATH;
-const std::string kSimPlugin = HAPTICLAB_SIM_PLUGIN_PATH;
-const std::string kFake = HAPTICLAB_FAKE_PLUGIN_PATH;
 
 class DevicePluginSessionTest : public ::testing::Test {
  protected:

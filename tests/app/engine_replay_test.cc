@@ -14,18 +14,14 @@
 #include <gtest/gtest.h>
 
 #include "core/io/trajectory_csv.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab::app {
 namespace {
 
 namespace fs = std::filesystem;
 
-// Temporary output files are "<name>.<pid>.tmp" (core/io/output_file.h).
-bool has_temp_file(const std::filesystem::path& dir) {
-  for (const auto& e : std::filesystem::directory_iterator(dir))
-    if (e.path().extension() == ".tmp") return true;
-  return false;
-}
+using testing::has_temp_file;
 
 constexpr double kDefaultFrictionLevel_N = 0.45;  // translation.friction default
 constexpr double kForceTolerance_N = 1e-6;

@@ -12,6 +12,8 @@
 #include <gtest/gtest.h>
 
 #include "app/cli_process.h"
+#include "tests/testing/test_paths.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab {
 namespace {
@@ -20,7 +22,6 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-const fs::path kBinary = HAPTICLAB_CLI_PATH;
 const fs::path kExamples = fs::path(HAPTICLAB_SOURCE_DIR) / "examples";
 
 const char* const kTrajectoryHeader =
@@ -45,7 +46,7 @@ class HostileInputTest : public ::testing::Test {
 
   // `prefix` goes before the binary (e.g. "prlimit --fsize=4096 ").
   static std::pair<int, std::string> run(const std::string& args, const std::string& prefix = "") {
-    return testing::run_cli(prefix + kBinary.string(), args);
+    return testing::run_cli(prefix + kBinary, args);
   }
 
   // Files in the scratch directory other than the inputs named.
@@ -71,12 +72,7 @@ class HostileInputTest : public ::testing::Test {
   fs::path dir_;
 };
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::slurp;
 
 // ---------------------------------------------------------------- JSON
 

@@ -17,6 +17,7 @@
 #include "db/study_db.h"
 
 #include <nlohmann/json.hpp>
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -25,7 +26,6 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-const std::string kBinary = HAPTICLAB_CLI_PATH;
 
 // The eight settings of the quick thesis protocol.
 constexpr std::array<const char*, 8> kSettingNames = {

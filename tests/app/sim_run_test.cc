@@ -13,18 +13,14 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include "tests/testing/files.h"
 
 namespace hapticlab::app {
 namespace {
 
 namespace fs = std::filesystem;
 
-// Temporary output files are "<name>.<pid>.tmp" (core/io/output_file.h).
-bool has_temp_file(const std::filesystem::path& dir) {
-  for (const auto& e : std::filesystem::directory_iterator(dir))
-    if (e.path().extension() == ".tmp") return true;
-  return false;
-}
+using testing::has_temp_file;
 
 fs::path shipped_settings(const std::string& name) {
   return fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings" / (name + ".json");
@@ -49,7 +45,7 @@ std::vector<std::string> split(const std::string& line, char sep) {
   return out;
 }
 
-struct Csv {
+struct SampleCsv {
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;
   double number(std::size_t row, const std::string& column) const {
@@ -59,9 +55,9 @@ struct Csv {
   }
 };
 
-Csv read_csv(const fs::path& path) {
+SampleCsv read_sample_csv(const fs::path& path) {
   std::ifstream in(path);
-  Csv csv;
+  SampleCsv csv;
   std::string line;
   std::getline(in, line);
   csv.header = split(line, ',');
@@ -117,7 +113,7 @@ TEST_F(SimRunTest, WritesOneRowPerUpdateWithTheDocumentedColumnsAndPrintsTheSumm
   const std::string printed = sim_run({"--task", "dissection", "--settings",
                                        shipped_settings("high_fidelity").string(), "--participant-seed", "2",
                                        "--out", out.string()});
-  const Csv csv = read_csv(out);
+  const SampleCsv csv = read_sample_csv(out);
   EXPECT_EQ(csv.header, documented_columns());
   ASSERT_GT(csv.rows.size(), 2u * 5000u);  // a dissection takes seconds at 1 kHz
   ASSERT_EQ(csv.rows.size() % 2, 0u);
@@ -187,7 +183,7 @@ TEST_F(SimRunTest, RateAndMaxDurationShapeTheFileAndATimeoutExitsWithTwo) {
   EXPECT_EQ(exit_code, 4);  // timed out: 2 is for usage errors
   EXPECT_NE(printed.find("clip, Friction, participant 1: max_duration after 1.50 s"), std::string::npos)
       << printed;
-  const Csv csv = read_csv(out);
+  const SampleCsv csv = read_sample_csv(out);
   ASSERT_EQ(csv.rows.size(), 2u * 769u);
   for (std::size_t k = 0; k < csv.rows.size(); ++k) {
     EXPECT_EQ(csv.number(k, "t_s"), static_cast<double>(k / 2) / 512.0);

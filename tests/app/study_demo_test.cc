@@ -23,13 +23,14 @@
 #include "db/study_db.h"
 #include "protocols/protocol_json.h"
 #include "protocols/schedule.h"
+#include "tests/testing/test_paths.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab {
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kBinary = HAPTICLAB_CLI_PATH;
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("hapticlab_demo_" + name + "_" + std::to_string(::getpid()));
@@ -38,14 +39,9 @@ fs::path fresh_dir(const std::string& name) {
 }
 
 // Runs the binary with `args`; returns its exit status and output.
-std::pair<int, std::string> run(const std::string& args) { return testing::run_cli(kBinary.string(), args); }
+std::pair<int, std::string> run(const std::string& args) { return testing::run_cli(kBinary, args); }
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::slurp;
 
 // What the shipped quick protocol plans.
 protocols::StudyPlan quick_plan() {

@@ -28,6 +28,7 @@
 #include "core/device/udp_protocol.h"
 #include "db/study_db.h"
 #include "testing/child_process.h"
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -38,7 +39,6 @@ using ::testing::StartsWith;
 using testing::ChildProcess;
 using testing::run_cli;
 
-const std::string kBinary = HAPTICLAB_CLI_PATH;
 
 int udp_socket_on(int port) {
   const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);

@@ -15,7 +15,7 @@ namespace {
 
 using nlohmann::json;
 
-const std::filesystem::path kProtocolsDir = std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols";
+const std::filesystem::path kShippedProtocolsDir = std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols";
 
 json protocol_with(const json& safety) {
   json j = json::parse(R"({
@@ -33,7 +33,7 @@ json protocol_with(const json& safety) {
 
 ProtocolError error_of(const json& safety) {
   try {
-    protocol_from_json(protocol_with(safety), kProtocolsDir, "study.json");
+    protocol_from_json(protocol_with(safety), kShippedProtocolsDir, "study.json");
   } catch (const ProtocolError& e) {
     return e;
   }
@@ -44,14 +44,14 @@ TEST(SafetyJsonTest, EveryFieldIsReadAndMissingOnesKeepTheDevicesLimits) {
   const Protocol p = protocol_from_json(protocol_with(json::parse(R"({
       "peak_force_fraction": 0.5, "max_insertion_force_N": 8, "max_pitch_yaw_torque_Nm": 0.4,
       "max_twist_torque_Nm": 0.05, "max_grip_torque_Nm": 0})")),
-                                        kProtocolsDir, "study.json");
+                                        kShippedProtocolsDir, "study.json");
   EXPECT_EQ(p.safety.peak_force_fraction, 0.5);
   EXPECT_EQ(p.safety.insertion_force_N, 8.0);
   EXPECT_EQ(p.safety.pitch_yaw_torque_Nm, 0.4);
   EXPECT_EQ(p.safety.twist_torque_Nm, 0.05);
   EXPECT_EQ(p.safety.grip_torque_Nm, 0.0);
 
-  const Protocol none = protocol_from_json(protocol_with(json()), kProtocolsDir, "study.json");
+  const Protocol none = protocol_from_json(protocol_with(json()), kShippedProtocolsDir, "study.json");
   EXPECT_EQ(none.safety.peak_force_fraction, 1.0);
   EXPECT_EQ(none.safety.insertion_force_N, OperatorForceLimits::kNoLimit);
   EXPECT_EQ(none.safety.grip_torque_Nm, OperatorForceLimits::kNoLimit);

@@ -18,6 +18,7 @@
 #include "db/session_lock.h"
 #include "db/study_db.h"
 #include "testing/child_process.h"
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -28,7 +29,6 @@ using testing::ChildProcess;
 using testing::run_cli;
 using testing::wait_until;
 
-const std::string kBinary = HAPTICLAB_CLI_PATH;
 // Generous: the sanitizer build runs the simulation ~10x slower.
 constexpr std::chrono::seconds kPatience{120};
 

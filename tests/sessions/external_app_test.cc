@@ -56,7 +56,7 @@ class ExternalAppTest : public ::testing::Test {
 };
 
 TEST_F(ExternalAppTest, KilledMidTrialResumesAndTheLabsTaskIsAnalysed) {
-  const auto [created, create_out] = testing::run_cli(
+  const auto [created, create_out] = hapticlab::testing::run_cli(
       HAPTICLAB_CLI_PATH, "study create --protocol " +
                               (source_dir() / "examples/protocols/external_peg_touch.json").string() + " --db " +
                               db_.string());
@@ -67,7 +67,7 @@ TEST_F(ExternalAppTest, KilledMidTrialResumesAndTheLabsTaskIsAnalysed) {
   constexpr std::uint64_t kStallAfter = 400;
   std::int64_t killed_trial = 0;
   {
-    testing::ChildProcess app({HAPTICLAB_EXTERNAL_APP_PATH, db_.string(), "P01", "--stall-after",
+    hapticlab::testing::ChildProcess app({HAPTICLAB_EXTERNAL_APP_PATH, db_.string(), "P01", "--stall-after",
                                std::to_string(kStallAfter)},
                               (dir_ / "run1.log").string());
     const Clock::time_point give_up = Clock::now() + std::chrono::seconds(20);
@@ -90,7 +90,7 @@ TEST_F(ExternalAppTest, KilledMidTrialResumesAndTheLabsTaskIsAnalysed) {
 
   // Run 2: resumes and finishes the participant's schedule.
   {
-    testing::ChildProcess app({HAPTICLAB_EXTERNAL_APP_PATH, db_.string(), "P01"}, (dir_ / "run2.log").string());
+    hapticlab::testing::ChildProcess app({HAPTICLAB_EXTERNAL_APP_PATH, db_.string(), "P01"}, (dir_ / "run2.log").string());
     EXPECT_EQ(app.wait(), 0) << app.output();
     EXPECT_THAT(app.output(), HasSubstr("previous session had died"));
     EXPECT_THAT(app.output(), HasSubstr("schedule complete"));
@@ -124,10 +124,10 @@ TEST_F(ExternalAppTest, KilledMidTrialResumesAndTheLabsTaskIsAnalysed) {
     EXPECT_EQ(db.session(2).status, db::SessionStatus::kClosed);
   }
 
-  const auto [checked, check_out] = testing::run_cli(HAPTICLAB_CLI_PATH, "study check --db " + db_.string());
+  const auto [checked, check_out] = hapticlab::testing::run_cli(HAPTICLAB_CLI_PATH, "study check --db " + db_.string());
   EXPECT_EQ(checked, 0) << check_out;
   const std::filesystem::path out = dir_ / "analysis";
-  const auto [analysed, analyse_out] = testing::run_cli(
+  const auto [analysed, analyse_out] = hapticlab::testing::run_cli(
       HAPTICLAB_CLI_PATH, "analyze --no-plots --no-ks --quiet --db " + db_.string() + " --out " + out.string());
   ASSERT_EQ(analysed, 0) << analyse_out;
 
@@ -142,7 +142,7 @@ TEST_F(ExternalAppTest, KilledMidTrialResumesAndTheLabsTaskIsAnalysed) {
   // rank 231.35) 0.77 N. Samples are stored as float32: tolerance 1e-6
   // relative (float's 6e-8, summed over the path's steps).
   int rows = 0;
-  for (const auto& row : testing::read_csv_rows(out / "metrics.csv")) {
+  for (const auto& row : hapticlab::testing::read_csv_rows(out / "metrics.csv")) {
     if (row.at("instrument") != "0") continue;
     ++rows;
     EXPECT_EQ(row.at("task"), "peg touch");

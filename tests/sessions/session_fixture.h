@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "db/study_db.h"
+#include "sessions/session_runner.h"
 #include "sessions/study_setup.h"
 
 namespace hapticlab::sessions::testing {
@@ -51,5 +52,13 @@ class SessionFixture : public ::testing::Test {
 
   std::filesystem::path dir_, protocol_, db_path_;
 };
+
+// A session of `code` without training: what most tests run.
+inline SessionOptions options_for(const std::string& code) {
+  SessionOptions o;
+  o.participant = code;
+  o.training_trials = 0;
+  return o;
+}
 
 }  // namespace hapticlab::sessions::testing

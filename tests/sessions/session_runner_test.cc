@@ -37,12 +37,7 @@ int count(const std::vector<db::TrialRow>& trials, TrialStatus status) {
   return n;
 }
 
-SessionOptions options_for(const std::string& code) {
-  SessionOptions o;
-  o.participant = code;
-  o.training_trials = 0;
-  return o;
-}
+using testing::options_for;
 
 TEST_F(SessionFixture, RunsTheScheduleInOrderAndLogsEverySample) {
   const SessionResult r = run_session(db_path_, options_for("A1"));

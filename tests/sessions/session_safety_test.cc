@@ -17,12 +17,7 @@ namespace {
 using db::TrialStatus;
 using testing::SessionFixture;
 
-SessionOptions options_for(const std::string& code) {
-  SessionOptions o;
-  o.participant = code;
-  o.training_trials = 0;
-  return o;
-}
+using testing::options_for;
 
 std::vector<db::TrialRow> trials_of(const std::filesystem::path& db_path) {
   db::OpenOptions open;

@@ -12,6 +12,7 @@
 
 #include "app/cli_process.h"
 #include "db/study_db.h"
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -21,7 +22,6 @@ using ::testing::HasSubstr;
 using ::testing::StartsWith;
 using testing::run_cli;
 
-const std::string kBinary = HAPTICLAB_CLI_PATH;
 
 bool can_mount_tmpfs() {
   return std::system("unshare -m sh -c 'mount -t tmpfs -o size=64k tmpfs /mnt' >/dev/null 2>&1") == 0;

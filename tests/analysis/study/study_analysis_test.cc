@@ -27,7 +27,7 @@ namespace {
 using ::testing::HasSubstr;
 using testing::trial_force_N;
 
-constexpr double kTolerance = 1e-9;
+constexpr double kStudyTolerance = 1e-9;
 
 class StudyAnalysisTest : public ::testing::Test {
  protected:
@@ -88,15 +88,15 @@ TEST_F(StudyAnalysisTest, MetricsMatchHandWorkedValues) {
   const TrialRecord& t = find_trial(a, "P1", "No Force Feedback", 2);
   const double f = trial_force_N(1, 1, 2);
   ASSERT_TRUE(t.window.has_value());
-  EXPECT_NEAR(t.window->start_s, 0.25, kTolerance);
-  EXPECT_NEAR(t.window->end_s, 0.875, kTolerance);
-  EXPECT_NEAR(t.value(Measure::kCompletionTime, 0), 0.625, kTolerance);
-  EXPECT_NEAR(t.value(Measure::kForceMedian, 0), 3 * f, kTolerance);
-  EXPECT_NEAR(t.value(Measure::kForceP95, 0), 5 * f, kTolerance);
-  EXPECT_NEAR(t.value(Measure::kForceMedian, 1), 1.5 * f, kTolerance);
-  EXPECT_NEAR(t.value(Measure::kForceP95, 1), 2.5 * f, kTolerance);
-  EXPECT_NEAR(t.value(Measure::kSpeedMedian, 0), 4.5 / 64, kTolerance);
-  EXPECT_NEAR(t.value(Measure::kPathLength, 1), 2 * 45.0 / 1024, kTolerance);
+  EXPECT_NEAR(t.window->start_s, 0.25, kStudyTolerance);
+  EXPECT_NEAR(t.window->end_s, 0.875, kStudyTolerance);
+  EXPECT_NEAR(t.value(Measure::kCompletionTime, 0), 0.625, kStudyTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceMedian, 0), 3 * f, kStudyTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceP95, 0), 5 * f, kStudyTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceMedian, 1), 1.5 * f, kStudyTolerance);
+  EXPECT_NEAR(t.value(Measure::kForceP95, 1), 2.5 * f, kStudyTolerance);
+  EXPECT_NEAR(t.value(Measure::kSpeedMedian, 0), 4.5 / 64, kStudyTolerance);
+  EXPECT_NEAR(t.value(Measure::kPathLength, 1), 2 * 45.0 / 1024, kStudyTolerance);
   EXPECT_EQ(t.hands[0].samples, 6u);
   EXPECT_EQ(t.hands[0].force_samples, 5u);
 }
@@ -234,7 +234,7 @@ TEST(WholeDesignTest, CompleteDesignUsesFriedman) {
   ASSERT_TRUE(r.test.result.has_value()) << r.test.note;
   EXPECT_EQ(r.test.result->method.rfind("Friedman", 0), 0u) << r.test.result->method;
   EXPECT_EQ(r.test.result->blocks, 6u);
-  EXPECT_NEAR(r.test.result->statistic, 12.0, kTolerance);
+  EXPECT_NEAR(r.test.result->statistic, 12.0, kStudyTolerance);
 }
 
 // Pairs of 3 settings, each pair once per participant, both hands: a
@@ -248,7 +248,7 @@ TEST(WholeDesignTest, BalancedIncompleteDesignUsesDurbin) {
   ASSERT_TRUE(r.test.result.has_value()) << r.test.note;
   EXPECT_EQ(r.test.result->method.rfind("Durbin", 0), 0u) << r.test.result->method;
   EXPECT_EQ(r.test.result->blocks, 6u);
-  EXPECT_NEAR(r.test.result->statistic, 16.0 / 3.0, kTolerance);
+  EXPECT_NEAR(r.test.result->statistic, 16.0 / 3.0, kStudyTolerance);
 }
 
 const PairwiseCell& pairwise_p95(const StudyAnalysis& a, const std::string& setting) {

@@ -18,6 +18,7 @@
 #include "core/device/device_factory.h"
 #include "core/device/sim_device.h"
 #include "core/loop/clock.h"
+#include "tests/testing/test_paths.h"
 
 namespace hapticlab {
 namespace {
@@ -25,8 +26,6 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-const std::string kSimPlugin = HAPTICLAB_SIM_PLUGIN_PATH;
-const std::string kFake = HAPTICLAB_FAKE_PLUGIN_PATH;
 const std::string kFakeAbi2 = HAPTICLAB_FAKE_PLUGIN_ABI2_PATH;
 const std::string kFakeNoEntry = HAPTICLAB_FAKE_PLUGIN_NO_ENTRY_PATH;
 

@@ -25,6 +25,7 @@
 #include "core/settings/settings_json.h"
 #include "core/sim/dissection_task.h"
 #include "core/sim/participant.h"
+#include "tests/testing/fake_device.h"
 
 namespace {
 thread_local bool counting = false;
@@ -164,12 +165,7 @@ std::vector<LoopSample> drain(HapticLoop& loop) {
   return out;
 }
 
-bool all_zero(const DeviceCommand& c) {
-  for (const auto& joints : c.force)
-    for (double f : joints)
-      if (f != 0.0) return false;
-  return true;
-}
+using testing::all_zero;
 
 LoopConfig short_run(double max_duration_s) {
   LoopConfig config;

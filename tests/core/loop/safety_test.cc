@@ -25,8 +25,8 @@ namespace {
 using testing::all_zero;
 using testing::FakeDevice;
 
-constexpr double kRate_Hz = 1024.0;  // period 2^-10 s: loop times are exact on the virtual clock
-constexpr double kPeriod_s = 1.0 / kRate_Hz;
+constexpr double kSafetyRate_Hz = 1024.0;  // period 2^-10 s: loop times are exact on the virtual clock
+constexpr double kSafetyPeriod_s = 1.0 / kSafetyRate_Hz;
 
 // A VE pushing with a constant force on both tips and a constant grip
 // torque: the command is nonzero from the first update on, so every
@@ -165,7 +165,7 @@ TEST(SafetyTest, TheVirtualClockNeverTripsTheWallClockWatchdogs) {
   LoopConfig c = config(1.5);
   c.sample_queue_capacity = 4;
   c.wait_when_full_virtual = false;  // the queue overflows for 1.5 s: a stalled writer on the wall clock
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), c);
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), c);
   EXPECT_EQ(loop.run(), StopReason::kMaxDuration);
   EXPECT_EQ(loop.safety_trip().kind, SafetyTripKind::kNone);
   EXPECT_GT(loop.dropped_samples(), 400u);
@@ -180,7 +180,7 @@ TEST(SafetyTest, NanReadingEndsAsADeviceFaultWithZeroForce) {
   Engine engine = make_engine();
   ConstantForceVe ve;
   VirtualClock clock;
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(2.0));
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), config(2.0));
   EXPECT_EQ(loop.run(), StopReason::kDeviceFault);
   EXPECT_EQ(loop.device_status(), DeviceStatus::kNonFiniteReading);
   ASSERT_EQ(device.writes().size(), 61u);  // 60 updates, then the zero
@@ -195,7 +195,7 @@ TEST(SafetyTest, OneMetreJumpEndsAsASafetyLimitNamingTheJoint) {
   Engine engine = make_engine();
   ConstantForceVe ve;
   VirtualClock clock;
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(2.0));
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), config(2.0));
   EXPECT_EQ(loop.run(), StopReason::kSafetyLimit);
   const SafetyTrip& trip = loop.safety_trip();
   EXPECT_EQ(trip.kind, SafetyTripKind::kPositionOutOfRange);
@@ -224,7 +224,7 @@ TEST(SafetyTest, JointFasterThanItsMaxVelocityEndsAsASafetyLimit) {
     Engine engine = make_engine();
     ConstantForceVe ve;
     VirtualClock clock;
-    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(0.12));
+    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), config(0.12));
     const StopReason reason = loop.run();
     if (step_rad < 0.04) {
       EXPECT_EQ(reason, StopReason::kMaxDuration);
@@ -236,7 +236,7 @@ TEST(SafetyTest, JointFasterThanItsMaxVelocityEndsAsASafetyLimit) {
     EXPECT_EQ(trip.instrument, 0);
     EXPECT_EQ(trip.joint, kJointPitch);
     const double expected = std::abs(FakeDevice::pose(0, 100)[kJointPitch] + step_rad -
-                                     FakeDevice::pose(0, 99)[kJointPitch]) / kPeriod_s;
+                                     FakeDevice::pose(0, 99)[kJointPitch]) / kSafetyPeriod_s;
     EXPECT_NEAR(trip.value, expected, 1e-9);
     EXPECT_EQ(trip.limit, 40.0);
     ASSERT_EQ(device.writes().size(), 101u);
@@ -250,7 +250,7 @@ TEST(SafetyTest, DeviceThatStopsAnsweringEndsWithZeroForce) {
   Engine engine = make_engine();
   ConstantForceVe ve;
   VirtualClock clock;
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(2.0));
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), config(2.0));
   EXPECT_EQ(loop.run(), StopReason::kDeviceFault);
   EXPECT_EQ(loop.device_status(), DeviceStatus::kTimeout);
   ASSERT_EQ(device.writes().size(), 41u);
@@ -267,7 +267,7 @@ TEST(SafetyTest, NotCalibratedDeviceIsNeverDriven) {
   Engine engine = make_engine();
   ConstantForceVe ve;
   VirtualClock clock;
-  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(2.0));
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), config(2.0));
   EXPECT_FALSE(loop.activate());
   EXPECT_FALSE(loop.start());
   EXPECT_EQ(loop.run(), StopReason::kDeviceFault);
@@ -284,7 +284,7 @@ TEST(SafetyTest, ActivatedButNeverStartedLoopDeactivatesTheDevice) {
   ConstantForceVe ve;
   VirtualClock clock;
   {
-    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(2.0));
+    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), config(2.0));
     ASSERT_TRUE(loop.activate());
     EXPECT_EQ(device.activations, 1);
     EXPECT_TRUE(loop.activate());  // once only
@@ -303,7 +303,7 @@ TEST(SafetyTest, RampInStartsAtZeroAndReachesFullForceAfterTheRampTime) {
     Engine engine = make_engine();
     ConstantForceVe ve;
     VirtualClock clock;
-    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), config(0.4, ramp_s));
+    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), config(0.4, ramp_s));
     EXPECT_EQ(loop.run(), StopReason::kMaxDuration);
     out = device.writes();
     LoopSample s;
@@ -368,7 +368,7 @@ TEST(SafetyTest, CommandsAreClampedToTheDevicePeakAndTheOperatorsLowerLimits) {
     VirtualClock clock;
     LoopConfig c = config(0.1);
     c.safety.force_limits = k.limits;
-    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), c);
+    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), c);
     EXPECT_EQ(loop.run(), StopReason::kMaxDuration);
     ASSERT_GT(device.writes().size(), 50u);
     double max_insertion = 0.0, max_pitch_yaw = 0.0, max_grip = 0.0;
@@ -501,14 +501,14 @@ TEST(SafetyTest, SafetyConfigOutOfRangeIsRefusedNamingTheField) {
   LoopConfig c = config(1.0);
   c.safety.max_lateness_s = 0.0;
   try {
-    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), c);
+    HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), c);
     FAIL() << "accepted max_lateness_s 0";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()), "safety.max_lateness_s is 0, but must be >= 0.001 and <= 10");
   }
   c = config(1.0);
   c.safety.force_limits.grip_torque_Nm = std::nan("");
-  EXPECT_THROW(HapticLoop(device, engine, ve, clock, RateSchedule::fixed(kRate_Hz), c), std::invalid_argument);
+  EXPECT_THROW(HapticLoop(device, engine, ve, clock, RateSchedule::fixed(kSafetyRate_Hz), c), std::invalid_argument);
 }
 
 }  // namespace

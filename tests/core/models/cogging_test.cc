@@ -11,7 +11,7 @@
 namespace hapticlab {
 namespace {
 
-CoggingParams table31() {
+CoggingParams cogging_table31() {
   CoggingParams p;
   p.enabled = true;
   p.amplitude = 0.45;  // N, thesis Table 3.1
@@ -21,7 +21,7 @@ CoggingParams table31() {
 }
 
 TEST(CoggingTest, AmplitudePeriodAndStableDetentAtZero) {
-  const CoggingParams p = table31();
+  const CoggingParams p = cogging_table31();
   double peak = 0.0;
   for (int i = 0; i <= 20000; ++i) {
     const double x = i * 1e-6;  // 0..20 mm, two periods
@@ -44,7 +44,7 @@ TEST(CoggingTest, AmplitudePeriodAndStableDetentAtZero) {
 }
 
 TEST(CoggingTest, RippleScalesTheCommandedForce) {
-  CoggingParams p = table31();
+  CoggingParams p = cogging_table31();
   p.ripple_fraction = 0.1;
   p.ripple_period = 0.004;
   EXPECT_NEAR(ripple_gain(p, 0.001), 1.1, 1e-12);  // quarter ripple period
@@ -57,7 +57,7 @@ class CoggingLoopTest : public ::testing::TestWithParam<testing::RateCase> {};
 
 TEST_P(CoggingLoopTest, ChainOutputIsThePositionFunctionAtAnyRate) {
   AxisSettings s;
-  s.cogging = table31();
+  s.cogging = cogging_table31();
   testing::drive_chain(
       s, GetParam(), 1.0, [](double t) { return 0.03 * std::sin(2.0 * t); }, testing::no_force(),
       [](const testing::ChainStep& k) {
@@ -67,7 +67,7 @@ TEST_P(CoggingLoopTest, ChainOutputIsThePositionFunctionAtAnyRate) {
 
 TEST_P(CoggingLoopTest, RippleModulatesVeForceAndCogging) {
   AxisSettings s;
-  s.cogging = table31();
+  s.cogging = cogging_table31();
   s.cogging.ripple_fraction = 0.05;
   testing::drive_chain(
       s, GetParam(), 0.5, [](double t) { return 0.02 * t; }, testing::constant_force(2.0),

@@ -13,7 +13,7 @@
 namespace hapticlab {
 namespace {
 
-InertiaParams table31() { return {true, 0.1, 600.0, 0.3}; }  // kg, N/m, ζ
+InertiaParams inertia_table31() { return {true, 0.1, 600.0, 0.3}; }  // kg, N/m, ζ
 
 struct SineFit {
   double amplitude;
@@ -35,7 +35,7 @@ TEST_P(InertiaLoopTest, ForceIsMinusMassTimesAccelerationOnASlowSinusoid) {
   // amplitude and 0.12 rad on the phase.
   const double amplitude_m = 0.02, w = 2 * std::numbers::pi;
   AxisSettings s;
-  s.inertia = table31();
+  s.inertia = inertia_table31();
   double sin_sum = 0.0, cos_sum = 0.0, duration = 0.0;
   testing::drive_chain(
       s, GetParam(), 4.0, [&](double t) { return amplitude_m * std::sin(w * t); },
@@ -54,7 +54,7 @@ TEST_P(InertiaLoopTest, ForceIsMinusMassTimesAccelerationOnASlowSinusoid) {
 TEST_P(InertiaLoopTest, NoForceAtConstantVelocity) {
   // Unaccelerated motion needs no force once the mass has caught up.
   AxisSettings s;
-  s.inertia = table31();
+  s.inertia = inertia_table31();
   DofOutput out;
   testing::drive_chain(s, GetParam(), 1.5, [](double t) { return 0.05 * t; },
                        testing::no_force(), [&](const testing::ChainStep& k) { out = k.out; });

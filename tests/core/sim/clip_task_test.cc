@@ -24,7 +24,7 @@ using testing_sim::kGripClosed;
 using testing_sim::kGripOpen;
 using testing_sim::VeDriver;
 
-constexpr double kForceTolerance_N = 1e-9;  // springs × ~1e-16 m of trig round trip
+constexpr double kClipForceTolerance_N = 1e-9;  // springs × ~1e-16 m of trig round trip
 constexpr double kTorqueTolerance_Nm = 1e-12;
 
 // Deterministic unless a test wants the VE's detection failures.
@@ -74,15 +74,15 @@ TEST(ClipTaskTest, DuctWallIsARadialSpringStifferWhereTheGrasperHoldsIt) {
   // 0.5 mm into the top of the unheld duct: 150 N/m · 0.5 mm = 0.075 N up.
   d.tip[1] = on_duct(task, m0, 0.0005);
   d.step();
-  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.075, kForceTolerance_N);
-  EXPECT_NEAR(d.out.tip_force_N[1].head<2>().norm(), 0.0, kForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.075, kClipForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[1].head<2>().norm(), 0.0, kClipForceTolerance_N);
   EXPECT_TRUE(d.out.in_contact[1]);
   // From the side the normal is horizontal: 1 mm into the wall at the
   // duct's front (−y) pushes 0.15 N towards −y.
   d.tip[1] = task.axis_point(m0) + Eigen::Vector3d(0.0, -0.0015, 0.0);
   settle(d);
-  EXPECT_NEAR(d.out.tip_force_N[1].y(), -0.15, kForceTolerance_N);
-  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.0, kForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[1].y(), -0.15, kClipForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.0, kClipForceTolerance_N);
 
   // The left grasper takes the duct 8 mm left of the marker (tip on the
   // axis: no stretch, no force) ...
@@ -92,18 +92,18 @@ TEST(ClipTaskTest, DuctWallIsARadialSpringStifferWhereTheGrasperHoldsIt) {
   settle(d);
   ASSERT_TRUE(task.grasp().holding());
   EXPECT_EQ(d.count(TaskEventType::kGraspStart, 0), 1);
-  EXPECT_NEAR(d.out.tip_force_N[0].norm(), 0.0, kForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[0].norm(), 0.0, kClipForceTolerance_N);
   // ... and within 20 mm of it the wall is 350 N/m: 0.175 N at 0.5 mm.
-  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.175, kForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.175, kClipForceTolerance_N);
   // Beyond 20 mm (the third marker is 26 mm away) the duct is its own
   // soft self again.
   d.tip[1] = on_duct(task, task.marker_x_m(2), 0.0005);
   settle(d);
-  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.075, kForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.075, kClipForceTolerance_N);
   // Lifting the grasped duct 4 mm: the tissue pulls back with 150 N/m.
   d.tip[0] = task.axis_point(m0 - 0.008) + Eigen::Vector3d(0.0, 0.0, 0.004);
   settle(d);
-  EXPECT_NEAR(d.out.tip_force_N[0].z(), -0.6, kForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[0].z(), -0.6, kClipForceTolerance_N);
 }
 
 TEST(ClipTaskTest, StructuresBelowPushBackWithTheirOwnSpring) {
@@ -112,7 +112,7 @@ TEST(ClipTaskTest, StructuresBelowPushBackWithTheirOwnSpring) {
   // Beyond the duct's ends (|x| > 35 mm), 2 mm into the base: 250 · 0.002.
   d.tip[1] = Eigen::Vector3d(0.040, 0.0, task.params().base_z_m - 0.002);
   d.step();
-  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.5, kForceTolerance_N);
+  EXPECT_NEAR(d.out.tip_force_N[1].z(), 0.5, kClipForceTolerance_N);
   EXPECT_TRUE(d.out.in_contact[1]);
 }
 

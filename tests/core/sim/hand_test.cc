@@ -20,7 +20,7 @@
 namespace hapticlab {
 namespace {
 
-constexpr double kDt_s = 1e-3;
+constexpr double kHandDt_s = 1e-3;
 constexpr int kRight = 1;
 
 HandParams quiet() {
@@ -50,11 +50,11 @@ Trace reach_trace(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double
   Trace trace;
   const DeviceJoints q{};
   const DeviceJoints felt{};
-  const int n = static_cast<int>(std::lround((duration_s + 0.1) / kDt_s));
+  const int n = static_cast<int>(std::lround((duration_s + 0.1) / kHandDt_s));
   for (int k = 0; k <= n; ++k) {
-    const double t = k * kDt_s;
+    const double t = k * kHandDt_s;
     HandCouplings out;
-    hand.step(t, kDt_s, q, felt, -0.01, to, out);
+    hand.step(t, kHandDt_s, q, felt, -0.01, to, out);
     trace.t_s.push_back(t);
     trace.base_m.push_back(hand.base());
     trace.couplings.push_back(out);
@@ -134,7 +134,7 @@ TEST(HandTest, ReachSpeedIsBellShapedWithTheMinimumJerkPeak) {
   // Speed from central differences of the base path.
   std::vector<double> speed(tr.t_s.size(), 0.0);
   for (std::size_t k = 1; k + 1 < tr.t_s.size(); ++k)
-    speed[k] = (tr.base_m[k + 1] - tr.base_m[k - 1]).norm() / (2.0 * kDt_s);
+    speed[k] = (tr.base_m[k + 1] - tr.base_m[k - 1]).norm() / (2.0 * kHandDt_s);
   const double peak = kMinJerkPeakRate * D / T;
   // Central-difference error at the peak ≈ h²/6·|x'''| = h²/6·60·D/T³, ~1e-5
   // of the peak here; 1e-4 leaves room.
@@ -167,7 +167,7 @@ TEST(HandTest, JointReferencesPutTheToolTipOnTheBasePathWithMatchingRates) {
     for (int j : {kJointInsertion, kJointPitch, kJointYaw}) {
       const auto uj = static_cast<std::size_t>(j);
       const double rate = (tr.couplings[k + 1][uj].reference_position -
-                           tr.couplings[k - 1][uj].reference_position) / (2.0 * kDt_s);
+                           tr.couplings[k - 1][uj].reference_position) / (2.0 * kHandDt_s);
       const double scale = j == kJointInsertion ? 0.1 : 1.0;  // m/s vs rad/s at the peak
       EXPECT_NEAR(c[uj].reference_velocity, rate, 1e-4 * scale) << "joint " << j << " t " << tr.t_s[k];
     }
@@ -198,11 +198,11 @@ struct Press {
     // Handle force equal and opposite to a tissue force felt_N along −into.
     const JointVector jf = world_to_joint(q, felt_N * into);
     const DeviceJoints felt{jf[0], jf[1], jf[2], 0.0, 0.0};
-    const int n = static_cast<int>(std::lround(seconds / kDt_s));
+    const int n = static_cast<int>(std::lround(seconds / kHandDt_s));
     for (int k = 0; k < n; ++k) {
       HandCouplings out;
-      hand.step(t_s, kDt_s, q_device, felt, seen_depth_m, tip, out);
-      t_s += kDt_s;
+      hand.step(t_s, kHandDt_s, q_device, felt, seen_depth_m, tip, out);
+      t_s += kHandDt_s;
     }
   }
 };
@@ -271,11 +271,11 @@ double stiffening_after(double duration_s, double (*force_N)(double)) {
   Hand hand;
   hand.init(kRight, quiet(), Eigen::Vector3d(0.05, 0.0, -0.1), 3);
   const DeviceJoints q{0.1, 0.0, 0.0, 0.0, 0.0};
-  const int n = static_cast<int>(std::lround(duration_s / kDt_s));
+  const int n = static_cast<int>(std::lround(duration_s / kHandDt_s));
   for (int k = 1; k <= n; ++k) {
     DeviceJoints f{};
-    f[kJointInsertion] = force_N(k * kDt_s);
-    hand.feel_device(q, f, kDt_s);
+    f[kJointInsertion] = force_N(k * kHandDt_s);
+    hand.feel_device(q, f, kHandDt_s);
   }
   return hand.stiffening();
 }
@@ -305,9 +305,9 @@ TEST(HandTest, GripMovesLinearlyToItsTargetAngle) {
   hand.grip_to(0.0, 0.0, 0.2);  // from the open 0.3 rad
   const DeviceJoints q{};
   for (int k = 0; k <= 300; ++k) {
-    const double t = k * kDt_s;
+    const double t = k * kHandDt_s;
     HandCouplings out;
-    hand.step(t, kDt_s, q, q, -0.01, Eigen::Vector3d(0.05, 0.0, -0.1), out);
+    hand.step(t, kHandDt_s, q, q, -0.01, Eigen::Vector3d(0.05, 0.0, -0.1), out);
     const double expected = t < 0.2 ? 0.3 * (1.0 - t / 0.2) : 0.0;
     EXPECT_NEAR(out[kJointGrip].reference_position, expected, 1e-12) << t;
     EXPECT_NEAR(out[kJointGrip].reference_velocity, t < 0.2 ? -0.3 / 0.2 : 0.0, 1e-12) << t;
