@@ -159,16 +159,22 @@ std::uintmax_t checkpointed_size(const fs::path& path) {
 
 SizeResult bench_size(std::vector<LoopSample> source, const fs::path& path, bool wall_timing) {
   if (wall_timing) {
-    // ±20 µs of scheduling jitter, deterministic (a 64-bit LCG).
+    // ±20 µs of scheduling jitter, deterministic (a 64-bit LCG), on a clock
+    // that counts nanoseconds, with the loop's own arithmetic
+    // (core/loop/clock.h WallClock::now_s, core/loop/haptic_loop.cc):
+    // now_s = ns / 1e9 since the clock's start, t_s = now_s - t0_s,
+    // dt_s = now_s - the previous update's now_s.
     std::uint64_t state = 12345;
-    double last_t_s = 0.0;
+    const auto now_s = [](std::int64_t ns) { return std::chrono::duration<double>(std::chrono::nanoseconds(ns)).count(); };
+    const std::int64_t t0_ns = 137'000;  // the clock started a little before the loop
+    double last_now_s = now_s(t0_ns);
     for (std::size_t i = 0; i < source.size(); ++i) {
       state = state * 6364136223846793005ull + 1442695040888963407ull;
-      const double jitter_s = (static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5) * 40e-6;
-      const double t_s = static_cast<double>(i) * 1e-3 + jitter_s;
-      source[i].dt_s = i == 0 ? 0.0 : t_s - last_t_s;
-      source[i].t_s = t_s;
-      last_t_s = t_s;
+      const auto jitter_ns = static_cast<std::int64_t>(state >> 33) % 40'001 - 20'000;
+      const double now = now_s(t0_ns + static_cast<std::int64_t>(i) * 1'000'000 + (i == 0 ? 0 : jitter_ns));
+      source[i].dt_s = i == 0 ? 1e-3 : now - last_now_s;  // the loop's first dt is the nominal period
+      source[i].t_s = now - now_s(t0_ns);
+      last_now_s = now;
     }
   }
   const std::int64_t trial = new_running_trial(path);

@@ -11,6 +11,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <zstd.h>
+
 namespace hapticlab::db {
 
 // One list for every sample table (core/loop/sample_channels.h).
@@ -188,9 +190,204 @@ void put_bits(Writer& w, const Bits* bits, std::size_t n, int bytes, std::size_t
   for (std::size_t i = 0; i < values; ++i) w.le(static_cast<std::uint64_t>(bits[i * stride]), bytes);
 }
 
+// Bytes per value of each channel, in blob order (t_s's running-sum tag
+// is followed by one 8-byte value, like a constant).
+constexpr int channel_bytes(std::size_t channel) noexcept {
+  return channel < kFirstFloat ? 8 : channel == kInContact ? 1 : 4;
+}
+
+// Format 2's preconditioning of a format-1 body, in place (the layout is
+// documented in sample_codec.h): per-update channels of 4 or 8 bytes become
+// differences of consecutive bit patterns, byte-shuffled; when t_s is
+// stored per update too, dt_s instead becomes its XOR with t's differences
+// (period_residuals), byte-shuffled. Smooth signals then
+// differ in their low bytes only, and the high byte planes are long runs
+// zstd compresses to almost nothing. Tags, constants and 1-byte channels
+// are unchanged, so the inverse walks the same layout. `forward` false
+// undoes it. Throws ChunkError (kStructure) for a body that does not hold
+// `n` updates' worth of channels.
+static_assert(std::endian::native == std::endian::little, "the chunk format is little-endian; memcpy assumes it");
+
+struct Segment {
+  std::uint8_t tag = kConstant;
+  std::byte* values = nullptr;  // the channel's first value
+  std::size_t width = 0;        // bytes per value
+};
+
+std::array<Segment, kChunkChannels> segments(std::span<std::byte> body, std::size_t n) {
+  std::array<Segment, kChunkChannels> out;
+  std::size_t pos = 0;
+  const auto need = [&](std::size_t bytes) {
+    if (pos + bytes > body.size()) throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
+  };
+  for (std::size_t c = 0; c < kChunkChannels; ++c) {
+    need(1);
+    Segment& g = out[c];
+    g.tag = std::to_integer<std::uint8_t>(body[pos++]);
+    g.width = static_cast<std::size_t>(channel_bytes(c));
+    if (g.tag != kPerUpdate && g.tag != kConstant && !(g.tag == kRunningSum && c == 1))
+      throw ChunkError(ChunkError::Kind::kStructure,
+                       std::string("channel ") + kChannelNames[c] + " has unknown tag " + std::to_string(g.tag));
+    const std::size_t bytes = g.tag == kPerUpdate ? n * g.width : g.width;
+    need(bytes);
+    g.values = body.data() + pos;
+    pos += bytes;
+  }
+  return out;
+}
+
+template <typename U>
+U load(const std::byte* p) noexcept {
+  U v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// Values <-> bit planes. The first m = n - n % 8 values of `sizeof(U)`
+// bytes become 8 * sizeof(U) planes of m / 8 bytes: plane k holds bit k % 8
+// of byte k / 8 of every value, value i's at bit i % 8 of the plane's byte
+// i / 8. The last n % 8 values follow as they are. Differences of a smooth
+// signal share their high bits (zero, or all ones when negative), so most
+// planes are runs of one byte; a byte plane would mix them with the noisy
+// low bits (about 10 % smaller on the demo study, BENCHMARKS.md).
+//
+// 8 values x 8 bits of one byte as an 8 x 8 bit matrix (row r = value r's
+// byte, in the uint64's byte r) transposed: row c = bit c of each value.
+inline std::uint64_t transpose8x8(std::uint64_t x) noexcept {
+  std::uint64_t t = (x ^ (x >> 7)) & 0x00AA00AA00AA00AAull;
+  x ^= t ^ (t << 7);
+  t = (x ^ (x >> 14)) & 0x0000CCCC0000CCCCull;
+  x ^= t ^ (t << 14);
+  t = (x ^ (x >> 28)) & 0x00000000F0F0F0F0ull;
+  x ^= t ^ (t << 28);
+  return x;
+}
+
+template <typename U>
+void shuffle(std::byte* v, std::size_t n, std::vector<std::byte>& scratch) {
+  constexpr std::size_t w = sizeof(U);
+  const std::size_t groups = n / 8;
+  scratch.resize(n * w);
+  for (std::size_t g = 0; g < groups; ++g) {
+    for (std::size_t b = 0; b < w; ++b) {
+      std::uint64_t rows = 0;
+      for (std::size_t r = 0; r < 8; ++r)
+        rows |= std::uint64_t{std::to_integer<std::uint8_t>(v[(8 * g + r) * w + b])} << (8 * r);
+      const std::uint64_t planes = transpose8x8(rows);
+      for (std::size_t c = 0; c < 8; ++c) scratch[(8 * b + c) * groups + g] = static_cast<std::byte>(planes >> (8 * c));
+    }
+  }
+  std::memcpy(scratch.data() + groups * 8 * w, v + groups * 8 * w, (n - groups * 8) * w);
+  std::memcpy(v, scratch.data(), n * w);
+}
+
+template <typename U>
+void unshuffle(std::byte* v, std::size_t n, std::vector<std::byte>& scratch) {
+  constexpr std::size_t w = sizeof(U);
+  const std::size_t groups = n / 8;
+  scratch.resize(n * w);
+  for (std::size_t g = 0; g < groups; ++g) {
+    for (std::size_t b = 0; b < w; ++b) {
+      std::uint64_t planes = 0;
+      for (std::size_t c = 0; c < 8; ++c)
+        planes |= std::uint64_t{std::to_integer<std::uint8_t>(v[(8 * b + c) * groups + g])} << (8 * c);
+      const std::uint64_t rows = transpose8x8(planes);  // its own inverse
+      for (std::size_t r = 0; r < 8; ++r) scratch[(8 * g + r) * w + b] = static_cast<std::byte>(rows >> (8 * r));
+    }
+  }
+  std::memcpy(scratch.data() + groups * 8 * w, v + groups * 8 * w, (n - groups * 8) * w);
+  std::memcpy(v, scratch.data(), n * w);
+}
+
+// Differences modulo 2^bits, in place (first value kept), and their sums.
+template <typename U>
+void differences(std::byte* v, std::size_t n) {
+  U prev = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const U x = load<U>(v + i * sizeof(U));
+    const U d = static_cast<U>(x - prev);
+    prev = x;
+    std::memcpy(v + i * sizeof(U), &d, sizeof d);
+  }
+}
+template <typename U>
+void sums(std::byte* v, std::size_t n) {
+  U prev = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    prev = static_cast<U>(prev + load<U>(v + i * sizeof(U)));
+    std::memcpy(v + i * sizeof(U), &prev, sizeof prev);
+  }
+}
+
+// dt[i]'s bits XOR those of t[i] - t[i-1] (i >= 1), in place, for a chunk
+// whose t_s is stored per update (the wall clock's: where t[i-1] + dt[i]
+// is not t[i] to the bit): a clock's dt is its t's difference, give or
+// take a rounding, so what is left is zero or a few low bits. `t` holds
+// the decoded t_s values.
+void period_residuals(std::byte* dt, const std::byte* t, std::size_t n) {
+  for (std::size_t i = 1; i < n; ++i) {
+    const double step = std::bit_cast<double>(load<std::uint64_t>(t + i * 8)) -
+                        std::bit_cast<double>(load<std::uint64_t>(t + (i - 1) * 8));
+    const std::uint64_t x = load<std::uint64_t>(dt + i * 8) ^ std::bit_cast<std::uint64_t>(step);
+    std::memcpy(dt + i * 8, &x, 8);
+  }
+}
+
+void precondition(std::span<std::byte> body, std::size_t n, bool forward, std::vector<std::byte>& scratch) {
+  const std::array<Segment, kChunkChannels> seg = segments(body, n);
+  constexpr std::size_t kPeriod = 0, kTime = 1;
+  // dt as residuals of t's differences: t must be as stored when they are
+  // made, and restored before they are undone.
+  const bool residual_dt = seg[kPeriod].tag == kPerUpdate && seg[kTime].tag == kPerUpdate;
+  if (forward && residual_dt) period_residuals(seg[kPeriod].values, seg[kTime].values, n);
+  const auto transform = [&](std::size_t c) {
+    const Segment& g = seg[c];
+    if (g.tag != kPerUpdate || g.width == 1) return;
+    if (c == kPeriod && residual_dt) {
+      if (forward) shuffle<std::uint64_t>(g.values, n, scratch);
+      else unshuffle<std::uint64_t>(g.values, n, scratch);
+    } else if (g.width == 4) {
+      if (forward) differences<std::uint32_t>(g.values, n), shuffle<std::uint32_t>(g.values, n, scratch);
+      else unshuffle<std::uint32_t>(g.values, n, scratch), sums<std::uint32_t>(g.values, n);
+    } else {
+      if (forward) differences<std::uint64_t>(g.values, n), shuffle<std::uint64_t>(g.values, n, scratch);
+      else unshuffle<std::uint64_t>(g.values, n, scratch), sums<std::uint64_t>(g.values, n);
+    }
+  };
+  for (std::size_t c = 0; c < kChunkChannels; ++c) transform(c);
+  if (!forward && residual_dt) period_residuals(seg[kPeriod].values, seg[kTime].values, n);
+}
+
+// zstd contexts, one per thread that encodes or decodes (the writer thread,
+// analysis workers), kept for the thread's life: creating one costs more
+// than compressing a chunk.
+struct ZstdContexts {
+  ZSTD_CCtx* c = nullptr;
+  ZSTD_DCtx* d = nullptr;
+  ~ZstdContexts() {
+    ZSTD_freeCCtx(c);
+    ZSTD_freeDCtx(d);
+  }
+};
+thread_local ZstdContexts tls_zstd;
+thread_local std::vector<std::byte> tls_plain;    // a decompressed body
+thread_local std::vector<std::byte> tls_shuffle;  // precondition's scratch
+
+// zstd level 1: the fastest standard level; higher levels gained under 1 %
+// in size on the demo study's chunks (BENCHMARKS.md, issue 20 goal 2).
+constexpr int kZstdLevel = 1;
+
+// The worst-case format-1 body of n updates: 28 tags, every channel per
+// update (t_s's running sum is smaller).
+constexpr std::size_t kBytesPerUpdate = 8 + 8 + 4 * (kEndFloat - kFirstFloat) + 4 + 4 + 1;
+constexpr std::size_t max_body_bytes(std::size_t n) noexcept { return kChunkChannels + n * kBytesPerUpdate; }
+
 }  // namespace
 
-std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
+std::vector<std::byte> encode_chunk(std::span<const StoredSample> s, std::uint8_t format) {
+  if (format != kChunkFormat && format != kChunkFormatPlain)
+    throw std::invalid_argument("encode_chunk(): format " + std::to_string(format) + ", must be " +
+                                std::to_string(kChunkFormatPlain) + " or " + std::to_string(kChunkFormat));
   if (s.empty() || s.size() > kMaxChunkUpdates)
     throw std::invalid_argument("encode_chunk(): " + std::to_string(s.size()) + " samples, must be 1.." +
                                 std::to_string(kMaxChunkUpdates));
@@ -199,10 +396,8 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
       throw std::invalid_argument("encode_chunk(): ticks must be consecutive; tick " + std::to_string(s[i].tick) +
                                   " follows " + std::to_string(s[i - 1].tick));
   const std::size_t n = s.size();
-  // Worst case: header, 28 tags, every channel per update, t_s's 8 bytes.
-  constexpr std::size_t kBytesPerUpdate = 8 + 8 + 4 * (kEndFloat - kFirstFloat) + 4 + 4 + 1;
-  Writer w(kChunkHeaderBytes + kChunkChannels + n * kBytesPerUpdate);
-  w.byte(kChunkFormat);
+  Writer w(kChunkHeaderBytes + max_body_bytes(n));
+  w.byte(kChunkFormatPlain);
   w.le(0, 4);  // the checksum, filled in below
   std::vector<std::uint64_t> bits64(n);
   std::vector<std::uint32_t> bits32(n);
@@ -235,6 +430,21 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s) {
   for (std::size_t i = 0; i < n; ++i) bits32[i] = s[i].value.in_contact ? 1u : 0u;
   put_bits(w, bits32.data(), n, 1);
   std::vector<std::byte> blob = w.take();
+  if (format == kChunkFormat) {
+    // The plain body, preconditioned, becomes one zstd frame behind the
+    // same 5-byte header.
+    const std::span<std::byte> body = std::span(blob).subspan(kChunkHeaderBytes);
+    precondition(body, n, true, tls_shuffle);
+    if (tls_zstd.c == nullptr && (tls_zstd.c = ZSTD_createCCtx()) == nullptr) throw std::bad_alloc();
+    std::vector<std::byte> packed(kChunkHeaderBytes + ZSTD_compressBound(body.size()));
+    const std::size_t size = ZSTD_compressCCtx(tls_zstd.c, packed.data() + kChunkHeaderBytes,
+                                               packed.size() - kChunkHeaderBytes, body.data(), body.size(), kZstdLevel);
+    if (ZSTD_isError(size))
+      throw std::runtime_error(std::string("zstd could not compress a sample chunk: ") + ZSTD_getErrorName(size));
+    packed.resize(kChunkHeaderBytes + size);
+    packed[0] = std::byte{kChunkFormat};
+    blob = std::move(packed);
+  }
   put_crc(blob, chunk_crc(s[0].tick, n, blob[0], std::span(blob).subspan(kChunkHeaderBytes)));
   return blob;
 }
@@ -249,11 +459,11 @@ std::uint8_t verify_chunk(std::uint64_t first_tick, std::size_t count, std::span
     throw ChunkError(ChunkError::Kind::kChecksum, "checksum mismatch (stored CRC-32C " + hex32(want) +
                                                       ", the data gives " + hex32(got) + "): the chunk is damaged");
   const auto format = std::to_integer<std::uint8_t>(blob[0]);
-  if (format != kChunkFormat && format != kChunkFormatMigrated)
+  if (format != kChunkFormat && format != kChunkFormatPlain && format != kChunkFormatMigrated)
     throw ChunkError(ChunkError::Kind::kUnknownFormat,
                      "chunk format " + std::to_string(format) + " is not one this HapticLab reads (" +
-                         std::to_string(kChunkFormatMigrated) + ", " + std::to_string(kChunkFormat) +
-                         "); it was written by a newer HapticLab");
+                         std::to_string(kChunkFormatMigrated) + ", " + std::to_string(kChunkFormatPlain) + ", " +
+                         std::to_string(kChunkFormat) + "); it was written by a newer HapticLab");
   return format;
 }
 
@@ -272,7 +482,27 @@ void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const s
   if (count == 0 || count > kMaxChunkUpdates)
     throw ChunkError(ChunkError::Kind::kStructure,
                      "count is " + std::to_string(count) + ", must be 1.." + std::to_string(kMaxChunkUpdates));
-  Reader r(blob.subspan(kChunkHeaderBytes));
+  std::span<const std::byte> body = blob.subspan(kChunkHeaderBytes);
+  if (format == kChunkFormat) {
+    // A frame that does not decompress, or not to a body of this count,
+    // passed its checksum: it was written wrong, not damaged later. Either
+    // way the chunk is unusable and reported like damage.
+    const unsigned long long plain = ZSTD_getFrameContentSize(body.data(), body.size());
+    if (plain == ZSTD_CONTENTSIZE_ERROR || plain == ZSTD_CONTENTSIZE_UNKNOWN || plain > max_body_bytes(count))
+      throw ChunkError(ChunkError::Kind::kStructure,
+                       "the zstd frame does not decompress (no valid frame header for " + std::to_string(count) +
+                           " updates)");
+    if (tls_zstd.d == nullptr && (tls_zstd.d = ZSTD_createDCtx()) == nullptr) throw std::bad_alloc();
+    tls_plain.resize(static_cast<std::size_t>(plain));
+    const std::size_t got = ZSTD_decompressDCtx(tls_zstd.d, tls_plain.data(), tls_plain.size(), body.data(), body.size());
+    if (ZSTD_isError(got) || got != plain)
+      throw ChunkError(ChunkError::Kind::kStructure,
+                       std::string("the zstd frame does not decompress: ") +
+                           (ZSTD_isError(got) ? ZSTD_getErrorName(got) : "shorter than its header says"));
+    precondition(tls_plain, count, false, tls_shuffle);
+    body = tls_plain;
+  }
+  Reader r(body);
   // Format 0 holds the old blob whole, its own format byte (1) first.
   if (format == kChunkFormatMigrated) {
     const auto legacy = r.get(1);
@@ -293,7 +523,7 @@ void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const s
   }
   if (!r.at_end()) {
     out.resize(base);
-    throw ChunkError(ChunkError::Kind::kStructure, std::to_string(blob.size()) + " bytes, more than " +
+    throw ChunkError(ChunkError::Kind::kStructure, std::to_string(body.size()) + " bytes, more than " +
                                                        std::to_string(count) + " samples use");
   }
 }

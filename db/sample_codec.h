@@ -6,10 +6,12 @@
 // Layout, all numbers little-endian. A 5-byte header, the same for every
 // format, so a checksum can be verified without decoding:
 //
-//   byte 0          format: 1 = written with its checksum (this layout);
+//   byte 0          format: 2 = the format-1 body, preconditioned and
+//                   zstd-compressed (what HapticLab writes, see below);
+//                   1 = the plain body (this layout, written until 0.2);
 //                   0 = written before schema version 4, checksum added by
 //                   the migration (see below); anything else is refused by
-//                   number (2 is reserved for a compressed body)
+//                   number
 //   bytes 1..4      CRC-32C (Castagnoli) of: first_tick as 8 bytes, count as
 //                   8 bytes (the row's columns: a changed tick or count is
 //                   caught too), byte 0, then the body (bytes 5..)
@@ -25,7 +27,22 @@
 //
 // Column-major (channel after channel) so equal channels collapse to one
 // value (forces out of contact, unused joints, status words) and the rest
-// would compress well should a compressor ever be added.
+// compress well.
+//
+// Format 2's body is one zstd frame (level 1, content size in its header)
+// of the format-1 body after a preconditioning for smooth signals: each
+// channel stored per update with 4- or 8-byte values is replaced by the
+// differences of consecutive bit patterns as unsigned integers (modulo
+// 2^32 or 2^64, the first value as is) -- except dt_s when t_s is stored
+// per update too, which becomes dt's bits XOR those of t's difference --
+// and written as bit planes (db/README.md, "The chunk format", has the
+// exact layout). Tags, constants and in_contact are unchanged. Decoding
+// decompresses, undoes the planes and the differences and reads the
+// format-1 layout: the values are bit-identical to format 1's. The
+// checksum covers the compressed bytes, so damage is found without
+// decompressing; a frame that does not decompress (written wrong) is
+// reported like damage. About 28-38 instead of 76-86 bytes per
+// instrument-sample (BENCHMARKS.md, issue 20 goal 2).
 //
 // Precision: t_s and dt_s are exact (float64). The physical channels are
 // rounded to the nearest float32, a relative error of at most 2^-24 (6e-8):
@@ -63,7 +80,8 @@ struct StoredSample {
   InstrumentSample value;  // units as in core/loop/loop_sample.h
 };
 
-inline constexpr std::uint8_t kChunkFormat = 1;        // what encode_chunk writes
+inline constexpr std::uint8_t kChunkFormat = 2;        // what encode_chunk writes: compressed
+inline constexpr std::uint8_t kChunkFormatPlain = 1;   // the uncompressed layout (still read)
 inline constexpr std::uint8_t kChunkFormatMigrated = 0;  // checksummed by the schema 4 migration
 inline constexpr std::size_t kChunkHeaderBytes = 5;     // format, CRC-32C
 inline constexpr std::size_t kChunkChannels = 28;
@@ -72,9 +90,11 @@ inline constexpr std::size_t kMaxChunkUpdates = std::size_t{1} << 20;
 // Channel names in blob order; also the CSV column names (export_csv.h).
 extern const std::array<const char*, kChunkChannels> kChannelNames;
 
-// `samples`: 1..kMaxChunkUpdates, ticks consecutive; throws std::invalid_argument
-// otherwise. Appends nothing: returns a fresh blob.
-std::vector<std::byte> encode_chunk(std::span<const StoredSample> samples);
+// `samples`: 1..kMaxChunkUpdates, ticks consecutive; `format` kChunkFormat
+// or kChunkFormatPlain (tests, and readers of old files, need the latter);
+// throws std::invalid_argument otherwise. Returns a fresh blob. Not for the
+// haptic loop's thread (it allocates); the writer thread calls it.
+std::vector<std::byte> encode_chunk(std::span<const StoredSample> samples, std::uint8_t format = kChunkFormat);
 
 // Why a stored chunk cannot be used. Derives from std::runtime_error so
 // callers that only report it need nothing new.
@@ -91,7 +111,7 @@ class ChunkError : public std::runtime_error {
 // Checks the header and the checksum only (no decoding); returns the
 // format. Throws ChunkError: kStructure for a blob shorter than the header,
 // kChecksum for a mismatch (tried first: a damaged format byte is damage),
-// kUnknownFormat for a format other than 0 and 1 whose checksum is right
+// kUnknownFormat for a format other than 0, 1 and 2 whose checksum is right
 // (a newer HapticLab wrote it).
 std::uint8_t verify_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob);
 

@@ -1,7 +1,9 @@
 """Read a HapticLab study database from Python: studies, participants,
 trials, and every sample of a trial as numpy arrays.
 
-Pure Python and numpy (pandas optional, for ``to_dataframe``). The sample
+Pure Python and numpy (pandas optional, for ``to_dataframe``; the
+``zstandard`` module, Debian ``python3-zstandard``, for the compressed
+chunks HapticLab writes since format 2). The sample
 chunk format is implemented here from its documentation (``db/README.md``,
 ``db/sample_codec.h``), not by calling HapticLab's C++ code, so a lab can
 read its data with nothing but this file. The file is opened read-only
@@ -47,7 +49,8 @@ APPLICATION_ID = 0x484C4142  # "HLAB"
 
 # Chunk formats (byte 0 of the blob).
 FORMAT_MIGRATED = 0  # written before schema 4, checksummed by the migration
-FORMAT_CURRENT = 1
+FORMAT_PLAIN = 1     # the uncompressed body
+FORMAT_CURRENT = 2   # the plain body preconditioned and zstd-compressed
 HEADER_BYTES = 5
 MAX_CHUNK_UPDATES = 1 << 20
 
@@ -221,9 +224,10 @@ def _check_header(blob, computed):
         raise ChunkError("checksum", f"checksum mismatch (stored CRC-32C 0x{stored:08x}, the data gives "
                                      f"0x{computed:08x}): the chunk is damaged")
     fmt = blob[0]
-    if fmt not in (FORMAT_MIGRATED, FORMAT_CURRENT):
+    if fmt not in (FORMAT_MIGRATED, FORMAT_PLAIN, FORMAT_CURRENT):
         raise ChunkError("format", f"chunk format {fmt} is not one this reader reads "
-                                   f"({FORMAT_MIGRATED}, {FORMAT_CURRENT}); it was written by a newer HapticLab")
+                                   f"({FORMAT_MIGRATED}, {FORMAT_PLAIN}, {FORMAT_CURRENT}); it was written by a "
+                                   f"newer HapticLab")
     return fmt
 
 
@@ -234,6 +238,82 @@ def verify_chunk(first_tick, count, blob):
     if len(blob) < HEADER_BYTES:
         raise ChunkError("structure", f"{len(blob)}-byte blob, shorter than the {HEADER_BYTES}-byte header")
     return _check_header(blob, crc32c(_checked_message(first_tick, count, blob)))
+
+
+_zstd = None
+
+
+def _decompress(frame, count):
+    """Format 2's zstd frame -> the preconditioned body (bytes)."""
+    global _zstd
+    if _zstd is None:
+        try:
+            import zstandard
+        except ImportError:
+            raise ImportError("chunk format 2 (zstd) needs the zstandard module: apt install python3-zstandard "
+                              "(or pip install zstandard)") from None
+        _zstd = zstandard.ZstdDecompressor()
+    # At most every channel per update behind its tag (db/sample_codec.cc).
+    limit = len(CHANNELS) + count * sum(np.dtype(code).itemsize for _, code in CHANNELS)
+    try:
+        return _zstd.decompress(frame, max_output_size=limit)
+    except Exception as e:  # zstandard.ZstdError
+        raise ChunkError("structure", f"the zstd frame does not decompress: {e}") from None
+
+
+def _from_bit_planes(raw, count, width):
+    """Bit planes (db/sample_codec.cc shuffle()) -> values as unsigned ints:
+    the first count - count % 8 values as 8 * width planes (plane k: bit
+    k % 8 of byte k // 8 of each value, value i at bit i % 8 of byte i // 8),
+    then the last count % 8 values as they are."""
+    whole = count - count % 8
+    planes = np.frombuffer(raw, dtype=np.uint8, count=whole * width).reshape(8 * width, whole // 8)
+    bits = np.unpackbits(planes, axis=1, bitorder="little")          # (8 * width, whole)
+    head = np.packbits(np.ascontiguousarray(bits.T), axis=1, bitorder="little")  # (whole, width)
+    data = head.tobytes() + bytes(raw[whole * width:count * width])
+    return np.frombuffer(data, dtype="<u%d" % width).copy()
+
+
+def _unprecondition(body, count):
+    """Undoes format 2's preconditioning (db/sample_codec.h): every channel
+    stored per update with 4- or 8-byte values is bit planes of the
+    differences of consecutive bit patterns; when t_s is stored per update
+    too, dt_s is bit planes of dt's bits XOR those of t's differences.
+    Returns the format-1 body."""
+    out = bytearray(body)
+    pos = 0
+    places = {}
+    for name, code in CHANNELS:
+        if pos >= len(out):
+            raise ChunkError("structure", "blob too short for its count")
+        tag = out[pos]
+        pos += 1
+        width = np.dtype(code).itemsize
+        if tag != TAG_PER_UPDATE:
+            pos += width
+            continue
+        if pos + count * width > len(out):
+            raise ChunkError("structure", "blob too short for its count")
+        places[name] = pos
+        pos += count * width
+    residual_dt = "dt_s" in places and "t_s" in places
+    for name, code in CHANNELS:
+        width = np.dtype(code).itemsize
+        if name not in places or width == 1:
+            continue
+        at = places[name]
+        values = _from_bit_planes(out[at:at + count * width], count, width)
+        if not (name == "dt_s" and residual_dt):
+            # Unsigned sums wrap modulo 2^32 / 2^64, as the encoder's differences did.
+            values = np.cumsum(values, dtype=values.dtype)
+        out[at:at + count * width] = values.tobytes()
+    if residual_dt:
+        t = np.frombuffer(bytes(out[places["t_s"]:places["t_s"] + 8 * count]), dtype="<f8")
+        at = places["dt_s"]
+        dt = np.frombuffer(bytes(out[at:at + 8 * count]), dtype="<u8").copy()
+        dt[1:] ^= (t[1:] - t[:-1]).view("<u8")
+        out[at:at + 8 * count] = dt.tobytes()
+    return bytes(out)
 
 
 def _decode_body(blob, fmt, count):
@@ -249,6 +329,10 @@ def _decode_body(blob, fmt, count):
         pos += nbytes
         return start
 
+    if fmt == FORMAT_CURRENT:
+        plain = _unprecondition(_decompress(bytes(blob[HEADER_BYTES:]), count), count)
+        blob = bytes(HEADER_BYTES) + plain
+        size = len(blob)
     if fmt == FORMAT_MIGRATED:
         # The old blob whole, its own format byte (1) first.
         legacy = blob[take(1)]

@@ -12,11 +12,11 @@ shift || true
 
 packages=(g++ make cmake pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
           libgtest-dev libgmock-dev libsqlite3-dev sqlite3 libboost-math-dev
-          libbenchmark-dev gnuplot-nox python3 python3-numpy zlib1g-dev)
+          libbenchmark-dev gnuplot-nox python3 python3-numpy zlib1g-dev libzstd-dev)
 # Only the test suite needs these (a browser for the report check, scipy for
-# the numpy comparator): not installed for a demo build (HAPTICLAB_TARGETS).
+# the numpy comparator, zstandard for the Python reader of format-2 chunks;
 if [[ -z ${HAPTICLAB_TARGETS:-} ]]; then
-  packages+=(python3-scipy chromium chromium-driver python3-selenium)
+  packages+=(python3-scipy python3-zstandard chromium chromium-driver python3-selenium)
 fi
 missing=()
 for p in "${packages[@]}"; do

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <thread>
 
@@ -74,7 +75,14 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
                        buf.bad);
   }
   std::vector<std::string> damaged;
-  for (const db::BadChunk& c : buf.bad) damaged.push_back(db::describe(c));
+  for (const db::BadChunk& c : buf.bad) {
+    // Damage is left out and counted; a chunk of a format this HapticLab
+    // does not know is not damage but data it cannot read, and analysing
+    // the study without it would quietly answer another question.
+    if (c.kind == db::ChunkError::Kind::kUnknownFormat)
+      throw std::runtime_error("cannot analyse this study: " + db::describe(c) + "; analyse it with that HapticLab");
+    damaged.push_back(db::describe(c));
+  }
   buf.trial.finish(rec, std::move(damaged));
   return rec;
 }

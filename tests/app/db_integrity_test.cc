@@ -126,6 +126,46 @@ TEST_F(DbIntegrityTest, AnalyzeLeavesOutTheDamagedTrialAndWarns) {
   EXPECT_THAT(read_text(out_dir / "metrics.csv"), HasSubstr("1 damaged sample chunk(s) left out"));
 }
 
+// Format 2 with a right checksum over bytes that are no zstd frame (a
+// writer that got it wrong): named like damage, left out and counted.
+TEST_F(DbIntegrityTest, AFrameThatDoesNotDecompressIsNamedLeftOutAndCounted) {
+  {
+    db::Database conn(db_);
+    const std::string garbage = "not a zstd frame";
+    db::testing::resign_chunk(conn, 1, db::kChunkFormat, std::as_bytes(std::span(garbage)));
+  }
+  const auto [code, out] = cli("study check --db " + db_.string());
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_THAT(out, AllOf(HasSubstr("22 checked, 1 damaged"),
+                         HasSubstr("damaged: trial 1, left instrument (0), ticks 0..9: the zstd frame does not "
+                                   "decompress")));
+  const fs::path out_dir = dir_.path() / "analysis";
+  const auto [analysed, analysis] =
+      cli("analyze --db " + db_.string() + " --out " + out_dir.string() + " --no-plots --no-ks");
+  EXPECT_EQ(analysed, 0) << analysis;
+  EXPECT_THAT(analysis, AllOf(HasSubstr("left out damaged sample chunk: trial 1, left instrument (0), ticks 0..9"),
+                              HasSubstr("(1 damaged sample chunk(s) left out)")));
+}
+
+// A chunk of a format from a newer HapticLab, correctly signed: analyze
+// refuses the study naming the format and the trial, rather than answer
+// without those samples; study check names it too.
+TEST_F(DbIntegrityTest, AChunkOfAnUnknownFormatIsRefusedWithItsVersionAndTrial) {
+  {
+    db::Database conn(db_);
+    const std::string body(40, 'x');
+    db::testing::resign_chunk(conn, 1, 9, std::as_bytes(std::span(body)));
+  }
+  const auto [code, out] =
+      cli("analyze --db " + db_.string() + " --out " + (dir_.path() / "analysis").string() + " --no-plots --no-ks");
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_THAT(out, AllOf(HasSubstr("cannot analyse this study: trial 1, left instrument (0), ticks 0..9"),
+                         HasSubstr("chunk format 9 is not one this HapticLab reads (0, 1, 2)")));
+  const auto [checked, check_out] = cli("study check --db " + db_.string());
+  EXPECT_EQ(checked, 1) << check_out;
+  EXPECT_THAT(check_out, HasSubstr("trial 1, left instrument (0), ticks 0..9: chunk format 9"));
+}
+
 TEST_F(DbIntegrityTest, EveryReaderRefusesADamagedIndex) {
   damage_event_index();
   const std::string db = " --db " + db_.string();

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -23,7 +24,7 @@ namespace hapticlab::db::testing {
 // byte 1, then the body that today follows the 5-byte header. For making
 // old files; the golden test in sample_codec_test.cc pins it to the old bytes.
 inline std::vector<std::byte> legacy_blob(std::span<const StoredSample> samples) {
-  const std::vector<std::byte> blob = encode_chunk(samples);
+  const std::vector<std::byte> blob = encode_chunk(samples, kChunkFormatPlain);
   std::vector<std::byte> out(1 + blob.size() - kChunkHeaderBytes);
   out[0] = std::byte{1};
   std::copy(blob.begin() + static_cast<std::ptrdiff_t>(kChunkHeaderBytes), blob.end(), out.begin() + 1);
@@ -68,6 +69,32 @@ inline void flip_chunk_byte(Database& db, std::int64_t chunk_id, std::size_t off
     blob.assign(data.begin(), data.end());
   }
   blob.at(offset) ^= std::byte{0xFF};
+  db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1").bind(1, chunk_id).bind_blob(2, blob).run();
+}
+
+// The blob a writer that got it wrong would store, correctly signed: chunk
+// `chunk_id`'s data replaced by `format`, a CRC-32C over its row's
+// first_tick and count, the format and `body` (sample_codec.h), then `body`.
+// Only the format's own checks can refuse it, not the checksum.
+inline void resign_chunk(Database& db, std::int64_t chunk_id, std::uint8_t format, std::span<const std::byte> body) {
+  std::uint64_t first = 0, count = 0;
+  {
+    Statement read = db.prepare("SELECT first_tick, count FROM sample_chunk WHERE id = ?1");
+    read.bind(1, chunk_id);
+    if (!read.step()) throw DbError("resign_chunk: no chunk " + std::to_string(chunk_id));
+    first = static_cast<std::uint64_t>(read.column_int64(0));
+    count = static_cast<std::uint64_t>(read.column_int64(1));
+  }
+  std::array<std::byte, 17> head{};
+  for (int i = 0; i < 8; ++i) {
+    head[static_cast<std::size_t>(i)] = static_cast<std::byte>(first >> (8 * i));
+    head[static_cast<std::size_t>(8 + i)] = static_cast<std::byte>(count >> (8 * i));
+  }
+  head[16] = std::byte{format};
+  const std::uint32_t crc = crc32c(crc32c(0, head), body);
+  std::vector<std::byte> blob{std::byte{format}};
+  for (int i = 0; i < 4; ++i) blob.push_back(static_cast<std::byte>(crc >> (8 * i)));
+  blob.insert(blob.end(), body.begin(), body.end());
   db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1").bind(1, chunk_id).bind_blob(2, blob).run();
 }
 

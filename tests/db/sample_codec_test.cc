@@ -11,6 +11,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <zstd.h>
 
 #include "db_test_util.h"
 
@@ -47,7 +48,9 @@ TEST(SampleCodec, RoundTripExactForTimeAndIntegersFloat32BoundForTheRest) {
   // A wandering dt, so t_s is stored per update (not as a running sum).
   std::vector<StoredSample> in = instrument_samples(1000, 777, 1);
   for (std::size_t i = 0; i < in.size(); ++i) in[i].dt_s = 1e-3 * (1.0 + 0.37 * std::sin(static_cast<double>(i)));
-  const std::vector<std::byte> blob = encode_chunk(in);
+  for (const std::uint8_t format : {kChunkFormat, kChunkFormatPlain}) {
+  SCOPED_TRACE("format " + std::to_string(format));
+  const std::vector<std::byte> blob = encode_chunk(in, format);
   std::vector<StoredSample> out{StoredSample{}};  // decode appends
   decode_chunk(1000, in.size(), blob, out);
   ASSERT_EQ(out.size(), in.size() + 1);
@@ -62,15 +65,16 @@ TEST(SampleCodec, RoundTripExactForTimeAndIntegersFloat32BoundForTheRest) {
     EXPECT_EQ(g.value.in_contact, w.value.in_contact);
     expect_float32_close(g, w);
   }
+  }
 }
 
 TEST(SampleCodec, RunningSumTimeIsUsedOnlyWhenBitExact) {
   // dt = 2^-10 s: every t is exactly the previous t plus dt.
   std::vector<StoredSample> in = instrument_samples(0, 500, 0, 0x1p-10);
-  const std::size_t compact = encode_chunk(in).size();
+  const std::size_t compact = encode_chunk(in, kChunkFormatPlain).size();
   // One t off by an ulp: the encoder must fall back to storing every t.
   in[250].t_s = std::nextafter(in[250].t_s, 1.0);
-  const std::vector<std::byte> blob = encode_chunk(in);
+  const std::vector<std::byte> blob = encode_chunk(in, kChunkFormatPlain);
   EXPECT_EQ(blob.size(), compact + 8 * (in.size() - 1));
   std::vector<StoredSample> out;
   decode_chunk(0, in.size(), blob, out);
@@ -80,9 +84,9 @@ TEST(SampleCodec, RunningSumTimeIsUsedOnlyWhenBitExact) {
 
 TEST(SampleCodec, ConstantChannelsCollapse) {
   std::vector<StoredSample> in = instrument_samples(0, 1000, 0, 0x1p-10);
-  const std::size_t varying = encode_chunk(in).size();
+  const std::size_t varying = encode_chunk(in, kChunkFormatPlain).size();
   for (StoredSample& s : in) s.value.ve_force_N = {0.0, 0.0, 0.0};  // out of contact
-  EXPECT_EQ(encode_chunk(in).size(), varying - 3 * (1000 - 1) * 4);
+  EXPECT_EQ(encode_chunk(in, kChunkFormatPlain).size(), varying - 3 * (1000 - 1) * 4);
 }
 
 TEST(SampleCodec, OutOfRangeAndNonFiniteValues) {
@@ -129,7 +133,7 @@ TEST(SampleCodec, GoldenBytesOfATinyChunk) {
   body += "00" "01000000" "10000000";        // engine_status: 1, 16
   body += "01" "ffffffff";                   // device_status: constant -1
   body += "00" "00" "01";                    // in_contact: 0, 1
-  EXPECT_EQ(hex(encode_chunk(in)), golden + body);
+  EXPECT_EQ(hex(encode_chunk(in, kChunkFormatPlain)), golden + body);
   // Schema versions 1..3 wrote the same body behind a lone format byte 1;
   // the migration tests make their old files with legacy_blob().
   EXPECT_EQ(hex(testing::legacy_blob(in)), "01" + body);
@@ -178,25 +182,25 @@ TEST(SampleCodec, EveryChangedByteIsCaughtByTheChecksum) {
   EXPECT_EQ(verify_chunk(100, 20, blob), kChunkFormat);
 }
 
-// A later HapticLab may write format 2 (compressed): its checksum is right,
-// and this one must refuse it by number, not misread it.
+// A later HapticLab may write format 3: its checksum is right, and this one
+// must refuse it by number, not misread it.
 TEST(SampleCodec, UnknownFormatIsRefusedByNumber) {
   const std::vector<StoredSample> in = instrument_samples(0, 20, 0);
   std::vector<std::byte> blob = encode_chunk(in);
-  blob[0] = std::byte{2};
+  blob[0] = std::byte{3};
   // Re-sign it as the header comment in sample_codec.h says.
   std::array<std::byte, 17> head{};
   head[8] = std::byte{20};
-  head[16] = std::byte{2};
+  head[16] = std::byte{3};
   const std::uint32_t crc = crc32c(crc32c(0, head), std::span(blob).subspan(kChunkHeaderBytes));
   for (int i = 0; i < 4; ++i) blob[static_cast<std::size_t>(1 + i)] = static_cast<std::byte>(crc >> (8 * i));
   std::vector<StoredSample> out;
   try {
     decode_chunk(0, 20, blob, out);
-    FAIL() << "format 2 was decoded";
+    FAIL() << "format 3 was decoded";
   } catch (const ChunkError& e) {
     EXPECT_EQ(e.kind(), ChunkError::Kind::kUnknownFormat);
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("chunk format 2 is not one this HapticLab reads"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("chunk format 3 is not one this HapticLab reads (0, 1, 2)"));
   }
   EXPECT_TRUE(out.empty());
 }
@@ -242,6 +246,135 @@ TEST(SampleCodec, DamagedBlobsAreRefused) {
   EXPECT_THAT([&] { decode_chunk(0, 1, checksum_legacy_chunk(0, 1, legacy), out); },
               ::testing::ThrowsMessage<ChunkError>(::testing::HasSubstr("unknown tag 7")));
   EXPECT_THROW(decode_chunk(0, std::size_t{1} << 40, blob, out), std::runtime_error);
+}
+
+// Format 2 stores the same bits as format 1, for smooth signals and for the
+// values a float pattern delta could trip on: NaN with a payload, ±inf,
+// -0.0, subnormals, sign changes, and a dt that wanders (t_s per update).
+TEST(SampleCodec, FormatTwoDecodesBitIdenticalToFormatOne) {
+  std::vector<StoredSample> in = instrument_samples(50, 1000, 1);
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const double x = static_cast<double>(i);
+    in[i].dt_s = 1e-3 * (1.0 + 0.01 * std::sin(0.3 * x));
+    in[i].value.tip_position_m = {0.01 * std::sin(x / 200), -0.02 + 1e-5 * x, 0.1};
+    in[i].value.ve_force_N[2] = i % 100 < 50 ? 0.0 : -0.0;
+  }
+  in[3].value.raw_position[0] = std::numeric_limits<double>::quiet_NaN();
+  in[4].value.raw_position[0] = -std::numeric_limits<double>::infinity();
+  in[5].value.raw_position[0] = std::numeric_limits<double>::infinity();
+  in[6].value.raw_position[0] = std::numeric_limits<double>::denorm_min();
+  in[7].value.raw_position[0] = -1e-42;  // a float32 subnormal
+  in[8].value.raw_position[0] = std::numeric_limits<float>::max();
+  in[9].value.engine_status = 0xFFFFFFFFu;
+  in[10].device_status = std::numeric_limits<std::int32_t>::min();
+  std::vector<StoredSample> plain, packed;
+  decode_chunk(50, in.size(), encode_chunk(in, kChunkFormatPlain), plain);
+  const std::vector<std::byte> blob = encode_chunk(in);
+  ASSERT_EQ(verify_chunk(50, in.size(), blob), kChunkFormat);
+  decode_chunk(50, in.size(), blob, packed);
+  ASSERT_EQ(packed.size(), plain.size());
+  for (std::size_t i = 0; i < plain.size(); ++i) {
+    EXPECT_EQ(packed[i].tick, plain[i].tick);
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(packed[i].t_s), std::bit_cast<std::uint64_t>(plain[i].t_s)) << i;
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(packed[i].dt_s), std::bit_cast<std::uint64_t>(plain[i].dt_s)) << i;
+    EXPECT_EQ(packed[i].device_status, plain[i].device_status);
+    EXPECT_EQ(packed[i].value.engine_status, plain[i].value.engine_status);
+    EXPECT_EQ(packed[i].value.in_contact, plain[i].value.in_contact);
+    const std::vector<double> a = float_channels(packed[i].value), b = float_channels(plain[i].value);
+    for (std::size_t c = 0; c < a.size(); ++c)
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(a[c]), std::bit_cast<std::uint64_t>(b[c])) << i << " " << c;
+  }
+  // Smooth channels compress: well under half of format 1 here.
+  EXPECT_LT(blob.size(), encode_chunk(in, kChunkFormatPlain).size() / 2);
+}
+
+// The preconditioning worked by hand on the golden chunk above: the frame
+// decompresses to format 1's body with each per-update 4-byte channel as
+// differences, byte planes first-byte-first.
+TEST(SampleCodec, FormatTwoGoldenPreconditionedBody) {
+  StoredSample a, b;
+  a.tick = 5; a.t_s = 1.0; a.dt_s = 0.5; a.device_status = -1;
+  b.tick = 6; b.t_s = 1.5; b.dt_s = 0.5; b.device_status = -1;
+  a.value.raw_position[0] = 0.25;   // 0x3e800000
+  b.value.raw_position[0] = -2.0;   // 0xc0000000; difference 0x81800000
+  a.value.engine_status = 1;
+  b.value.engine_status = 16;       // difference 15
+  b.value.in_contact = true;
+  const std::vector<StoredSample> in{a, b};
+  const std::vector<std::byte> blob = encode_chunk(in);
+  ASSERT_EQ(std::to_integer<int>(blob[0]), 2);
+  const auto frame = std::span(blob).subspan(kChunkHeaderBytes);
+  std::vector<std::byte> body(ZSTD_getFrameContentSize(frame.data(), frame.size()));
+  ASSERT_EQ(ZSTD_decompress(body.data(), body.size(), frame.data(), frame.size()), body.size());
+  std::string want = "01" "000000000000e03f" "02" "000000000000f03f";
+  // Fewer than 8 updates: no bit planes, the differences as they are.
+  want += "00" "0000803e" "00008081";  // raw_insertion_m: 0x3e800000, then 0xc0000000 - 0x3e800000
+  for (int c = 0; c < 22; ++c) want += "01" "00000000";
+  want += "00" "01000000" "0f000000";  // engine_status: 1, then 16 - 1
+  want += "01" "ffffffff" "00" "00" "01";
+  EXPECT_EQ(hex(body), want);
+  std::vector<StoredSample> out;
+  decode_chunk(5, 2, blob, out);
+  EXPECT_EQ(out[1].value.raw_position[0], -2.0);
+  EXPECT_EQ(out[1].value.engine_status, 16u);
+}
+
+// Bit planes worked by hand: raw_insertion_m steps through the 8 floats
+// from 1.0f (0x3f800000, 0x3f800001, ...), so its differences are
+// 0x3f800000 and then 1 seven times. Plane k holds bit k % 8 of byte k / 8
+// of each difference, value i at bit i: plane 0 (bit 0 of byte 0) is
+// 0b11111110, plane 23 (bit 7 of byte 2, 0x80) and planes 24..29 (bits 0-5
+// of byte 3, 0x3f) are 0b00000001, all others 0.
+TEST(SampleCodec, FormatTwoGoldenBitPlanes) {
+  std::vector<StoredSample> in(8);
+  for (std::size_t i = 0; i < 8; ++i) {
+    in[i].tick = i;
+    in[i].dt_s = 0.5;
+    in[i].t_s = 1.0 + 0.5 * static_cast<double>(i);
+    in[i].device_status = -1;
+    in[i].value.raw_position[0] = double{std::bit_cast<float>(0x3f800000u + static_cast<std::uint32_t>(i))};
+  }
+  const std::vector<std::byte> blob = encode_chunk(in);
+  const auto frame = std::span(blob).subspan(kChunkHeaderBytes);
+  std::vector<std::byte> body(ZSTD_getFrameContentSize(frame.data(), frame.size()));
+  ASSERT_EQ(ZSTD_decompress(body.data(), body.size(), frame.data(), frame.size()), body.size());
+  std::string planes = "fe" + std::string(2 * 22, '0') + "01" + std::string("010101010101") + "0000";
+  std::string want = "01" "000000000000e03f" "02" "000000000000f03f" "00" + planes;
+  for (int c = 0; c < 22; ++c) want += "01" "00000000";
+  want += "01" "00000000" "01" "ffffffff" "01" "00";
+  EXPECT_EQ(hex(body), want);
+  std::vector<StoredSample> out;
+  decode_chunk(0, 8, blob, out);
+  for (std::size_t i = 0; i < 8; ++i) EXPECT_EQ(out[i].value.raw_position[0], in[i].value.raw_position[0]) << i;
+}
+
+// A format-2 chunk whose checksum is right but whose frame does not
+// decompress (a writer that got it wrong) is refused like damage.
+TEST(SampleCodec, AFrameThatDoesNotDecompressIsRefused) {
+  const std::vector<StoredSample> in = instrument_samples(0, 20, 0);
+  const std::vector<std::byte> good = encode_chunk(in);
+  const auto sign = [](std::vector<std::byte> blob) {
+    std::array<std::byte, 17> head{};
+    head[8] = std::byte{20};
+    head[16] = blob[0];
+    const std::uint32_t crc = crc32c(crc32c(0, head), std::span(blob).subspan(kChunkHeaderBytes));
+    for (int i = 0; i < 4; ++i) blob[static_cast<std::size_t>(1 + i)] = static_cast<std::byte>(crc >> (8 * i));
+    return blob;
+  };
+  std::vector<std::byte> garbage(good.begin(), good.begin() + kChunkHeaderBytes);
+  for (char c : std::string("not a zstd frame")) garbage.push_back(static_cast<std::byte>(c));
+  std::vector<std::byte> cut(good.begin(), good.end() - 3);  // the frame's end missing
+  std::vector<StoredSample> out;
+  for (const auto& bad : {sign(garbage), sign(cut)}) {
+    try {
+      decode_chunk(0, 20, bad, out);
+      ADD_FAILURE() << "decoded";
+    } catch (const ChunkError& e) {
+      EXPECT_EQ(e.kind(), ChunkError::Kind::kStructure);
+      EXPECT_THAT(e.what(), ::testing::HasSubstr("the zstd frame does not decompress"));
+    }
+  }
+  EXPECT_TRUE(out.empty());
 }
 
 TEST(SampleCodec, EncoderRefusesGapsAndEmptyChunks) {

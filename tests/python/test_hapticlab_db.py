@@ -155,7 +155,7 @@ class DamageTest(unittest.TestCase):
     def test_a_damaged_format_byte_or_moved_chunk_is_damage_too(self):
         path = STUDY.copy("format.db")
         chunk_id, first, count = self.chunk(path, 0, 0)
-        flip_byte(path, chunk_id, 0)  # format 1 -> 0xFE: damage, not "a newer format"
+        flip_byte(path, chunk_id, 0)  # format 2 -> 0xFD: damage, not "a newer format"
         with h.open_study(path) as db:
             with self.assertRaises(h.ChunkError) as caught:
                 db.samples(1, instrument=0)
@@ -176,19 +176,27 @@ class DamageTest(unittest.TestCase):
         with h.open_study(STUDY.db) as db:
             first, count, blob = db.connection.execute(
                 "SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = 1 ORDER BY id LIMIT 1").fetchone()
+        self.assertEqual(blob[0], h.FORMAT_CURRENT)
         current = h.decode_chunk(first, count, blob)
+        # Format 1: the same body uncompressed (the frame decompressed and its
+        # differences summed), as HapticLab wrote it before format 2.
+        body = h._unprecondition(h._decompress(blob[h.HEADER_BYTES:], count), count)
+        self.assertGreater(len(body), 2 * len(blob))
+        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x01" + body)
+        plain = h.decode_chunk(first, count, b"\x01" + struct.pack("<I", crc) + body)
+        for name in current:
+            self.assertTrue(fx.same_bits(current[name], plain[name]), name)
         # Format 0 (db/README.md, "Damage"): the pre-version-4 blob (byte 1,
         # then the body) behind a header whose checksum the migration made.
-        legacy = b"\x01" + blob[h.HEADER_BYTES:]
+        legacy = b"\x01" + body
         crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x00" + legacy)
         migrated = h.decode_chunk(first, count, b"\x00" + struct.pack("<I", crc) + legacy)
         for name in current:
             self.assertTrue(fx.same_bits(current[name], migrated[name]), name)
         # A format from a newer HapticLab, correctly checksummed, is named as such.
-        body = blob[h.HEADER_BYTES:]
-        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x02" + body)
-        with self.assertRaisesRegex(h.ChunkError, "chunk format 2 is not one this reader reads") as caught:
-            h.decode_chunk(first, count, b"\x02" + struct.pack("<I", crc) + body)
+        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x03" + body)
+        with self.assertRaisesRegex(h.ChunkError, "chunk format 3 is not one this reader reads") as caught:
+            h.decode_chunk(first, count, b"\x03" + struct.pack("<I", crc) + body)
         self.assertEqual(caught.exception.kind, "format")
 
     def test_an_old_schema_is_refused_with_what_to_do(self):
