@@ -16,6 +16,7 @@
 #include "app/bench_analyze.h"
 #include "app/study_command.h"
 #include "app/session_command.h"
+#include "app/console_command.h"
 #include "app/bench_loop.h"
 #include "app/export_command.h"
 #include "app/bench_db.h"
@@ -56,6 +57,7 @@ int main(int argc, char** argv) {
 
   hapticlab::app::add_study_command(app);
   hapticlab::app::add_session_command(app);
+  hapticlab::app::add_console_command(app);
   hapticlab::app::add_stats_command(app);
   hapticlab::app::add_analyze_command(app);
   hapticlab::app::add_export_command(app);

@@ -130,6 +130,7 @@ std::size_t SampleWriter::drain_once() {
   pending_task_events_ += m;
   for (std::size_t i = 0; i < n; ++i) store_sample(batch_[i]);
   pending_updates_ += n;
+  if (config_.observe && n > 0) config_.observe(std::span<const LoopSample>(batch_.data(), n));
   return n + m;
 }
 

@@ -40,8 +40,10 @@
 #include <cstdint>
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -78,6 +80,11 @@ struct SampleWriterConfig {
   // core) 5x less often than 1 ms; it adds at most this much to what a
   // crash can lose (commit_interval + idle_poll, 55 ms by default).
   std::chrono::microseconds idle_poll{5000};
+  // Called on the writer's thread with every batch of samples it popped,
+  // in order (e.g. the operator console's live view, which decimates):
+  // watching costs the writer, never the haptic loop. May be empty; must
+  // not throw or block for long.
+  std::function<void(std::span<const LoopSample>)> observe;
 };
 
 struct TrialOutcome {

@@ -211,6 +211,12 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       if (stop_requested(options)) break;
     }
 
+    if (options.hold_before_trial) {
+      while (!stop_requested(options) && options.hold_before_trial())
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (stop_requested(options)) break;
+    }
+
     const NamedSettings settings = db.setting(trial.setting_id);
     SimTrialConfig config = base_config(trial.task, settings, trial_seed(who, trial.id),
                                         training_per_task + session.complete_of(trial.task));
@@ -240,11 +246,24 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       ~AbandonOnUnwind() { session.abandon_trial(); }
     } abandon_on_unwind{session};
     bool stopped = false;
+    std::optional<std::string> operator_abort;  // the reason, once the operator aborted this trial
+    std::vector<OperatorEvent> actions;
+    const auto take_actions = [&](double t_s) {
+      if (!options.take_operator_events) return;
+      actions.clear();
+      options.take_operator_events(actions);
+      for (const OperatorEvent& a : actions) {
+        outcome.closing_events.push_back({trial.id, t_s, a.type, -1, 0, a.detail});
+        if (a.abort && !operator_abort) operator_abort = a.detail;
+      }
+    };
+    take_actions(0.0);
     if (loop.start()) {
       while (loop.running()) {
+        take_actions(loop.elapsed_s());
         // Storage failed: what the loop produces now is lost, so the
         // trial ends here rather than running on unrecorded.
-        if (!stopped && (stop_requested(options) || session.writer_failed())) {
+        if (!stopped && (stop_requested(options) || operator_abort || session.writer_failed())) {
           loop.request_stop();
           stopped = true;
         }
@@ -252,7 +271,12 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       }
       loop.join();
     }
-    if (loop.stop_reason() == StopReason::kStopRequested) {
+    if (loop.stop_reason() == StopReason::kStopRequested && operator_abort) {
+      // Ended by the operator's abort (its event is in closing_events);
+      // re-queued, and the session goes on.
+      outcome.status = db::TrialStatus::kAborted;
+      outcome.abort_reason = "operator abort: " + *operator_abort;
+    } else if (loop.stop_reason() == StopReason::kStopRequested) {
       // The operator's action is part of the trial's record, at the loop
       // time it took effect, after the VE's events of that update (the
       // writer may still hold them now).
@@ -263,7 +287,8 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     outcome.dropped_events = loop.dropped_events();
     outcome.timing = loop.timing();
     outcome.device_counters = rig.device().counters();
-    switch (loop.stop_reason()) {
+    const bool aborted_by_operator = operator_abort && loop.stop_reason() == StopReason::kStopRequested;
+    if (!aborted_by_operator) switch (loop.stop_reason()) {
       case StopReason::kTaskComplete: outcome.status = db::TrialStatus::kComplete; break;
       case StopReason::kStopRequested:
         outcome.status = db::TrialStatus::kAborted;

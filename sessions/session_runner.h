@@ -25,6 +25,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/device/device_spec.h"
 #include "core/sim/trial_runner.h"
@@ -51,6 +52,17 @@ struct SessionProgress {
   std::optional<double> eta_s;  // wall time left, once a trial has finished in this session
 };
 
+// An operator's action during a session (the console's buttons), logged as
+// an event of the trial it happens in, at the loop time the runner sees it
+// (or at 0 of the next trial when it came between trials). `abort` ends the
+// running trial as aborted with `detail` as its reason; it is re-queued and
+// the session goes on.
+struct OperatorEvent {
+  std::string type;    // event type, e.g. "operator_note", "operator_pause"
+  std::string detail;  // free text (the note, the abort reason)
+  bool abort = false;
+};
+
 struct SessionOptions {
   std::string participant;  // code, as in the protocol
   DeviceSpec device;  // core/device/device_spec.h; default: the built-in simulated workstation
@@ -75,6 +87,14 @@ struct SessionOptions {
   // and re-queued, and the session closes. May be null.
   const std::atomic<bool>* stop = nullptr;
   std::function<void(const SessionProgress&)> on_progress;
+  // Operator controls, both called on the session's thread and may be null.
+  // hold_before_trial: polled every 20 ms before each scheduled trial while
+  // it returns true (a paused session, or one that waits for "next trial");
+  // `stop` still ends the wait. take_operator_events: moves the actions
+  // taken since the last call into its argument; polled every 2 ms during a
+  // trial and once before it.
+  std::function<bool()> hold_before_trial;
+  std::function<void(std::vector<OperatorEvent>&)> take_operator_events;
   // For tests: adjusts a trial's rig configuration (e.g. injects a fault).
   std::function<void(SimTrialConfig&, const db::TrialRow&)> configure_trial;
   db::SampleWriterConfig writer;

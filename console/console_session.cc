@@ -1,0 +1,205 @@
+#include "console/console_session.h"
+
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <stdexcept>
+
+namespace hapticlab::console {
+namespace {
+
+double wall_now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+float norm(const Vec3& v) { return static_cast<float>(std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])); }
+
+const char* phase_name(sessions::SessionProgress::Phase p) {
+  switch (p) {
+    case sessions::SessionProgress::Phase::kTraining: return "training";
+    case sessions::SessionProgress::Phase::kTrialStarted: return "trial";
+    case sessions::SessionProgress::Phase::kTrialFinished: return "between trials";
+  }
+  return "";
+}
+
+}  // namespace
+
+ConsoleSession::ConsoleSession(ConsoleSessionConfig config) : config_(std::move(config)) {}
+
+ConsoleSession::~ConsoleSession() {
+  stop_.store(true);
+  if (thread_.joinable()) thread_.join();
+}
+
+void ConsoleSession::start(const std::string& participant, bool step) {
+  std::lock_guard lock(mutex_);
+  if (running_) throw std::invalid_argument("a session is running (" + participant_ + "); stop it first");
+  if (thread_.joinable()) thread_.join();  // the previous, finished one
+  stop_.store(false);
+  paused_.store(false);
+  step_.store(step);
+  allowed_trials_.store(0);
+  started_trials_.store(0);
+  pending_actions_.clear();
+  progress_.reset();
+  last_finished_.reset();
+  result_.reset();
+  error_.clear();
+  live_ = {};
+  next_live_t_s_ = {0.0, 0.0};
+  running_ = true;
+  participant_ = participant;
+  thread_ = std::thread(&ConsoleSession::run, this, participant);
+}
+
+void ConsoleSession::log_action(std::string type, std::string detail, bool abort) {
+  std::lock_guard lock(mutex_);
+  pending_actions_.push_back({std::move(type), std::move(detail), abort});
+}
+
+void ConsoleSession::stop() {
+  // The runner polls this flag every 2 ms and asks the loop to stop; the
+  // loop commands zero force in the update that sees the request.
+  stop_.store(true);
+}
+
+void ConsoleSession::next_trial() {
+  allowed_trials_.fetch_add(1);
+  log_action("operator_next_trial", "");
+}
+
+void ConsoleSession::set_paused(bool paused) {
+  paused_.store(paused);
+  log_action(paused ? "operator_pause" : "operator_resume", "");
+}
+
+void ConsoleSession::end_training() {
+  training_ends_.fetch_add(1);
+  log_action("operator_end_training", "");
+}
+
+void ConsoleSession::abort_trial(const std::string& reason) { log_action("operator_abort", reason, true); }
+
+void ConsoleSession::note(const std::string& text) { log_action("operator_note", text); }
+
+void ConsoleSession::run(std::string participant) {
+  sessions::SessionOptions options;
+  options.participant = participant;
+  options.device = config_.device;
+  options.clock = config_.clock;
+  options.max_trial_s = config_.max_trial_s;
+  options.training_trials = config_.training_trials;
+  options.stop = &stop_;
+  options.training_ends = &training_ends_;
+  options.hold_before_trial = [this] {
+    if (paused_.load()) return true;
+    if (step_.load() && allowed_trials_.load() <= started_trials_.load()) return true;
+    return false;
+  };
+  options.take_operator_events = [this](std::vector<sessions::OperatorEvent>& out) {
+    std::lock_guard lock(mutex_);
+    out.insert(out.end(), pending_actions_.begin(), pending_actions_.end());
+    pending_actions_.clear();
+  };
+  options.on_progress = [this](const sessions::SessionProgress& p) {
+    std::lock_guard lock(mutex_);
+    if (p.phase == sessions::SessionProgress::Phase::kTrialStarted) {
+      started_trials_.fetch_add(1);
+      trial_started_wall_s_ = wall_now_s();
+      live_ = {};
+      next_live_t_s_ = {0.0, 0.0};
+    }
+    if (p.phase == sessions::SessionProgress::Phase::kTrialFinished) last_finished_ = p;
+    progress_ = p;
+  };
+  // On the writer's thread: keep one point per 1/live_rate_Hz of loop time.
+  const double step_s = 1.0 / config_.live_rate_Hz;
+  options.writer.observe = [this, step_s](std::span<const LoopSample> batch) {
+    std::lock_guard lock(mutex_);
+    for (const LoopSample& s : batch) {
+      for (std::size_t k = 0; k < 2; ++k) {
+        if (s.t_s < next_live_t_s_[k]) continue;
+        next_live_t_s_[k] = s.t_s + step_s;
+        const InstrumentSample& v = s.instrument[k];
+        live_[k].push_back({s.t_s, norm(v.ve_force_N), norm(v.displayed_force_N),
+                            static_cast<float>(v.degraded_position[0]), static_cast<float>(v.degraded_position[1]),
+                            static_cast<float>(v.degraded_position[2])});
+        while (!live_[k].empty() && live_[k].front().t_s < s.t_s - config_.live_window_s) live_[k].pop_front();
+      }
+    }
+  };
+  std::optional<sessions::SessionResult> result;
+  std::string error;
+  try {
+    result = sessions::run_session(config_.db, options);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  std::lock_guard lock(mutex_);
+  result_ = result;
+  error_ = error;
+  running_ = false;
+}
+
+nlohmann::json ConsoleSession::operator_status() const {
+  std::lock_guard lock(mutex_);
+  nlohmann::json j = {{"running", running_}, {"participant", participant_}, {"paused", paused_.load()},
+                      {"step", step_.load()}, {"error", error_}};
+  if (progress_) {
+    const auto& p = *progress_;
+    j["phase"] = phase_name(p.phase);
+    j["trial_number"] = p.trial_number;
+    j["trial_count"] = p.trial_count;
+    j["task"] = p.task;
+    j["setting"] = p.setting;
+    j["repetition"] = p.repetition;
+    j["elapsed_s"] = p.elapsed_s;
+    if (p.eta_s) j["time_left_s"] = *p.eta_s;
+    if (p.phase == sessions::SessionProgress::Phase::kTrialStarted && running_)
+      j["trial_elapsed_wall_s"] = wall_now_s() - trial_started_wall_s_;
+  }
+  if (last_finished_) {
+    j["last_trial_number"] = last_finished_->trial_number;
+    j["last_status"] = db::to_string(last_finished_->status);
+    j["last_abort_reason"] = last_finished_->abort_reason;
+  }
+  if (result_) {
+    j["result"] = {{"trials_run", result_->trials_run},
+                   {"trials_complete", result_->trials_complete},
+                   {"trials_aborted", result_->trials_aborted},
+                   {"trials_left", result_->trials_left},
+                   {"stopped_by_operator", result_->stopped_by_operator},
+                   {"device_fault", result_->device_fault_reason}};
+  }
+  return j;
+}
+
+nlohmann::json ConsoleSession::participant_status() const {
+  std::lock_guard lock(mutex_);
+  // Built from scratch, field by field: nothing of the operator's view
+  // (setting, parameters, abort reasons naming one) can leak by accident.
+  nlohmann::json j = {{"cue", "ready"}};
+  if (!progress_) return j;
+  const auto& p = *progress_;
+  j["trial_number"] = p.trial_number;
+  j["trial_count"] = p.trial_count;
+  j["task"] = p.task;
+  using Phase = sessions::SessionProgress::Phase;
+  if (!running_) j["cue"] = "done";
+  else if (p.phase == Phase::kTrialStarted) j["cue"] = "go";
+  else if (p.phase == Phase::kTraining) j["cue"] = "practice";
+  else j["cue"] = paused_.load() ? "rest" : "ready";
+  return j;
+}
+
+std::array<std::vector<LivePoint>, 2> ConsoleSession::live_since(double after_t_s) const {
+  std::lock_guard lock(mutex_);
+  std::array<std::vector<LivePoint>, 2> out;
+  for (std::size_t k = 0; k < 2; ++k)
+    for (const LivePoint& p : live_[k])
+      if (p.t_s > after_t_s) out[k].push_back(p);
+  return out;
+}
+
+}  // namespace hapticlab::console

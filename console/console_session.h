@@ -1,0 +1,94 @@
+#pragma once
+// The operator console's side of a running session: one participant's
+// session (sessions::run_session) on a thread of its own, the operator's
+// controls as the runner's hooks, what the pages show, and a decimated copy
+// of the samples the writer drains for the live plots. The haptic loop
+// never sees any of it: controls are polled by the session thread, samples
+// are copied on the writer's thread.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/device/device_spec.h"
+#include "sessions/session_runner.h"
+
+namespace hapticlab::console {
+
+// One point of the live plots: an instrument's state at one update.
+struct LivePoint {
+  double t_s = 0.0;              // loop time
+  float tip_force_N = 0.0f;      // |VE force at the tip|
+  float displayed_force_N = 0.0f;  // |force displayed to the hand|
+  float insertion_m = 0.0f, pitch_rad = 0.0f, yaw_rad = 0.0f;
+};
+
+struct ConsoleSessionConfig {
+  std::filesystem::path db;
+  DeviceSpec device;                // as `session run --device`
+  ClockKind clock = ClockKind::kVirtual;
+  double max_trial_s = 300.0;
+  std::optional<int> training_trials;  // nullopt: the protocol's
+  double live_rate_Hz = 100.0;      // points kept per instrument and second (the plots draw at >= 30 Hz)
+  double live_window_s = 10.0;      // how much the live view keeps
+};
+
+class ConsoleSession {
+ public:
+  explicit ConsoleSession(ConsoleSessionConfig config);
+  ~ConsoleSession();  // stops a running session and waits for it
+  ConsoleSession(const ConsoleSession&) = delete;
+  ConsoleSession& operator=(const ConsoleSession&) = delete;
+
+  // Starts `participant`'s session; throws std::invalid_argument when one is
+  // running. `step`: wait for next_trial() before each trial.
+  void start(const std::string& participant, bool step);
+  void stop();                      // STOP: aborts the trial (re-queued), ends the session
+  void next_trial();                // lets the next trial start (step mode)
+  void set_paused(bool paused);     // holds the session before its next trial
+  void end_training();
+  void abort_trial(const std::string& reason);  // re-queued; the session goes on
+  void note(const std::string& text);
+
+  // The operator's view (includes the setting) and the participant's (no
+  // setting, no parameters, nothing that names one).
+  nlohmann::json operator_status() const;
+  nlohmann::json participant_status() const;
+  // Live points of each instrument with loop time > after_t_s.
+  std::array<std::vector<LivePoint>, 2> live_since(double after_t_s) const;
+
+ private:
+  void run(std::string participant);
+  void log_action(std::string type, std::string detail, bool abort = false);
+
+  const ConsoleSessionConfig config_;
+  mutable std::mutex mutex_;  // guards everything below except the atomics
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> paused_{false};
+  std::atomic<bool> step_{false};
+  std::atomic<int> allowed_trials_{0};  // step mode: trials the operator let start
+  std::atomic<int> started_trials_{0};
+  std::atomic<int> training_ends_{0};
+  std::vector<sessions::OperatorEvent> pending_actions_;
+  bool running_ = false;
+  std::string participant_;
+  std::optional<sessions::SessionProgress> progress_;
+  std::optional<sessions::SessionProgress> last_finished_;  // the last trial that ended
+  std::optional<sessions::SessionResult> result_;
+  std::string error_;
+  double trial_started_wall_s_ = 0.0;
+  std::array<std::deque<LivePoint>, 2> live_;
+  std::array<double, 2> next_live_t_s_{0.0, 0.0};
+};
+
+}  // namespace hapticlab::console

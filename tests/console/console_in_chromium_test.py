@@ -1,0 +1,240 @@
+"""`hapticlab console` in headless Chromium (Selenium), against the real
+binary and a real study database:
+
+- a whole quick session run with the console's buttons (virtual clock);
+- on the wall clock: the live plots receive data; a note and an abort with
+  a typed reason are logged, the aborted trial is re-queued and the session
+  goes on; STOP ends the session, its trial aborted and re-queued;
+- the participant screen (its HTML, its script, the events it receives)
+  names no setting;
+- a control without the token, or with a wrong one, is refused (403).
+
+Screenshots of each page go to WORK_DIR/shots (docs/console.md shows them).
+Exit 77 (ctest: skipped) when Chromium or Selenium is missing.
+
+usage: console_in_chromium_test.py HAPTICLAB_CLI SOURCE_DIR WORK_DIR
+"""
+import json
+import os
+import re
+import shutil
+import sqlite3
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+
+
+def fail(message):
+    sys.exit("FAIL: " + message)
+
+
+def wait_for(what, predicate, timeout_s):
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.1)
+    fail(f"timed out after {timeout_s} s waiting for {what}")
+
+
+class Console:
+    """A `hapticlab console` process on a free port."""
+
+    def __init__(self, cli, db, *extra):
+        self.proc = subprocess.Popen([cli, "console", "--db", db, "--port", "0", *extra],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.lines = []
+        line = ""
+        while "console: http://" not in line:
+            line = self.proc.stdout.readline()
+            if not line:
+                fail("the console exited before listening:\n" + "".join(self.lines))
+            self.lines.append(line)
+        self.url = re.search(r"http://[0-9.]+:[0-9]+/", line).group(0)
+        self.token = open(db + ".console-token").read().strip()
+
+    def post(self, path, body=None, token=None):
+        req = urllib.request.Request(self.url + path.lstrip("/"), data=json.dumps(body or {}).encode(), method="POST")
+        if token is not None:
+            req.add_header("X-HapticLab-Token", token)
+        try:
+            with urllib.request.urlopen(req, timeout=10) as r:
+                return r.status, json.loads(r.read())
+        except urllib.error.HTTPError as e:
+            return e.code, json.loads(e.read())
+
+    def get(self, path):
+        with urllib.request.urlopen(self.url + path.lstrip("/"), timeout=10) as r:
+            return r.read().decode()
+
+    def events(self, path, count):
+        """The first `count` server-sent events of a stream, as text."""
+        out = []
+        with urllib.request.urlopen(self.url + path.lstrip("/"), timeout=10) as r:
+            while len(out) < count:
+                line = r.readline().decode()
+                if line.startswith("data: "):
+                    out.append(line[6:])
+        return out
+
+    def close(self):
+        self.proc.terminate()
+        try:
+            self.proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            fail("the console did not stop within 20 s of SIGTERM")
+
+
+def trials(db):
+    conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    try:
+        return conn.execute("SELECT t.id, t.position, t.status, t.abort_reason FROM trial t "
+                            "JOIN participant p ON p.id = t.participant_id WHERE p.code = 'S1' ORDER BY t.id").fetchall()
+    finally:
+        conn.close()
+
+
+def events_of(db, kind):
+    conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    try:
+        return conn.execute("SELECT trial_id, t_s, detail FROM event WHERE type = ?", (kind,)).fetchall()
+    finally:
+        conn.close()
+
+
+def main():
+    cli, source, work = sys.argv[1:4]
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+        from selenium.webdriver.common.by import By
+        from selenium.webdriver.support.ui import Select
+    except ImportError:
+        print("skip: python3-selenium is not installed (apt-get install python3-selenium)")
+        return 77
+    driver_path = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+    if not os.access(driver_path, os.X_OK):
+        print("skip: chromedriver is not installed (apt-get install chromium chromium-driver)")
+        return 77
+    shutil.rmtree(work, ignore_errors=True)
+    shots = os.path.join(work, "shots")
+    os.makedirs(shots)
+    protocol = os.path.join(source, "examples/protocols/thesis_quick.json")
+
+    options = webdriver.ChromeOptions()
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1200,900"):
+        options.add_argument(arg)
+    driver = webdriver.Chrome(service=Service(driver_path), options=options)
+    consoles = []
+    try:
+        def open_console(console):
+            driver.get(console.url)
+            driver.execute_script("sessionStorage.setItem('hapticlab-token', arguments[0]);", console.token)
+            driver.get(console.url)
+            wait_for("the participant list", lambda: driver.find_elements(By.CSS_SELECTOR, "#participant option"), 10)
+
+        def status():
+            return json.loads(consoles[-1].get("/api/status"))
+
+        def click(element_id):
+            driver.find_element(By.ID, element_id).click()
+
+        # --- 1. a whole quick session through the buttons, virtual clock
+        db = os.path.join(work, "virtual.db")
+        subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+        consoles.append(Console(cli, db, "--training-trials", "0"))
+        c = consoles[-1]
+        open_console(c)
+        driver.save_screenshot(os.path.join(shots, "console_study.png"))
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
+        Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
+        click("start")
+        wait_for("the session's end", lambda: (s := status()).get("result") and not s["running"], 120)
+        s = status()
+        if s["result"]["trials_complete"] != 20 or s["result"]["trials_left"] != 0:
+            fail(f"the quick session did not complete its 20 trials: {s}")
+        if [r[2] for r in trials(db)].count("complete") != 20:
+            fail(f"the database does not show 20 complete trials: {trials(db)}")
+        wait_for("the result on the page", lambda: "20 complete" in driver.find_element(By.ID, "status").text, 10)
+        driver.save_screenshot(os.path.join(shots, "console_session.png"))
+
+        # --- 2. controls without the token, or with a wrong one
+        for token in (None, "0" * 32):
+            code, body = c.post("/api/session/stop", token=token)
+            if code != 403 or "X-HapticLab-Token" not in body.get("error", ""):
+                fail(f"a control with token {token!r} was not refused: {code} {body}")
+        code, body = c.post("/api/session/start", {"participant": "../../etc"}, token=c.token)
+        if code != 400 or "is not one of the study's" not in body["error"]:
+            fail(f"a bad participant code was not refused by name: {code} {body}")
+
+        # --- 3. the participant screen is blinded
+        conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+        settings = [r[0] for r in conn.execute("SELECT name FROM setting")]
+        conn.close()
+        if len(settings) < 5:
+            fail(f"expected at least the quick protocol's 5 settings, found {settings}")
+        driver.get(c.url + "participant")
+        wait_for("the participant's cue", lambda: driver.find_element(By.ID, "cue").text in ("DONE", "READY"), 10)
+        driver.save_screenshot(os.path.join(shots, "console_participant.png"))
+        seen = [c.get("/participant"), driver.page_source, c.get("/api/participant")] + c.events("/events/participant", 3)
+        for text in seen:
+            for name in settings:
+                if name.lower() in text.lower():
+                    fail(f"the participant's screen names the setting {name!r}: {text[:300]}")
+
+        c.close()
+        consoles.pop()
+
+        # --- 4. wall clock: live data, a note, an abort with a reason, STOP
+        db = os.path.join(work, "wall.db")
+        subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+        consoles.append(Console(cli, db, "--clock", "wall", "--training-trials", "0"))
+        c = consoles[-1]
+        open_console(c)
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
+        Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
+        click("start")
+        wait_for("a running trial", lambda: status().get("phase") == "trial", 30)
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=live]").click()
+        wait_for("live points in the page", lambda: driver.execute_script("return window.hapticlab.livePoints") > 200, 20)
+        driver.save_screenshot(os.path.join(shots, "console_live.png"))
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
+        driver.find_element(By.ID, "note").send_keys("participant adjusts the chair")
+        click("add-note")
+        first = status()["trial_number"]
+        driver.find_element(By.ID, "reason").send_keys("participant sneezed")
+        click("abort")
+        wait_for("the aborted trial's status", lambda: status().get("last_status") == "aborted", 20)
+        wait_for("the next trial", lambda: status().get("phase") == "trial", 30)
+        click("stop")
+        wait_for("the session's end after STOP", lambda: (s := status()).get("result") and not s["running"], 20)
+        if not status()["result"]["stopped_by_operator"]:
+            fail(f"STOP did not end the session as the operator's stop: {status()}")
+        rows = trials(db)
+        aborted = [r for r in rows if r[2] == "aborted"]
+        if len(aborted) != 2 or aborted[0][3] != "operator abort: participant sneezed":
+            fail(f"expected the typed abort and the STOP as the two aborted trials: {rows}")
+        for trial_id, position, _, reason in aborted:
+            if not any(r[1] == position and r[2] == "planned" and r[0] > trial_id for r in rows):
+                fail(f"aborted trial {trial_id} ({reason}) was not re-queued at position {position}: {rows}")
+        if not any(d == "participant adjusts the chair" for _, _, d in events_of(db, "operator_note")):
+            fail(f"the note is not in the event table: {events_of(db, 'operator_note')}")
+        if first != 1:
+            fail(f"the first trial was number {first}")
+        subprocess.run([cli, "study", "check", "--db", db], check=True, capture_output=True)
+        c.close()
+        consoles.pop()
+    finally:
+        for c in consoles:
+            c.proc.kill()
+        driver.quit()
+    print("console in chromium: all checks passed; screenshots in", shots)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
