@@ -194,6 +194,48 @@ TEST_F(SessionFixture, OperatorStopAbortsKeepsSamplesAndRequeues) {
   EXPECT_EQ(trials_of(db_path_, "A1")[1].status, TrialStatus::kComplete);
 }
 
+// The console's controls: a note and an abort with a typed reason during
+// the first trial (the runner's 3rd poll of the actions, so the loop is
+// running), a pause before the second. The aborted trial is re-queued, the
+// session goes on, and both actions are events of the trial with a time.
+TEST_F(SessionFixture, OperatorAbortWithAReasonRequeuesAndTheSessionGoesOn) {
+  SessionOptions o = options_for("A1");
+  o.max_trials = 2;
+  int polls = 0;
+  o.take_operator_events = [&](std::vector<OperatorEvent>& out) {
+    if (++polls == 3) {
+      out.push_back({"operator_note", "chair adjusted", false});
+      out.push_back({"operator_abort", "participant sneezed", true});
+    }
+  };
+  int holds = 0;
+  o.hold_before_trial = [&] { return ++holds == 2 || holds == 3; };  // paused twice before the 2nd trial
+  const SessionResult r = run_session(db_path_, o);
+  EXPECT_FALSE(r.stopped_by_operator);
+  EXPECT_EQ(r.trials_run, 2);
+  EXPECT_EQ(r.trials_aborted, 1);
+  EXPECT_EQ(r.trials_complete, 1);
+  EXPECT_EQ(holds, 4);  // 1st trial: 1 call; 2nd: held twice, then let go
+  const auto trials = trials_of(db_path_, "A1");
+  ASSERT_EQ(trials.size(), 5u);
+  EXPECT_EQ(trials[0].status, TrialStatus::kAborted);
+  EXPECT_EQ(trials[0].abort_reason, "operator abort: participant sneezed");
+  // The re-queued copy, at the same place, is the next trial and completes.
+  EXPECT_EQ(trials[1].position, trials[0].position);
+  EXPECT_EQ(trials[1].status, TrialStatus::kComplete);
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(db_path_, open);
+  std::vector<std::pair<std::string, std::string>> actions;
+  for (const auto& e : db.events(trials[0].id))
+    if (e.type.starts_with("operator_")) {
+      actions.emplace_back(e.type, e.detail);
+      EXPECT_GE(e.t_s, 0.0);
+    }
+  EXPECT_EQ(actions, (std::vector<std::pair<std::string, std::string>>{{"operator_note", "chair adjusted"},
+                                                                      {"operator_abort", "participant sneezed"}}));
+}
+
 TEST_F(SessionFixture, DeviceFaultAbortsTheTrialAndEndsTheSession) {
   SessionOptions o = options_for("A1");
   int configured = 0;
