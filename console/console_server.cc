@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "console/console_results.h"
 #include "db/study_db.h"
 #include "sessions/study_progress.h"
 
@@ -61,6 +62,9 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   // may name, and (for the operator's page) the protocol summary.
   const sessions::StudyProgress at_start = read_progress(config.session.db);
   ConsoleSession session(config.session);
+  // Next to the database: STUDY.db -> STUDY-console-analysis/.
+  ConsoleResults results(config.session.db,
+                         config.session.db.parent_path() / (config.session.db.stem().string() + "-console-analysis"));
   const std::string chart_js = std::filesystem::exists(config.chart_js) ? slurp(config.chart_js) : std::string();
 
   httplib::Server server;
@@ -96,6 +100,24 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   });
   server.Get("/api/participant", [&](const httplib::Request&, httplib::Response& res) {
     json_reply(res, session.participant_status());
+  });
+  server.Get("/api/results", [&](const httplib::Request&, httplib::Response& res) {
+    json_reply(res, results.status());
+  });
+  server.Get(R"(/results/(.+))", [&](const httplib::Request& req, httplib::Response& res) {
+    const auto path = results.file(req.matches[1]);
+    if (!path) {
+      error_reply(res, 404, "no such result file: " + std::string(req.matches[1]));
+      return;
+    }
+    const std::string name = path->filename().string();
+    const char* type = name.ends_with(".html")  ? "text/html; charset=utf-8"
+                       : name.ends_with(".svg") ? "image/svg+xml"
+                       : name.ends_with(".csv") ? "text/csv; charset=utf-8"
+                                                : "text/plain; charset=utf-8";
+    if (name.ends_with(".csv") || name.ends_with(".md"))
+      res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
+    res.set_content(slurp(*path), type);
   });
   // Server-sent events: the operator's live stream (plots and status) and
   // the participant's (cue, trial k of N).
@@ -187,6 +209,7 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   control("/api/session/pause", [&](const nlohmann::json& body) { session.set_paused(body.value("paused", true)); });
   control("/api/session/end-training", [&](const nlohmann::json&) { session.end_training(); });
   control("/api/session/abort", [&](const nlohmann::json& body) { session.abort_trial(text_field(body, "reason", 500)); });
+  control("/api/results/analyze", [&](const nlohmann::json& body) { results.start(body.value("plots", true)); });
   control("/api/session/note", [&](const nlohmann::json& body) { session.note(text_field(body, "text", 2000)); });
 
   const int port = config.port == 0 ? server.bind_to_any_port(config.bind_address)

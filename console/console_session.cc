@@ -1,5 +1,6 @@
 #include "console/console_session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -109,15 +110,22 @@ void ConsoleSession::run(std::string participant) {
       trial_started_wall_s_ = wall_now_s();
       live_ = {};
       next_live_t_s_ = {0.0, 0.0};
+      loop_status_.reset();
+      newest_observed_t_s_ = 0.0;
     }
     if (p.phase == sessions::SessionProgress::Phase::kTrialFinished) last_finished_ = p;
     progress_ = p;
+  };
+  options.on_loop_status = [this](const sessions::LoopStatus& status) {
+    std::lock_guard lock(mutex_);
+    loop_status_ = status;
   };
   // On the writer's thread: keep one point per 1/live_rate_Hz of loop time.
   const double step_s = 1.0 / config_.live_rate_Hz;
   options.writer.observe = [this, step_s](std::span<const LoopSample> batch) {
     std::lock_guard lock(mutex_);
     for (const LoopSample& s : batch) {
+      newest_observed_t_s_ = s.t_s;
       for (std::size_t k = 0; k < 2; ++k) {
         if (s.t_s < next_live_t_s_[k]) continue;
         next_live_t_s_[k] = s.t_s + step_s;
@@ -158,6 +166,17 @@ nlohmann::json ConsoleSession::operator_status() const {
     if (p.eta_s) j["time_left_s"] = *p.eta_s;
     if (p.phase == sessions::SessionProgress::Phase::kTrialStarted && running_)
       j["trial_elapsed_wall_s"] = wall_now_s() - trial_started_wall_s_;
+  }
+  if (loop_status_ && running_) {
+    const sessions::LoopStatus& l = *loop_status_;
+    j["loop"] = {{"elapsed_s", l.elapsed_s},
+                 {"rate_Hz", l.timing.mean_period_s > 0 ? 1.0 / l.timing.mean_period_s : 0.0},
+                 {"p99_period_ms", 1e3 * l.timing.p99_period_s},
+                 {"max_period_ms", 1e3 * l.timing.max_period_s},
+                 {"overruns", l.timing.overruns},
+                 {"dropped_samples", l.dropped_samples},
+                 // How far the writer's newest drained sample is behind the loop.
+                 {"writer_lag_s", std::max(0.0, l.elapsed_s - newest_observed_t_s_)}};
   }
   if (last_finished_) {
     j["last_trial_number"] = last_finished_->trial_number;

@@ -87,6 +87,8 @@ class ConsoleSession {
   std::optional<sessions::SessionResult> result_;
   std::string error_;
   double trial_started_wall_s_ = 0.0;
+  std::optional<sessions::LoopStatus> loop_status_;
+  double newest_observed_t_s_ = 0.0;  // the newest sample the writer drained (loop time)
   std::array<std::deque<LivePoint>, 2> live_;
   std::array<double, 2> next_live_t_s_{0.0, 0.0};
 };

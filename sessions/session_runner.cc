@@ -259,8 +259,11 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     };
     take_actions(0.0);
     if (loop.start()) {
-      while (loop.running()) {
+      for (int polls = 0; loop.running(); ++polls) {
         take_actions(loop.elapsed_s());
+        // timing() reads a histogram (~100 µs): every 50th poll, ~100 ms.
+        if (options.on_loop_status && polls % 50 == 0)
+          options.on_loop_status({loop.elapsed_s(), loop.timing(), loop.dropped_samples()});
         // Storage failed: what the loop produces now is lost, so the
         // trial ends here rather than running on unrecorded.
         if (!stopped && (stop_requested(options) || operator_abort || session.writer_failed())) {

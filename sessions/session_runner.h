@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "core/device/device_spec.h"
+#include "core/loop/loop_timing.h"
 #include "core/sim/trial_runner.h"
 #include "db/sample_writer.h"
 #include "db/study_db.h"
@@ -63,6 +64,14 @@ struct OperatorEvent {
   bool abort = false;
 };
 
+// How the running trial's loop is doing, for a monitor (the console's live
+// page): taken on the session's thread about every 100 ms.
+struct LoopStatus {
+  double elapsed_s = 0.0;            // loop time of the trial
+  LoopTimingSummary timing;          // periods so far (core/loop/loop_timing.h)
+  std::uint64_t dropped_samples = 0;  // the queue to the writer was full
+};
+
 struct SessionOptions {
   std::string participant;  // code, as in the protocol
   DeviceSpec device;  // core/device/device_spec.h; default: the built-in simulated workstation
@@ -95,6 +104,7 @@ struct SessionOptions {
   // trial and once before it.
   std::function<bool()> hold_before_trial;
   std::function<void(std::vector<OperatorEvent>&)> take_operator_events;
+  std::function<void(const LoopStatus&)> on_loop_status;  // may be null
   // For tests: adjusts a trial's rig configuration (e.g. injects a fault).
   std::function<void(SimTrialConfig&, const db::TrialRow&)> configure_trial;
   db::SampleWriterConfig writer;

@@ -11,12 +11,12 @@ function show(page) {
 }
 document.querySelectorAll("nav button").forEach((b) => b.addEventListener("click", () => show(b.dataset.page)));
 
-async function control(path, body) {
+async function post(url, body) {
   if (!token) {
     token = prompt("Console token (printed when `hapticlab console` started, and in its token file):") || "";
     sessionStorage.setItem("hapticlab-token", token);
   }
-  const res = await fetch("/api/session/" + path, {
+  const res = await fetch(url, {
     method: "POST", headers: { "Content-Type": "application/json", "X-HapticLab-Token": token },
     body: JSON.stringify(body || {}),
   });
@@ -25,6 +25,7 @@ async function control(path, body) {
   if (res.status === 403) { token = ""; sessionStorage.removeItem("hapticlab-token"); }
   return res.ok;
 }
+const control = (path, body) => post("/api/session/" + path, body);
 $("stop").addEventListener("click", () => control("stop"));
 $("start").addEventListener("click", () => control("start", { participant: $("participant").value, step: $("step").checked }));
 $("next").addEventListener("click", () => control("next"));
@@ -63,6 +64,7 @@ function describe(s) {
   if (s.time_left_s !== undefined) h += ` — about ${Math.round(s.time_left_s / 60)} min left`;
   if (s.last_status) h += `<br>last trial: ${text(s.last_status)} ${text(s.last_abort_reason || "")}`;
   if (s.result) h += `<br>result: ${s.result.trials_complete} complete, ${s.result.trials_aborted} aborted, ${s.result.trials_left} left` + (s.result.stopped_by_operator ? " (stopped by the operator)" : "");
+  if (s.loop) h += `<br>loop: ${s.loop.rate_Hz.toFixed(0)} Hz, period p99 ${s.loop.p99_period_ms.toFixed(3)} ms (max ${s.loop.max_period_ms.toFixed(3)} ms, ${s.loop.overruns} overruns), ${s.loop.dropped_samples} samples dropped; writer ${(1e3 * s.loop.writer_lag_s).toFixed(0)} ms behind`;
   if (s.error) h += `<br><span class="err">${text(s.error)}</span>`;
   return h;
 }
@@ -79,6 +81,21 @@ const charts = [0, 1].map((k) => typeof Chart === "undefined" ? null : new Chart
               y1: { position: "right", grid: { drawOnChartArea: false } } } },
 }));
 if (!charts[0]) $("live-status").textContent = "Chart.js not found (apt install libjs-chart.js): numbers only.";
+
+$("analyze").addEventListener("click", async () => { await post("/api/results/analyze", {}); refreshResults(); });
+let shownReport = "";
+async function refreshResults() {
+  const r = await (await fetch("/api/results")).json();
+  $("results-state").textContent = `${r.state}${r.message ? ": " + r.message : ""}`;
+  $("downloads").innerHTML = r.files.map((f) => ` <a href="/results/${f}" download>${f}</a>`).join("");
+  if (r.state === "done" && r.files.includes("report.html") && shownReport !== r.message) {
+    shownReport = r.message;
+    $("report").src = "/results/report.html?" + Date.now();
+    $("report").style.display = "block";
+  }
+}
+refreshResults();
+setInterval(refreshResults, 1000);
 
 let lastTrial = -1;
 const live = new EventSource("/events/live");

@@ -186,10 +186,33 @@ def main():
                 if name.lower() in text.lower():
                     fail(f"the participant's screen names the setting {name!r}: {text[:300]}")
 
+        # --- 4. results: the analysis run from the page, its report shown,
+        # its files downloadable, nothing outside its folder
+        driver.get(c.url)
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=results]").click()
+        click("analyze")
+        wait_for("the analysis", lambda: json.loads(c.get("/api/results"))["state"] in ("done", "failed"), 120)
+        r = json.loads(c.get("/api/results"))
+        if r["state"] != "done" or "report.html" not in r["files"] or "metrics.csv" not in r["files"]:
+            fail(f"the analysis from the console failed: {r}")
+        if "trial_id,participant" not in c.get("/results/metrics.csv"):
+            fail("metrics.csv is not downloadable")
+        wait_for("the report in the page", lambda: driver.execute_script(
+            "const f = document.getElementById('report'); return f.contentDocument && "
+            "f.contentDocument.body && f.contentDocument.body.innerText.length > 1000"), 20)
+        driver.save_screenshot(os.path.join(shots, "console_results.png"))
+        for bad in ("../virtual.db", "..%2Fvirtual.db", "figures/../../virtual.db", "%2Fetc%2Fpasswd"):
+            try:
+                c.get("/results/" + bad)
+                fail(f"/results/{bad} was served")
+            except urllib.error.HTTPError as e:
+                if e.code not in (400, 404):
+                    fail(f"/results/{bad}: HTTP {e.code}")
+
         c.close()
         consoles.pop()
 
-        # --- 4. wall clock: live data, a note, an abort with a reason, STOP
+        # --- 5. wall clock: live data, a note, an abort with a reason, STOP
         db = os.path.join(work, "wall.db")
         subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
         consoles.append(Console(cli, db, "--clock", "wall", "--training-trials", "0"))
@@ -201,6 +224,10 @@ def main():
         wait_for("a running trial", lambda: status().get("phase") == "trial", 30)
         driver.find_element(By.CSS_SELECTOR, "nav button[data-page=live]").click()
         wait_for("live points in the page", lambda: driver.execute_script("return window.hapticlab.livePoints") > 200, 20)
+        loop = wait_for("the loop's health in the status", lambda: status().get("loop"), 10)
+        if not (900 < loop["rate_Hz"] < 1100 and loop["p99_period_ms"] > 0 and loop["writer_lag_s"] < 5):
+            fail(f"implausible loop health for a 1 kHz wall-clock loop: {loop}")
+        wait_for("the loop's health on the page", lambda: "period p99" in driver.find_element(By.ID, "live-status").text, 10)
         driver.save_screenshot(os.path.join(shots, "console_live.png"))
         driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
         driver.find_element(By.ID, "note").send_keys("participant adjusts the chair")
