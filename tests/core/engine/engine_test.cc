@@ -1,6 +1,7 @@
 #include "core/engine/engine.h"
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <thread>
 
@@ -48,12 +49,20 @@ TEST(EngineTest, SettingsSwapIsAtomicBetweenUpdates) {
   // the level in use; a torn copy would mix 1 on one axis with 2 on another.
   Engine e(saturating(1.0));
   std::atomic<bool> stop{false};
+  std::atomic<int> swaps{0};
   std::thread writer([&] {
-    for (int i = 0; !stop.load(); ++i) e.set_settings(saturating(i % 2 ? 1.0 : 2.0));
+    for (int i = 0; !stop.load(); ++i) {
+      e.set_settings(saturating(i % 2 ? 1.0 : 2.0));
+      swaps.fetch_add(1);
+    }
   });
   int seen_one = 0, seen_two = 0;
   const JointVector q(0.1, 0.0, 0.0);
-  for (int i = 0; i < 200000; ++i) {
+  // At least 200 000 updates, and on until the writer has swapped 1000
+  // times during them: on a busy machine its thread may not run at all in
+  // the first 200 000 (seen once in CI), and then nothing was tested.
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  for (int i = 0; i < 200000 || (swaps.load() < 1000 && std::chrono::steady_clock::now() < give_up); ++i) {
     const InstrumentOutput out = e.update(i % 2, {1e-3, q, {50.0, 50.0, -50.0}});
     const double level = out.joint_force[0];
     ASSERT_TRUE(level == 1.0 || level == 2.0) << level;
