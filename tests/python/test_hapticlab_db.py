@@ -128,6 +128,33 @@ class SamplesEqualExportTest(unittest.TestCase):
             self.assertEqual(len(frame), self.samples.size)
 
 
+class WallClockSamplesTest(unittest.TestCase):
+    """A trial on the wall clock: every dt_s differs, so format 2 stores dt
+    per update as differences in bit planes (on the virtual clock it is one
+    constant); the reader must give the export's values to the bit."""
+
+    def test_times_and_periods_bit_for_bit(self):
+        d = STUDY.dir / "wall"
+        d.mkdir()
+        db = d / "wall.db"
+        fx.run_cli("study", "create", "--protocol", str(fx.SOURCE_DIR / "examples/protocols/thesis_quick.json"),
+                   "--db", str(db))
+        # 1.5 s of real time, then the time limit (the samples are kept).
+        fx.run_cli("session", "run", "--db", str(db), "--participant", "S1", "--training-trials", "0",
+                   "--max-trials", "1", "--clock", "wall", "--max-trial-s", "1.5")
+        fx.run_cli("export", "--db", str(db), "--trial", "1", "--format", "csv", "--out", str(d / "csv"))
+        (samples_csv,) = (d / "csv").glob("*_samples.csv")
+        _, csv = fx.read_export(samples_csv)
+        with h.open_study(db) as study:
+            got = study.samples(1, instrument=0)
+        rows = [i for i, k in enumerate(csv["instrument"]) if k == "0"]
+        self.assertGreater(len(rows), 1000)
+        for name in ("t_s", "dt_s"):
+            want = fx.parse_float64([csv[name][i] for i in rows])
+            self.assertTrue(fx.same_bits(got[name], want), f"{name}: {fx.first_difference(got[name], want)}")
+        self.assertGreater(np.unique(got["dt_s"]).size, 100, "dt is (nearly) constant: the per-update path is untested")
+
+
 class DamageTest(unittest.TestCase):
     def chunk(self, path, instrument, offset_rows):
         conn = sqlite3.connect(path)
