@@ -1,7 +1,7 @@
 #include "console/console_results.h"
 
+#include <cctype>
 #include <exception>
-#include <regex>
 #include <stdexcept>
 
 #include "analysis/report/gnuplot.h"
@@ -62,8 +62,12 @@ nlohmann::json ConsoleResults::status() const {
 }
 
 std::optional<std::filesystem::path> ConsoleResults::file(const std::string& name) const {
-  static const std::regex allowed("(figures/)?[A-Za-z0-9_][A-Za-z0-9_.-]*");
-  if (!std::regex_match(name, allowed) || name.find("..") != std::string::npos) return std::nullopt;
+  // NAME or figures/NAME, NAME of letters, digits, '_', '-', '.', not
+  // starting with '.' and without "..".
+  const std::string base = name.starts_with("figures/") ? name.substr(8) : name;
+  if (base.empty() || base.front() == '.' || name.find("..") != std::string::npos) return std::nullopt;
+  for (const char c : base)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.') return std::nullopt;
   std::error_code ec;
   const std::filesystem::path root = std::filesystem::weakly_canonical(out_dir_, ec);
   const std::filesystem::path p = std::filesystem::weakly_canonical(out_dir_ / name, ec);

@@ -25,6 +25,9 @@ import time
 import urllib.error
 import urllib.request
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "testing"))
+import headless_chromium  # noqa: E402
+
 
 def fail(message):
     sys.exit("FAIL: " + message)
@@ -108,27 +111,16 @@ def events_of(db, kind):
 
 def main():
     cli, source, work = sys.argv[1:4]
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-        from selenium.webdriver.common.by import By
-        from selenium.webdriver.support.ui import Select
-    except ImportError:
-        print("skip: python3-selenium is not installed (apt-get install python3-selenium)")
+    driver = headless_chromium.start()
+    if driver is None:
         return 77
-    driver_path = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-    if not os.access(driver_path, os.X_OK):
-        print("skip: chromedriver is not installed (apt-get install chromium chromium-driver)")
-        return 77
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select
     shutil.rmtree(work, ignore_errors=True)
     shots = os.path.join(work, "shots")
     os.makedirs(shots)
     protocol = os.path.join(source, "examples/protocols/thesis_quick.json")
 
-    options = webdriver.ChromeOptions()
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1200,900"):
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(driver_path), options=options)
     consoles = []
     try:
         def open_console(console):

@@ -8,8 +8,10 @@ exit 0: all checks passed; 1: a check failed (each failure printed);
 77: Chromium, chromedriver or python3-selenium is missing (a skip).
 """
 import os
-import shutil
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "testing"))
+import headless_chromium  # noqa: E402
 
 
 def main():
@@ -17,21 +19,9 @@ def main():
         print(__doc__, file=sys.stderr)
         return 2
     html, shots = os.path.abspath(sys.argv[1]), sys.argv[2]
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        print("skip: python3-selenium is not installed (apt-get install python3-selenium)")
+    driver = headless_chromium.start(extra=("--hide-scrollbars",))
+    if driver is None:
         return 77
-    driver_path = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-    if not os.access(driver_path, os.X_OK):
-        print("skip: chromedriver is not installed (apt-get install chromium chromium-driver)")
-        return 77
-    options = webdriver.ChromeOptions()
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--window-size=1200,900", "--hide-scrollbars"):
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(driver_path), options=options)
     failures = []
     try:
         driver.get("file://" + html)
