@@ -13,6 +13,7 @@
 #include "app/interrupt_flag.h"
 #include "console/console_server.h"
 #include "core/device/device_spec.h"
+#include "core/loop/realtime.h"
 #include "core/sim/trial_runner.h"
 
 namespace hapticlab::app {
@@ -28,6 +29,7 @@ struct ConsoleOptions {
   std::string clock = "virtual";
   double max_trial_s = 300.0;
   int training_trials = -1;
+  bool realtime = false;
 };
 
 // 128 bits from the system's entropy source, as hex.
@@ -75,6 +77,8 @@ int run(const ConsoleOptions& opt) {
   config.session.clock = parse_clock_kind(opt.clock);
   config.session.max_trial_s = opt.max_trial_s;
   if (opt.training_trials >= 0) config.session.training_trials = opt.training_trials;
+  config.session.realtime.enabled = opt.realtime;
+  if (opt.realtime) std::fprintf(stderr, "%s\n", prepare_realtime(config.session.realtime).c_str());
   config.bind_address = opt.bind;
   config.port = opt.port;
   const bool loopback = opt.bind == "127.0.0.1" || opt.bind == "localhost" || opt.bind == "::1";
@@ -121,6 +125,9 @@ void add_console_command(CLI::App& app) {
   cmd->add_option("--training-trials", opt->training_trials,
                   "Simulated training trials per task (default: the protocol's)")
       ->check(CLI::Range(0, 1000));
+  cmd->add_flag("--realtime", opt->realtime,
+                "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked, as `session run --realtime` "
+                "(recommended when browsers watch on the same machine: BENCHMARKS.md)");
   cmd->callback([opt] {
     const int status = run(*opt);
     if (status != 0) throw CLI::RuntimeError(status);

@@ -25,6 +25,7 @@ def main():
     ap.add_argument("source")
     ap.add_argument("work")
     ap.add_argument("--trials", type=int, default=6)
+    ap.add_argument("--realtime", action="store_true", help="the console's loop with SCHED_FIFO (console --realtime)")
     a = ap.parse_args()
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
@@ -34,7 +35,8 @@ def main():
     db = os.path.join(a.work, "study.db")
     subprocess.run([a.cli, "study", "create", "--protocol", os.path.join(a.source, "examples/protocols/thesis_quick.json"),
                     "--db", db], check=True, capture_output=True)
-    proc = subprocess.Popen([a.cli, "console", "--db", db, "--port", "0", "--clock", "wall", "--training-trials", "0"],
+    proc = subprocess.Popen([a.cli, "console", "--db", db, "--port", "0", "--clock", "wall", "--training-trials", "0"]
+                            + (["--realtime"] if a.realtime else []),
                             stdout=subprocess.PIPE, text=True)
     line = ""
     while "console: http://" not in line:

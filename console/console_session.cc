@@ -91,6 +91,7 @@ void ConsoleSession::run(std::string participant) {
   options.clock = config_.clock;
   options.max_trial_s = config_.max_trial_s;
   options.training_trials = config_.training_trials;
+  options.realtime = config_.realtime;
   options.stop = &stop_;
   options.training_ends = &training_ends_;
   options.hold_before_trial = [this] {

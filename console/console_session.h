@@ -38,6 +38,7 @@ struct ConsoleSessionConfig {
   ClockKind clock = ClockKind::kVirtual;
   double max_trial_s = 300.0;
   std::optional<int> training_trials;  // nullopt: the protocol's
+  RealtimeOptions realtime;         // the loop thread's scheduling (core/loop/realtime.h)
   double live_rate_Hz = 100.0;      // points kept per instrument and second (the plots draw at >= 30 Hz)
   double live_window_s = 10.0;      // how much the live view keeps
 };
