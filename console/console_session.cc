@@ -80,9 +80,25 @@ void ConsoleSession::end_training() {
   log_action("operator_end_training", "");
 }
 
-void ConsoleSession::abort_trial(const std::string& reason) { log_action("operator_abort", reason, true); }
+void ConsoleSession::abort_trial(const std::string& reason) {
+  {
+    // Between trials the runner would take it at the next trial's start
+    // and abort that one: refused instead.
+    std::lock_guard lock(mutex_);
+    if (!running_ || !progress_ || progress_->phase != sessions::SessionProgress::Phase::kTrialStarted)
+      throw std::invalid_argument("abort: no trial is running");
+  }
+  log_action("operator_abort", reason, true);
+}
 
-void ConsoleSession::note(const std::string& text) { log_action("operator_note", text); }
+void ConsoleSession::note(const std::string& text) {
+  {
+    // A note is an event of a trial: the running one, or the next.
+    std::lock_guard lock(mutex_);
+    if (!running_) throw std::invalid_argument("note: no session is running (a note is logged with a trial)");
+  }
+  log_action("operator_note", text);
+}
 
 void ConsoleSession::run(std::string participant) {
   sessions::SessionOptions options;

@@ -57,7 +57,11 @@ class ConsoleSession {
   void next_trial();                // lets the next trial start (step mode)
   void set_paused(bool paused);     // holds the session before its next trial
   void end_training();
-  void abort_trial(const std::string& reason);  // re-queued; the session goes on
+  // Re-queued; the session goes on. Throws std::invalid_argument when no
+  // trial is running.
+  void abort_trial(const std::string& reason);
+  // Logged with the running trial, or the next one; throws
+  // std::invalid_argument when no session is running.
   void note(const std::string& text);
 
   // The operator's view (includes the setting) and the participant's (no
