@@ -4,12 +4,11 @@
 
 #include <chrono>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <thread>
 
 #include "console/console_results.h"
+#include "core/io/input_file.h"
 #include "db/study_db.h"
 #include "sessions/study_progress.h"
 
@@ -46,12 +45,9 @@ sessions::StudyProgress read_progress(const std::filesystem::path& db_path) {
   return sessions::study_progress(db);
 }
 
-std::string slurp(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+// Bounds on what the console reads into memory to serve.
+constexpr std::size_t kMaxChartJsBytes = 16u << 20;
+constexpr std::size_t kMaxResultFileBytes = 512u << 20;  // a report with every figure inline
 
 }  // namespace
 
@@ -64,7 +60,9 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   // Next to the database: STUDY.db -> STUDY-console-analysis/.
   ConsoleResults results(config.session.db,
                          config.session.db.parent_path() / (config.session.db.stem().string() + "-console-analysis"));
-  const std::string chart_js = std::filesystem::exists(config.chart_js) ? slurp(config.chart_js) : std::string();
+  const std::string chart_js = std::filesystem::exists(config.chart_js)
+                                   ? read_text_file(config.chart_js, kMaxChartJsBytes, "Chart.js file")
+                                   : std::string();
 
   httplib::Server server;
   server.new_task_queue = [] { return new httplib::ThreadPool(16); };  // SSE streams hold a thread each
@@ -116,7 +114,11 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
                                                 : "text/plain; charset=utf-8";
     if (name.ends_with(".csv") || name.ends_with(".md"))
       res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
-    res.set_content(slurp(*path), type);
+    try {
+      res.set_content(read_text_file(*path, kMaxResultFileBytes, "result file"), type);
+    } catch (const std::exception& e) {
+      error_reply(res, 500, e.what());
+    }
   });
   // Server-sent events: the operator's live stream (plots and status) and
   // the participant's (cue, trial k of N).
