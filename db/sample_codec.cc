@@ -198,11 +198,11 @@ constexpr int channel_bytes(std::size_t channel) noexcept {
 
 // Format 2's preconditioning of a format-1 body, in place (the layout is
 // documented in sample_codec.h): per-update channels of 4 or 8 bytes become
-// differences of consecutive bit patterns, byte-shuffled; when t_s is
+// differences of consecutive bit patterns, in bit planes; when t_s is
 // stored per update too, dt_s instead becomes its XOR with t's differences
-// (period_residuals), byte-shuffled. Smooth signals then
-// differ in their low bytes only, and the high byte planes are long runs
-// zstd compresses to almost nothing. Tags, constants and 1-byte channels
+// (period_residuals), in bit planes. Smooth signals then differ in their
+// low bits only, and the high bit planes are long runs zstd compresses to
+// almost nothing. Tags, constants and 1-byte channels
 // are unchanged, so the inverse walks the same layout. `forward` false
 // undoes it. Throws ChunkError (kStructure) for a body that does not hold
 // `n` updates' worth of channels.
@@ -263,36 +263,22 @@ inline std::uint64_t transpose8x8(std::uint64_t x) noexcept {
   return x;
 }
 
-template <typename U>
-void shuffle(std::byte* v, std::size_t n, std::vector<std::byte>& scratch) {
-  constexpr std::size_t w = sizeof(U);
+// Bit planes of n values of w bytes at v, in place: `to_planes` makes
+// them, false undoes it (the same transpose, read and written the other way).
+void bit_planes(std::byte* v, std::size_t n, std::size_t w, bool to_planes, std::vector<std::byte>& scratch) {
   const std::size_t groups = n / 8;
   scratch.resize(n * w);
   for (std::size_t g = 0; g < groups; ++g) {
     for (std::size_t b = 0; b < w; ++b) {
-      std::uint64_t rows = 0;
-      for (std::size_t r = 0; r < 8; ++r)
-        rows |= std::uint64_t{std::to_integer<std::uint8_t>(v[(8 * g + r) * w + b])} << (8 * r);
-      const std::uint64_t planes = transpose8x8(rows);
-      for (std::size_t c = 0; c < 8; ++c) scratch[(8 * b + c) * groups + g] = static_cast<std::byte>(planes >> (8 * c));
-    }
-  }
-  std::memcpy(scratch.data() + groups * 8 * w, v + groups * 8 * w, (n - groups * 8) * w);
-  std::memcpy(v, scratch.data(), n * w);
-}
-
-template <typename U>
-void unshuffle(std::byte* v, std::size_t n, std::vector<std::byte>& scratch) {
-  constexpr std::size_t w = sizeof(U);
-  const std::size_t groups = n / 8;
-  scratch.resize(n * w);
-  for (std::size_t g = 0; g < groups; ++g) {
-    for (std::size_t b = 0; b < w; ++b) {
-      std::uint64_t planes = 0;
-      for (std::size_t c = 0; c < 8; ++c)
-        planes |= std::uint64_t{std::to_integer<std::uint8_t>(v[(8 * b + c) * groups + g])} << (8 * c);
-      const std::uint64_t rows = transpose8x8(planes);  // its own inverse
-      for (std::size_t r = 0; r < 8; ++r) scratch[(8 * g + r) * w + b] = static_cast<std::byte>(rows >> (8 * r));
+      // Byte b of values 8g..8g+7, and bit planes 8b..8b+7 at their byte g.
+      const auto value_byte = [&](std::size_t r) { return (8 * g + r) * w + b; };
+      const auto plane_byte = [&](std::size_t c) { return (8 * b + c) * groups + g; };
+      std::uint64_t in = 0;
+      for (std::size_t k = 0; k < 8; ++k)
+        in |= std::uint64_t{std::to_integer<std::uint8_t>(v[to_planes ? value_byte(k) : plane_byte(k)])} << (8 * k);
+      const std::uint64_t out = transpose8x8(in);  // its own inverse
+      for (std::size_t k = 0; k < 8; ++k)
+        scratch[to_planes ? plane_byte(k) : value_byte(k)] = static_cast<std::byte>(out >> (8 * k));
     }
   }
   std::memcpy(scratch.data() + groups * 8 * w, v + groups * 8 * w, (n - groups * 8) * w);
@@ -340,21 +326,24 @@ void precondition(std::span<std::byte> body, std::size_t n, bool forward, std::v
   // made, and restored before they are undone.
   const bool residual_dt = seg[kPeriod].tag == kPerUpdate && seg[kTime].tag == kPerUpdate;
   if (forward && residual_dt) period_residuals(seg[kPeriod].values, seg[kTime].values, n);
-  const auto transform = [&](std::size_t c) {
+  for (std::size_t c = 0; c < kChunkChannels; ++c) {
     const Segment& g = seg[c];
-    if (g.tag != kPerUpdate || g.width == 1) return;
-    if (c == kPeriod && residual_dt) {
-      if (forward) shuffle<std::uint64_t>(g.values, n, scratch);
-      else unshuffle<std::uint64_t>(g.values, n, scratch);
-    } else if (g.width == 4) {
-      if (forward) differences<std::uint32_t>(g.values, n), shuffle<std::uint32_t>(g.values, n, scratch);
-      else unshuffle<std::uint32_t>(g.values, n, scratch), sums<std::uint32_t>(g.values, n);
+    if (g.tag != kPerUpdate || g.width == 1) continue;
+    // Differences for every channel but a residual dt; planes for all.
+    const bool differenced = !(c == kPeriod && residual_dt);
+    const auto diff = [&](bool sum) {
+      if (!differenced) return;
+      if (g.width == 4) sum ? sums<std::uint32_t>(g.values, n) : differences<std::uint32_t>(g.values, n);
+      else sum ? sums<std::uint64_t>(g.values, n) : differences<std::uint64_t>(g.values, n);
+    };
+    if (forward) {
+      diff(false);
+      bit_planes(g.values, n, g.width, true, scratch);
     } else {
-      if (forward) differences<std::uint64_t>(g.values, n), shuffle<std::uint64_t>(g.values, n, scratch);
-      else unshuffle<std::uint64_t>(g.values, n, scratch), sums<std::uint64_t>(g.values, n);
+      bit_planes(g.values, n, g.width, false, scratch);
+      diff(true);
     }
-  };
-  for (std::size_t c = 0; c < kChunkChannels; ++c) transform(c);
+  }
   if (!forward && residual_dt) period_residuals(seg[kPeriod].values, seg[kTime].values, n);
 }
 
