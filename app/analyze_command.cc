@@ -97,6 +97,7 @@ void run_analyze(const AnalyzeOptions& o) {
   an::ReportOptions report;
   report.plots = !o.no_plots;
   report.pdf = o.pdf;
+  report.plot_jobs = o.jobs;
   if (o.pdf && o.no_plots) throw CLI::ValidationError("--pdf", "writes the figures as PDF too; --no-plots writes none");
   // Fail on a missing gnuplot before minutes of analysis, not after.
   if (report.plots) an::find_gnuplot();
@@ -170,8 +171,8 @@ void add_analyze_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-plots", opt->no_plots, "Write the report without figures (gnuplot not needed)");
   cmd->add_flag("--pdf", opt->pdf, "Also write each figure as figures/NAME.pdf (vector, for a paper)");
-  cmd->add_option("--jobs,-j", opt->jobs, "Trials read in parallel (0: one thread per core); the results do not "
-                  "depend on it")->capture_default_str()->check(CLI::Range(0, 256));
+  cmd->add_option("--jobs,-j", opt->jobs, "Trials read, and figures drawn (gnuplot processes), in parallel (0: one "
+                  "per core); the results do not depend on it")->capture_default_str()->check(CLI::Range(0, 256));
   cmd->add_flag("--json", opt->json,
                 "Print a JSON summary (counts, whole-design and pairwise results, files) instead of the tables");
   cmd->add_flag("--quiet", opt->quiet, "Do not print the headline tables");

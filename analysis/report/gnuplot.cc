@@ -6,12 +6,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "analysis/stats/data_error.h"
 #include "core/io/output_file.h"
@@ -92,32 +94,98 @@ std::string inline_svg(const std::string& svg, const std::string& id_prefix) {
 }
 
 void GnuplotScript::add_datablock(const std::string& name, const std::string& rows) {
-  text_ += "$" + name + " << EOD\n" + rows;
-  if (!rows.empty() && rows.back() != '\n') text_ += '\n';
-  text_ += "EOD\n";
+  std::string text = "$" + name + " << EOD\n" + rows;
+  if (!rows.empty() && rows.back() != '\n') text += '\n';
+  text += "EOD\n";
+  order_.emplace_back(false, blocks_.size());
+  blocks_.push_back({name, std::move(text)});
 }
+
+namespace {
+
+// Whether `commands` names the datablock: "$name" not followed by a letter,
+// digit or '_' (so $d1 does not count as naming $d10's prefix).
+bool names_block(const std::string& commands, const std::string& name) {
+  const std::string needle = "$" + name;
+  for (auto at = commands.find(needle); at != std::string::npos; at = commands.find(needle, at + 1)) {
+    const std::size_t after = at + needle.size();
+    if (after == commands.size()) return true;
+    const auto c = static_cast<unsigned char>(commands[after]);
+    if (!std::isalnum(c) && c != '_') return true;
+  }
+  return false;
+}
+
+}  // namespace
 
 void GnuplotScript::add_plot(const std::string& svg_name, const std::string& commands, int width_px,
                              int height_px) {
-  text_ += "reset\n";
-  text_ += "set terminal svg size " + std::to_string(width_px) + "," + std::to_string(height_px) +
-           " font 'Helvetica,14' background rgb 'white'\n";
+  Plot plot;
+  std::string& t = plot.text;
+  t += "reset\n";
+  t += "set terminal svg size " + std::to_string(width_px) + "," + std::to_string(height_px) +
+       " font 'Helvetica,14' background rgb 'white'\n";
   // Okabe & Ito's colour-blind-safe colours, without their yellow (1.1:1
   // against white); gnuplot's default line type 5 is that yellow.
-  text_ += kOkabeItoLinetypes;
-  text_ += "set output " + gnuplot_quote(svg_name) + "\n";
-  text_ += commands;
-  if (!commands.empty() && commands.back() != '\n') text_ += '\n';
-  text_ += "unset output\n";
+  t += kOkabeItoLinetypes;
+  t += "set output " + gnuplot_quote(svg_name) + "\n";
+  t += commands;
+  if (!commands.empty() && commands.back() != '\n') t += '\n';
+  t += "unset output\n";
   outputs_.push_back(svg_name);
   if (pdf_) {
     const std::string pdf_name = svg_name.substr(0, svg_name.rfind('.')) + ".pdf";
     char size[64];
     std::snprintf(size, sizeof size, "%.2fin,%.2fin", width_px / 96.0, height_px / 96.0);
-    text_ += "set terminal pdfcairo size " + std::string(size) + " font 'Helvetica,10'\n";
-    text_ += "set output " + gnuplot_quote(pdf_name) + "\nreplot\nunset output\n";
+    t += "set terminal pdfcairo size " + std::string(size) + " font 'Helvetica,10'\n";
+    t += "set output " + gnuplot_quote(pdf_name) + "\nreplot\nunset output\n";
     pdf_outputs_.push_back(pdf_name);
   }
+  for (std::size_t b = 0; b < blocks_.size(); ++b)
+    if (names_block(commands, blocks_[b].name)) plot.blocks.push_back(b);
+  order_.emplace_back(true, plots_.size());
+  plots_.push_back(std::move(plot));
+}
+
+std::string GnuplotScript::text() const {
+  std::string out;
+  for (const auto& [is_plot, i] : order_) out += is_plot ? plots_[i].text : blocks_[i].text;
+  return out;
+}
+
+std::vector<std::string> GnuplotScript::split(std::size_t parts) const {
+  parts = std::max<std::size_t>(1, std::min(parts, plots_.size()));
+  if (plots_.empty()) return {text()};
+  // Longest work first, each to the least-loaded part (LPT scheduling): within
+  // 4/3 of the best split, and the heavy CDF figures do not pile up in one part.
+  constexpr std::size_t kPlotCostBytes = 4096;  // drawing one SVG ~ parsing this much data
+  std::vector<std::size_t> cost(plots_.size());
+  for (std::size_t p = 0; p < plots_.size(); ++p) {
+    cost[p] = kPlotCostBytes + plots_[p].text.size();
+    for (std::size_t b : plots_[p].blocks) cost[p] += blocks_[b].text.size();
+  }
+  std::vector<std::size_t> by_cost(plots_.size());
+  for (std::size_t p = 0; p < by_cost.size(); ++p) by_cost[p] = p;
+  std::stable_sort(by_cost.begin(), by_cost.end(), [&](std::size_t a, std::size_t b) { return cost[a] > cost[b]; });
+  std::vector<std::size_t> load(parts, 0);
+  std::vector<std::size_t> part_of(plots_.size());
+  for (std::size_t p : by_cost) {
+    const auto least = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    part_of[p] = least;
+    load[least] += cost[p];
+  }
+  std::vector<std::string> out(parts);
+  for (std::size_t k = 0; k < parts; ++k) {
+    std::vector<bool> needed(blocks_.size(), false);
+    for (std::size_t p = 0; p < plots_.size(); ++p)
+      if (part_of[p] == k)
+        for (std::size_t b : plots_[p].blocks) needed[b] = true;
+    for (std::size_t b = 0; b < blocks_.size(); ++b)
+      if (needed[b]) out[k] += blocks_[b].text;
+    for (std::size_t p = 0; p < plots_.size(); ++p)
+      if (part_of[p] == k) out[k] += plots_[p].text;
+  }
+  return out;
 }
 
 namespace {
@@ -161,29 +229,17 @@ bool ends_with_marker(const std::filesystem::path& path, const std::string& mark
 bool complete_svg(const std::filesystem::path& path) { return ends_with_marker(path, "</svg>", 64); }
 bool complete_pdf(const std::filesystem::path& path) { return ends_with_marker(path, "%%EOF", 32); }
 
-}  // namespace
-
-void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
-                 const std::filesystem::path& gnuplot) {
-  // gnuplot draws into a staging directory; the figures and the script move
-  // into `dir` only when every one is complete, so a failed run (disk full,
-  // a gnuplot error) leaves no truncated figure that looks like a result.
-  const StagingDir staging(std::filesystem::absolute(dir) / (".plots." + std::to_string(::getpid()) + ".tmp"));
-  const std::filesystem::path script_path = staging.path() / "plots.gp";
-  const std::filesystem::path log_path = staging.path() / "gnuplot.log";
-  try {
-    write_file_atomically(script_path, script.text());
-  } catch (const OutputFileError& e) {
-    throw DataError(std::string("cannot write the plot script: ") + e.what());
-  }
-
+// Starts gnuplot on one script in the staging directory, its output and
+// messages to `log_path`. Returns the child's pid.
+pid_t spawn_gnuplot(const std::filesystem::path& gnuplot, const std::filesystem::path& script_path,
+                    const std::filesystem::path& log_path, const std::filesystem::path& workdir) {
   // posix_spawn rather than system(): no shell, so no quoting of paths.
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   // Output names in the script are relative to its directory, so it reruns there by hand.
-  const std::string dir_text = staging.path().string();
+  const std::string dir_text = workdir.string();
   posix_spawn_file_actions_addchdir_np(&actions, dir_text.c_str());
   const std::string program = gnuplot.string();
   const std::string script_arg = script_path.string();
@@ -191,32 +247,80 @@ void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
   pid_t pid = 0;
   const int spawned = posix_spawn(&pid, program.c_str(), &actions, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) {
-    throw DataError("cannot start gnuplot '" + program + "': " + std::strerror(spawned));
-  }
+  if (spawned != 0) throw DataError("cannot start gnuplot '" + program + "': " + std::strerror(spawned));
+  return pid;
+}
+
+// Waits for the child; returns its status (a failed wait counts as a crash).
+int wait_for(pid_t pid) {
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) throw DataError(std::string("waiting for gnuplot failed: ") + std::strerror(errno));
+    if (errno != EINTR) return -1;
   }
-  std::ifstream log(log_path);
+  return status;
+}
+
+std::string slurp_log(const std::filesystem::path& path) {
+  std::ifstream log(path);
   std::stringstream messages;
   messages << log.rdbuf();
-  const std::filesystem::path final_script = dir / "plots.gp";
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    throw DataError("gnuplot failed on " + final_script.string() +
-                    (WIFSIGNALED(status) ? std::string(" (killed by signal ") + std::to_string(WTERMSIG(status)) + ")"
-                                         : std::string()) +
-                    ": " + messages.str());
+  return messages.str();
+}
+
+}  // namespace
+
+void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
+                 const std::filesystem::path& gnuplot, std::size_t jobs) {
+  // gnuplot draws into a staging directory; the figures and the script move
+  // into `dir` only when every one is complete, so a failed run (disk full,
+  // a gnuplot error) leaves no truncated figure that looks like a result.
+  const StagingDir staging(std::filesystem::absolute(dir) / (".plots." + std::to_string(::getpid()) + ".tmp"));
+  const std::filesystem::path script_path = staging.path() / "plots.gp";
+  if (jobs == 0) jobs = std::max(1u, std::thread::hardware_concurrency());
+  const std::vector<std::string> parts = script.split(jobs);
+  try {
+    write_file_atomically(script_path, script.text());
+    for (std::size_t k = 0; k < parts.size(); ++k)
+      write_file_atomically(staging.path() / ("part" + std::to_string(k) + ".gp"), parts[k]);
+  } catch (const OutputFileError& e) {
+    throw DataError(std::string("cannot write the plot script: ") + e.what());
   }
+
+  std::vector<pid_t> pids;
+  std::string failure;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    const std::string part = "part" + std::to_string(k);
+    try {
+      pids.push_back(spawn_gnuplot(gnuplot, staging.path() / (part + ".gp"), staging.path() / (part + ".log"),
+                                   staging.path()));
+    } catch (const DataError& e) {
+      failure = e.what();
+      break;  // the ones started are still waited for below: no zombie, no writer left in staging
+    }
+  }
+  const std::filesystem::path final_script = dir / "plots.gp";
+  std::string messages;
+  for (std::size_t k = 0; k < pids.size(); ++k) {
+    const int status = wait_for(pids[k]);
+    const std::string log = slurp_log(staging.path() / ("part" + std::to_string(k) + ".log"));
+    messages += log;
+    if (failure.empty() && (status < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)) {
+      failure = "gnuplot failed on " + final_script.string() +
+                (status >= 0 && WIFSIGNALED(status) ? " (killed by signal " + std::to_string(WTERMSIG(status)) + ")"
+                                                    : std::string()) +
+                ": " + log;
+    }
+  }
+  if (!failure.empty()) throw DataError(failure);
   for (const auto& name : script.outputs()) {
     if (!complete_svg(staging.path() / name)) {
-      throw DataError("gnuplot wrote no complete " + (dir / name).string() + " (disk full?): " + messages.str());
+      throw DataError("gnuplot wrote no complete " + (dir / name).string() + " (disk full?): " + messages);
     }
   }
   for (const auto& name : script.pdf_outputs()) {
     if (!complete_pdf(staging.path() / name)) {
       throw DataError("gnuplot wrote no complete " + (dir / name).string() + " (disk full, or no pdfcairo "
-                      "terminal in this gnuplot?): " + messages.str());
+                      "terminal in this gnuplot?): " + messages);
     }
   }
   for (const auto& name : script.outputs()) std::filesystem::rename(staging.path() / name, dir / name);

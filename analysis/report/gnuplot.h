@@ -1,12 +1,16 @@
 #pragma once
-// Plots through gnuplot (Debian package gnuplot-nox), driven by one script
-// and one gnuplot process for all of a report's figures: starting gnuplot
-// costs tens of milliseconds, drawing one SVG far less.
+// Plots through gnuplot (Debian package gnuplot-nox). A report's figures are
+// one script; run_gnuplot splits it over a few gnuplot processes that draw
+// side by side (one per core), each given only the datablocks its figures
+// use. One process per figure would not pay: starting gnuplot costs tens of
+// milliseconds, drawing one SVG far less.
 //
-// The script is kept next to the figures (plots.gp) so a user can restyle a
-// figure and rerun `gnuplot plots.gp` in that directory.
+// The whole script is kept next to the figures (plots.gp) so a user can
+// restyle a figure and rerun `gnuplot plots.gp` in that directory.
+#include <cstddef>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hapticlab::analysis {
@@ -30,21 +34,40 @@ class GnuplotScript {
   void set_pdf(bool pdf) { pdf_ = pdf; }
   const std::vector<std::string>& outputs() const { return outputs_; }
   const std::vector<std::string>& pdf_outputs() const { return pdf_outputs_; }
-  std::string text() const { return text_; }
+  // The whole script, datablocks and plots in the order they were added.
+  std::string text() const;
+  // The plots dealt into at most `parts` scripts (none empty) of about equal
+  // work, each holding the datablocks its plots name ($name) and its plots
+  // in their original order. Work is counted as the bytes of data a plot
+  // reads plus a fixed cost per plot; the split is deterministic.
+  std::vector<std::string> split(std::size_t parts) const;
 
  private:
-  std::string text_;
+  struct Datablock {
+    std::string name;
+    std::string text;  // "$name << EOD ... EOD"
+  };
+  struct Plot {
+    std::string text;                  // reset ... unset output
+    std::vector<std::size_t> blocks;   // indices into blocks_ it names
+  };
+  std::vector<Datablock> blocks_;
+  std::vector<Plot> plots_;
+  // Order of everything added: (is_plot, index) pairs, for text().
+  std::vector<std::pair<bool, std::size_t>> order_;
   std::vector<std::string> outputs_;
   std::vector<std::string> pdf_outputs_;
   bool pdf_ = false;
 };
 
-// Runs the script in a staging directory inside `dir`, then moves the
-// figures and the script (plots.gp) into `dir`: all of them, or none when
-// gnuplot fails or an SVG is missing or truncated (DataError with gnuplot's
-// own messages).
+// Runs the script in a staging directory inside `dir`, split over `jobs`
+// gnuplot processes at once (0: one per core; never more than there are
+// plots), then moves the figures and the whole script (plots.gp) into `dir`:
+// all of them, or none when any gnuplot fails or an SVG is missing or
+// truncated (DataError with gnuplot's own messages). The figures are the same
+// bytes whatever `jobs` is.
 void run_gnuplot(const GnuplotScript& script, const std::filesystem::path& dir,
-                 const std::filesystem::path& gnuplot);
+                 const std::filesystem::path& gnuplot, std::size_t jobs = 0);
 
 // The <svg> element of a gnuplot SVG file without the XML prolog, ready to
 // sit inside HTML, with every id (gnuplot_canvas, the point symbols gpPt0...)

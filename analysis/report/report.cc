@@ -896,7 +896,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
     const std::string key = abbreviation_key(a.settings);
     for (auto& s : sections)
       if (!s.figures.empty() && !key.empty()) s.intro += (s.intro.empty() ? "" : " ") + key;
-    run_gnuplot(figures.script(), out_dir / "figures", gnuplot);
+    run_gnuplot(figures.script(), out_dir / "figures", gnuplot, options.plot_jobs);
     for (const auto& s : sections)
       for (const auto& f : s.figures) files.figures.push_back(out_dir / f.file);
   }

@@ -5,7 +5,7 @@
 // Tables laid out like the thesis' Tables 3.4–3.7 plus the whole-design test
 // and the Appendix I KS intervals; figures like Figures 3-4 to 3-17 and the
 // Appendix I plots (list in docs/analysis.md). Figures are drawn by gnuplot
-// (report/gnuplot.h) in one run.
+// (report/gnuplot.h), split over a few gnuplot processes that run at once.
 #include <cstddef>
 #include <filesystem>
 #include <vector>
@@ -20,6 +20,7 @@ struct ReportOptions {
   double correlation_plot_min_abs_r = 0.45;  // the thesis reported |R| > 0.45 (3.4.2.2)
   std::size_t cdf_curve_points = 101;        // points per drawn CDF curve, >= 2
   bool pdf = false;  // also each figure as figures/NAME.pdf (for a paper)
+  std::size_t plot_jobs = 0;  // gnuplot processes drawing at once (0: one per core); same figures either way
 };
 
 struct ReportFiles {

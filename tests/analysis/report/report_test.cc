@@ -24,6 +24,7 @@ namespace hapticlab::analysis {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 std::string slurp(const std::filesystem::path& p) {
   std::ifstream in(p);
@@ -128,6 +129,29 @@ TEST_F(ReportTest, PairwiseTableCellsAreTheAnalysisResults) {
   EXPECT_EQ(checked, 5);
 }
 
+// Figures drawn by one gnuplot and by three at once are the same bytes: no
+// plot leans on state an earlier plot left behind.
+TEST_F(ReportTest, FiguresAreTheSameWhateverTheNumberOfGnuplots) {
+  try {
+    (void)find_gnuplot();
+  } catch (const DataError& e) {
+    GTEST_SKIP() << e.what();
+  }
+  ReportOptions one;
+  one.plot_jobs = 1;
+  ReportOptions three;
+  three.plot_jobs = 3;
+  const ReportFiles a = write_report(analysis_, dir_.path() / "one", one);
+  const ReportFiles b = write_report(analysis_, dir_.path() / "three", three);
+  ASSERT_EQ(a.figures.size(), b.figures.size());
+  ASSERT_GE(a.figures.size(), 4u);
+  for (std::size_t i = 0; i < a.figures.size(); ++i) {
+    EXPECT_EQ(a.figures[i].filename(), b.figures[i].filename());
+    EXPECT_EQ(slurp(a.figures[i]), slurp(b.figures[i])) << a.figures[i];
+  }
+  EXPECT_EQ(slurp(dir_.path() / "one" / "figures" / "plots.gp"), slurp(dir_.path() / "three" / "figures" / "plots.gp"));
+}
+
 // Every figure the report lists exists as an SVG, sits inline in the HTML
 // (nothing external to load) and is linked from the Markdown.
 TEST_F(ReportTest, FiguresInlineInHtmlAndLinkedFromMarkdown) {
@@ -213,6 +237,51 @@ TEST(GnuplotTest, QuotesAndScript) {
   EXPECT_THAT(s.text(), HasSubstr("$d0 << EOD\n1 2\nEOD\n"));
   EXPECT_THAT(s.text(), HasSubstr("set output \"x.svg\""));
   EXPECT_EQ(s.outputs(), (std::vector<std::string>{"x.svg"}));
+}
+
+// Split over parts: every plot lands in exactly one part, in its original
+// order, with the datablocks it names and no other ($d1 is not $d10).
+TEST(GnuplotTest, SplitGivesEachPartOnlyTheDataItsPlotsName) {
+  GnuplotScript s;
+  s.add_datablock("d1", "1 1\n");
+  s.add_datablock("d10", std::string(50000, '7') + "\n");  // heavy: its plot gets a part of its own
+  s.add_plot("a.svg", "plot $d1 with points");
+  s.add_plot("b.svg", "plot $d10 with points");
+  s.add_plot("c.svg", "plot $d1 with lines");
+  const auto parts = s.split(2);
+  ASSERT_EQ(parts.size(), 2u);
+  const std::string& heavy = parts[0].find("b.svg") != std::string::npos ? parts[0] : parts[1];
+  const std::string& light = &heavy == &parts[0] ? parts[1] : parts[0];
+  EXPECT_THAT(heavy, HasSubstr("$d10 << EOD"));
+  EXPECT_THAT(heavy, Not(HasSubstr("$d1 << EOD")));
+  EXPECT_THAT(light, HasSubstr("$d1 << EOD"));
+  EXPECT_THAT(light, Not(HasSubstr("$d10 << EOD")));
+  EXPECT_LT(light.find("a.svg"), light.find("c.svg"));
+  EXPECT_EQ(s.split(1).size(), 1u);
+  EXPECT_EQ(s.split(1)[0], s.text());
+  EXPECT_EQ(s.split(99).size(), 3u);  // never more parts than plots
+}
+
+// One gnuplot error in any part: nothing reaches the figures directory, and
+// the message is gnuplot's own.
+TEST(GnuplotTest, AFailingPartLeavesNoFigure) {
+  std::filesystem::path gnuplot;
+  try {
+    gnuplot = find_gnuplot();
+  } catch (const DataError& e) {
+    GTEST_SKIP() << e.what();
+  }
+  const auto dir = std::filesystem::temp_directory_path() / ("gp_fail_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  GnuplotScript s;
+  for (int i = 0; i < 4; ++i) s.add_plot("ok" + std::to_string(i) + ".svg", "plot x");
+  s.add_plot("bad.svg", "plot $no_such_block with lines");
+  EXPECT_THAT([&] { run_gnuplot(s, dir, gnuplot, 3); },
+              ::testing::ThrowsMessage<DataError>(HasSubstr("no_such_block")));
+  std::vector<std::string> left;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) left.push_back(e.path().filename().string());
+  std::filesystem::remove_all(dir);
+  EXPECT_TRUE(left.empty()) << left.size() << " files left, first " << (left.empty() ? "" : left[0]);
 }
 
 // Ids and the references to them get the prefix; names that merely end in
