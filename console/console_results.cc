@@ -1,6 +1,5 @@
 #include "console/console_results.h"
 
-#include <cctype>
 #include <exception>
 #include <stdexcept>
 
@@ -8,6 +7,9 @@
 #include "analysis/report/report.h"
 #include "analysis/study/metrics_csv.h"
 #include "analysis/study/study_analysis.h"
+#include "console/served_file.h"
+#include "db/export_csv.h"
+#include "db/study_db.h"
 
 namespace hapticlab::console {
 
@@ -18,13 +20,74 @@ ConsoleResults::~ConsoleResults() {
   if (thread_.joinable()) thread_.join();
 }
 
-void ConsoleResults::start(bool plots) {
-  std::lock_guard lock(mutex_);
-  if (state_ == "running") throw std::invalid_argument("an analysis is running; wait for it");
+void ConsoleResults::begin(const char* job) {
+  if (state_ == "running") throw std::invalid_argument("the " + job_ + " is running; wait for it");
   if (thread_.joinable()) thread_.join();
+  job_ = job;
   state_ = "running";
   message_.clear();
+}
+
+void ConsoleResults::finish(std::string state, std::string message) {
+  std::lock_guard lock(mutex_);
+  state_ = std::move(state);
+  message_ = std::move(message);
+}
+
+void ConsoleResults::start(bool plots) {
+  std::lock_guard lock(mutex_);
+  begin("analysis");
   thread_ = std::thread(&ConsoleResults::run, this, plots);
+}
+
+void ConsoleResults::start_export(const std::string& participant, std::uint64_t every, bool gzip) {
+  if (every < 1 || every > 1000000) throw std::invalid_argument("every: " + std::to_string(every) + ", must be 1..1000000");
+  std::lock_guard lock(mutex_);
+  begin("export");
+  exported_.clear();
+  thread_ = std::thread(&ConsoleResults::run_export, this, participant, every, gzip);
+}
+
+void ConsoleResults::run_export(std::string participant, std::uint64_t every, bool gzip) {
+  std::string state = "done", message;
+  std::vector<std::string> names;
+  try {
+    // As `hapticlab export`: read-only, no recovery (a session may be
+    // running a trial right now), the full integrity check.
+    db::OpenOptions options;
+    options.read_only = true;
+    options.recover = false;
+    options.integrity = db::OpenOptions::Integrity::kFull;
+    db::StudyDb db(db_, options);
+    const std::vector<db::StudyRow> studies = db.studies();
+    if (studies.empty()) throw std::runtime_error(db_.string() + " holds no study");
+    db::ExportSelection selection;
+    selection.one_file = true;
+    selection.gzip = gzip;
+    selection.every = every;
+    if (!participant.empty()) selection.participants.insert(participant);
+    const std::filesystem::path dir = out_dir_ / "exports";
+    std::filesystem::remove_all(dir);  // an older export's files must not pass for this one's
+    std::vector<db::BadChunk> bad;
+    const auto files = db::export_study_csv(db, studies.front().id, dir, &bad, selection);
+    for (const auto& f : files) names.push_back("exports/" + f.filename().string());
+    message = std::to_string(files.size()) + " files" + (participant.empty() ? "" : " (" + participant + ")") +
+              (every > 1 ? ", every " + std::to_string(every) + "th update" : "");
+    if (!bad.empty()) {
+      std::uint64_t updates = 0;
+      for (const db::BadChunk& c : bad) updates += c.count;
+      message += "; " + std::to_string(bad.size()) + " damaged sample chunk(s) (" + std::to_string(updates) +
+                 " updates) left out: `hapticlab study check` lists them";
+    }
+  } catch (const std::exception& e) {
+    state = "failed";
+    message = e.what();
+  }
+  {
+    std::lock_guard lock(mutex_);
+    exported_ = names;
+  }
+  finish(state, message);
 }
 
 void ConsoleResults::run(bool plots) {
@@ -47,34 +110,23 @@ void ConsoleResults::run(bool plots) {
     state = "failed";
     message = e.what();
   }
-  std::lock_guard lock(mutex_);
-  state_ = state;
-  message_ = message;
+  finish(state, message);
 }
 
 nlohmann::json ConsoleResults::status() const {
   std::lock_guard lock(mutex_);
   nlohmann::json files = nlohmann::json::array();
-  if (state_ != "running")
+  if (state_ != "running") {
     for (const char* name : {"report.html", "report.md", "metrics.csv"})
       if (std::filesystem::is_regular_file(out_dir_ / name)) files.push_back(name);
-  return {{"state", state_}, {"message", message_}, {"files", files}, {"folder", out_dir_.string()}};
+    for (const std::string& name : exported_)
+      if (std::filesystem::is_regular_file(out_dir_ / name)) files.push_back(name);
+  }
+  return {{"job", job_}, {"state", state_}, {"message", message_}, {"files", files}, {"folder", out_dir_.string()}};
 }
 
 std::optional<std::filesystem::path> ConsoleResults::file(const std::string& name) const {
-  // NAME or figures/NAME, NAME of letters, digits, '_', '-', '.', not
-  // starting with '.' and without "..".
-  const std::string base = name.starts_with("figures/") ? name.substr(8) : name;
-  if (base.empty() || base.front() == '.' || name.find("..") != std::string::npos) return std::nullopt;
-  for (const char c : base)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.') return std::nullopt;
-  std::error_code ec;
-  const std::filesystem::path root = std::filesystem::weakly_canonical(out_dir_, ec);
-  const std::filesystem::path p = std::filesystem::weakly_canonical(out_dir_ / name, ec);
-  if (ec || !std::filesystem::is_regular_file(p)) return std::nullopt;
-  const auto rel = p.lexically_relative(root);
-  if (rel.empty() || *rel.begin() == "..") return std::nullopt;  // a link that leads out
-  return p;
+  return served_file(out_dir_, name);
 }
 
 }  // namespace hapticlab::console

@@ -1,13 +1,16 @@
 #pragma once
 // The console's Results page: `hapticlab analyze` run on the study from the
-// browser (on a thread of its own; the tables and figures of the report), and
-// its files served for download from one folder, never outside it.
+// browser (on a thread of its own; the tables and figures of the report),
+// `hapticlab export` of the samples likewise (into exports/), and the files
+// served for download from one folder, never outside it. One job at a time.
 
+#include <cstdint>
 #include <filesystem>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -21,8 +24,13 @@ class ConsoleResults {
   ConsoleResults(const ConsoleResults&) = delete;
   ConsoleResults& operator=(const ConsoleResults&) = delete;
 
-  // Starts the analysis; throws std::invalid_argument while one runs.
+  // Starts the analysis; throws std::invalid_argument while a job runs.
   void start(bool plots);
+  // Starts a sample export into out_dir/exports (emptied first), as
+  // `hapticlab export --one-file [--gzip] [--every N] [--participant P]`
+  // (every started trial; `participant` empty: all). Throws
+  // std::invalid_argument while a job runs.
+  void start_export(const std::string& participant, std::uint64_t every, bool gzip);
   nlohmann::json status() const;  // state, message, the files there are
   // The file `name` names inside out_dir ("report.html", "figures/x.svg"),
   // or nothing when the name is not one of a plain file in it (no "..", no
@@ -31,12 +39,17 @@ class ConsoleResults {
 
  private:
   void run(bool plots);
+  void run_export(std::string participant, std::uint64_t every, bool gzip);
+  void begin(const char* job);  // caller holds mutex_
+  void finish(std::string state, std::string message);
 
   const std::filesystem::path db_, out_dir_;
   mutable std::mutex mutex_;
   std::thread thread_;
+  std::string job_;              // "analysis" or "export": the last one started
   std::string state_ = "idle";  // idle, running, done, failed
   std::string message_;
+  std::vector<std::string> exported_;  // files of the last export, relative to out_dir
 };
 
 }  // namespace hapticlab::console

@@ -1,8 +1,8 @@
 #pragma once
 // `hapticlab console`: the operator's web console for one study database,
 // served over HTTP by cpp-httplib (pages embedded in the binary, so it works
-// offline). Pages: / (study, session controls, live plots; the operator's
-// view, which names settings) and /participant (the participant's screen:
+// offline). Pages: / (study, session controls, live plots, tuning, results;
+// the operator's view, which names settings) and /participant (the participant's screen:
 // trial k of N, a ready/go/done cue, the task's instructions; never a
 // setting). Read-only requests need nothing; every control (POST /api/...)
 // needs the token in the X-HapticLab-Token header (a header, not a cookie:

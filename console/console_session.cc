@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <stdexcept>
 
@@ -12,8 +13,6 @@ namespace {
 double wall_now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
-
-float norm(const Vec3& v) { return static_cast<float>(std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])); }
 
 const char* phase_name(sessions::SessionProgress::Phase p) {
   switch (p) {
@@ -26,7 +25,13 @@ const char* phase_name(sessions::SessionProgress::Phase p) {
 
 }  // namespace
 
-ConsoleSession::ConsoleSession(ConsoleSessionConfig config) : config_(std::move(config)) {}
+ConsoleSession::ConsoleSession(ConsoleSessionConfig config)
+    : config_(std::move(config)), live_(config_.live_rate_Hz, config_.live_window_s) {}
+
+bool ConsoleSession::running() const {
+  std::lock_guard lock(mutex_);
+  return running_;
+}
 
 ConsoleSession::~ConsoleSession() {
   stop_.store(true);
@@ -47,9 +52,10 @@ void ConsoleSession::start(const std::string& participant, bool step) {
   last_finished_.reset();
   result_.reset();
   error_.clear();
-  live_ = {};
-  next_live_t_s_ = {0.0, 0.0};
+  live_.clear();
   running_ = true;
+  rest_until_wall_s_.reset();
+  rest_after_trial_s_.reset();
   participant_ = participant;
   thread_ = std::thread(&ConsoleSession::run, this, participant);
 }
@@ -71,8 +77,35 @@ void ConsoleSession::next_trial() {
 }
 
 void ConsoleSession::set_paused(bool paused) {
+  {
+    std::lock_guard lock(mutex_);
+    rest_until_wall_s_.reset();
+    rest_after_trial_s_.reset();
+  }
   paused_.store(paused);
   log_action(paused ? "operator_pause" : "operator_resume", "");
+}
+
+void ConsoleSession::rest(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 1.0 || seconds > 3600.0)
+    throw std::invalid_argument("rest: seconds is " + std::to_string(seconds) + ", must be 1..3600");
+  {
+    std::lock_guard lock(mutex_);
+    if (!running_) throw std::invalid_argument("rest: no session is running");
+    if (progress_ && progress_->phase != sessions::SessionProgress::Phase::kTrialFinished)
+      rest_after_trial_s_ = seconds;  // the countdown starts when the trial (or training) ends
+    else
+      rest_until_wall_s_ = wall_now_s() + seconds;
+  }
+  paused_.store(true);
+  char detail[32];
+  std::snprintf(detail, sizeof detail, "%.0f s", seconds);
+  log_action("operator_rest", detail);
+}
+
+std::optional<double> ConsoleSession::rest_left_s() const {
+  if (!rest_until_wall_s_ || !paused_.load()) return std::nullopt;
+  return std::max(0.0, *rest_until_wall_s_ - wall_now_s());
 }
 
 void ConsoleSession::end_training() {
@@ -111,7 +144,15 @@ void ConsoleSession::run(std::string participant) {
   options.stop = &stop_;
   options.training_ends = &training_ends_;
   options.hold_before_trial = [this] {
-    if (paused_.load()) return true;
+    if (paused_.load()) {
+      std::lock_guard lock(mutex_);
+      const std::optional<double> left = rest_left_s();
+      if (!left || *left > 0.0) return true;
+      // The rest is over: the session goes on by itself, logged as a resume.
+      rest_until_wall_s_.reset();
+      paused_.store(false);
+      pending_actions_.push_back({"operator_resume", "rest over", false});
+    }
     if (step_.load() && allowed_trials_.load() <= started_trials_.load()) return true;
     return false;
   };
@@ -125,12 +166,14 @@ void ConsoleSession::run(std::string participant) {
     if (p.phase == sessions::SessionProgress::Phase::kTrialStarted) {
       started_trials_.fetch_add(1);
       trial_started_wall_s_ = wall_now_s();
-      live_ = {};
-      next_live_t_s_ = {0.0, 0.0};
+      live_.clear();
       loop_status_.reset();
-      newest_observed_t_s_ = 0.0;
     }
-    if (p.phase == sessions::SessionProgress::Phase::kTrialFinished) last_finished_ = p;
+    if (p.phase == sessions::SessionProgress::Phase::kTrialFinished) {
+      last_finished_ = p;
+      if (rest_after_trial_s_) rest_until_wall_s_ = wall_now_s() + *rest_after_trial_s_;
+      rest_after_trial_s_.reset();
+    }
     progress_ = p;
   };
   options.on_loop_status = [this](const sessions::LoopStatus& status) {
@@ -138,21 +181,9 @@ void ConsoleSession::run(std::string participant) {
     loop_status_ = status;
   };
   // On the writer's thread: keep one point per 1/live_rate_Hz of loop time.
-  const double step_s = 1.0 / config_.live_rate_Hz;
-  options.writer.observe = [this, step_s](std::span<const LoopSample> batch) {
+  options.writer.observe = [this](std::span<const LoopSample> batch) {
     std::lock_guard lock(mutex_);
-    for (const LoopSample& s : batch) {
-      newest_observed_t_s_ = s.t_s;
-      for (std::size_t k = 0; k < 2; ++k) {
-        if (s.t_s < next_live_t_s_[k]) continue;
-        next_live_t_s_[k] = s.t_s + step_s;
-        const InstrumentSample& v = s.instrument[k];
-        live_[k].push_back({s.t_s, norm(v.ve_force_N), norm(v.displayed_force_N),
-                            static_cast<float>(v.degraded_position[0]), static_cast<float>(v.degraded_position[1]),
-                            static_cast<float>(v.degraded_position[2])});
-        while (!live_[k].empty() && live_[k].front().t_s < s.t_s - config_.live_window_s) live_[k].pop_front();
-      }
-    }
+    live_.add(batch);
   };
   std::optional<sessions::SessionResult> result;
   std::string error;
@@ -171,6 +202,8 @@ nlohmann::json ConsoleSession::operator_status() const {
   std::lock_guard lock(mutex_);
   nlohmann::json j = {{"running", running_}, {"participant", participant_}, {"paused", paused_.load()},
                       {"step", step_.load()}, {"error", error_}};
+  if (const auto left = rest_left_s(); left && running_) j["rest_left_s"] = std::ceil(*left);
+  if (rest_after_trial_s_ && running_) j["rest_after_trial_s"] = *rest_after_trial_s_;
   if (progress_) {
     const auto& p = *progress_;
     j["phase"] = phase_name(p.phase);
@@ -193,7 +226,7 @@ nlohmann::json ConsoleSession::operator_status() const {
                  {"overruns", l.timing.overruns},
                  {"dropped_samples", l.dropped_samples},
                  // How far the writer's newest drained sample is behind the loop.
-                 {"writer_lag_s", std::max(0.0, l.elapsed_s - newest_observed_t_s_)}};
+                 {"writer_lag_s", std::max(0.0, l.elapsed_s - live_.newest_t_s())}};
   }
   if (last_finished_) {
     j["last_trial_number"] = last_finished_->trial_number;
@@ -226,16 +259,13 @@ nlohmann::json ConsoleSession::participant_status() const {
   else if (p.phase == Phase::kTrialStarted) j["cue"] = "go";
   else if (p.phase == Phase::kTraining) j["cue"] = "practice";
   else j["cue"] = paused_.load() ? "rest" : "ready";
+  if (const auto left = rest_left_s(); left && running_ && j["cue"] == "rest") j["rest_left_s"] = std::ceil(*left);
   return j;
 }
 
 std::array<std::vector<LivePoint>, 2> ConsoleSession::live_since(double after_t_s) const {
   std::lock_guard lock(mutex_);
-  std::array<std::vector<LivePoint>, 2> out;
-  for (std::size_t k = 0; k < 2; ++k)
-    for (const LivePoint& p : live_[k])
-      if (p.t_s > after_t_s) out[k].push_back(p);
-  return out;
+  return live_.since(after_t_s);
 }
 
 }  // namespace hapticlab::console

@@ -9,7 +9,6 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
-#include <deque>
 #include <filesystem>
 #include <mutex>
 #include <optional>
@@ -19,18 +18,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "console/live_buffer.h"
 #include "core/device/device_spec.h"
 #include "sessions/session_runner.h"
 
 namespace hapticlab::console {
-
-// One point of the live plots: an instrument's state at one update.
-struct LivePoint {
-  double t_s = 0.0;              // loop time
-  float tip_force_N = 0.0f;      // |VE force at the tip|
-  float displayed_force_N = 0.0f;  // |force displayed to the hand|
-  float insertion_m = 0.0f, pitch_rad = 0.0f, yaw_rad = 0.0f;
-};
 
 struct ConsoleSessionConfig {
   std::filesystem::path db;
@@ -55,7 +47,12 @@ class ConsoleSession {
   void start(const std::string& participant, bool step);
   void stop();                      // STOP: aborts the trial (re-queued), ends the session
   void next_trial();                // lets the next trial start (step mode)
-  void set_paused(bool paused);     // holds the session before its next trial
+  void set_paused(bool paused);     // holds the session before its next trial (resume also ends a rest)
+  // A timed pause: holds the session before its next trial for `seconds`
+  // (1..3600, else std::invalid_argument), counted down on the participant
+  // screen; the session goes on by itself when it is over. Asked for during
+  // a trial, the rest starts when that trial ends.
+  void rest(double seconds);
   void end_training();
   // Re-queued; the session goes on. Throws std::invalid_argument when no
   // trial is running.
@@ -70,10 +67,13 @@ class ConsoleSession {
   nlohmann::json participant_status() const;
   // Live points of each instrument with loop time > after_t_s.
   std::array<std::vector<LivePoint>, 2> live_since(double after_t_s) const;
+  bool running() const;
 
  private:
   void run(std::string participant);
   void log_action(std::string type, std::string detail, bool abort = false);
+  // Seconds left of a timed rest, nullopt when none runs. Caller holds mutex_.
+  std::optional<double> rest_left_s() const;
 
   const ConsoleSessionConfig config_;
   mutable std::mutex mutex_;  // guards everything below except the atomics
@@ -84,6 +84,8 @@ class ConsoleSession {
   std::atomic<int> allowed_trials_{0};  // step mode: trials the operator let start
   std::atomic<int> started_trials_{0};
   std::atomic<int> training_ends_{0};
+  std::optional<double> rest_until_wall_s_;  // a timed rest runs until then (steady clock)
+  std::optional<double> rest_after_trial_s_;  // asked for during a trial: starts when it ends
   std::vector<sessions::OperatorEvent> pending_actions_;
   bool running_ = false;
   std::string participant_;
@@ -93,9 +95,7 @@ class ConsoleSession {
   std::string error_;
   double trial_started_wall_s_ = 0.0;
   std::optional<sessions::LoopStatus> loop_status_;
-  double newest_observed_t_s_ = 0.0;  // the newest sample the writer drained (loop time)
-  std::array<std::deque<LivePoint>, 2> live_;
-  std::array<double, 2> next_live_t_s_{0.0, 0.0};
+  LiveBuffer live_;  // also knows the newest sample the writer drained
 };
 
 }  // namespace hapticlab::console

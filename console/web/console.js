@@ -31,6 +31,7 @@ $("start").addEventListener("click", () => control("start", { participant: $("pa
 $("next").addEventListener("click", () => control("next"));
 $("pause").addEventListener("click", () => control("pause", { paused: true }));
 $("resume").addEventListener("click", () => control("pause", { paused: false }));
+$("rest").addEventListener("click", () => control("rest", { seconds: Number($("rest-s").value) }));
 $("end-training").addEventListener("click", () => control("end-training"));
 $("abort").addEventListener("click", () => control("abort", { reason: $("reason").value }));
 $("add-note").addEventListener("click", async () => { if (await control("note", { text: $("note").value })) $("note").value = ""; });
@@ -41,7 +42,10 @@ async function refreshStudy() {
   try {
     const j = await (await fetch("/api/study")).json();
     const select = $("participant");
-    if (!select.options.length) for (const p of j.participants) select.add(new Option(p.code, p.code));
+    if (!select.options.length) for (const p of j.participants) {
+      select.add(new Option(p.code, p.code));
+      $("export-participant").add(new Option(p.code, p.code));
+    }
     let html = "";
     for (const p of j.participants) {
       html += `<h3>${text(p.code)}: ${p.complete} of ${p.scheduled} complete, ${p.aborted} aborted, ${p.to_do} to do</h3><table><tr><th>#</th><th>task</th><th>setting</th><th>rep</th><th>status</th><th>reason</th></tr>`;
@@ -60,7 +64,8 @@ function describe(s) {
   let h = `<b>${text(s.participant)}</b> — ${s.running ? text(s.phase || "starting") : "session ended"}`;
   if (s.trial_number) h += ` — trial ${s.trial_number} of ${s.trial_count}: ${text(s.task)}, rep ${s.repetition}, setting <b>${text(s.setting)}</b>`;
   if (s.trial_elapsed_wall_s !== undefined) h += ` — ${s.trial_elapsed_wall_s.toFixed(1)} s`;
-  if (s.paused) h += " — <b>paused</b>";
+  if (s.paused) h += s.rest_left_s !== undefined ? ` — <b>rest</b>, ${s.rest_left_s} s left` : " — <b>paused</b>";
+  if (s.rest_after_trial_s !== undefined) h += ` — rest of ${s.rest_after_trial_s} s after this trial`;
   if (s.time_left_s !== undefined) h += ` — about ${Math.round(s.time_left_s / 60)} min left`;
   if (s.last_status) h += `<br>last trial: ${text(s.last_status)} ${text(s.last_abort_reason || "")}`;
   if (s.result) h += `<br>result: ${s.result.trials_complete} complete, ${s.result.trials_aborted} aborted, ${s.result.trials_left} left` + (s.result.stopped_by_operator ? " (stopped by the operator)" : "");
@@ -69,26 +74,45 @@ function describe(s) {
   return h;
 }
 
-const charts = [0, 1].map((k) => typeof Chart === "undefined" ? null : new Chart($("plot" + k), {
-  type: "line",
-  data: { datasets: ["tip force N", "displayed force N", "insertion m", "pitch rad", "yaw rad"].map((label, i) => ({
-    label, data: [], borderWidth: 1, pointRadius: 0, yAxisID: i < 2 ? "y" : "y1",
-    borderColor: ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#56B4E9"][i] })) },
-  options: { animation: false, parsing: false, normalized: true,
-    plugins: { title: { display: true, text: k === 0 ? "Left instrument" : "Right instrument" } },
-    scales: { x: { type: "linear", title: { display: true, text: "loop time s" } },
-              y: { position: "left", title: { display: true, text: "N" } },
-              y1: { position: "right", grid: { drawOnChartArea: false } } } },
-}));
+// A live plot of one instrument (Chart.js), or null without Chart.js.
+function makeChart(canvasId, title) {
+  if (typeof Chart === "undefined") return null;
+  return new Chart($(canvasId), {
+    type: "line",
+    data: { datasets: ["tip force N", "displayed force N", "insertion m", "pitch rad", "yaw rad"].map((label, i) => ({
+      label, data: [], borderWidth: 1, pointRadius: 0, yAxisID: i < 2 ? "y" : "y1",
+      borderColor: ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#56B4E9"][i] })) },
+    options: { animation: false, parsing: false, normalized: true,
+      plugins: { title: { display: true, text: title } },
+      scales: { x: { type: "linear", title: { display: true, text: "loop time s" } },
+                y: { position: "left", title: { display: true, text: "N" } },
+                y1: { position: "right", grid: { drawOnChartArea: false } } } },
+  });
+}
+// Appends [t, tip, displayed, insertion, pitch, yaw] points; keeps the last 10 s.
+function addPoints(chart, points) {
+  if (!chart || !points.length) return;
+  for (const p of points) chart.data.datasets.forEach((d, i) => d.data.push({ x: p[0], y: p[i + 1] }));
+  const newest = points[points.length - 1][0];
+  chart.data.datasets.forEach((d) => { while (d.data.length && d.data[0].x < newest - 10) d.data.shift(); });
+  chart.update("none");
+}
+const clearChart = (chart) => chart && chart.data.datasets.forEach((d) => (d.data = []));
+const charts = [makeChart("plot0", "Left instrument"), makeChart("plot1", "Right instrument")];
 if (!charts[0]) $("live-status").textContent = "Chart.js not found (apt install libjs-chart.js): numbers only.";
 
 $("analyze").addEventListener("click", async () => { await post("/api/results/analyze", {}); refreshResults(); });
+$("export").addEventListener("click", async () => {
+  await post("/api/results/export", { participant: $("export-participant").value, every: Number($("export-every").value),
+                                      gzip: $("export-gzip").checked });
+  refreshResults();
+});
 let shownReport = "";
 async function refreshResults() {
   const r = await (await fetch("/api/results")).json();
-  $("results-state").textContent = `${r.state}${r.message ? ": " + r.message : ""}`;
+  $("results-state").textContent = `${r.job || ""} ${r.state}${r.message ? ": " + r.message : ""}`;
   $("downloads").innerHTML = r.files.map((f) => ` <a href="/results/${f}" download>${f}</a>`).join("");
-  if (r.state === "done" && r.files.includes("report.html") && shownReport !== r.message) {
+  if (r.state === "done" && r.job === "analysis" && r.files.includes("report.html") && shownReport !== r.message) {
     shownReport = r.message;
     $("report").src = "/results/report.html?" + Date.now();
     $("report").style.display = "block";
@@ -105,16 +129,11 @@ live.onmessage = (ev) => {
   $("status").innerHTML = describe(j.status);
   if (j.status.trial_number !== lastTrial) {
     lastTrial = j.status.trial_number;
-    charts.forEach((c) => c && c.data.datasets.forEach((d) => (d.data = [])));
+    charts.forEach(clearChart);
   }
   j.instruments.forEach((points, k) => {
     window.hapticlab.livePoints += points.length;
-    const c = charts[k];
-    if (!c || !points.length) return;
-    for (const p of points) c.data.datasets.forEach((d, i) => d.data.push({ x: p[0], y: p[i + 1] }));
-    const newest = points[points.length - 1][0];
-    c.data.datasets.forEach((d) => { while (d.data.length && d.data[0].x < newest - 10) d.data.shift(); });
-    c.update("none");
+    addPoints(charts[k], points);
   });
   const s = j.status;
   $("live-status").innerHTML = s.running ? describe(s) + `<br>points received: ${window.hapticlab.livePoints}` : "No trial running.";

@@ -339,25 +339,28 @@ void validate_settings(const EngineSettings& settings) {
 
 namespace hapticlab {
 
-std::string settings_reference_markdown() {
+std::vector<SettingsFieldInfo> settings_field_reference() {
   EngineSettings s;
-  std::ostringstream md;
-  md << "| field | default | allowed |\n| --- | --- | --- |\n";
-  auto rows = [&md](const std::string& prefix, const std::vector<Block>& blocks) {
-    for (const Block& b : blocks) {
-      for (const Field& f : b.fields) {
-        md << "| `" << prefix << b.name << "." << f.key << "` | " << format_number(f.default_value)
-           << " | " << (f.lo_exclusive ? "> " : ">= ") << format_number(f.lo) << ", <= "
-           << format_number(f.hi) << " |\n";
-      }
-    }
+  std::vector<SettingsFieldInfo> out;
+  auto rows = [&out](const std::string& prefix, const std::vector<Block>& blocks) {
+    for (const Block& b : blocks)
+      for (const Field& f : b.fields) out.push_back({prefix + b.name + "." + f.key, f.default_value, f.lo, f.hi, f.lo_exclusive});
   };
   rows("translation.", axis_blocks(AxisKind::kTranslation, s.translation));
   rows("rotation.", axis_blocks(AxisKind::kRotation, s.rotation));
   rows("", engine_blocks(s));
   const Field arm = moment_arm_field(s);
-  md << "| `" << arm.key << "` | " << format_number(arm.default_value) << " | >= "
-     << format_number(arm.lo) << ", <= " << format_number(arm.hi) << " |\n";
+  out.push_back({arm.key, arm.default_value, arm.lo, arm.hi, arm.lo_exclusive});
+  return out;
+}
+
+std::string settings_reference_markdown() {
+  std::ostringstream md;
+  md << "| field | default | allowed |\n| --- | --- | --- |\n";
+  for (const SettingsFieldInfo& f : settings_field_reference()) {
+    md << "| `" << f.path << "` | " << format_number(f.default_value) << " | " << (f.lo_exclusive ? "> " : ">= ")
+       << format_number(f.lo) << ", <= " << format_number(f.hi) << " |\n";
+  }
   return md.str();
 }
 

@@ -17,6 +17,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -46,6 +47,16 @@ nlohmann::json settings_to_json(const NamedSettings& s);
 
 // Checks settings built in code against the same ranges the loader uses.
 void validate_settings(const EngineSettings& s);
+
+// Every numeric field with its default and allowed range, from the same
+// table the loader uses: what a slider may offer (the console's tuning page).
+struct SettingsFieldInfo {
+  std::string path;  // e.g. "translation.friction.dynamic_level_N"
+  double default_value = 0.0;
+  double lo = 0.0, hi = 0.0;  // allowed: lo <= v (lo < v when lo_exclusive), v <= hi
+  bool lo_exclusive = false;
+};
+std::vector<SettingsFieldInfo> settings_field_reference();
 
 // Markdown table of every field with its default and allowed range, made
 // from the same table the loader uses (docs/settings.md embeds it).

@@ -135,6 +135,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
   }
   while (loop.running()) {
     drain();
+    if (sink.between_drains && !sink.between_drains(rig)) loop.request_stop();
     std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   loop.join();

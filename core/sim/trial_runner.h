@@ -109,6 +109,12 @@ class SimRig {
 struct SimTrialSink {
   std::function<void(const LoopSample&)> on_sample;
   std::function<void(const TaskEvent&)> on_event;
+  // Called on the caller's thread after each drain while the loop runs
+  // (every few hundred microseconds): the place to hand the engine new
+  // settings (rig.engine().set_settings; they apply between two updates) or
+  // to read the loop's timing. Returning false asks the loop to stop (zero
+  // force, as any stop).
+  std::function<bool(SimRig&)> between_drains;
 };
 
 // Throws std::invalid_argument (rate, durations) or SettingsError before any

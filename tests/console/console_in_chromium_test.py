@@ -7,13 +7,21 @@ binary and a real study database:
   goes on; STOP ends the session, its trial aborted and re-queued;
 - the participant screen (its HTML, its script, the events it receives)
   names no setting;
-- a control without the token, or with a wrong one, is refused (403).
+- a control without the token, or with a wrong one, is refused (403);
+- a timed rest between trials counts down on the participant screen, and
+  the session goes on by itself when it is over;
+- the samples exported from the Results page download and read back;
+- the Tuning page: a free trial with live plots, slider changes checked
+  against the documented ranges and logged, a refused value, a saved
+  settings file that `hapticlab settings check` accepts, and a session that
+  cannot start while the free trial drives the device.
 
 Screenshots of each page go to WORK_DIR/shots (docs/console.md shows them).
 Exit 77 (ctest: skipped) when Chromium or Selenium is missing.
 
 usage: console_in_chromium_test.py HAPTICLAB_CLI SOURCE_DIR WORK_DIR
 """
+import gzip
 import json
 import os
 import re
@@ -115,6 +123,7 @@ def main():
     if driver is None:
         return 77
     from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
     from selenium.webdriver.support.ui import Select
     shutil.rmtree(work, ignore_errors=True)
     shots = os.path.join(work, "shots")
@@ -195,6 +204,26 @@ def main():
         wait_for("the report in the page", lambda: driver.execute_script(
             "const f = document.getElementById('report'); return f.contentDocument && "
             "f.contentDocument.body && f.contentDocument.body.innerText.length > 1000"), 20)
+        # the samples of one participant, every 10th update, gzip
+        Select(driver.find_element(By.ID, "export-participant")).select_by_value("S1")
+        every = driver.find_element(By.ID, "export-every")
+        every.clear()
+        every.send_keys("10")
+        click("export")
+        wait_for("the export", lambda: (r := json.loads(c.get("/api/results")))["job"] == "export" and
+                 r["state"] in ("done", "failed"), 120)
+        r = json.loads(c.get("/api/results"))
+        if r["state"] != "done" or "exports/samples.csv.gz" not in r["files"] or "exports/trials.csv.gz" not in r["files"]:
+            fail(f"the sample export from the console failed: {r}")
+        with urllib.request.urlopen(c.url + "results/exports/samples.csv.gz", timeout=30) as resp:
+            if "attachment" not in resp.headers.get("Content-Disposition", ""):
+                fail(f"the export is not offered as a download: {resp.headers}")
+            rows = gzip.decompress(resp.read()).decode().splitlines()
+        header = rows[0].split(",")
+        ticks = {int(row.split(",")[header.index("tick")]) for row in rows[1:]}
+        if header[:2] != ["trial_id", "participant"] or len(rows) < 1000 or any(t % 10 for t in ticks):
+            fail(f"the downloaded samples are not S1's every 10th update: {rows[:2]}, {len(rows)} rows")
+        wait_for("the export's files on the page", lambda: "samples.csv.gz" in driver.find_element(By.ID, "downloads").text, 10)
         driver.save_screenshot(os.path.join(shots, "console_results.png"))
         for bad in ("../virtual.db", "..%2Fvirtual.db", "figures/../../virtual.db", "%2Fetc%2Fpasswd"):
             try:
@@ -234,22 +263,102 @@ def main():
         click("abort")
         wait_for("the aborted trial's status", lambda: status().get("last_status") == "aborted", 20)
         wait_for("the next trial", lambda: status().get("phase") == "trial", 30)
+        # A rest of 3 s asked for during a trial starts when the trial ends
+        # (here: aborted), counts down on the participant screen, and the
+        # session then goes on by itself.
+        rest = driver.find_element(By.ID, "rest-s")
+        rest.clear()
+        rest.send_keys("3")
+        click("rest")
+        wait_for("the rest after this trial", lambda: status().get("rest_after_trial_s") == 3, 10)
+        resting_trial = status()["trial_number"]
+        code, body = c.post("/api/session/abort", {"reason": "rest test"}, token=c.token)
+        if code != 200:
+            fail(f"abort for the rest test: {code} {body}")
+        wait_for("the rest's countdown", lambda: "rest_left_s" in json.loads(c.get("/api/participant")), 20)
+        seen_rest = json.loads(c.get("/api/participant"))
+        if seen_rest["cue"] != "rest" or not 1 <= seen_rest["rest_left_s"] <= 3:
+            fail(f"the participant's view during the rest: {seen_rest}")
+        driver.get(c.url + "participant")
+        wait_for("the countdown on the participant screen",
+                 lambda: re.fullmatch(r"REST 0:0[1-3]", driver.find_element(By.ID, "cue").text), 10)
+        driver.save_screenshot(os.path.join(shots, "console_participant_rest.png"))
+        wait_for("the session going on after the rest", lambda: status().get("phase") == "trial" and
+                 status()["trial_number"] >= resting_trial and "rest_left_s" not in status(), 20)
+        driver.get(c.url)
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
         click("stop")
         wait_for("the session's end after STOP", lambda: (s := status()).get("result") and not s["running"], 20)
         if not status()["result"]["stopped_by_operator"]:
             fail(f"STOP did not end the session as the operator's stop: {status()}")
         rows = trials(db)
         aborted = [r for r in rows if r[2] == "aborted"]
-        if len(aborted) != 2 or aborted[0][3] != "operator abort: participant sneezed":
-            fail(f"expected the typed abort and the STOP as the two aborted trials: {rows}")
+        if len(aborted) != 3 or aborted[0][3] != "operator abort: participant sneezed":
+            fail(f"expected the typed abort, the rest test's abort and the STOP as the three aborted trials: {rows}")
         for trial_id, position, _, reason in aborted:
             if not any(r[1] == position and r[2] == "planned" and r[0] > trial_id for r in rows):
                 fail(f"aborted trial {trial_id} ({reason}) was not re-queued at position {position}: {rows}")
         if not any(d == "participant adjusts the chair" for _, _, d in events_of(db, "operator_note")):
             fail(f"the note is not in the event table: {events_of(db, 'operator_note')}")
+        if [d for _, _, d in events_of(db, "operator_rest")] != ["3 s"] or \
+                "rest over" not in [d for _, _, d in events_of(db, "operator_resume")]:
+            fail(f"the rest and its end are not in the event table: {events_of(db, 'operator_rest')}, "
+                 f"{events_of(db, 'operator_resume')}")
         if first != 1:
             fail(f"the first trial was number {first}")
         subprocess.run([cli, "study", "check", "--db", db], check=True, capture_output=True)
+
+        # --- 6. tuning: a free trial, sliders, a refused value, a saved file
+        trials_before = trials(db)
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=tuning]").click()
+        wait_for("the sliders", lambda: driver.find_elements(By.CSS_SELECTOR, "[data-slider]"), 10)
+        reference = json.loads(c.get("/api/tuning"))["reference"]
+        for f in reference:  # every field has a slider and a box bounded by the documented range
+            box = driver.find_element(By.CSS_SELECTOR, f'[data-number="{f["path"]}"]')
+            if float(box.get_attribute("min")) != f["min"] or float(box.get_attribute("max")) != f["max"]:
+                fail(f"the box of {f['path']} allows {box.get_attribute('min')}..{box.get_attribute('max')}, "
+                     f"docs/settings.md {f['min']}..{f['max']}")
+        Select(driver.find_element(By.ID, "tuning-task")).select_by_value("dissection")
+        Select(driver.find_element(By.ID, "tuning-from")).select_by_value("High Fidelity")
+        click("tuning-start")
+        wait_for("the free trial's live plots", lambda: driver.execute_script("return window.hapticlab.tuningPoints") > 200, 20)
+        code, body = c.post("/api/session/start", {"participant": "S1"}, token=c.token)
+        if code != 400 or "free trial" not in body["error"]:
+            fail(f"a session started while the free trial drives the device: {code} {body}")
+        driver.find_element(By.CSS_SELECTOR, '[data-enable="translation.friction"]').click()
+        level = driver.find_element(By.CSS_SELECTOR, '[data-number="translation.friction.dynamic_level_N"]')
+        # Typed over the selected text as a person would: clear() would leave
+        # the box unfocused, and the page's refresh fills an unfocused box.
+        level.send_keys(Keys.CONTROL, "a")
+        level.send_keys("0.3\t")
+        wait_for("the friction change", lambda: (j := json.loads(c.get("/api/tuning")))["settings"]["translation"]
+                 ["friction"]["dynamic_level_N"] == 0.3 and j["settings"]["translation"]["friction"]["enabled"], 10)
+        level.send_keys(Keys.CONTROL, "a")
+        level.send_keys("80\t")  # above the documented 50 N
+        wait_for("the refusal on the page", lambda: "must be >= 0 and <= 50" in driver.find_element(By.ID, "message").text, 10)
+        wait_for("the box back at the server's value", lambda: level.get_attribute("value") == "0.3", 10)
+        log = json.loads(c.get("/api/tuning"))["log"]
+        if [e["field"] for e in log[1:]] != ["translation.friction.enabled", "translation.friction.dynamic_level_N"] \
+                or log[2]["to"] != "0.3" or log[2]["free_trial"] < 1:
+            fail(f"the tuning log: {log}")
+        name = driver.find_element(By.ID, "tuning-name")
+        name.clear()
+        name.send_keys("Pilot friction")
+        click("tuning-save")
+        wait_for("the saved file's link", lambda: "pilot_friction.json" in driver.find_element(By.ID, "tuning-saved").text, 10)
+        driver.save_screenshot(os.path.join(shots, "console_tuning.png"))
+        saved = os.path.join(work, "pilot_friction.json")
+        with open(saved, "w") as out:
+            out.write(c.get("/tuning/pilot_friction.json"))
+        check = subprocess.run([cli, "settings", "check", saved], capture_output=True, text=True)
+        if check.returncode != 0 or json.load(open(saved))["translation"]["friction"]["dynamic_level_N"] != 0.3:
+            fail(f"the saved settings file: settings check says {check.stdout}{check.stderr}")
+        if "translation.friction.dynamic_level_N" not in c.get("/tuning/tuning-log.csv"):
+            fail("the tuning log file does not hold the change")
+        click("stop")  # STOP ends the free trial too
+        wait_for("the free trial's end", lambda: not json.loads(c.get("/api/tuning"))["running"], 10)
+        if trials(db) != trials_before:
+            fail("the free trial changed the study's trials")
         c.close()
         consoles.pop()
     finally:

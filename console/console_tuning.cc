@@ -1,0 +1,268 @@
+#include "console/console_tuning.h"
+
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <exception>
+#include <fstream>
+#include <stdexcept>
+
+#include "console/served_file.h"
+#include "core/io/output_file.h"
+
+namespace hapticlab::console {
+namespace {
+
+constexpr std::size_t kLogEntries = 200;  // kept for the page; the file has them all
+// The simulated participant of a free trial: one fixed person who has
+// practised the task (participant.h's learning curve has flattened by then).
+constexpr std::uint64_t kPilotParticipantSeed = 1;
+constexpr int kPilotPracticeTrials = 10;
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+// The JSON value at a dotted path of a settings object, or null when the
+// path names nothing there.
+nlohmann::json* at_path(nlohmann::json& j, const std::string& path) {
+  nlohmann::json* node = &j;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t dot = path.find('.', start);
+    const std::string key = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (!node->is_object() || !node->contains(key)) return nullptr;
+    node = &(*node)[key];
+    if (dot == std::string::npos) return node;
+    start = dot + 1;
+  }
+}
+
+}  // namespace
+
+ConsoleTuning::ConsoleTuning(ConsoleTuningConfig config)
+    : config_(std::move(config)), live_(config_.live_rate_Hz, config_.live_window_s) {
+  if (!(config_.max_s > 0.0)) throw std::invalid_argument("tuning: max_s must be > 0");
+  // Until a trial starts from a setting: every block off, every field at its documented default.
+  const NamedSettings none = settings_from_json_text(R"({"name": "No degradation"})", "tuning");
+  settings_ = settings_to_json(none);
+  engine_ = none.engine;
+}
+
+ConsoleTuning::~ConsoleTuning() {
+  stop_.store(true);
+  if (thread_.joinable()) thread_.join();
+}
+
+bool ConsoleTuning::running() const {
+  std::lock_guard lock(mutex_);
+  return running_;
+}
+
+void ConsoleTuning::start(const std::string& task, const NamedSettings& from) {
+  const TaskKind kind = [&] {
+    try {
+      return parse_task_kind(task);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument(std::string("task: ") + e.what());
+    }
+  }();
+  std::lock_guard lock(mutex_);
+  if (running_) throw std::invalid_argument("a free trial is running; stop it first");
+  if (thread_.joinable()) thread_.join();
+  stop_.store(false);
+  running_ = true;
+  task_ = task;
+  from_name_ = from.name;
+  settings_ = settings_to_json(from);
+  engine_ = from.engine;
+  changed_ = false;
+  free_trial_ = 0;
+  elapsed_s_ = 0.0;
+  error_.clear();
+  last_timing_.reset();
+  live_.clear();
+  append_log("start", "", task + " from '" + from.name + "'");
+  thread_ = std::thread(&ConsoleTuning::run, this, kind);
+}
+
+void ConsoleTuning::stop() { stop_.store(true); }
+
+void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
+  std::lock_guard lock(mutex_);
+  nlohmann::json edited = settings_;
+  nlohmann::json* node = field.empty() || field == "name" || field == "description" ? nullptr : at_path(edited, field);
+  if (node == nullptr || node->is_object())
+    throw std::invalid_argument("field: '" + field + "' is not a settings field (docs/settings.md lists them)");
+  const bool is_switch = field.ends_with(".enabled");
+  if (is_switch ? !value.is_boolean() : !value.is_number())
+    throw std::invalid_argument("field '" + field + "': " + value.dump() + " is not " +
+                                (is_switch ? "true or false" : "a number"));
+  const std::string before = node->dump();
+  *node = value;
+  NamedSettings parsed;
+  try {
+    // The loader's own checks: the field, its value and the allowed range.
+    parsed = settings_from_json(edited, "tuning");
+  } catch (const SettingsError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  settings_ = std::move(edited);
+  engine_ = parsed.engine;
+  changed_ = true;
+  append_log(field, before, value.dump());
+}
+
+void ConsoleTuning::append_log(const std::string& field, const std::string& from, const std::string& to) {
+  const double loop_t_s = running_ ? live_.newest_t_s() : 0.0;
+  nlohmann::json entry = {{"utc", utc_now()}, {"free_trial", free_trial_}, {"loop_t_s", loop_t_s},
+                          {"field", field}, {"from", from}, {"to", to}};
+  log_.push_back(entry);
+  if (log_.size() > kLogEntries) log_.erase(log_.begin());
+  // The whole log in a file beside the saved settings: a pilot's record.
+  std::error_code ec;
+  std::filesystem::create_directories(config_.out_dir, ec);
+  const std::filesystem::path path = config_.out_dir / "tuning-log.csv";
+  const bool fresh = !std::filesystem::exists(path);
+  std::ofstream out(path, std::ios::app);
+  if (fresh) out << "utc,free_trial,loop_t_s,field,from,to\n";
+  auto quoted = [](const std::string& s) {
+    std::string q = "\"";
+    for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + '"';
+  };
+  out << entry["utc"].get<std::string>() << ',' << free_trial_ << ',' << loop_t_s << ',' << quoted(field) << ','
+      << quoted(from) << ',' << quoted(to) << '\n';
+  if (!out) error_ = "cannot append to " + path.string() + " (disk full?): the tuning log is incomplete";
+}
+
+std::string ConsoleTuning::save(const std::string& name) {
+  if (name.empty() || name.size() > 64)
+    throw std::invalid_argument("name: " + std::to_string(name.size()) + " characters, must be 1..64");
+  std::string file;
+  for (char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (std::isalnum(u)) file += static_cast<char>(std::tolower(u));
+    else if (c == '+' || c == '-') file += '-';
+    else if (c == ' ' || c == '_' || c == '.') file += '_';
+    else throw std::invalid_argument("name: '" + name + "' may hold letters, digits, ' ', '_', '-', '+' and '.' only");
+  }
+  file += ".json";
+  std::lock_guard lock(mutex_);
+  const std::filesystem::path path = config_.out_dir / file;
+  if (std::filesystem::exists(path))
+    throw std::invalid_argument("name: " + path.string() + " exists; choose another name");
+  NamedSettings named = settings_from_json(settings_, "tuning");
+  named.name = name;
+  named.description = "Tuned in the HapticLab console (" + utc_now() + "), starting from '" + from_name_ + "'.";
+  std::error_code ec;
+  std::filesystem::create_directories(config_.out_dir, ec);
+  try {
+    write_file_atomically(path, settings_to_json(named).dump(2) + "\n");
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("save: ") + e.what());
+  }
+  saved_.push_back(file);
+  append_log("save", "", file);
+  return file;
+}
+
+void ConsoleTuning::run(TaskKind task) {
+  std::string error;
+  try {
+    while (!stop_.load()) {
+      SimTrialConfig c;
+      {
+        std::lock_guard lock(mutex_);
+        if (elapsed_s_ >= config_.max_s) break;
+        ++free_trial_;
+        live_.clear();
+        c.settings = engine_;
+        changed_ = false;
+        c.trial_seed = static_cast<std::uint64_t>(free_trial_);
+        c.max_duration_s = config_.max_s - elapsed_s_;
+      }
+      c.task = task;
+      c.device = config_.device;
+      c.participant_seed = kPilotParticipantSeed;
+      c.practice_trials = kPilotPracticeTrials;
+      c.clock = config_.clock;
+      c.rate_Hz = config_.rate_Hz;
+      c.realtime = config_.realtime;
+      c.safety.force_limits = config_.force_limits;
+      SimTrialSink sink;
+      sink.on_sample = [this](const LoopSample& s) {
+        std::lock_guard lock(mutex_);
+        live_.add({&s, 1});
+      };
+      int polls = 0;
+      sink.between_drains = [this, &polls](SimRig& rig) {
+        std::lock_guard lock(mutex_);
+        if (changed_) {
+          rig.engine().set_settings(engine_);  // taken by the loop at its next update
+          changed_ = false;
+        }
+        if (++polls % 500 == 0) last_timing_ = rig.loop().timing();  // ~100 µs: about every 0.1 s
+        return !stop_.load();
+      };
+      const SimTrialResult r = run_sim_trial(c, sink);
+      std::lock_guard lock(mutex_);
+      elapsed_s_ += r.duration_s;
+      last_timing_ = r.timing;
+      if (r.device_refused) {
+        error = "the device could not be activated (" + std::string(to_string(r.device_status)) + ")";
+        break;
+      }
+      if (r.stop_reason != StopReason::kTaskComplete && r.stop_reason != StopReason::kStopRequested &&
+          r.stop_reason != StopReason::kMaxDuration) {
+        error = std::string("the free trial stopped: ") + to_string(r.stop_reason) + " (zero force)";
+        break;
+      }
+    }
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  std::lock_guard lock(mutex_);
+  if (!error.empty()) error_ = error;
+  append_log("stop", "", error.empty() ? "" : error);
+  running_ = false;
+}
+
+nlohmann::json ConsoleTuning::status() const {
+  std::lock_guard lock(mutex_);
+  nlohmann::json j = {{"running", running_}, {"task", task_},       {"from", from_name_},
+                      {"settings", settings_}, {"free_trial", free_trial_}, {"log", log_},
+                      {"saved", saved_},     {"error", error_}};
+  if (running_) j["loop_t_s"] = live_.newest_t_s();
+  if (last_timing_ && last_timing_->mean_period_s > 0)
+    j["loop"] = {{"rate_Hz", 1.0 / last_timing_->mean_period_s},
+                 {"p99_period_ms", 1e3 * last_timing_->p99_period_s},
+                 {"max_period_ms", 1e3 * last_timing_->max_period_s},
+                 {"overruns", last_timing_->overruns}};
+  return j;
+}
+
+std::array<std::vector<LivePoint>, 2> ConsoleTuning::live_since(double after_t_s) const {
+  std::lock_guard lock(mutex_);
+  return live_.since(after_t_s);
+}
+
+std::optional<std::filesystem::path> ConsoleTuning::file(const std::string& name) const {
+  return served_file(config_.out_dir, name);
+}
+
+nlohmann::json ConsoleTuning::reference() {
+  nlohmann::json fields = nlohmann::json::array();
+  for (const SettingsFieldInfo& f : settings_field_reference())
+    fields.push_back({{"path", f.path}, {"default", f.default_value}, {"min", f.lo}, {"max", f.hi},
+                      {"min_exclusive", f.lo_exclusive}});
+  return {{"fields", fields}};
+}
+
+}  // namespace hapticlab::console

@@ -1,0 +1,102 @@
+#pragma once
+// The console's Tuning page: the thesis' slider window, for pilot work
+// outside a study. A free trial runs on the console's device (held by a
+// simulated participant on the simulated device, by a person otherwise):
+// the task over and over, a new layout each time, until the operator stops
+// it. Each slider change is checked against the ranges of docs/settings.md
+// (settings_json.h), handed to the engine between two updates, and logged
+// (tuning-log.csv); "save" writes a settings file that `hapticlab settings
+// check` accepts. Nothing goes into the study database.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "console/live_buffer.h"
+#include "core/sim/trial_runner.h"
+#include "core/settings/settings_json.h"
+
+namespace hapticlab::console {
+
+struct ConsoleTuningConfig {
+  DeviceSpec device;                      // as the console's sessions
+  ClockKind clock = ClockKind::kWall;     // virtual only in tests: it runs as fast as it can
+  double rate_Hz = 1000.0;                // 150..2000
+  RealtimeOptions realtime;
+  OperatorForceLimits force_limits;       // the protocol's "safety" object
+  std::filesystem::path out_dir;          // tuning-log.csv and the saved settings files
+  double max_s = 3600.0;                  // a free trial stops after this much loop time (> 0)
+  double live_rate_Hz = 100.0, live_window_s = 10.0;
+};
+
+class ConsoleTuning {
+ public:
+  explicit ConsoleTuning(ConsoleTuningConfig config);
+  ~ConsoleTuning();  // stops a running free trial and waits for it
+  ConsoleTuning(const ConsoleTuning&) = delete;
+  ConsoleTuning& operator=(const ConsoleTuning&) = delete;
+
+  // Starts a free trial of `task` ("dissection", "clip") from `from`.
+  // Throws std::invalid_argument when one runs or the task is unknown.
+  void start(const std::string& task, const NamedSettings& from);
+  void stop();  // zero force (the loop's stop), then the thread ends
+  bool running() const;
+
+  // Sets one field of the settings, by its path in a settings file:
+  // "translation.friction.dynamic_level_N" (a number) or a block's switch,
+  // "translation.friction.enabled" (true/false). Throws
+  // std::invalid_argument naming the field, the value and the allowed range
+  // (docs/settings.md), and then nothing changes. Allowed without a running
+  // trial (the next one starts with it). Logged with the free trial's number
+  // and the loop time of the newest sample drained when it was handed over:
+  // the engine applies it at the start of the next update.
+  void set(const std::string& field, const nlohmann::json& value);
+  // Writes the settings, named `name`, as out_dir/FILE.json (name: 1..64 of
+  // letters, digits, ' ', '_', '-', '+', '.'; FILE is it in lower case with
+  // ' ' and '.' as '_', '+' as '-'); returns the file's name. Refuses
+  // (std::invalid_argument) a bad name or one already saved.
+  std::string save(const std::string& name);
+
+  // running, task, the settings (the file's JSON), the log's newest
+  // entries, the saved files, loop timing, an error that ended a trial.
+  nlohmann::json status() const;
+  std::array<std::vector<LivePoint>, 2> live_since(double after_t_s) const;
+  // A saved file or the log, for download (served_file.h).
+  std::optional<std::filesystem::path> file(const std::string& name) const;
+
+  // Every numeric field with default and range, and the switchable blocks:
+  // what the page draws its sliders from.
+  static nlohmann::json reference();
+
+ private:
+  void run(TaskKind task);
+  void append_log(const std::string& field, const std::string& from, const std::string& to);  // holds mutex_
+
+  const ConsoleTuningConfig config_;
+  mutable std::mutex mutex_;  // guards everything below except stop_
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  bool running_ = false;
+  std::string task_;
+  std::string from_name_;               // the setting the trial started from
+  nlohmann::json settings_;             // settings_to_json form, as edited
+  EngineSettings engine_;               // settings_, parsed and checked
+  bool changed_ = false;                // engine_ not yet handed to the running engine
+  int free_trial_ = 0;                  // repetitions of the task so far (1-based when running)
+  double elapsed_s_ = 0.0;              // loop time of finished repetitions
+  LiveBuffer live_;
+  nlohmann::json log_ = nlohmann::json::array();  // newest last, at most kLogEntries
+  std::vector<std::string> saved_;
+  std::string error_;
+  std::optional<LoopTimingSummary> last_timing_;
+};
+
+}  // namespace hapticlab::console

@@ -1,0 +1,171 @@
+// The Tuning page's free trial (console/console_tuning.h) without the
+// browser: a change reaches the running loop, a value out of the documented
+// range changes nothing, and a saved file is one `settings check` accepts.
+#include "console/console_tuning.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "app/cli_process.h"
+#include "testing/files.h"
+#include "testing/test_paths.h"
+
+namespace hapticlab::console {
+namespace {
+
+using ::testing::HasSubstr;
+
+class ConsoleTuningTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / ("console_tuning_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir_);
+    config_.out_dir = dir_;
+    // The virtual clock runs the free trial as fast as it can: seconds of
+    // loop time per wall second, the same physics.
+    config_.clock = ClockKind::kVirtual;
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  static NamedSettings high_fidelity() { return settings_from_json_text(R"({"name": "High Fidelity"})", "test"); }
+
+  std::filesystem::path dir_;
+  ConsoleTuningConfig config_;
+};
+
+// Force feedback switched off by the sliders while the loop runs ("No Force
+// Feedback" is tip_force_saturation at 0 N): from one update on, every
+// displayed force is 0 while the tissue still pushes on the tip, within the
+// same repetition of the task (the change did not wait for a new trial).
+TEST_F(ConsoleTuningTest, AChangeReachesTheRunningLoopBetweenTwoUpdates) {
+  ConsoleTuning tuning(config_);
+  tuning.start("dissection", high_fidelity());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  auto max_force = [](const LivePoint& a, const LivePoint& b, bool displayed) {
+    return std::max(displayed ? a.displayed_force_N : a.tip_force_N, displayed ? b.displayed_force_N : b.tip_force_N);
+  };
+  // Both instruments' points, merged by time; only those of one repetition.
+  std::vector<std::pair<LivePoint, LivePoint>> points;
+  int repetition = -1;
+  double last_t = -1.0;
+  auto collect = [&] {
+    const int now = tuning.status()["free_trial"].get<int>();
+    if (now != repetition) {
+      repetition = now;
+      points.clear();
+      last_t = -1.0;
+    }
+    const auto fresh = tuning.live_since(last_t);
+    for (std::size_t i = 0; i < std::min(fresh[0].size(), fresh[1].size()); ++i) {
+      points.emplace_back(fresh[0][i], fresh[1][i]);
+      last_t = fresh[0][i].t_s;
+    }
+  };
+  int pushing = 0;
+  while (pushing < 20 && std::chrono::steady_clock::now() < deadline) {
+    collect();
+    pushing = 0;
+    for (const auto& [l, r] : points) pushing += max_force(l, r, true) > 0.1f;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_GE(pushing, 20) << "no contact with force feedback within 60 s";
+  const int changed_in = repetition;
+  tuning.set("tip_force_saturation.limit_N", 0.0);
+  tuning.set("tip_force_saturation.enabled", true);
+  // Collect until 2 s of loop time after the change have passed in the same repetition.
+  const double change_t = points.back().first.t_s;
+  while (repetition == changed_in && points.back().first.t_s < change_t + 2.0 &&
+         std::chrono::steady_clock::now() < deadline) {
+    collect();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  tuning.stop();
+  ASSERT_EQ(repetition, changed_in) << "the task ended within 2 s of the change; nothing to compare";
+  std::size_t last_felt = 0;  // index of the last point with any displayed force
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (max_force(points[i].first, points[i].second, true) > 1e-6f) last_felt = i;
+  std::size_t pushed_unfelt = 0;
+  for (std::size_t i = last_felt + 1; i < points.size(); ++i)
+    pushed_unfelt += max_force(points[i].first, points[i].second, false) > 0.05f;
+  EXPECT_GT(points[last_felt].first.t_s, 0.0);
+  EXPECT_GE(points.size() - last_felt - 1, 100u) << "force still displayed near the end";  // >= 1 s at 100 points/s
+  EXPECT_GE(pushed_unfelt, 10u) << "no contact after the change: the test shows nothing";
+
+  // Both changes are in the log, with the repetition they were made in.
+  const nlohmann::json log = tuning.status()["log"];
+  ASSERT_GE(log.size(), 3u);
+  EXPECT_EQ(log[1]["field"], "tip_force_saturation.limit_N");
+  EXPECT_EQ(log[1]["to"], "0.0");
+  EXPECT_EQ(log[2]["field"], "tip_force_saturation.enabled");
+  EXPECT_EQ(log[2]["free_trial"], changed_in);
+  const std::string csv = testing::slurp(dir_ / "tuning-log.csv");
+  EXPECT_THAT(csv, HasSubstr("utc,free_trial,loop_t_s,field,from,to\n"));
+  EXPECT_THAT(csv, HasSubstr(",\"tip_force_saturation.enabled\",\"false\",\"true\"\n"));
+}
+
+// The loader's own checks, field by field: a refused value names the field,
+// the value and the range, and leaves the settings as they were.
+TEST_F(ConsoleTuningTest, OutOfRangeOrMistypedChangesAreRefusedAndChangeNothing) {
+  ConsoleTuning tuning(config_);
+  const nlohmann::json before = tuning.status()["settings"];
+  EXPECT_THAT([&] { tuning.set("translation.friction.dynamic_level_N", 60.0); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("'translation.friction.dynamic_level_N' is 60, but must be >= 0 and <= 50")));
+  EXPECT_THAT([&] { tuning.set("translation.backlash.gap_m", 0.0); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("must be > 0")));
+  EXPECT_THAT([&] { tuning.set("translation.friction.level", 0.1); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("is not a settings field")));
+  EXPECT_THAT([&] { tuning.set("translation.friction", 0.1); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("is not a settings field")));
+  EXPECT_THAT([&] { tuning.set("translation.friction.enabled", 1); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("is not true or false")));
+  EXPECT_THAT([&] { tuning.set("translation.friction.dynamic_level_N", "0.2"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("is not a number")));
+  EXPECT_EQ(tuning.status()["settings"], before);
+  EXPECT_TRUE(tuning.status()["log"].empty());
+}
+
+// The page's sliders come from the loader's table: every field of
+// docs/settings.md, with the same range.
+TEST_F(ConsoleTuningTest, ReferenceListsEveryFieldWithTheLoadersRange) {
+  const nlohmann::json fields = ConsoleTuning::reference()["fields"];
+  ASSERT_EQ(fields.size(), settings_field_reference().size());
+  bool found = false;
+  for (const auto& f : fields)
+    if (f["path"] == "translation.inertia.mass_kg") {
+      found = true;
+      EXPECT_EQ(f["min"], 0.001);
+      EXPECT_EQ(f["max"], 10.0);
+      EXPECT_EQ(f["min_exclusive"], false);
+    }
+  EXPECT_TRUE(found);
+  const std::string md = settings_reference_markdown();
+  for (const auto& f : fields) EXPECT_THAT(md, HasSubstr("`" + f["path"].get<std::string>() + "`"));
+}
+
+TEST_F(ConsoleTuningTest, SavedSettingsPassSettingsCheckAndAreNotOverwritten) {
+  ConsoleTuning tuning(config_);
+  tuning.set("translation.friction.enabled", true);
+  tuning.set("translation.friction.dynamic_level_N", 0.3);
+  const std::string file = tuning.save("Pilot friction + 0.3");
+  EXPECT_EQ(file, "pilot_friction_-_0_3.json");
+  const auto [status, out] = testing::run_cli(kBinary, "settings check " + (dir_ / file).string());
+  EXPECT_EQ(status, 0) << out;
+  const NamedSettings back = load_settings_file(dir_ / file);
+  EXPECT_EQ(back.name, "Pilot friction + 0.3");
+  EXPECT_TRUE(back.engine.translation.friction.enabled);
+  EXPECT_DOUBLE_EQ(back.engine.translation.friction.dynamic_level, 0.3);
+  EXPECT_THAT([&] { tuning.save("Pilot friction + 0.3"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("exists; choose another name")));
+  EXPECT_THAT([&] { tuning.save("../escape"); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("may hold")));
+  EXPECT_EQ(tuning.file(file), std::filesystem::weakly_canonical(dir_ / file));
+  EXPECT_EQ(tuning.file("../" + file), std::nullopt);
+}
+
+}  // namespace
+}  // namespace hapticlab::console
