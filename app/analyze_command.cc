@@ -24,6 +24,7 @@ struct AnalyzeOptions {
   std::string out;
   std::int64_t study = -1;
   std::string percentile_method = "matlab";
+  std::string method = "participant";
   bool include_aborted = false;
   std::string control;
   double alpha = 0.05;
@@ -63,15 +64,23 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
     pairwise.push_back({{"task", c.task}, {"setting", c.setting}, {"measure", an::measure_column(c.measure)},
                         {"p", optional(c.p)}, {"significant", c.significant}, {"participants", c.participants},
                         {"note", c.note}});
+  nlohmann::json by_participant = nlohmann::json::array();
+  for (const an::ParticipantPairwiseCell& c : a.participant_pairwise)
+    by_participant.push_back({{"task", c.task}, {"setting", c.setting}, {"measure", an::measure_column(c.measure)},
+                              {"p", optional(c.p)}, {"significant", c.significant},
+                              {"participants", c.participants}, {"mean_difference", c.mean_difference},
+                              {"note", c.note}});
   return {{"study", a.study_name},
           {"control", a.control},
+          {"method", an::comparison_method_name(a.options.method)},
           {"trials", {{"analysed", a.counts.analysed}, {"complete", a.counts.complete},
                       {"aborted_excluded", a.counts.aborted_excluded},
                       {"aborted_included", a.counts.aborted_included}, {"not_run", a.counts.not_run},
                       {"without_window", a.counts.without_window}, {"damaged_chunks", a.counts.damaged_chunks}}},
           {"sidak_level", a.sidak_level},
           {"whole_design", whole},
-          {"pairwise", pairwise},
+          {"pairwise", pairwise},  // the thesis' procedure
+          {"participant_pairwise", by_participant},
           {"files", {{"metrics_csv", (out / "metrics.csv").string()}, {"html", files.html.string()},
                      {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};
 }
@@ -80,6 +89,7 @@ void run_analyze(const AnalyzeOptions& o) {
   an::AnalysisOptions options;
   if (o.study >= 0) options.study_id = o.study;
   options.percentile_method = an::parse_percentile_method(o.percentile_method);
+  options.method = an::parse_comparison_method(o.method);
   options.include_aborted = o.include_aborted;
   options.control_setting = o.control;
   options.alpha = o.alpha;
@@ -143,6 +153,13 @@ void add_analyze_command(CLI::App& app) {
                   "Percentile definition for every median, 95th percentile and quartile: matlab (MATLAB "
                   "prctile, Hyndman-Fan type 5, the thesis' tool), r7 (R/numpy default), r6, nearest")
       ->capture_default_str();
+  cmd->add_option("--method", opt->method,
+                  "How each setting is compared with the control, in the tables and the report: participant "
+                  "(one value per participant, exact sign-flip test; keeps the false-positive rate at alpha, "
+                  "docs/analysis.md) or thesis (the thesis' pairwise Friedman, repetitions and hands as "
+                  "replicates). Both are computed; this picks the one shown first")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"participant", "thesis"}));
   cmd->add_flag("--include-aborted", opt->include_aborted,
                 "Analyse aborted trials too (by default they are left out and counted in the report)");
   cmd->add_option("--control", opt->control,

@@ -23,6 +23,7 @@
 #include "analysis/stats/effect_size.h"
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/stats/percentile.h"
+#include "analysis/stats/sign_flip_vs_control.h"
 #include "analysis/stats/skillings_mack.h"
 
 namespace hapticlab::app {
@@ -44,6 +45,8 @@ struct PairwiseOptions {
   CommonOptions common;
   std::string control;
   double alpha = 0.05;
+  std::string method = "thesis";  // or "participant": one value per block, sign-flip test
+  std::string percentile_method = "matlab";  // the medians of --method participant
 };
 
 struct CorrelationOptions {
@@ -247,7 +250,46 @@ void run_durbin(const CommonOptions& opt) {
   });
 }
 
+// --method participant: each block's median per treatment, its difference
+// from the control's, the exact sign-flip test (stats/sign_flip_vs_control.h).
+void run_pairwise_by_block(const PairwiseOptions& opt) {
+  const auto csv = read_data(opt.common.csv, opt.common.drop_missing, {opt.common.columns.value});
+  const auto observations = an::read_observations(csv, opt.common.columns);
+  const an::PercentileMethod median_method = an::parse_percentile_method(opt.percentile_method);
+  run_grouped("pairwise-sign-flip", csv, opt.common.group, opt.common.json, [&](const Group& g) {
+    const an::BlockTable table = table_for(observations, g);
+    const std::size_t m = table.treatment_count() - 1;
+    const double level = an::sidak_level(opt.alpha, m);
+    const auto comparisons = an::sign_flip_vs_control(table, opt.control, level, median_method);
+    json j = {{"test", "pairwise-sign-flip"}, {"control", opt.control}, {"alpha", opt.alpha},
+              {"m", m},                        {"sidak_level", level},   {"comparisons", json::array()}};
+    if (!opt.common.json) {
+      std::cout << "Sign-flip permutation test of each block's median difference from " << opt.control
+                << " (one value per " << opt.common.columns.block << "); significant when p < " << num(level)
+                << " (Sidak, alpha = " << num(opt.alpha) << ", m = " << m << ")\n";
+      std::printf("%-24s %7s %14s %12s  %s\n", "treatment", "blocks", "mean diff", "p", "significant");
+    }
+    for (const auto& c : comparisons) {
+      j["comparisons"].push_back({{"treatment", c.treatment},
+                                  {"n_blocks", c.blocks},
+                                  {"p", c.p ? json(*c.p) : json(nullptr)},
+                                  {"mean_difference", c.p ? json(c.mean_difference) : json(nullptr)},
+                                  {"significant", c.significant}});
+      if (!opt.common.json)
+        std::printf("%-24s %7zu %14s %12s  %s\n", c.treatment.c_str(), c.blocks,
+                    c.p ? num(c.mean_difference).c_str() : "N/A", c.p ? num(*c.p).c_str() : "N/A",
+                    c.p ? (c.significant ? "yes" : "no") : "N/A");
+    }
+    if (!opt.common.json) {
+      std::printf("With n blocks the smallest p is 2/2^n (0.25 for 3, 0.0078 for 8).\n");
+      std::fflush(stdout);
+    }
+    return j;
+  });
+}
+
 void run_pairwise(const PairwiseOptions& opt) {
+  if (opt.method == "participant") return run_pairwise_by_block(opt);
   const auto csv = read_data(opt.common.csv, opt.common.drop_missing, {opt.common.columns.value});
   const auto observations = an::read_observations(csv, opt.common.columns);
   run_grouped("pairwise-friedman", csv, opt.common.group, opt.common.json, [&](const Group& g) {
@@ -442,8 +484,9 @@ void add_stats_command(CLI::App& app) {
     auto opt = std::make_shared<PairwiseOptions>();
     CLI::App* cmd = stats->add_subcommand(
         "pairwise",
-        "Friedman test of a control against each other treatment over the blocks holding both, "
-        "judged at the Sidak level 1-(1-alpha)^(1/m)");
+        "A control against each other treatment, judged at the Sidak level 1-(1-alpha)^(1/m): the thesis' "
+        "Friedman test over the blocks holding both (--method thesis), or one value per block, the exact "
+        "sign-flip test of the blocks' median differences (--method participant; blocks are participants)");
     add_common_options(*cmd, opt->common, true);
     cmd->add_option("--control", opt->control, "Treatment to compare the others with")
         ->required();
@@ -458,6 +501,14 @@ void add_stats_command(CLI::App& app) {
               return std::string();
             },
             "in (0, 1)"));
+    cmd->add_option("--method", opt->method,
+                    "thesis: pairwise Friedman, replicates as evidence; participant: each block's median, "
+                    "one difference per block, exact sign-flip test (docs/analysis.md, \"Which comparison\")")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"thesis", "participant"}));
+    cmd->add_option("--percentile-method", opt->percentile_method,
+                    "Median definition for --method participant: matlab, r7, r6, nearest")
+        ->capture_default_str();
     cmd->callback([opt] { run_pairwise(*opt); });
   }
   {

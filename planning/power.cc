@@ -9,7 +9,6 @@
 #include <tuple>
 
 #include "analysis/stats/wilson.h"
-#include "analysis/study/participant_level.h"
 #include "core/common/random.h"
 #include "protocols/rng.h"
 
@@ -54,7 +53,7 @@ std::vector<Finding> findings_of(const analysis::StudyAnalysis& a) {
     f.significant = c.significant && !c.gated;
     out.push_back(std::move(f));
   }
-  for (const analysis::ParticipantPairwiseCell& c : analysis::participant_pairwise(a)) {
+  for (const analysis::ParticipantPairwiseCell& c : a.participant_pairwise) {
     if (!c.p) continue;
     Finding f;
     f.method = "participant_pairwise";

@@ -337,7 +337,8 @@ Section friedman_section(const StudyAnalysis& a) {
 
 Section pairwise_section(const StudyAnalysis& a, const std::string& task, int number) {
   Section s;
-  s.title = "Table 3." + std::to_string(number) + ": " + a.control + " compared to each setting, " + task;
+  s.title = "Table 3." + std::to_string(number) + ": " + a.control + " compared to each setting, " + task +
+            " (the thesis' procedure)";
   s.intro = "P values of pairwise Friedman tests between " + a.control +
             " and each other setting over every participant (and hand) who did both; the number in brackets is "
             "the number of participants. Bold: significant at the Šidák level 1-(1-alpha)^(1/m) = " +
@@ -408,6 +409,53 @@ Section pairwise_section(const StudyAnalysis& a, const std::string& task, int nu
   }
   d.note = "Every analysed trial of the task (and both hands for per-hand measures) pooled; percentiles as "
            "the analysis computes them (" + std::string(percentile_method_name(a.options.percentile_method)) + ").";
+  s.tables.push_back(std::move(d));
+  return s;
+}
+
+// Each setting against the control with one value per participant
+// (analysis/study/participant_level.h), the default method.
+Section participant_section(const StudyAnalysis& a, const std::string& task) {
+  Section s;
+  const bool first = a.options.method == ComparisonMethod::kParticipant;
+  s.title = a.control + " compared to each setting, one value per participant, " + task;
+  s.intro = std::string(first ? "The recommended comparison (analyze --method participant, the default; "
+                                "docs/analysis.md, \"Which comparison\"). "
+                              : "Beside the thesis' procedure (this report was made with --method thesis). ") +
+            "Each participant's median over their repetitions (and both hands, for per-hand measures) under "
+            "each setting; their differences from the same participant's median under " + a.control +
+            " tested with the exact sign-flip permutation test, so a participant counts once however many "
+            "trials they did. Bold: significant at the Šidák level " + format_level(a.sidak_level) +
+            ". With n participants the smallest possible p is 2/2^n: 0.25 for 3, 0.0078 for 8, so a study of "
+            "fewer than 9 participants cannot reach that level.";
+  Table t;
+  t.header = measure_header(a.control + " compared to:");
+  Table d;
+  d.title = "Mean difference over participants (setting minus " + a.control + ")";
+  d.header = {"Setting"};
+  for (Measure m : kAllMeasures) d.header.push_back(std::string(measure_label(m)) + " [" + measure_unit(m) + "]");
+  for (std::size_t si = 1; si < a.settings.size(); ++si) {
+    std::size_t participants = 0;
+    for (const auto& c : a.participant_pairwise)
+      if (c.task == task && c.setting == a.settings[si]) participants = std::max(participants, c.participants);
+    std::vector<Cell> row{{a.settings[si] + " (" + std::to_string(participants) + ")"}};
+    std::vector<Cell> diff{{a.settings[si]}};
+    for (Measure m : kAllMeasures) {
+      Cell cell{"N/A"};
+      Cell mean{"N/A"};
+      for (const auto& c : a.participant_pairwise)
+        if (c.task == task && c.setting == a.settings[si] && c.measure == m && c.p) {
+          cell = {format_p(*c.p, a.sidak_level), c.significant};
+          mean = {(c.mean_difference > 0 ? "+" : "") + num(c.mean_difference)};
+        }
+      row.push_back(cell);
+      diff.push_back(mean);
+    }
+    t.rows.push_back(std::move(row));
+    d.rows.push_back(std::move(diff));
+  }
+  t.note = "The number in brackets: participants with data under both settings.";
+  s.tables.push_back(std::move(t));
   s.tables.push_back(std::move(d));
   return s;
 }
@@ -877,9 +925,15 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
 
   std::vector<Section> sections;
   sections.push_back(summary_section(a));
+  // The chosen comparison method's tables come first (AnalysisOptions::method).
+  const bool participant_first = a.options.method == ComparisonMethod::kParticipant;
+  if (participant_first)
+    for (const auto& task : a.tasks) sections.push_back(participant_section(a, task));
   sections.push_back(friedman_section(a));
   int number = 5;
   for (const auto& task : a.tasks) sections.push_back(pairwise_section(a, task, number++));
+  if (!participant_first)
+    for (const auto& task : a.tasks) sections.push_back(participant_section(a, task));
   sections.push_back(whole_design_section(a));
   sections.push_back(correlation_section(a, options));
   sections.push_back(ks_section(a));

@@ -2,10 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 
-#include "analysis/stats/percentile.h"
-#include "analysis/stats/sign_flip.h"
+#include "analysis/stats/block_table.h"
+#include "analysis/stats/sign_flip_vs_control.h"
 
 namespace hapticlab::analysis {
 
@@ -14,40 +13,37 @@ std::vector<ParticipantPairwiseCell> participant_pairwise(const StudyAnalysis& a
   if (a.control.empty()) return out;
   for (const std::string& task : a.tasks) {
     for (Measure m : kAllMeasures) {
-      // participant -> setting -> values over repetitions (and hands)
-      std::map<std::string, std::map<std::string, std::vector<double>>> values;
+      // Blocks are participants; a participant's repetitions (and both hands,
+      // for a per-hand measure) are the values of one cell.
+      std::vector<Observation> observations;
       for (const TrialRecord& t : a.trials) {
         if (t.task != task) continue;
         for (int h = 0; h < (measure_per_hand(m) ? 2 : 1); ++h) {
           const double v = t.value(m, h);
-          if (std::isfinite(v)) values[t.participant][t.setting].push_back(v);
+          if (std::isfinite(v)) observations.push_back({t.participant, t.setting, "", v});
         }
       }
-      auto median = [&](std::vector<double> v) {
-        std::sort(v.begin(), v.end());
-        return percentile_sorted(v, 50.0, a.options.percentile_method);
-      };
+      const BlockTable table = BlockTable::from_observations(observations);
+      const bool has_control = std::find(table.treatment_names.begin(), table.treatment_names.end(), a.control) !=
+                               table.treatment_names.end();
+      std::vector<SignFlipComparison> comparisons;
+      if (has_control)
+        comparisons = sign_flip_vs_control(table, a.control, a.sidak_level, a.options.percentile_method);
       for (const std::string& setting : a.settings) {
         if (setting == a.control) continue;
         ParticipantPairwiseCell cell;
         cell.task = task;
         cell.setting = setting;
         cell.measure = m;
-        std::vector<double> differences;
-        for (const auto& [participant, by_setting] : values) {
-          const auto c = by_setting.find(a.control);
-          const auto s = by_setting.find(setting);
-          if (c == by_setting.end() || s == by_setting.end()) continue;
-          differences.push_back(median(s->second) - median(c->second));
-        }
-        cell.participants = differences.size();
-        if (differences.empty()) {
-          cell.note = "no participant has data for both settings";
+        const auto found = std::find_if(comparisons.begin(), comparisons.end(),
+                                        [&](const SignFlipComparison& c) { return c.treatment == setting; });
+        if (found != comparisons.end() && found->p) {
+          cell.participants = found->blocks;
+          cell.p = found->p;
+          cell.mean_difference = found->mean_difference;
+          cell.significant = found->significant;
         } else {
-          const SignFlipResult r = sign_flip_test(differences);
-          cell.p = r.p;
-          cell.mean_difference = r.mean;
-          cell.significant = r.p < a.sidak_level;
+          cell.note = "no participant has data for both settings";
         }
         out.push_back(std::move(cell));
       }

@@ -15,19 +15,9 @@
 
 namespace hapticlab::analysis {
 
-struct ParticipantPairwiseCell {
-  std::string task;
-  std::string setting;  // compared with the control
-  Measure measure = Measure::kForceMedian;
-  std::size_t participants = 0;      // who did both (with data)
-  std::optional<double> p;           // two-sided; empty when no participant did both
-  double mean_difference = 0.0;      // setting minus control, in the measure's unit
-  bool significant = false;          // p < the study's Šidák level
-  std::string note;
-};
-
-// Every task × setting × measure; `analysis` after run_statistics (its
-// Šidák level is used).
+// Every task × setting × measure (cells: study_analysis.h); run_statistics
+// stores them in StudyAnalysis::participant_pairwise. Needs the Šidák level
+// of `analysis`.
 std::vector<ParticipantPairwiseCell> participant_pairwise(const StudyAnalysis& analysis);
 
 }  // namespace hapticlab::analysis

@@ -21,6 +21,7 @@
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/stats/skillings_mack.h"
 #include "analysis/study/ordered_names.h"
+#include "analysis/study/participant_level.h"
 
 namespace hapticlab::analysis {
 
@@ -180,6 +181,7 @@ OptionalTest whole_design_test(const StudyAnalysis& a, const std::vector<Point>&
 void run_statistics(StudyAnalysis& a) {
   a.friedman.clear();
   a.pairwise.clear();
+  a.participant_pairwise.clear();
   a.whole_design.clear();
   a.correlations.clear();
   a.ks.clear();
@@ -255,6 +257,9 @@ void run_statistics(StudyAnalysis& a) {
       }
     }
   }
+
+  // The same comparisons with one value per participant (the default method).
+  a.participant_pairwise = participant_pairwise(a);
 
   // What the tests are about: each setting's median and IQR per task.
   a.descriptive.clear();

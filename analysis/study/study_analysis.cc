@@ -62,6 +62,17 @@ bool measure_per_hand(Measure m) { return m != Measure::kCompletionTime; }
 
 const char* hand_name(int hand) { return hand == 0 ? "left" : hand == 1 ? "right" : "both"; }
 
+const char* comparison_method_name(ComparisonMethod m) {
+  return m == ComparisonMethod::kThesis ? "thesis" : "participant";
+}
+
+ComparisonMethod parse_comparison_method(const std::string& name) {
+  if (name == "participant") return ComparisonMethod::kParticipant;
+  if (name == "thesis") return ComparisonMethod::kThesis;
+  throw DataError("method is '" + name + "'; it must be 'participant' (one value per participant, sign-flip test) "
+                  "or 'thesis' (the thesis' pairwise Friedman)");
+}
+
 void AnalysisOptions::validate() const {
   auto fail = [](const std::string& field, const std::string& value, const std::string& range) {
     throw DataError("analysis option " + field + " is " + value + ", but must be " + range);

@@ -53,6 +53,17 @@ bool measure_per_hand(Measure m);
 // "left" (instrument 0), "right" (instrument 1).
 const char* hand_name(int hand);
 
+// How each setting is compared with the control (docs/analysis.md, "Which
+// comparison"). Both are always computed; the method decides which one the
+// report and the printed tables lead with.
+enum class ComparisonMethod {
+  kParticipant,  // one value per participant, exact sign-flip test (participant_level.h): the default
+  kThesis,       // the thesis' pairwise Friedman, repetitions and hands as replicates (Tables 3.5-3.6)
+};
+const char* comparison_method_name(ComparisonMethod m);  // "participant", "thesis"
+// Throws DataError naming the allowed values.
+ComparisonMethod parse_comparison_method(const std::string& name);
+
 struct AnalysisOptions {
   std::optional<std::int64_t> study_id;  // required when the DB holds several studies
   PercentileMethod percentile_method = PercentileMethod::kMatlab;
@@ -68,6 +79,7 @@ struct AnalysisOptions {
   std::uint64_t seed = 1;
   std::size_t cdf_points = 101;      // quantiles kept per trial and hand for the CDF plots: 0 (none) or >= 2
   std::size_t threads = 0;           // trials read in parallel; 0: one thread per core
+  ComparisonMethod method = ComparisonMethod::kParticipant;
 
   // Throws DataError naming the field, its value and the allowed range.
   void validate() const;
@@ -152,6 +164,19 @@ struct PairwiseCell {
   std::string direction;
 };
 
+// Each setting against the control with one value per participant
+// (participant_level.h): one cell.
+struct ParticipantPairwiseCell {
+  std::string task;
+  std::string setting;  // compared with the control
+  Measure measure = Measure::kForceMedian;
+  std::size_t participants = 0;      // who did both (with data)
+  std::optional<double> p;           // two-sided; empty when no participant did both
+  double mean_difference = 0.0;      // setting minus control, in the measure's unit
+  bool significant = false;          // p < the study's Šidák level
+  std::string note;
+};
+
 // Median and interquartile range of a measure under one setting in one
 // task, every analysed trial (and hand) pooled: what the p values are about.
 struct DescriptiveRow {
@@ -208,7 +233,8 @@ struct StudyAnalysis {
   double sidak_level = 0.0;
   std::size_t sidak_m = 0;
   std::vector<FriedmanRow> friedman;      // hands as blocks, then per hand
-  std::vector<PairwiseCell> pairwise;
+  std::vector<PairwiseCell> pairwise;                         // the thesis' procedure
+  std::vector<ParticipantPairwiseCell> participant_pairwise;  // one value per participant
   std::vector<WholeDesignRow> whole_design;
   std::vector<CorrelationRow> correlations;
   std::vector<KsRow> ks;

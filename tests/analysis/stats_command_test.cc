@@ -108,6 +108,36 @@ TEST_F(StatsCommandTest, FriedmanPerGroup) {
   EXPECT_NEAR(j["groups"][0]["statistic"].get<double>(), 4.0, 1e-12);
 }
 
+// --method participant on a permutation worked by hand: three blocks, each
+// with two repetitions per treatment. Block medians (matlab = mean of two):
+// HiFi 1.5, 2.5, 1.5; A 3.5, 3.5, 1.0 -> differences +2, +1, -0.5. Of the
+// 2^3 sign patterns, |sum| >= |2.5| for (+,+,+), (+,+,-), (-,-,+), (-,-,-):
+// sums 3.5, 2.5, -2.5, -3.5, so p = 4/8 = 0.5; B is higher in every block
+// by 1, 2, 3: only the all-plus and all-minus patterns reach |6|, p = 2/8.
+TEST_F(StatsCommandTest, PairwiseByParticipantIsTheSignFlipPermutationWorkedByHand) {
+  const auto path = write_file("s.csv",
+                               "participant,setting,force\n"
+                               "P1,HiFi,1\nP1,HiFi,2\nP1,A,3\nP1,A,4\nP1,B,2\nP1,B,3\n"
+                               "P2,HiFi,2\nP2,HiFi,3\nP2,A,3\nP2,A,4\nP2,B,4\nP2,B,5\n"
+                               "P3,HiFi,1\nP3,HiFi,2\nP3,A,0.5\nP3,A,1.5\nP3,B,4\nP3,B,5\n");
+  const auto j = nlohmann::json::parse(run({"stats", "pairwise", "--method", "participant", "--csv", path.string(),
+                                            "--block", "participant", "--treatment", "setting", "--value",
+                                            "force", "--control", "HiFi", "--json"}));
+  EXPECT_EQ(j.at("test"), "pairwise-sign-flip");
+  EXPECT_EQ(j.at("m").get<int>(), 2);
+  ASSERT_EQ(j.at("comparisons").size(), 2u);
+  EXPECT_EQ(j["comparisons"][0]["treatment"], "A");
+  EXPECT_EQ(j["comparisons"][0]["n_blocks"].get<int>(), 3);
+  EXPECT_DOUBLE_EQ(j["comparisons"][0]["p"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(j["comparisons"][0]["mean_difference"].get<double>(), 2.5 / 3.0);
+  EXPECT_DOUBLE_EQ(j["comparisons"][1]["p"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(j["comparisons"][1]["mean_difference"].get<double>(), 2.0);
+  EXPECT_FALSE(j["comparisons"][1]["significant"].get<bool>());  // 0.25 > the Sidak level 0.0253
+  const std::string table = run({"stats", "pairwise", "--method", "participant", "--csv", path.string(), "--block",
+                                 "participant", "--treatment", "setting", "--value", "force", "--control", "HiFi"});
+  EXPECT_THAT(table, HasSubstr("smallest p is 2/2^n"));
+}
+
 TEST_F(StatsCommandTest, PairwiseJsonHasNullForNoData) {
   const auto path = write_file("p.csv",
                                "b,t,v\n"

@@ -87,13 +87,31 @@ std::vector<std::string> md_row(const std::string& md, const std::string& label)
   return {};
 }
 
+// The printed p ("0.0092", "5E-4", "**0.001", "(0.3)"), stripped of its
+// marks, is `p` within half a unit of its last printed digit.
+void expect_printed_p(const std::string& cell, double p) {
+  std::string digits;
+  for (char ch : cell)
+    if (ch != '*' && ch != '(' && ch != ')') digits += ch;
+  const auto e = digits.find('E');
+  const std::string mantissa = digits.substr(0, e);
+  const auto point = mantissa.find('.');
+  const int decimals = point == std::string::npos ? 0 : static_cast<int>(mantissa.size() - point - 1);
+  const int exponent = e == std::string::npos ? 0 : std::stoi(digits.substr(e + 1));
+  const double half_unit = 0.5 * std::pow(10.0, exponent - decimals);
+  EXPECT_NEAR(std::stod(digits), p, half_unit * (1.0 + 1e-9)) << cell;
+}
+
 // Table 3.5's layout: a row per setting, a column per measure in the
 // thesis' order, each cell the analysis' p (bold when significant, in
 // parentheses when no Table 3.4 test was), N/A without shared blocks.
 TEST_F(ReportTest, PairwiseTableCellsAreTheAnalysisResults) {
   ReportOptions o;
   o.plots = false;
-  const std::string md = slurp(write_report(analysis_, dir_.path() / "out", o).markdown);
+  // With --method thesis the thesis' tables come first (md_row finds the first row).
+  StudyAnalysis thesis_first = analysis_;
+  thesis_first.options.method = ComparisonMethod::kThesis;
+  const std::string md = slurp(write_report(thesis_first, dir_.path() / "out", o).markdown);
   const auto header = md_row(md, analysis_.control + " compared to:");
   ASSERT_EQ(header.size(), 6u) << md;
   for (std::size_t k = 0; k < kAllMeasures.size(); ++k) EXPECT_EQ(header[k + 1], measure_label(kAllMeasures[k]));
@@ -111,19 +129,37 @@ TEST_F(ReportTest, PairwiseTableCellsAreTheAnalysisResults) {
     } else {
       EXPECT_EQ(c.significant, cell.rfind("**", 0) == 0) << cell;
       EXPECT_EQ(c.gated, cell.find('(') != std::string::npos) << cell;
-      // The printed p ("0.0092", "5E-4"), stripped of its marks, is the
-      // analysis' p within half a unit of its last printed digit.
-      std::string digits;
-      for (char ch : cell)
-        if (ch != '*' && ch != '(' && ch != ')') digits += ch;
-      const auto e = digits.find('E');
-      const std::string mantissa = digits.substr(0, e);
-      const auto point = mantissa.find('.');
-      const int decimals = point == std::string::npos ? 0 : static_cast<int>(mantissa.size() - point - 1);
-      const int exponent = e == std::string::npos ? 0 : std::stoi(digits.substr(e + 1));
-      const double half_unit = 0.5 * std::pow(10.0, exponent - decimals);
-      EXPECT_NEAR(std::stod(digits), *c.p, half_unit * (1.0 + 1e-9)) << cell;
+      expect_printed_p(cell, *c.p);
     }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 5);
+}
+
+// The default method's table leads the report: each cell the participant-
+// level p (bold when significant), the mean difference below it.
+TEST_F(ReportTest, ParticipantLevelTableLeadsByDefaultWithTheAnalysisResults) {
+  ReportOptions o;
+  o.plots = false;
+  ASSERT_EQ(analysis_.options.method, ComparisonMethod::kParticipant);
+  const std::string md = slurp(write_report(analysis_, dir_.path() / "out", o).markdown);
+  EXPECT_LT(md.find("one value per participant, " + analysis_.tasks.front()), md.find("Table 3.4"));
+  std::size_t participants = 0;
+  for (const auto& c : analysis_.participant_pairwise)
+    if (c.setting == "No Force Feedback" && c.task == analysis_.tasks.front())
+      participants = std::max(participants, c.participants);
+  ASSERT_GT(participants, 0u);
+  const auto row = md_row(md, "No Force Feedback (" + std::to_string(participants) + ")");
+  ASSERT_EQ(row.size(), 6u) << md;
+  int checked = 0;
+  for (const auto& c : analysis_.participant_pairwise) {
+    if (c.setting != "No Force Feedback" || c.task != analysis_.tasks.front()) continue;
+    const std::size_t k = static_cast<std::size_t>(
+        std::find(kAllMeasures.begin(), kAllMeasures.end(), c.measure) - kAllMeasures.begin());
+    const std::string& cell = row[k + 1];
+    ASSERT_TRUE(c.p.has_value());
+    EXPECT_EQ(c.significant, cell.rfind("**", 0) == 0) << cell;
+    expect_printed_p(cell, *c.p);
     ++checked;
   }
   EXPECT_EQ(checked, 5);
