@@ -142,9 +142,36 @@ int run_plan_power(const PlanPowerOptions& o) {
     };
     const auto control = std::find_if(protocol.settings.begin(), protocol.settings.end(),
                                       [&](const auto& s) { return s.settings.name == names.control; });
+    const nlohmann::json control_parameters = parameters(control->settings);
+    // Declared ones ("null_settings") must be copies: a null setting that
+    // differs measures an effect, not the false-positive rate.
+    for (const std::string& name : protocol.null_settings) {
+      if (name == names.control)
+        throw std::runtime_error(o.protocol + ": null_settings names '" + name + "', the control itself; a null "
+                                 "setting is a copy of the control under another name");
+      const nlohmann::json mine = parameters(protocol.settings[*protocol.find_setting(name)].settings);
+      if (mine != control_parameters) {
+        std::string field = "?";
+        const nlohmann::json diff = nlohmann::json::diff(control_parameters, mine);
+        if (!diff.empty()) {
+          field = diff[0].value("path", "?");  // a JSON pointer, /translation/friction/enabled
+          std::replace(field.begin(), field.end(), '/', '.');
+          if (!field.empty() && field.front() == '.') field.erase(0, 1);
+        }
+        throw std::runtime_error(o.protocol + ": null_settings names '" + name + "', but it is not a copy of the "
+                                 "control '" + names.control + "': it differs at " + field +
+                                 " (a null setting has the control's parameters under another name)");
+      }
+      null_settings.insert(name);
+    }
+    // Undeclared copies are null settings too (nothing but the name differs), said so.
     for (const auto& s : protocol.settings)
-      if (s.settings.name != names.control && parameters(s.settings) == parameters(control->settings))
+      if (s.settings.name != names.control && !null_settings.count(s.settings.name) &&
+          parameters(s.settings) == control_parameters) {
         null_settings.insert(s.settings.name);
+        std::fprintf(stderr, "note: '%s' has the control's parameters: counted as a null setting (declare it in "
+                             "the protocol's \"null_settings\" to say it is meant)\n", s.settings.name.c_str());
+      }
   }
   if (o.plots) (void)analysis::find_gnuplot();
 

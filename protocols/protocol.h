@@ -123,6 +123,11 @@ struct Protocol {
   // The optional "safety" object: force limits below the device's
   // (protocols/safety_json.h, docs/safety.md). Default: the device's own.
   OperatorForceLimits safety;
+  // The optional "null_settings": settings that are the control's
+  // parameters under another name, so that any difference found for them is
+  // a false positive (`plan power` counts them and refuses one that is not
+  // such a copy). Names of `settings`; nothing else reads them.
+  std::vector<std::string> null_settings;
 
   // 0 for a task without repetitions.
   int repetitions_of(const Task& task) const {

@@ -37,7 +37,7 @@ class Reader {
   Protocol read(const json& j) {
     expect_object(j, "(top level)");
     check_keys(j, "", {"study", "description", "ve", "tasks", "repetitions", "settings", "participants", "design",
-                       "seed", "training_trials", "safety"});
+                       "seed", "training_trials", "safety", "null_settings"});
     Protocol p;
     p.study = as_string(require(j, "study", ""), "study");
     if (j.contains("description")) p.description = as_string(j["description"], "description");
@@ -58,6 +58,12 @@ class Reader {
     read_design(require(j, "design", ""), p);
     p.seed = as_seed(require(j, "seed", ""), "seed");
     if (j.contains("safety")) p.safety = safety_from_json(j["safety"], source_);
+    if (j.contains("null_settings")) {
+      p.null_settings = read_names(j["null_settings"], "null_settings");
+      for (std::size_t i = 0; i < p.null_settings.size(); ++i)
+        if (!p.find_setting(p.null_settings[i]))
+          fail(index_path("null_settings", i), "is \"" + p.null_settings[i] + "\", but is not one of the settings");
+    }
     validate_protocol(p, source_);
     return p;
   }

@@ -132,6 +132,8 @@ TEST_F(PlanPowerTest, ANullSettingIsFoundAndItsFalsePositivesCounted) {
                            << R"("], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 5})";
   const auto [rc, text] = plan("--studies 2 --no-plots --json --out " + (dir_ / "null").string());
   ASSERT_EQ(rc, 0) << text;
+  // Not declared in "null_settings": found, and said so.
+  EXPECT_THAT(text, HasSubstr("note: 'Copy' has the control's parameters: counted as a null setting"));
   const nlohmann::json j = nlohmann::json::parse(text.substr(text.find('{')));
   EXPECT_EQ(j.at("null_settings"), nlohmann::json::array({"Copy"}));
   std::set<std::string> methods;
@@ -197,6 +199,31 @@ TEST_F(PlanPowerTest, BadInputIsNamed) {
   std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "d").string());
   EXPECT_EQ(rc, 1);
   EXPECT_THAT(text, HasSubstr("holds the studies of another plan"));
+  // A declared null setting that is not a copy of the control: named, with
+  // where it differs; one that is not a setting: named by the protocol reader.
+  const fs::path settings = source_dir() / "examples" / "settings";
+  protocol_ = dir_ / "bad_null.json";
+  std::ofstream(protocol_) << R"({"study": "n", "tasks": ["clip"], "repetitions": {"clip": 2}, "settings": [")"
+                           << (settings / "high_fidelity.json").string() << R"(", ")"
+                           << (settings / "friction.json").string()
+                           << R"("], "null_settings": ["Friction"], "participants": ["A"], )"
+                           << R"("design": {"type": "complete"}, "seed": 5})";
+  std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "e").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr("null_settings names 'Friction', but it is not a copy of the control 'High "
+                                    "Fidelity': it differs at "),
+                          HasSubstr("friction.enabled"),
+                          HasSubstr("null setting has the control's parameters")));
+  EXPECT_FALSE(fs::exists(dir_ / "e" / "plan_power.db"));
+  protocol_ = dir_ / "unknown_null.json";
+  std::ofstream(protocol_) << R"({"study": "n", "tasks": ["clip"], "repetitions": {"clip": 2}, "settings": [")"
+                           << (settings / "high_fidelity.json").string()
+                           << R"(", {"name": "Copy"}], "null_settings": ["Copy", "Cpoy"], "participants": ["A"], )"
+                           << R"("design": {"type": "complete"}, "seed": 5})";
+  std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "f").string());
+  EXPECT_NE(rc, 0);
+  EXPECT_THAT(text, HasSubstr("null_settings[1]"));
+  EXPECT_THAT(text, HasSubstr("\"Cpoy\", but is not one of the settings"));
 }
 
 }  // namespace
