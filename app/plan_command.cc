@@ -23,6 +23,8 @@
 #include "core/common/csv_format.h"
 #include "core/settings/settings_json.h"
 #include "db/sha256.h"
+#include "core/io/output_file.h"
+#include "planning/calibration.h"
 #include "planning/power.h"
 #include "planning/power_store.h"
 #include "protocols/protocol_json.h"
@@ -373,6 +375,142 @@ int run_plan_power(const PlanPowerOptions& o) {
   return 0;
 }
 
+struct PlanCalibrateOptions {
+  std::string protocol;
+  int participants = 100;
+  std::uint64_t seed = 1;
+  std::size_t jobs = 0;
+  std::string out = "plan-calibrate";
+  double max_trial_s = 300.0;
+  bool json = false;
+};
+
+// Participants are simulated in studies of this many (each on one thread),
+// so the result does not depend on --jobs.
+constexpr int kCalibrationChunk = 10;
+
+int run_plan_calibrate(const PlanCalibrateOptions& o) {
+  const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
+  planning::SimulatedStudyOptions sim;
+  sim.max_trial_s = o.max_trial_s;
+  analysis::StudyAnalysis names;
+  for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
+  try {
+    analysis::choose_control(names, sim.analysis);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(o.protocol + ": " + e.what() + "; plan calibrate compares No Force Feedback with it");
+  }
+  // No Force Feedback by what it does, not its name: the tip force clipped to 0 N.
+  std::string no_feedback;
+  for (const auto& s : protocol.settings) {
+    const auto& t = s.settings.engine.tip_force_saturation;
+    if (t.enabled && t.limit_N == 0.0 && no_feedback.empty()) no_feedback = s.settings.name;
+  }
+  if (no_feedback.empty())
+    throw std::runtime_error(o.protocol + ": no setting displays no force (tip_force_saturation enabled with "
+                             "limit_N 0, as examples/settings/no_force_feedback.json); plan calibrate measures "
+                             "the published effects of force feedback against it");
+  std::vector<int> chunk_sizes;
+  for (int left = o.participants; left > 0; left -= kCalibrationChunk)
+    chunk_sizes.push_back(std::min(left, kCalibrationChunk));
+  for (int n : std::set<int>(chunk_sizes.begin(), chunk_sizes.end())) (void)planning::resized_protocol(protocol, n, o.seed);
+
+  ProgressLine line(o.json ? stderr : stdout);
+  const std::size_t jobs = std::min<std::size_t>(
+      o.jobs > 0 ? o.jobs : 2 * std::max(1u, std::thread::hardware_concurrency()), chunk_sizes.size());
+  line.print("simulating " + std::to_string(o.participants) + " participants of " + protocol.study + " (" +
+             no_feedback + " against " + names.control + ") on " + std::to_string(jobs) + " thread(s)");
+  InterruptFlag interrupt;
+  std::vector<planning::SimulatedStudy> chunks(chunk_sizes.size());
+  std::atomic<std::size_t> next{0};
+  std::atomic<std::size_t> done{0};
+  std::mutex m;
+  std::exception_ptr error;
+  std::vector<std::thread> pool;
+  for (std::size_t t = 0; t < jobs; ++t) {
+    pool.emplace_back([&] {
+      try {
+        for (std::size_t k = next++; k < chunk_sizes.size() && !interrupt.raised(); k = next++) {
+          chunks[k] = planning::simulate_study(protocol, chunk_sizes[k],
+                                               planning::study_seed(o.seed, o.participants, static_cast<int>(k)), sim);
+          ++done;
+        }
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(m);
+        if (!error) error = std::current_exception();
+        next = chunk_sizes.size();
+      }
+    });
+  }
+  const auto started = std::chrono::steady_clock::now();
+  while (done < chunk_sizes.size() && !error && !interrupt.raised()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    const std::size_t finished = done;
+    std::optional<double> eta;
+    if (finished > 0) eta = elapsed_s / static_cast<double>(finished) * static_cast<double>(chunk_sizes.size() - finished);
+    line.update(static_cast<double>(finished) / static_cast<double>(chunk_sizes.size()),
+                std::to_string(std::min<std::size_t>(finished * kCalibrationChunk, o.participants)) + "/" +
+                    std::to_string(o.participants) + " participants",
+                elapsed_s, eta);
+  }
+  for (auto& t : pool) t.join();
+  line.finish();
+  if (error) std::rethrow_exception(error);
+  if (interrupt.raised()) throw std::runtime_error("interrupted; nothing written (run it again)");
+
+  // One population: each study's participants keep their study in their code.
+  analysis::StudyAnalysis all;
+  std::size_t timed_out = 0;
+  for (std::size_t k = 0; k < chunks.size(); ++k) {
+    timed_out += static_cast<std::size_t>(chunks[k].trials_timed_out);
+    for (analysis::TrialRecord t : chunks[k].analysis.trials) {
+      t.participant = "s" + std::to_string(k) + "/" + t.participant;
+      all.trials.push_back(std::move(t));
+    }
+  }
+  const std::vector<planning::MeasuredEffect> effects = planning::measure_effects(all, names.control, no_feedback);
+
+  fs::create_directories(o.out);
+  std::ostringstream csv;
+  csv << "id,task,what,published,source,criterion,participants,median_ratio,q1,q3,share_above_1,consistent\n";
+  for (const auto& e : effects)
+    csv << e.effect.id << ',' << e.effect.task << ',' << csv_text(e.effect.what) << ',' << csv_text(e.effect.published)
+        << ',' << csv_text(e.effect.source) << ',' << csv_text(e.effect.criterion) << ',' << e.participants << ','
+        << format_number(e.median) << ',' << format_number(e.q1) << ',' << format_number(e.q3) << ','
+        << format_number(e.share_above_one) << ',' << (e.consistent ? "yes" : "no") << '\n';
+  const fs::path csv_path = fs::path(o.out) / "calibration.csv";
+  try {
+    write_file_atomically(csv_path, csv.str());
+  } catch (const OutputFileError& e) {
+    throw std::runtime_error(std::string(e.what()) + " (disk full?); nothing else was written");
+  }
+  if (o.json) {
+    nlohmann::json j = {{"participants", o.participants}, {"control", names.control}, {"no_feedback", no_feedback},
+                        {"trials_timed_out", timed_out}, {"effects", nlohmann::json::array()},
+                        {"csv", csv_path.string()}};
+    for (const auto& e : effects)
+      j["effects"].push_back({{"id", e.effect.id}, {"task", e.effect.task}, {"published", e.effect.published},
+                              {"source", e.effect.source}, {"criterion", e.effect.criterion},
+                              {"participants", e.participants}, {"median_ratio", e.median}, {"q1", e.q1},
+                              {"q3", e.q3}, {"share_above_1", e.share_above_one}, {"consistent", e.consistent}});
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  std::printf("\n%d simulated participants (%zu trials timed out and left out); each effect is a ratio of one "
+              "participant's medians, summarized over them\n\n",
+              o.participants, timed_out);
+  for (const auto& e : effects) {
+    std::printf("%s: %s\n  published: %s (%s)\n  simulated: median %.2f [IQR %.2f, %.2f], > 1 for %.0f%% of %zu "
+                "participants; %s: %s\n\n",
+                e.effect.task.c_str(), e.effect.what.c_str(), e.effect.published.c_str(), e.effect.source.c_str(),
+                e.median, e.q1, e.q3, 100.0 * e.share_above_one, e.participants, e.effect.criterion.c_str(),
+                e.consistent ? "consistent" : "NOT consistent");
+  }
+  std::printf("Table: %s\n", csv_path.c_str());
+  return 0;
+}
+
 }  // namespace
 
 void add_plan_command(CLI::App& app) {
@@ -415,6 +553,28 @@ void add_plan_command(CLI::App& app) {
     const int status = run_plan_power(*opt);
     if (status != 0) throw CLI::RuntimeError(status);
   });
+  auto cal = std::make_shared<PlanCalibrateOptions>();
+  CLI::App* calibrate = plan->add_subcommand(
+      "calibrate",
+      "Does the simulated population show the published effects of force feedback? Runs the protocol (with "
+      "High Fidelity and a No Force Feedback setting) for many simulated participants and prints each effect "
+      "(Wagner et al. 2002, the thesis) beside the measured one; writes calibration.csv");
+  calibrate->add_option("--protocol", cal->protocol, "Protocol file (examples/protocols/calibration.json)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  calibrate->add_option("--participants", cal->participants, "Simulated participants, 2..100000")
+      ->capture_default_str()
+      ->check(CLI::Range(2, 100000));
+  calibrate->add_option("--seed", cal->seed, "Seed: the same seed gives the same participants and table")
+      ->capture_default_str();
+  calibrate->add_option("--jobs,-j", cal->jobs, "Groups of 10 participants simulated at once (0: two per core)")
+      ->check(CLI::Range(0, 256));
+  calibrate->add_option("--out", cal->out, "Folder for calibration.csv")->capture_default_str();
+  calibrate->add_option("--max-trial-s", cal->max_trial_s, "Per-trial time limit [s], as session run's")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 3600.0));
+  calibrate->add_flag("--json", cal->json, "Print the table as JSON (progress goes to stderr)");
+  calibrate->callback([cal] { (void)run_plan_calibrate(*cal); });
 }
 
 }  // namespace hapticlab::app

@@ -5,9 +5,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "db/study_db.h"
 #include "protocols/protocol_error.h"
@@ -119,6 +121,46 @@ TEST_F(SimulatedStudyTest, ResizingCyclesTheProtocolsParticipants) {
   EXPECT_EQ(five.participants[2].tasks, p.participants[2].tasks);
   EXPECT_EQ(five.design.assignments.at("P04"), p.design.assignments.at("S1"));
   EXPECT_THROW(resized_protocol(p, 0, 1), std::invalid_argument);
+}
+
+// The simulation never knows the setting: the same study with the settings'
+// names permuted (each physics under another setting's name) gives every
+// trial the same measures, bit for bit. The schedule is by position in the
+// protocol, so trial k has the same physics in both; only its label moves.
+TEST_F(SimulatedStudyTest, PermutingTheSettingsNamesChangesNoMeasure) {
+  const std::filesystem::path settings = source_dir() / "examples" / "settings";
+  auto write = [&](const std::string& file, const std::string& a, const std::string& b, const std::string& c) {
+    const auto path = dir_ / file;
+    auto inline_setting = [&](const std::string& json_file, const std::string& name) {
+      nlohmann::json j = nlohmann::json::parse(std::ifstream(settings / json_file));
+      j["name"] = name;
+      return j.dump();
+    };
+    std::ofstream(path) << R"({"study": "blind", "tasks": ["clip"], "repetitions": {"clip": 2}, "settings": [)"
+                        << inline_setting("high_fidelity.json", a) << ", " << inline_setting("no_force_feedback.json", b)
+                        << ", " << inline_setting("friction.json", c)
+                        << R"(], "participants": ["P01", "P02"], "design": {"type": "complete"}, "seed": 7})";
+    return protocols::load_protocol_file(path);
+  };
+  const protocols::Protocol named = write("named.json", "High Fidelity", "No Force Feedback", "Friction");
+  const protocols::Protocol permuted = write("permuted.json", "Friction", "High Fidelity", "No Force Feedback");
+  SimulatedStudyOptions options;
+  options.analysis.control_setting = "High Fidelity";
+  const SimulatedStudy x = simulate_study(named, 2, 11, options);
+  options.analysis.control_setting = "Friction";  // the high-fidelity physics in the permuted protocol
+  const SimulatedStudy y = simulate_study(permuted, 2, 11, options);
+  const std::map<std::string, std::string> renamed = {
+      {"High Fidelity", "Friction"}, {"No Force Feedback", "High Fidelity"}, {"Friction", "No Force Feedback"}};
+  ASSERT_EQ(x.analysis.trials.size(), y.analysis.trials.size());
+  ASSERT_EQ(x.analysis.trials.size(), 12u);
+  for (std::size_t k = 0; k < x.analysis.trials.size(); ++k) {
+    const analysis::TrialRecord& a = x.analysis.trials[k];
+    const analysis::TrialRecord& b = y.analysis.trials[k];
+    EXPECT_EQ(a.trial_id, b.trial_id);
+    EXPECT_EQ(renamed.at(a.setting), b.setting) << k;
+    for (analysis::Measure m : analysis::kAllMeasures)
+      for (int h = 0; h < 2; ++h) EXPECT_TRUE(same(a.value(m, h), b.value(m, h))) << k << " " << h;
+  }
 }
 
 }  // namespace

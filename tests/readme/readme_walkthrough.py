@@ -43,6 +43,8 @@ def rewrites():
         ("127.0.0.1:5000", "127.0.0.1:" + port, "the same free port"),
         ("--participants 3,5,8 --studies 200", "--participants 3 --studies 2",
          "plan power's 600 studies take about half an hour on 2 cores; 2 show it runs"),
+        ("--participants 100 --out calibration/", "--participants 2 --out calibration/",
+         "plan calibrate's 100 participants take about two minutes on 2 cores; 2 show it runs"),
     ]
 
 

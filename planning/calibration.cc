@@ -1,0 +1,112 @@
+#include "planning/calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "analysis/stats/percentile.h"
+
+namespace hapticlab::planning {
+
+using analysis::Measure;
+using Kind = PublishedEffect::Kind;
+
+const std::vector<PublishedEffect>& published_effects() {
+  // Wagner, Stylopoulos & Howe (2002), "The role of force feedback in
+  // surgery: analysis of blunt dissection", Haptics Symposium, as the thesis
+  // quotes it (3.1): mean force +50 %, peak force at least 2x, speed not
+  // affected, without force feedback. Their mean and peak are read here as
+  // the thesis' own robust measures of the same things: the median and the
+  // 95th percentile of the tip force.
+  static const std::vector<PublishedEffect> effects = {
+      {"nff_force_median_dissection", "No Force Feedback / High Fidelity, median tip force", "dissection",
+       Measure::kForceMedian, Kind::kSettingRatio, "mean force 50 % higher without force feedback",
+       "Wagner, Stylopoulos & Howe 2002 (blunt dissection), thesis 3.1", 1.5, 0.0, "median ratio >= 1.5"},
+      {"nff_force_p95_dissection_wagner", "No Force Feedback / High Fidelity, 95th-percentile tip force",
+       "dissection", Measure::kForceP95, Kind::kSettingRatio, "peak force at least 2x without force feedback",
+       "Wagner, Stylopoulos & Howe 2002 (blunt dissection), thesis 3.1", 2.0, 0.0, "median ratio >= 2"},
+      {"nff_time_dissection_wagner", "No Force Feedback / High Fidelity, completion time", "dissection",
+       Measure::kCompletionTime, Kind::kSettingRatio, "speed of dissection not affected",
+       "Wagner, Stylopoulos & Howe 2002 (blunt dissection), thesis 3.1", 0.9, 1.1,
+       "median ratio within 0.9..1.1 (our reading of 'not affected')"},
+      {"nff_force_p95_dissection", "No Force Feedback / High Fidelity, 95th-percentile tip force", "dissection",
+       Measure::kForceP95, Kind::kSettingRatio, "higher, P = 8E-6 (3 surgeons); no size given",
+       "thesis Table 3.5", 1.0, 0.0, "median ratio > 1"},
+      {"nff_time_dissection", "No Force Feedback / High Fidelity, completion time", "dissection",
+       Measure::kCompletionTime, Kind::kSettingRatio, "no significant difference, P = 0.25 (3 surgeons)",
+       "thesis Table 3.5", 0.9, 1.1, "median ratio within 0.9..1.1"},
+      {"nff_force_median_clip", "No Force Feedback / High Fidelity, median tip force", "clip", Measure::kForceMedian,
+       Kind::kSettingRatio, "higher, P = 0.0071 (2 surgeons); no size given", "thesis Table 3.6", 1.0, 0.0,
+       "median ratio > 1"},
+      {"nff_force_p95_clip", "No Force Feedback / High Fidelity, 95th-percentile tip force", "clip",
+       Measure::kForceP95, Kind::kSettingRatio, "higher, P = 7E-6 (2 surgeons); no size given", "thesis Table 3.6",
+       1.0, 0.0, "median ratio > 1"},
+      {"nff_time_clip", "No Force Feedback / High Fidelity, completion time", "clip", Measure::kCompletionTime,
+       Kind::kSettingRatio, "no significant difference, P = 0.19 (2 surgeons)", "thesis Table 3.6", 0.9, 1.1,
+       "median ratio within 0.9..1.1"},
+      // The thesis' 50th-percentile hand difference is not in the table: its
+      // results (3.4.2.1, Figure 3-11) say the left hand's is higher, its
+      // discussion (3.5.2.2) that it is lower.
+      {"hand_force_p95_dissection", "left / right hand, 95th-percentile tip force, every setting", "dissection",
+       Measure::kForceP95, Kind::kHandRatio, "left hand higher, P = 4E-6 (3 surgeons, settings pooled)",
+       "thesis Figure 3-12, 3.4.2.1", 1.0, 0.0, "median ratio > 1"},
+  };
+  return effects;
+}
+
+namespace {
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return analysis::percentile_sorted(v, 50.0, analysis::PercentileMethod::kMatlab);
+}
+
+}  // namespace
+
+std::vector<MeasuredEffect> measure_effects(const analysis::StudyAnalysis& a, const std::string& control,
+                                            const std::string& no_feedback) {
+  std::vector<MeasuredEffect> out;
+  for (const PublishedEffect& e : published_effects()) {
+    // participant -> the two sides' values (numerator, denominator)
+    std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> sides;
+    for (const analysis::TrialRecord& t : a.trials) {
+      if (t.task != e.task) continue;
+      const int hands = analysis::measure_per_hand(e.measure) ? 2 : 1;
+      for (int h = 0; h < hands; ++h) {
+        const double v = t.value(e.measure, h);
+        if (!std::isfinite(v)) continue;
+        auto& [num, den] = sides[t.participant];
+        if (e.kind == Kind::kSettingRatio) {
+          if (t.setting == no_feedback) num.push_back(v);
+          if (t.setting == control) den.push_back(v);
+        } else {
+          (h == 0 ? num : den).push_back(v);  // instrument 0 is the left hand
+        }
+      }
+    }
+    std::vector<double> ratios;
+    for (const auto& [participant, s] : sides) {
+      if (s.first.empty() || s.second.empty()) continue;
+      const double den = median_of(s.second);
+      if (den > 0.0) ratios.push_back(median_of(s.first) / den);
+    }
+    if (ratios.empty()) continue;
+    MeasuredEffect m;
+    m.effect = e;
+    m.participants = ratios.size();
+    std::vector<double> sorted = ratios;
+    std::sort(sorted.begin(), sorted.end());
+    m.median = analysis::percentile_sorted(sorted, 50.0, analysis::PercentileMethod::kMatlab);
+    m.q1 = analysis::percentile_sorted(sorted, 25.0, analysis::PercentileMethod::kMatlab);
+    m.q3 = analysis::percentile_sorted(sorted, 75.0, analysis::PercentileMethod::kMatlab);
+    m.share_above_one = static_cast<double>(std::count_if(ratios.begin(), ratios.end(), [](double r) { return r > 1.0; })) /
+                        static_cast<double>(ratios.size());
+    // "> 1" effects (low == 1, no high) need the median strictly above.
+    const bool above_low = e.low == 1.0 && e.high == 0.0 ? m.median > 1.0 : m.median >= e.low;
+    m.consistent = above_low && (e.high == 0.0 || m.median <= e.high);
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+}  // namespace hapticlab::planning

@@ -1,0 +1,52 @@
+#pragma once
+// `hapticlab plan calibrate`: does the simulated population show the
+// effects published for real people? A calibration protocol (a complete
+// design with the control, High Fidelity, and No Force Feedback) is run for
+// many simulated participants, and each effect below is measured per
+// participant (a ratio of their medians), then summarized over them beside
+// the published value. Nothing here tunes the model: the table says where
+// it matches a source and where it does not (docs/simulation.md,
+// "Calibration").
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "analysis/study/study_analysis.h"
+
+namespace hapticlab::planning {
+
+// One published effect the population should show.
+struct PublishedEffect {
+  std::string id;        // calibration.csv's key, e.g. nff_force_p95_dissection
+  std::string what;      // what is compared, in words
+  std::string task;      // "dissection", "clip"
+  analysis::Measure measure = analysis::Measure::kForceP95;
+  // kSettingRatio: No Force Feedback over the control, both hands pooled.
+  // kHandRatio: left over right hand, every setting pooled (as the thesis' Figures 3-11, 3-12).
+  enum class Kind { kSettingRatio, kHandRatio } kind = Kind::kSettingRatio;
+  std::string published;  // the source's finding, in its words
+  std::string source;     // author, year, where
+  // How the measured median ratio is judged against the source: the ratio
+  // at least `low` (and at most `high`, when high > 0).
+  double low = 0.0, high = 0.0;
+  std::string criterion;  // the same in words
+};
+
+// The table of docs/simulation.md, "Calibration".
+const std::vector<PublishedEffect>& published_effects();
+
+struct MeasuredEffect {
+  PublishedEffect effect;
+  std::size_t participants = 0;   // with data for both sides of the ratio
+  double median = 0.0;            // of the participants' ratios
+  double q1 = 0.0, q3 = 0.0;      // quartiles of the ratios
+  double share_above_one = 0.0;   // participants whose ratio is > 1
+  bool consistent = false;        // median within the effect's [low, high]
+};
+
+// Every effect of published_effects() that `analysis` has data for.
+// `control` and `no_feedback` name the two settings of the setting ratios.
+std::vector<MeasuredEffect> measure_effects(const analysis::StudyAnalysis& analysis, const std::string& control,
+                                            const std::string& no_feedback);
+
+}  // namespace hapticlab::planning

@@ -1,0 +1,119 @@
+// plan calibrate's effects (planning/calibration.h), on trials whose
+// measures are set by hand, and the command on a tiny protocol.
+#include "planning/calibration.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "app/cli_process.h"
+#include "testing/files.h"
+#include "testing/test_paths.h"
+
+namespace hapticlab::planning {
+namespace {
+
+using ::testing::HasSubstr;
+
+analysis::TrialRecord trial(const std::string& participant, const std::string& setting, double left_p95_N,
+                            double right_p95_N, double duration_s) {
+  analysis::TrialRecord t;
+  t.participant = participant;
+  t.task = "dissection";
+  t.setting = setting;
+  t.window = analysis::TaskWindow{1.0, 1.0 + duration_s};
+  t.hands[0].force_p95_N = left_p95_N;
+  t.hands[1].force_p95_N = right_p95_N;
+  t.hands[0].force_median_N = t.hands[1].force_median_N = 1.0;
+  return t;
+}
+
+const MeasuredEffect& effect(const std::vector<MeasuredEffect>& all, const std::string& id) {
+  for (const auto& e : all)
+    if (e.effect.id == id) return e;
+  throw std::runtime_error("no effect " + id);
+}
+
+// Worked by hand. A: HF p95 values {1, 1} and {1, 3} (two trials, both
+// hands) -> median 1; NFF {2, 2, 3, 3} -> 2.5: ratio 2.5. B: HF {2, 2, 2, 2}
+// -> 2; NFF {3, 3, 3, 3} -> 3: ratio 1.5. Median of (2.5, 1.5) = 2.
+// Hands, every setting pooled: A left {1, 1, 2, 3} / right {1, 3, 2, 3}
+// -> 1.5 / 2.5 = 0.6; B left 2.5 / right 2.5 = 1.
+TEST(CalibrationTest, RatiosOfEachParticipantsMediansWorkedByHand) {
+  analysis::StudyAnalysis a;
+  a.trials = {trial("A", "HF", 1, 1, 10), trial("A", "HF", 1, 3, 10), trial("A", "NFF", 2, 2, 11),
+              trial("A", "NFF", 3, 3, 11), trial("B", "HF", 2, 2, 20), trial("B", "HF", 2, 2, 20),
+              trial("B", "NFF", 3, 3, 20), trial("B", "NFF", 3, 3, 20)};
+  const auto effects = measure_effects(a, "HF", "NFF");
+  const MeasuredEffect& p95 = effect(effects, "nff_force_p95_dissection_wagner");
+  EXPECT_EQ(p95.participants, 2u);
+  EXPECT_DOUBLE_EQ(p95.median, 2.0);
+  EXPECT_DOUBLE_EQ(p95.share_above_one, 1.0);
+  EXPECT_TRUE(p95.consistent);  // >= 2
+  const MeasuredEffect& time = effect(effects, "nff_time_dissection_wagner");
+  EXPECT_DOUBLE_EQ(time.median, (1.1 + 1.0) / 2.0);  // A 11/10, B 20/20
+  EXPECT_TRUE(time.consistent);                      // within 0.9..1.1
+  const MeasuredEffect& hands = effect(effects, "hand_force_p95_dissection");
+  EXPECT_DOUBLE_EQ(hands.median, (0.6 + 1.0) / 2.0);
+  EXPECT_DOUBLE_EQ(hands.share_above_one, 0.0);
+  EXPECT_FALSE(hands.consistent);  // the thesis' left hand was higher
+  // No clip trials: no clip effects.
+  for (const auto& e : effects) EXPECT_EQ(e.effect.task, "dissection");
+}
+
+class PlanCalibrateTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / ("plan_calibrate_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  std::filesystem::path protocol(const std::string& name, const std::string& second_setting) const {
+    const auto settings = std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
+    const auto path = dir_ / name;
+    std::ofstream(path) << R"({"study": "c", "tasks": ["clip"], "repetitions": {"clip": 1}, "settings": [")"
+                        << (settings / "high_fidelity.json").string() << R"(", ")"
+                        << (settings / second_setting).string()
+                        << R"("], "participants": ["A"], "design": {"type": "complete"}, "seed": 3})";
+    return path;
+  }
+  std::filesystem::path dir_;
+};
+
+// Two groups of participants (10 + 2) on one or on three threads: the same table.
+TEST_F(PlanCalibrateTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
+  const auto p = protocol("c.json", "no_force_feedback.json").string();
+  const auto [rc1, out1] = testing::run_cli(kBinary, "plan calibrate --protocol " + p +
+                                                         " --participants 12 --jobs 1 --out " + (dir_ / "a").string());
+  ASSERT_EQ(rc1, 0) << out1;
+  EXPECT_THAT(out1, HasSubstr("clip: No Force Feedback / High Fidelity, 95th-percentile tip force"));
+  const auto [rc3, out3] = testing::run_cli(kBinary, "plan calibrate --protocol " + p +
+                                                         " --participants 12 --jobs 3 --out " + (dir_ / "b").string());
+  ASSERT_EQ(rc3, 0) << out3;
+  const std::string a = hapticlab::testing::slurp(dir_ / "a" / "calibration.csv");
+  EXPECT_EQ(a, hapticlab::testing::slurp(dir_ / "b" / "calibration.csv"));
+  EXPECT_THAT(a, HasSubstr("nff_force_p95_clip,clip,"));
+  EXPECT_EQ(std::count(a.begin(), a.end(), '\n'), 4);  // the header and the three clip effects
+}
+
+TEST_F(PlanCalibrateTest, BadInputIsNamed) {
+  const auto p = protocol("f.json", "friction.json").string();
+  auto [rc, out] = testing::run_cli(kBinary, "plan calibrate --protocol " + p + " --participants 2 --out " +
+                                                 (dir_ / "x").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(out, HasSubstr("no setting displays no force (tip_force_saturation enabled with limit_N 0"));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "x" / "calibration.csv"));
+  std::tie(rc, out) = testing::run_cli(kBinary, "plan calibrate --protocol " + p + " --participants 1");
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(out, HasSubstr("--participants"));
+}
+
+}  // namespace
+}  // namespace hapticlab::planning
