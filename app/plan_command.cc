@@ -385,10 +385,6 @@ struct PlanCalibrateOptions {
   bool json = false;
 };
 
-// Participants are simulated in studies of this many (each on one thread),
-// so the result does not depend on --jobs.
-constexpr int kCalibrationChunk = 10;
-
 int run_plan_calibrate(const PlanCalibrateOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
   planning::SimulatedStudyOptions sim;
@@ -410,65 +406,32 @@ int run_plan_calibrate(const PlanCalibrateOptions& o) {
     throw std::runtime_error(o.protocol + ": no setting displays no force (tip_force_saturation enabled with "
                              "limit_N 0, as examples/settings/no_force_feedback.json); plan calibrate measures "
                              "the published effects of force feedback against it");
-  std::vector<int> chunk_sizes;
-  for (int left = o.participants; left > 0; left -= kCalibrationChunk)
-    chunk_sizes.push_back(std::min(left, kCalibrationChunk));
-  for (int n : std::set<int>(chunk_sizes.begin(), chunk_sizes.end())) (void)planning::resized_protocol(protocol, n, o.seed);
+  // A design that cannot take the group sizes is refused before anything runs.
+  (void)planning::resized_protocol(protocol, std::min(o.participants, planning::kCalibrationGroup), o.seed);
+  if (const int rest = o.participants % planning::kCalibrationGroup; rest > 0)
+    (void)planning::resized_protocol(protocol, rest, o.seed);
 
   ProgressLine line(o.json ? stderr : stdout);
-  const std::size_t jobs = std::min<std::size_t>(
-      o.jobs > 0 ? o.jobs : 2 * std::max(1u, std::thread::hardware_concurrency()), chunk_sizes.size());
   line.print("simulating " + std::to_string(o.participants) + " participants of " + protocol.study + " (" +
-             no_feedback + " against " + names.control + ") on " + std::to_string(jobs) + " thread(s)");
+             no_feedback + " against " + names.control + ")");
   InterruptFlag interrupt;
-  std::vector<planning::SimulatedStudy> chunks(chunk_sizes.size());
-  std::atomic<std::size_t> next{0};
-  std::atomic<std::size_t> done{0};
-  std::mutex m;
-  std::exception_ptr error;
-  std::vector<std::thread> pool;
-  for (std::size_t t = 0; t < jobs; ++t) {
-    pool.emplace_back([&] {
-      try {
-        for (std::size_t k = next++; k < chunk_sizes.size() && !interrupt.raised(); k = next++) {
-          chunks[k] = planning::simulate_study(protocol, chunk_sizes[k],
-                                               planning::study_seed(o.seed, o.participants, static_cast<int>(k)), sim);
-          ++done;
-        }
-      } catch (...) {
-        const std::lock_guard<std::mutex> lock(m);
-        if (!error) error = std::current_exception();
-        next = chunk_sizes.size();
-      }
-    });
-  }
   const auto started = std::chrono::steady_clock::now();
-  while (done < chunk_sizes.size() && !error && !interrupt.raised()) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    const std::size_t finished = done;
-    std::optional<double> eta;
-    if (finished > 0) eta = elapsed_s / static_cast<double>(finished) * static_cast<double>(chunk_sizes.size() - finished);
-    line.update(static_cast<double>(finished) / static_cast<double>(chunk_sizes.size()),
-                std::to_string(std::min<std::size_t>(finished * kCalibrationChunk, o.participants)) + "/" +
-                    std::to_string(o.participants) + " participants",
-                elapsed_s, eta);
-  }
-  for (auto& t : pool) t.join();
+  const planning::SimulatedPopulation population = planning::simulate_population(
+      protocol, o.participants, o.seed, o.jobs, sim, planning::kCalibrationGroup,
+      [&](int done_participants) {
+        const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+        std::optional<double> eta;
+        if (done_participants > 0)
+          eta = elapsed_s / done_participants * static_cast<double>(o.participants - done_participants);
+        line.update(static_cast<double>(done_participants) / o.participants,
+                    std::to_string(done_participants) + "/" + std::to_string(o.participants) + " participants",
+                    elapsed_s, eta);
+      },
+      [&] { return interrupt.raised(); });
   line.finish();
-  if (error) std::rethrow_exception(error);
   if (interrupt.raised()) throw std::runtime_error("interrupted; nothing written (run it again)");
-
-  // One population: each study's participants keep their study in their code.
-  analysis::StudyAnalysis all;
-  std::size_t timed_out = 0;
-  for (std::size_t k = 0; k < chunks.size(); ++k) {
-    timed_out += static_cast<std::size_t>(chunks[k].trials_timed_out);
-    for (analysis::TrialRecord t : chunks[k].analysis.trials) {
-      t.participant = "s" + std::to_string(k) + "/" + t.participant;
-      all.trials.push_back(std::move(t));
-    }
-  }
+  const analysis::StudyAnalysis& all = population.analysis;
+  const std::size_t timed_out = population.trials_timed_out;
   const std::vector<planning::MeasuredEffect> effects = planning::measure_effects(all, names.control, no_feedback);
 
   fs::create_directories(o.out);

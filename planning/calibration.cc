@@ -2,9 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <atomic>
+#include <chrono>
+#include <exception>
 #include <map>
+#include <mutex>
+#include <thread>
 
 #include "analysis/stats/percentile.h"
+#include "planning/power.h"
 
 namespace hapticlab::planning {
 
@@ -52,6 +58,54 @@ const std::vector<PublishedEffect>& published_effects() {
        "thesis Figure 3-12, 3.4.2.1", 1.0, 0.0, "median ratio > 1"},
   };
   return effects;
+}
+
+SimulatedPopulation simulate_population(const protocols::Protocol& protocol, int participants, std::uint64_t seed,
+                                        std::size_t jobs, const SimulatedStudyOptions& options, int group_size,
+                                        const std::function<void(int)>& progress,
+                                        const std::function<bool()>& stop) {
+  std::vector<int> sizes;
+  for (int left = participants; left > 0; left -= group_size) sizes.push_back(std::min(left, group_size));
+  if (jobs == 0) jobs = 2 * std::max(1u, std::thread::hardware_concurrency());
+  jobs = std::min(jobs, sizes.size());
+  std::vector<SimulatedStudy> groups(sizes.size());
+  std::atomic<std::size_t> next{0};
+  std::atomic<int> done{0};
+  std::atomic<bool> stopping{false};
+  std::mutex m;
+  std::exception_ptr error;
+  std::vector<std::thread> pool;
+  for (std::size_t t = 0; t < jobs; ++t) {
+    pool.emplace_back([&] {
+      try {
+        for (std::size_t k = next++; k < sizes.size() && !stopping; k = next++) {
+          groups[k] = simulate_study(protocol, sizes[k], study_seed(seed, participants, static_cast<int>(k)), options);
+          done += sizes[k];
+        }
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(m);
+        if (!error) error = std::current_exception();
+        stopping = true;
+      }
+    });
+  }
+  while (done < participants && !stopping) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    if (stop && stop()) stopping = true;
+    if (progress) progress(done);
+  }
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+  if (progress) progress(done);
+  SimulatedPopulation out;
+  for (std::size_t k = 0; k < groups.size(); ++k) {
+    out.trials_timed_out += groups[k].trials_timed_out;
+    for (analysis::TrialRecord t : groups[k].analysis.trials) {
+      t.participant = "s" + std::to_string(k) + "/" + t.participant;
+      out.analysis.trials.push_back(std::move(t));
+    }
+  }
+  return out;
 }
 
 namespace {

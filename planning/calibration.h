@@ -8,10 +8,13 @@
 // it matches a source and where it does not (docs/simulation.md,
 // "Calibration").
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "analysis/study/study_analysis.h"
+#include "planning/simulated_study.h"
 
 namespace hapticlab::planning {
 
@@ -43,6 +46,27 @@ struct MeasuredEffect {
   double share_above_one = 0.0;   // participants whose ratio is > 1
   bool consistent = false;        // median within the effect's [low, high]
 };
+
+// Participants are simulated in studies of this many (one study per thread
+// at a time), each with its own seed, so the population does not depend on
+// how many threads run.
+inline constexpr int kCalibrationGroup = 10;
+
+struct SimulatedPopulation {
+  analysis::StudyAnalysis analysis;  // every group's trials; participants coded "sK/P01" (group K)
+  int trials_timed_out = 0;          // left out, as session run would
+};
+
+// `participants` simulated participants of `protocol` in groups of
+// `group_size` (study k's seed: study_seed(seed, participants, k)), on
+// `jobs` threads (0: two per core). `progress(done)` is called on the
+// calling thread with the participants simulated so far, at least every
+// 0.2 s; `stop()` ends it early (the result is then incomplete). Throws
+// what simulate_study throws.
+SimulatedPopulation simulate_population(const protocols::Protocol& protocol, int participants, std::uint64_t seed,
+                                        std::size_t jobs, const SimulatedStudyOptions& options, int group_size,
+                                        const std::function<void(int)>& progress,
+                                        const std::function<bool()>& stop);
 
 // Every effect of published_effects() that `analysis` has data for.
 // `control` and `no_feedback` name the two settings of the setting ratios.
