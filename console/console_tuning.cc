@@ -3,12 +3,12 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
-#include <ctime>
 #include <exception>
 #include <fstream>
 #include <stdexcept>
 
 #include "console/served_file.h"
+#include "core/common/utc_time.h"
 #include "core/io/output_file.h"
 
 namespace hapticlab::console {
@@ -19,15 +19,6 @@ constexpr std::size_t kLogEntries = 200;  // kept for the page; the file has the
 // practised the task (participant.h's learning curve has flattened by then).
 constexpr std::uint64_t kPilotParticipantSeed = 1;
 constexpr int kPilotPracticeTrials = 10;
-
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
-}
 
 // The JSON value at a dotted path of a settings object, or null when the
 // path names nothing there.
@@ -121,7 +112,7 @@ void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
 
 void ConsoleTuning::append_log(const std::string& field, const std::string& from, const std::string& to) {
   const double loop_t_s = running_ ? live_.newest_t_s() : 0.0;
-  nlohmann::json entry = {{"utc", utc_now()}, {"free_trial", free_trial_}, {"loop_t_s", loop_t_s},
+  nlohmann::json entry = {{"utc", utc_now_iso8601()}, {"free_trial", free_trial_}, {"loop_t_s", loop_t_s},
                           {"field", field}, {"from", from}, {"to", to}};
   log_.push_back(entry);
   if (log_.size() > kLogEntries) log_.erase(log_.begin());
@@ -160,7 +151,7 @@ std::string ConsoleTuning::save(const std::string& name) {
     throw std::invalid_argument("name: " + path.string() + " exists; choose another name");
   NamedSettings named = settings_from_json(settings_, "tuning");
   named.name = name;
-  named.description = "Tuned in the HapticLab console (" + utc_now() + "), starting from '" + from_name_ + "'.";
+  named.description = "Tuned in the HapticLab console (" + utc_now_iso8601() + "), starting from '" + from_name_ + "'.";
   std::error_code ec;
   std::filesystem::create_directories(config_.out_dir, ec);
   try {

@@ -6,13 +6,13 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <ctime>
 #include <map>
 #include <sstream>
 #include <string>
 
 #include "analysis/report/box_stats.h"
 #include "analysis/report/gnuplot.h"
+#include "core/common/utc_time.h"
 #include "analysis/stats/data_error.h"
 #include "core/common/build_info.h"
 #include "core/io/output_file.h"
@@ -191,15 +191,6 @@ Cell p_cell(const std::optional<TestResult>& r, double level) {
   return {format_p(r->p, level), r->p < level};
 }
 
-// The report's own date: when it was written, not when the study ran.
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return buf;
-}
 
 // The analysis options as `hapticlab analyze` takes them, so a reader can rerun it.
 std::string analysis_options_text(const AnalysisOptions& o) {
@@ -227,7 +218,7 @@ Section summary_section(const StudyAnalysis& a) {
             {{"Study seed"}, {std::to_string(a.study_seed)}},
             {{"Protocol SHA-256"}, {a.protocol_sha256}},
             {{"Report written by"}, {software_version()}},
-            {{"Report written (UTC)"}, {utc_now()}},
+            {{"Report written (UTC)"}, {utc_now_iso8601()}},
             {{"Analysis options"}, {analysis_options_text(a.options)}},
             {{"Database"}, {a.db_path.string()}},
             {{"Participants"}, {std::to_string(a.participants.size())}},

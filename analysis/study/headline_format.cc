@@ -87,6 +87,34 @@ std::string pad(const std::string& s, std::size_t width) {
   return s + std::string(width > chars ? width - chars : 1, ' ');
 }
 
+constexpr std::size_t kRowWidth = 26;
+constexpr std::size_t kColWidth = 14;
+
+// The control against each setting, one task: a heading row of measures,
+// then a row per setting, "p**" where significant; `mark` may dress a cell
+// (the thesis' gated comparisons go in parentheses).
+template <typename Cell, typename Mark>
+void comparison_rows(std::ostream& out, const StudyAnalysis& a, const std::string& task, const std::vector<Cell>& cells,
+                     Mark mark) {
+  out << pad("", kRowWidth);
+  for (Measure m : kAllMeasures) out << pad(measure_label(m), kColWidth);
+  out << "\n";
+  for (std::size_t si = 1; si < a.settings.size(); ++si) {
+    std::size_t participants = 0;
+    for (const auto& cell : cells)
+      if (cell.task == task && cell.setting == a.settings[si]) participants = std::max(participants, cell.participants);
+    out << pad(a.settings[si] + " (" + std::to_string(participants) + ")", kRowWidth);
+    for (Measure m : kAllMeasures) {
+      std::string text = "N/A";
+      for (const auto& cell : cells)
+        if (cell.task == task && cell.setting == a.settings[si] && cell.measure == m && cell.p)
+          text = mark(cell, format_p(*cell.p, a.sidak_level) + (cell.significant ? "**" : ""));
+      out << pad(text, kColWidth);
+    }
+    out << "\n";
+  }
+}
+
 }  // namespace
 
 std::string format_headline_tables(const StudyAnalysis& a) {
@@ -102,8 +130,6 @@ std::string format_headline_tables(const StudyAnalysis& a) {
   out << "Percentiles: " << percentile_method_name(a.options.percentile_method) << "; alpha = " << a.options.alpha
       << "; control: " << a.control << "\n\n";
 
-  constexpr std::size_t kRowWidth = 26;
-  constexpr std::size_t kColWidth = 14;
   out << "Table 3.4  Friedman across settings per participant (hands as blocks, repetitions as replicates): p\n";
   out << pad("", kRowWidth);
   for (Measure m : kAllMeasures) out << pad(measure_label(m), kColWidth);
@@ -139,25 +165,9 @@ std::string format_headline_tables(const StudyAnalysis& a) {
            << " compared to (participants), the thesis' procedure (repetitions and hands as replicates): p, "
               "significant below the Šidák level "
            << level << " (m = " << a.sidak_m << ")\n";
-    thesis << pad("", kRowWidth);
-    for (Measure m : kAllMeasures) thesis << pad(measure_label(m), kColWidth);
-    thesis << "\n";
-    for (std::size_t si = 1; si < a.settings.size(); ++si) {
-      std::size_t participants = 0;
-      for (const auto& cell : a.pairwise)
-        if (cell.task == task && cell.setting == a.settings[si]) participants = std::max(participants, cell.participants);
-      thesis << pad(a.settings[si] + " (" + std::to_string(participants) + ")", kRowWidth);
-      for (Measure m : kAllMeasures) {
-        std::string text = "N/A";
-        for (const auto& cell : a.pairwise) {
-          if (cell.task != task || cell.setting != a.settings[si] || cell.measure != m || !cell.p) continue;
-          text = format_p(*cell.p, a.sidak_level) + (cell.significant ? "**" : "");
-          if (cell.gated) text = "(" + text + ")";
-        }
-        thesis << pad(text, kColWidth);
-      }
-      thesis << "\n";
-    }
+    comparison_rows(thesis, a, task, a.pairwise, [](const PairwiseCell& c, std::string text) {
+      return c.gated ? "(" + text + ")" : text;
+    });
     thesis << "** p < " << level << "; (p): no participant's Table 3.4 test was significant for this measure, "
            << "so the thesis' procedure would not compare\n\n";
   }
@@ -167,23 +177,8 @@ std::string format_headline_tables(const StudyAnalysis& a) {
                 << " compared to (participants), one value per participant (median over repetitions and hands), "
                    "exact sign-flip test: p, significant below the Šidák level "
                 << level << "\n";
-    participant << pad("", kRowWidth);
-    for (Measure m : kAllMeasures) participant << pad(measure_label(m), kColWidth);
-    participant << "\n";
-    for (std::size_t si = 1; si < a.settings.size(); ++si) {
-      std::size_t participants = 0;
-      for (const auto& cell : a.participant_pairwise)
-        if (cell.task == task && cell.setting == a.settings[si]) participants = std::max(participants, cell.participants);
-      participant << pad(a.settings[si] + " (" + std::to_string(participants) + ")", kRowWidth);
-      for (Measure m : kAllMeasures) {
-        std::string text = "N/A";
-        for (const auto& cell : a.participant_pairwise)
-          if (cell.task == task && cell.setting == a.settings[si] && cell.measure == m && cell.p)
-            text = format_p(*cell.p, a.sidak_level) + (cell.significant ? "**" : "");
-        participant << pad(text, kColWidth);
-      }
-      participant << "\n";
-    }
+    comparison_rows(participant, a, task, a.participant_pairwise,
+                    [](const ParticipantPairwiseCell&, std::string text) { return text; });
     participant << "** p < " << level << "; with n participants the smallest p is 2/2^n (0.25 for 3, 0.0078 for 8)\n\n";
   }
   if (a.options.method == ComparisonMethod::kThesis)

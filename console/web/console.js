@@ -121,20 +121,27 @@ async function refreshResults() {
 refreshResults();
 setInterval(refreshResults, 1000);
 
-let lastTrial = -1;
-const live = new EventSource("/events/live");
-live.onmessage = (ev) => {
-  const j = JSON.parse(ev.data);
+// Follows a live stream (/events/live, /events/tuning) into two charts: they
+// are cleared when `repetitionKey` of the status changes (a new trial, or a
+// new repetition of the free trial); `counter` in window.hapticlab counts
+// the points received; onStatus(status) runs for every message.
+function followLive(url, repetitionKey, twoCharts, counter, onStatus) {
+  let last = -1;
+  new EventSource(url).onmessage = (ev) => {
+    const j = JSON.parse(ev.data);
+    if (j.status[repetitionKey] !== last) {
+      last = j.status[repetitionKey];
+      twoCharts.forEach(clearChart);
+    }
+    j.instruments.forEach((points, k) => {
+      window.hapticlab[counter] += points.length;
+      addPoints(twoCharts[k], points);
+    });
+    onStatus(j.status);
+  };
+}
+followLive("/events/live", "trial_number", charts, "livePoints", (s) => {
   window.hapticlab.liveMessages++;
-  $("status").innerHTML = describe(j.status);
-  if (j.status.trial_number !== lastTrial) {
-    lastTrial = j.status.trial_number;
-    charts.forEach(clearChart);
-  }
-  j.instruments.forEach((points, k) => {
-    window.hapticlab.livePoints += points.length;
-    addPoints(charts[k], points);
-  });
-  const s = j.status;
+  $("status").innerHTML = describe(s);
   $("live-status").innerHTML = s.running ? describe(s) + `<br>points received: ${window.hapticlab.livePoints}` : "No trial running.";
-};
+});

@@ -3,7 +3,7 @@
 // (GET /api/tuning's "reference", made from the loader's own table), and a
 // switch for every block. Each change is one POST /api/tuning/set; the
 // server checks it again and the page shows what the server holds.
-// Uses post(), $, text(), makeChart(), addPoints() and clearChart() of console.js.
+// Uses post(), $, text(), makeChart() and followLive() of console.js.
 "use strict";
 
 const tuning = { fields: [], built: false, lastLogLength: -1 };
@@ -114,17 +114,5 @@ $("tuning-save").addEventListener("click", async () => { await post("/api/tuning
 refreshTuning();
 setInterval(refreshTuning, 1000);
 
-const tuningCharts = [makeChart("tplot0", "Left instrument"), makeChart("tplot1", "Right instrument")];
-let lastFreeTrial = -1;
-const tuningStream = new EventSource("/events/tuning");
-tuningStream.onmessage = (ev) => {
-  const j = JSON.parse(ev.data);
-  if (j.status.free_trial !== lastFreeTrial) {
-    lastFreeTrial = j.status.free_trial;
-    tuningCharts.forEach(clearChart);
-  }
-  j.instruments.forEach((points, k) => {
-    window.hapticlab.tuningPoints += points.length;
-    addPoints(tuningCharts[k], points);
-  });
-};
+followLive("/events/tuning", "free_trial", [makeChart("tplot0", "Left instrument"), makeChart("tplot1", "Right instrument")],
+           "tuningPoints", () => {});

@@ -1,0 +1,16 @@
+#include "core/common/utc_time.h"
+
+#include <ctime>
+
+namespace hapticlab {
+
+std::string utc_now_iso8601() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+}  // namespace hapticlab
