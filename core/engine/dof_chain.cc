@@ -16,6 +16,7 @@ void DofChain::reset(const AxisSettings& s, double position) noexcept {
   friction_.reset(last_position_);
   inertia_.reset(last_position_, 0.0);
   backlash_.reset(last_position_, 0.0);
+  passivity_.reset();
 }
 
 void DofChain::on_settings_change(const AxisSettings& before,
@@ -36,6 +37,7 @@ void DofChain::on_settings_change(const AxisSettings& before,
     // mass is, rather than starting with the gap offset stretched in its spring.
     inertia_.reset(x, v);
   }
+  if (after.passivity.enabled && !before.passivity.enabled) passivity_.reset();
   if (after.friction.enabled && !before.friction.enabled) {
     // Friction starts stuck with no force at the position it will be fed.
     const bool via_mass = has_mass && after.backlash.enabled;
@@ -52,6 +54,7 @@ void DofChain::resync(const AxisSettings& s, double position) noexcept {
   // The mass moves with the instrument, keeping its place in the gap.
   backlash_.reset(backlash_.mass().position() + shift, 0.0);
   if (s.backlash.enabled) backlash_.confine(x, s.backlash.gap);
+  passivity_.reset();  // the energy account starts again with the re-anchored models
   last_position_ = x;
 }
 
@@ -95,7 +98,13 @@ DofOutput DofChain::step(const AxisSettings& s, double position, double ve_force
     out.ripple = ripple_gain(s.cogging, motor_position);
     out.force *= out.ripple;
   }
+  // The axis as a whole (VE force and models) against the device's motion.
+  if (s.passivity.enabled) out.force = passivity_.step(s.passivity, out.force, v, dt_s);
   return out;
+}
+
+double DofChain::revise_force(const AxisSettings& s, double force) noexcept {
+  return s.passivity.enabled ? passivity_.revise(s.passivity, force) : force;
 }
 
 }  // namespace hapticlab

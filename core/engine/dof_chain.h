@@ -13,6 +13,7 @@
 //       mass <= F_ves + cogging(x_in) + friction(x_in) ; F = gap contact force
 //       x_ve = x_in
 //     ripple       F => F·(1 + r·sin(...))         (of the motor-side position)
+//     passivity    F => F − α·v  while the axis gave out energy over its window
 //   => (F commanded on this axis, x_ve sent to the VE)
 //
 // Everything here is allocation-free and noexcept; parameters are validated
@@ -21,6 +22,7 @@
 #include "core/models/backlash.h"
 #include "core/models/friction.h"
 #include "core/models/inertia.h"
+#include "core/models/passivity.h"
 #include "core/models/saturation.h"
 #include "core/models/velocity_filter.h"
 #include "core/settings/axis_settings.h"
@@ -63,6 +65,13 @@ class DofChain {
   DofOutput step(const AxisSettings& s, double position, double ve_force, double dt_s,
                  const ButterworthCoefficients& filter) noexcept;
 
+  // The force to command when the last step()'s force is replaced by
+  // `force` (a newer VE force, Instrument::refresh_forces): `force` itself,
+  // or with passivity on, what the controller makes of it in that step.
+  double revise_force(const AxisSettings& s, double force) noexcept;
+
+  const PassivityController& passivity() const noexcept { return passivity_; }
+
  private:
   double measure(const AxisSettings& s, double position) const noexcept;
 
@@ -70,6 +79,7 @@ class DofChain {
   Friction friction_;
   Inertia inertia_;
   Backlash backlash_;
+  PassivityController passivity_;
   double last_position_ = 0.0;  // quantized, as the models saw it
 };
 

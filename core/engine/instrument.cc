@@ -204,7 +204,10 @@ void Instrument::refresh_forces(const Eigen::Vector3d& ve_force_N, InstrumentOut
   JointVector command;
   for (int a = 0; a < kNumAxes; ++a) {
     const DofOutput& d = last_dof_[static_cast<std::size_t>(a)];
-    command[a] = d.ve_coupled ? d.force : (axis_ve_force(settings_.axis(a), ve_joint[a]) + d.model_force) * d.ripple;
+    command[a] = d.ve_coupled ? d.force
+                              : chains_[static_cast<std::size_t>(a)].revise_force(
+                                    settings_.axis(a),
+                                    (axis_ve_force(settings_.axis(a), ve_joint[a]) + d.model_force) * d.ripple);
   }
   // ve_joint is checked itself: an axis saturation would clip its infinity.
   if (!ve_joint.allFinite() || !finish_forces(command, out) || !out.displayed_force_N.allFinite()) {

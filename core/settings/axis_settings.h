@@ -63,6 +63,20 @@ struct EncoderParams {
   double counts_per_unit = 0.0;  // [1/X] counts per m or per rad, > 0
 };
 
+// Time-domain passivity observer and controller on an axis' commanded
+// force (Hannaford & Ryu 2002; core/models/passivity.h): damping added only
+// while the axis has given out more energy than it took in over the last
+// `window_s`. Off unless a settings file turns it on; the thesis' settings
+// leave it off, so they run as the thesis ran them.
+struct PassivityParams {
+  bool enabled = false;
+  double window_s = 0.0;      // [s] observer window, > 0 and <= kMaxPassivityWindow_s
+  double min_velocity = 0.0;  // [X/s] below this no damping is computed (v² would blow it up), > 0
+  double max_damping = 0.0;   // [F·s/X] cap on the damping the controller adds, > 0
+};
+// The window's ring buffer holds this much at the fastest update rate (2 kHz).
+inline constexpr double kMaxPassivityWindow_s = 2.0;
+
 struct AxisSettings {
   FrictionParams friction;
   CoggingParams cogging;
@@ -70,6 +84,7 @@ struct AxisSettings {
   InertiaParams inertia;
   BacklashParams backlash;
   EncoderParams encoder;
+  PassivityParams passivity;
 };
 
 }  // namespace hapticlab
