@@ -146,6 +146,11 @@ void ConsoleSession::run(std::string participant) {
   options.hold_before_trial = [this] {
     if (paused_.load()) {
       std::lock_guard lock(mutex_);
+      // A rest asked for during training (no trial ended since) starts now.
+      if (rest_after_trial_s_) {
+        rest_until_wall_s_ = wall_now_s() + *rest_after_trial_s_;
+        rest_after_trial_s_.reset();
+      }
       const std::optional<double> left = rest_left_s();
       if (!left || *left > 0.0) return true;
       // The rest is over: the session goes on by itself, logged as a resume.

@@ -54,10 +54,11 @@ class ConsoleTuning {
   // "translation.friction.dynamic_level_N" (a number) or a block's switch,
   // "translation.friction.enabled" (true/false). Throws
   // std::invalid_argument naming the field, the value and the allowed range
-  // (docs/settings.md), and then nothing changes. Allowed without a running
-  // trial (the next one starts with it). Logged with the free trial's number
-  // and the loop time of the newest sample drained when it was handed over:
-  // the engine applies it at the start of the next update.
+  // (docs/settings.md), and then nothing changes. Without a running trial
+  // it edits what save() writes (start() begins again from its setting).
+  // Logged with the free trial's repetition and the loop time of the newest
+  // sample drained when it was handed over: the engine applies it at the
+  // start of its next update.
   void set(const std::string& field, const nlohmann::json& value);
   // Writes the settings, named `name`, as out_dir/FILE.json (name: 1..64 of
   // letters, digits, ' ', '_', '-', '+', '.'; FILE is it in lower case with

@@ -90,6 +90,8 @@ async function refreshTuning() {
     tuning.built = true;
     for (const task of t.tasks) $("tuning-task").add(new Option(task, task));
     for (const name of t.study_settings) $("tuning-from").add(new Option(name, name));
+    // Start from the undegraded device when the study has it (the usual control).
+    if (t.study_settings.includes("High Fidelity")) $("tuning-from").value = "High Fidelity";
     buildSliders(t.reference, t.settings);
   }
   showSettings(t.settings);
