@@ -70,8 +70,6 @@ class DofChain {
   // or with passivity on, what the controller makes of it in that step.
   double revise_force(const AxisSettings& s, double force) noexcept;
 
-  const PassivityController& passivity() const noexcept { return passivity_; }
-
  private:
   double measure(const AxisSettings& s, double position) const noexcept;
 
