@@ -339,7 +339,7 @@ int run_plan_power(const PlanPowerOptions& o) {
       const std::string label = setting + (null_settings.count(setting) ? " (null)" : "");
       std::printf("%-12s %-32s", task.c_str(), label.c_str());
       for (int n : counts) {
-        const auto it = std::find_if(rows.begin(), rows.end(), [&](const planning::PowerRow& r) {
+        const auto it = std::find_if(rows.begin(), rows.end(), [&, &task = task, &setting = setting](const planning::PowerRow& r) {
           return r.method == method && r.measure == o.measure && r.task == task && r.setting == setting &&
                  r.participants == n;
         });

@@ -9,10 +9,6 @@ namespace {
 
 std::string in_quotes(std::string_view s) { return "\"" + std::string(s) + "\""; }
 
-std::string index_path(const std::string& base, std::size_t i) {
-  return base + "[" + std::to_string(i) + "]";
-}
-
 // Checks one list of setting names (design.required or one explicit
 // assignment): every name known, none twice.
 void check_setting_names(const Protocol& p, const std::vector<std::string>& names,

@@ -1,6 +1,7 @@
 #pragma once
 // The one exception every protocol check throws.
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -22,5 +23,10 @@ class ProtocolError : public std::runtime_error {
  private:
   std::string field_;
 };
+
+// The path of element i of the list at `base`: "design.required[2]".
+inline std::string index_path(const std::string& base, std::size_t i) {
+  return base + "[" + std::to_string(i) + "]";
+}
 
 }  // namespace hapticlab::protocols

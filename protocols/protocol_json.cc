@@ -10,23 +10,14 @@
 #include <nlohmann/json.hpp>
 
 #include "core/io/input_file.h"
+#include "protocols/protocol_error.h"
 #include "protocols/safety_json.h"
+#include "protocols/shown_json.h"
 
 namespace hapticlab::protocols {
 namespace {
 
 using nlohmann::json;
-
-// The value as it appears in the file, shortened for messages.
-std::string shown(const json& v) {
-  std::string s = v.dump();
-  if (s.size() > 60) s = s.substr(0, 57) + "...";
-  return s;
-}
-
-std::string index_path(const std::string& base, std::size_t i) {
-  return base + "[" + std::to_string(i) + "]";
-}
 
 // Reads one protocol document; every helper names the field path on error.
 class Reader {

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include "protocols/protocol_error.h"
+#include "protocols/shown_json.h"
 
 namespace hapticlab::protocols {
 namespace {
@@ -24,12 +25,6 @@ constexpr Field kFields[] = {
     {"max_twist_torque_Nm", &OperatorForceLimits::twist_torque_Nm, 100.0},
     {"max_grip_torque_Nm", &OperatorForceLimits::grip_torque_Nm, 100.0},
 };
-
-std::string shown(const json& v) {
-  std::string s = v.dump();
-  if (s.size() > 60) s = s.substr(0, 57) + "...";
-  return s;
-}
 
 std::string number_text(double x) {
   std::string s = json(x).dump();

@@ -15,9 +15,12 @@ packages=(g++ make cmake pkg-config libeigen3-dev nlohmann-json3-dev libcli11-de
           libbenchmark-dev gnuplot-nox python3 python3-numpy zlib1g-dev libzstd-dev
           libcpp-httplib-dev libjs-chart.js)
 # Only the test suite needs these (a browser for the report check, scipy for
-# the numpy comparator, zstandard for the Python reader of format-2 chunks;
+# the numpy comparator, zstandard for the Python reader of format-2 chunks).
 if [[ -z ${HAPTICLAB_TARGETS:-} ]]; then
   packages+=(python3-scipy python3-zstandard chromium chromium-driver python3-selenium)
+  # clang for the sanitizer build (scripts/test.sh), with its sanitizer runtimes
+  # (only recommended by clang, so named here).
+  packages+=(clang libclang-rt-dev)
 fi
 missing=()
 for p in "${packages[@]}"; do

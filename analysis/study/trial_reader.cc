@@ -18,7 +18,6 @@
 namespace hapticlab::analysis {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 std::vector<double> every_kth(const std::vector<double>& values, std::size_t k) {
@@ -30,7 +29,7 @@ std::vector<double> every_kth(const std::vector<double>& values, std::size_t k) 
 
 void mark_missing(TrialRecord& record) {
   for (auto& h : record.hands) {
-    h.force_median_N = h.force_p95_N = h.speed_median_m_per_s = h.path_length_m = kNaN;
+    h.force_median_N = h.force_p95_N = h.speed_median_m_per_s = h.path_length_m = std::numeric_limits<double>::quiet_NaN();
   }
   for (auto* v : {&record.force_series_N, &record.speed_series_m_per_s, &record.force_quantiles_N,
                   &record.speed_quantiles_m_per_s}) {

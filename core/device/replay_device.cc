@@ -8,20 +8,11 @@
 #include <string>
 #include <utility>
 
+#include "core/common/csv_format.h"
 #include "core/io/trajectory_csv.h"
 #include "core/loop/clock.h"
 
 namespace hapticlab {
-namespace {
-
-std::string format_number(double value) {
-  std::ostringstream out;
-  out.precision(17);
-  out << value;
-  return out.str();
-}
-
-}  // namespace
 
 ReplayDevice::ReplayDevice(std::vector<ReplayFrame> frames) : frames_(std::move(frames)) {
   if (frames_.empty()) throw std::invalid_argument("replay: frames is empty, but must hold at least one frame");

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/common/csv_format.h"
 #include "core/device/workstation_spec.h"
 #include "core/loop/clock.h"
 
@@ -15,13 +16,6 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // How far past its end stop an injected kOutOfRange puts the insertion [m].
 constexpr double kInjectedOutOfRangeOffset_m = 0.020;
-
-std::string format_number(double value) {
-  std::ostringstream out;
-  out.precision(17);
-  out << value;
-  return out.str();
-}
 
 [[noreturn]] void fail_param(const std::string& field, double value, const std::string& rule) {
   throw std::invalid_argument("SimDevice(): " + field + " is " + format_number(value) +

@@ -4,10 +4,9 @@
 #include <cmath>
 #include <limits>
 
+#include "core/common/sign.h"
+
 namespace hapticlab {
-namespace {
-double sign(double v) noexcept { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
-}  // namespace
 
 void Friction::reset(double position) noexcept {
   sticking_ = true;

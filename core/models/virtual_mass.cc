@@ -2,10 +2,9 @@
 
 #include <cmath>
 
+#include "core/common/sign.h"
+
 namespace hapticlab {
-namespace {
-double sign(double v) noexcept { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
-}  // namespace
 
 double coupling_damping(const InertiaParams& p) noexcept {
   return p.damping_ratio * 2.0 * std::sqrt(p.stiffness * p.mass);

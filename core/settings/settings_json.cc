@@ -173,8 +173,9 @@ void read_block(const json& j, const std::string& path, Block& b) {
       *b.enabled = value.get<bool>();
       continue;
     }
+    // An init-capture: clang before 16 cannot capture a structured binding.
     auto it = std::find_if(b.fields.begin(), b.fields.end(),
-                           [&](const Field& f) { return f.key == key; });
+                           [&key = key](const Field& f) { return f.key == key; });
     if (it == b.fields.end()) {
       throw SettingsError("unknown settings field '" + field_path + "' (known fields: " +
                           known_keys(b) + ")");
@@ -194,7 +195,7 @@ void read_blocks(const json& j, const std::string& prefix, std::vector<Block>& b
   for (const auto& [key, value] : j.items()) {
     if (other_keys.count(key)) continue;
     auto it = std::find_if(blocks.begin(), blocks.end(),
-                           [&](const Block& b) { return b.name == key; });
+                           [&key = key](const Block& b) { return b.name == key; });
     const std::string path = prefix.empty() ? key : prefix + "." + key;
     if (it == blocks.end()) {
       std::string known;
