@@ -533,6 +533,60 @@ Section correlation_section(const StudyAnalysis& a, const ReportOptions& report_
   return s;
 }
 
+// Energy the device exchanged with the hands per setting (device_energy.h):
+// a device that gives a hand more than it takes went unstable somewhere.
+Section energy_section(const StudyAnalysis& a) {
+  // Bold above this net: more than a passive VE and engine hand back at the
+  // end of a trial. What they hold then is small: the demo's High Fidelity
+  // and Cogging trials end within ±3 mJ; float32 storage adds ~1e-10 J; an
+  // instability gives hundreds of mJ (docs/analysis.md, "Energy").
+  constexpr double kGeneratedThreshold_mJ = 5.0;
+  Section s;
+  s.title = "Energy the device exchanged with the hands";
+  s.intro = "Per trial and hand, over the whole trial: the work of the commanded force on the hand (force times "
+            "the joints' motion, the three joint axes summed). 'Gave' sums the updates where the device pushed "
+            "along the motion, 'took' those where it resisted; net = gave - took. A passive VE and engine take at "
+            "least what they give, up to what they hold when the trial ends; friction and tissue damping make the "
+            "net negative. 'Engine, net' is the engine's part: the command minus the VE's own force (negative: "
+            "the degradations dissipated; positive: they added energy, or a force clip removed the tissue's "
+            "resistance). Per axis: metrics.csv.";
+  Table t;
+  t.header = {"Task",         "Setting",           "Hand", "Trials", "Gave (median, mJ)", "Took (median, mJ)",
+              "Net (median, mJ)", "Net (largest, mJ)", "Engine, net (median, mJ)"};
+  std::size_t generating = 0;
+  for (const auto& task : a.tasks) {
+    for (const auto& setting : a.settings) {
+      for (int hand = 0; hand < 2; ++hand) {
+        std::vector<double> gave, took, net, engine;
+        for (const TrialRecord& tr : a.trials) {
+          const auto& e = tr.energy[static_cast<std::size_t>(hand)];
+          if (tr.task != task || tr.setting != setting || !e) continue;
+          gave.push_back(e->device_out_J() * 1e3);
+          took.push_back(e->device_in_J() * 1e3);
+          net.push_back(e->device_net_J() * 1e3);
+          engine.push_back(e->engine_net_J() * 1e3);
+        }
+        if (net.empty()) continue;
+        const double largest = *std::max_element(net.begin(), net.end());
+        const bool generated = largest > kGeneratedThreshold_mJ;
+        if (generated) ++generating;
+        t.rows.push_back({{task}, {setting}, {hand_name(hand)}, {std::to_string(net.size())},
+                          {num(percentile(gave, 50.0))}, {num(percentile(took, 50.0))}, {num(percentile(net, 50.0))},
+                          {num(largest), generated}, {num(percentile(engine, 50.0))}});
+      }
+    }
+  }
+  if (t.rows.empty()) {
+    t.note = "No trial's device channels were read (a damaged chunk leaves a trial's energy out).";
+  } else {
+    t.note = "Bold: at least one trial in which the device gave the hand more than " + num(kGeneratedThreshold_mJ) +
+             " mJ beyond what it took (" + std::to_string(generating) + " of " + std::to_string(t.rows.size()) +
+             " rows).";
+  }
+  s.tables.push_back(std::move(t));
+  return s;
+}
+
 Section ks_section(const StudyAnalysis& a) {
   Section s;
   s.title = "Appendix I: Kolmogorov-Smirnov with the moving block bootstrap";
@@ -928,6 +982,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
   sections.push_back(whole_design_section(a));
   sections.push_back(correlation_section(a, options));
   sections.push_back(ks_section(a));
+  sections.push_back(energy_section(a));
 
   ReportFiles files;
   if (options.plots) {

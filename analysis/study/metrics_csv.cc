@@ -14,12 +14,28 @@ namespace {
 // Shortest round-trip form; a missing measure (NaN) is an empty field.
 std::string number(double v) { return std::isfinite(v) ? format_number(v) : std::string(); }
 
+constexpr const char* kAxisNames[3] = {"insertion", "pitch", "yaw"};
+
+std::string energy_header() {
+  std::string h;
+  for (const char* axis : kAxisNames) h += std::string("device_out_") + axis + "_J,device_in_" + axis + "_J,";
+  return h + "engine_out_J,engine_in_J,";
+}
+
+// The energy columns of one hand: empty when the trial's energy was not read.
+std::string energy_fields(const std::optional<HandEnergy>& e) {
+  if (!e) return ",,,,,,,,";
+  std::string f;
+  for (const AxisEnergy& d : e->device) f += number(d.out_J) + ',' + number(d.in_J) + ',';
+  return f + number(e->engine_out_J()) + ',' + number(e->engine_in_J()) + ',';
+}
+
 }  // namespace
 
 void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
   out << "trial_id,participant,task,setting,repetition,block,trial_number,status,instrument,task_start_s,task_end_s,"
          "completion_time_s,samples,force_samples,force_median_N,force_p95_N,speed_median_m_per_s,path_length_m,"
-         "note\n";
+      << energy_header() << "note\n";
   for (const TrialRecord& t : a.trials) {
     for (int hand = 0; hand < 2; ++hand) {
       const HandMetrics& h = t.hands[static_cast<std::size_t>(hand)];
@@ -32,7 +48,8 @@ void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
           << number(t.value(Measure::kCompletionTime, hand)) << ',' << (have ? std::to_string(h.samples) : "")
           << ',' << (have ? std::to_string(h.force_samples) : "") << ',' << number(t.value(Measure::kForceMedian, hand))
           << ',' << number(t.value(Measure::kForceP95, hand)) << ',' << number(t.value(Measure::kSpeedMedian, hand))
-          << ',' << number(t.value(Measure::kPathLength, hand)) << ',' << csv_text(note) << '\n';
+          << ',' << number(t.value(Measure::kPathLength, hand)) << ','
+          << energy_fields(t.energy[static_cast<std::size_t>(hand)]) << csv_text(note) << '\n';
     }
   }
 }

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/metrics/device_energy.h"
 #include "analysis/metrics/trial_metrics.h"
 #include "analysis/stats/correlation.h"
 #include "analysis/stats/ks_bootstrap.h"
@@ -108,6 +109,10 @@ struct TrialRecord {
   std::array<std::vector<double>, 2> speed_quantiles_m_per_s;
   std::array<std::vector<double>, 2> force_series_N;
   std::array<std::vector<double>, 2> speed_series_m_per_s;
+  // The energy the device and the engine exchanged with each hand over the
+  // whole trial (device_energy.h); empty when not read (a damaged chunk,
+  // or a simulated study, which keeps only the window's channels).
+  std::array<std::optional<HandEnergy>, 2> energy;
 
   // The measure's value for a hand (ignored for completion time); NaN when missing.
   double value(Measure m, int hand) const;

@@ -69,6 +69,7 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
                          for (const db::StoredSample& x : chunk) {
                            buf.trial.add(hand, x.t_s, x.value.tip_position_m, x.value.tip_velocity_m_per_s,
                                          x.value.ve_force_N);
+                           buf.trial.add_device(hand, x.value.raw_position, x.value.joint_force, x.value.ve_force_N);
                          }
                        },
                        buf.bad);
@@ -108,6 +109,8 @@ void TrialAccumulator::start(std::span<const TaskEvent> events, const AnalysisOp
   trial_end_s_ = -kInf;
   data_error_.clear();
   accumulate_ = provisional_.window.has_value();
+  for (EnergyAccumulator& e : energy_) e.start();
+  have_energy_ = false;
   for (std::size_t hand = 0; hand < 2; ++hand) {
     if (accumulate_) acc_[hand].start(*provisional_.window, options.min_force_N, values_[hand]);
   }
@@ -124,6 +127,7 @@ void TrialAccumulator::finish(TrialRecord& rec, std::vector<std::string> damaged
   const AnalysisOptions& options = *options_;
   mark_missing(rec);
   rec.window.reset();
+  for (auto& e : rec.energy) e.reset();
   rec.damaged_chunks = std::move(damaged_chunks);
   if (!rec.damaged_chunks.empty()) {
     rec.problem =
@@ -133,6 +137,11 @@ void TrialAccumulator::finish(TrialRecord& rec, std::vector<std::string> damaged
   if (samples_ == 0) {
     rec.problem = "no samples logged";
     return;
+  }
+  // Over the whole trial, with or without a task window: an unstable
+  // setting shows in it however the task went.
+  if (have_energy_) {
+    for (std::size_t hand = 0; hand < 2; ++hand) rec.energy[hand] = energy_[hand].result();
   }
   const bool open_end = provisional_.window && std::isinf(provisional_.window->end_s);
   const TaskWindowResult window = open_end ? task_window(events_, trial_end_s_) : provisional_;

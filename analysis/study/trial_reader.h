@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/metrics/device_energy.h"
 #include "analysis/metrics/trial_metrics.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/study/study_analysis.h"
@@ -44,6 +45,13 @@ class TrialAccumulator {
       fail(e.what());
     }
   }
+  // The same sample's device values, for the energy measure
+  // (device_energy.h): joints as read, commanded joint forces, VE force.
+  void add_device(std::size_t hand, const std::array<double, 5>& raw_position,
+                  const std::array<double, 3>& joint_force, const Vec3d& ve_force_N) {
+    energy_[hand].add(raw_position, joint_force, ve_force_N);
+    have_energy_ = true;
+  }
   // Fills rec's window, measures, quantiles, KS series and problem (its
   // identity fields are the caller's). `damaged_chunks` (read_trial's) come
   // first among the reasons for missing measures.
@@ -57,6 +65,8 @@ class TrialAccumulator {
   TaskWindowResult provisional_;
   std::array<WindowAccumulator, 2> acc_;
   std::array<WindowValues, 2> values_;
+  std::array<EnergyAccumulator, 2> energy_;
+  bool have_energy_ = false;
   bool accumulate_ = false;
   std::size_t samples_ = 0;
   double trial_end_s_ = 0.0;

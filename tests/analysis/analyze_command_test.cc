@@ -45,6 +45,14 @@ TEST_F(AnalyzeCommandTest, WritesCsvAndReport) {
        "--ks-resamples", "50"});
   const auto csv = analysis::LongCsv::read(out + "/metrics.csv");
   EXPECT_EQ(csv.row_count(), 20u);
+  // The energy of synthetic_study_db.h, worked by hand: the device gave
+  // 9/128 J (left) and 9/256 J (right) on insertion, took nothing.
+  for (std::size_t row = 0; row < csv.row_count(); ++row) {
+    const double hand = csv.number(row, csv.column("instrument"));
+    EXPECT_EQ(csv.number(row, csv.column("device_out_insertion_J")), hand == 0 ? 9.0 / 128 : 9.0 / 256) << row;
+    for (const char* column : {"device_in_insertion_J", "device_out_pitch_J", "device_in_yaw_J"})
+      EXPECT_EQ(csv.number(row, csv.column(column)), 0.0) << column << " row " << row;
+  }
   EXPECT_TRUE(std::filesystem::exists(out + "/report.html"));
   EXPECT_TRUE(std::filesystem::exists(out + "/report.md"));
 }

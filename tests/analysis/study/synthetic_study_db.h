@@ -14,7 +14,11 @@
 //   right |F| half the left's -> median 1.5f, 95th 2.5f
 //   |v| = i/64 -> median (4 + 5)/2/64 = 4.5/64 m/s, both hands
 //   path: x = s·i²/1024 with s = 1, 2, 3 by setting -> 45·s/1024 m
-// Samples outside the window carry |F| = 100 N so leaking shows. All values
+// Samples outside the window carry |F| = 100 N so leaking shows. The energy
+// (whole trial, device_energy.h): the insertion joint moves 1/64 m an update
+// from 0.125 m under a commanded 0.5 N (left) or 0.25 N (right), so the
+// device gives 9·0.5/64 = 9/128 J (left) and 9/256 J (right) and takes
+// nothing. All values
 // are exact in float32, so the database's float storage does not round them.
 #include <unistd.h>
 
@@ -74,6 +78,8 @@ inline void log_trial(db::StudyDb& db, std::int64_t trial, int participant, int 
       s.value.tip_velocity_m_per_s = {0.0, i / 64.0, 0.0};
       s.value.tip_position_m = {(setting + 1) * i * i / 1024.0, 0.0, 0.0};
       s.value.in_contact = inside && i > 2;
+      s.value.raw_position = {0.125 + i / 64.0, 0.0, 0.0, 0.0, 0.0};
+      s.value.joint_force = {hand == 0 ? 0.5 : 0.25, 0.0, 0.0};
       samples.push_back(s);
     }
     db.insert_chunk(trial, hand, samples);
