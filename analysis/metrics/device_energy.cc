@@ -49,10 +49,15 @@ void EnergyAccumulator::add(const std::array<double, 5>& raw_position, const std
   have_any_ = true;
   previous_finite_ = finite;
   if (!finite) return;
-  const JointVector q(raw_position[0], raw_position[1], raw_position[2]);
-  const JointVector f_ve = world_to_joint(q, Eigen::Vector3d(ve_force_N[0], ve_force_N[1], ve_force_N[2]));
+  // Out of contact the VE force is exactly zero (most updates): no pose to
+  // compute, which is most of this function's cost.
+  const bool touching = ve_force_N[0] != 0.0 || ve_force_N[1] != 0.0 || ve_force_N[2] != 0.0;
+  const JointVector f_ve =
+      touching ? world_to_joint(JointVector(raw_position[0], raw_position[1], raw_position[2]),
+                                Eigen::Vector3d(ve_force_N[0], ve_force_N[1], ve_force_N[2]))
+               : JointVector::Zero();
   for (int j = 0; j < 3; ++j) {
-    q_[j] = q[j];
+    q_[j] = raw_position[j];
     f_[j] = joint_force[j];
     f_ve_[j] = f_ve[j];
   }
