@@ -13,16 +13,14 @@
 
 #include "core/engine/status.h"
 #include "core/settings/settings_json.h"
+#include "testing/example_settings.h"
 #include "testing/rates.h"
 
 namespace hapticlab {
 namespace {
 
-EngineSettings load_example(const std::string& name) {
-  return load_settings_file(std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/" + name +
-                            ".json")
-      .engine;
-}
+using testing::load_example;
+using testing::with_passivity;
 
 // A smooth two-handed-surgery-like motion of one instrument.
 JointVector hand(double t) {
@@ -551,18 +549,6 @@ DrivenRun drive(const EngineSettings& s, const testing::RateCase& rate, double v
     q_prev = q;
   }
   return run;
-}
-
-// Passivity on both axis kinds; a damping cap of 0 keeps the default.
-EngineSettings with_passivity(EngineSettings s, double max_damping_N_s_per_m = 0.0,
-                              double max_damping_Nm_s_per_rad = 0.0) {
-  nlohmann::json j = settings_to_json({"x", "", s});
-  j["translation"]["passivity"]["enabled"] = true;
-  j["rotation"]["passivity"]["enabled"] = true;
-  if (max_damping_N_s_per_m > 0) j["translation"]["passivity"]["max_damping_N_s_per_m"] = max_damping_N_s_per_m;
-  if (max_damping_Nm_s_per_rad > 0)
-    j["rotation"]["passivity"]["max_damping_Nm_s_per_rad"] = max_damping_Nm_s_per_rad;
-  return settings_from_json(j, "with passivity").engine;
 }
 
 // Nothing unstable (Table 4.1's set, friction included, and a soft 10 N/m
