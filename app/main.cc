@@ -26,6 +26,7 @@
 #include "app/bench_udp.h"
 #include "app/cli_errors.h"
 #include "app/plan_command.h"
+#include "app/stability_command.h"
 #include "core/common/build_info.h"
 
 int main(int argc, char** argv) {
@@ -62,6 +63,7 @@ int main(int argc, char** argv) {
   hapticlab::app::add_analyze_command(app);
   hapticlab::app::add_export_command(app);
   hapticlab::app::add_plan_command(app);
+  hapticlab::app::add_stability_command(app);
   CLI::App* device = app.add_subcommand("device", "Work with haptic devices: check one, serve the simulated one");
   device->require_subcommand(1);
   hapticlab::app::add_device_check_command(*device);

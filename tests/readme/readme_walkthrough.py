@@ -45,6 +45,9 @@ def rewrites():
          "plan power's 600 studies take about half an hour on 2 cores; 2 show it runs"),
         ("--participants 100 --out calibration/", "--participants 2 --out calibration/",
          "plan calibrate's 100 participants take about two minutes on 2 cores; 2 show it runs"),
+        ("stability map --out stability-map",
+         "stability map --rates 1000 --stiffness 2000 --effects translation.inertia.mass_kg --out stability-map",
+         "the whole map takes about 20 s, minutes under the sanitizers; one parameter shows it runs"),
     ]
 
 
