@@ -39,7 +39,9 @@ void add_settings_check_command(CLI::App& settings) {
       try {
         const NamedSettings s = load_settings_file(f);
         if (opt->json) results.push_back({{"file", f}, {"ok", true}, {"settings", settings_to_json(s)}});
-        else if (!opt->quiet) std::cout << "# " << f << ": ok\n" << settings_to_json(s).dump(2) << "\n";
+        else if (!opt->quiet)
+          std::cout << "# " << f << ": ok\n"
+                    << (s.source ? source_text(*s.source) : std::string()) << settings_to_json(s).dump(2) << "\n";
       } catch (const std::exception& e) {
         ++failed;
         if (opt->json) results.push_back({{"file", f}, {"ok", false}, {"error", e.what()}});

@@ -249,7 +249,51 @@ EngineSettings defaults() {
   return s;
 }
 
+SettingsSource read_source(const json& j) {
+  auto text = [](const json& v, const std::string& field) {
+    if (!v.is_string() || v.get<std::string>().empty())
+      throw SettingsError("settings field '" + field + "' must be a non-empty string");
+    return v.get<std::string>();
+  };
+  if (!j.is_object()) throw SettingsError("settings field 'source' must be an object with device, reference and fields");
+  for (const auto& [key, value] : j.items()) {
+    (void)value;
+    if (key != "device" && key != "reference" && key != "fields")
+      throw SettingsError("unknown settings field 'source." + key + "' (known: device, reference, fields)");
+  }
+  SettingsSource out;
+  for (const char* key : {"device", "reference", "fields"})
+    if (!j.contains(key)) throw SettingsError(std::string("settings field 'source.") + key + "' is missing");
+  out.device = text(j["device"], "source.device");
+  out.reference = text(j["reference"], "source.reference");
+  if (!j["fields"].is_object() || j["fields"].empty())
+    throw SettingsError("settings field 'source.fields' must be an object naming each quantity and what the "
+                        "reference gives for it (or \"not published\")");
+  for (const auto& [key, value] : j["fields"].items())
+    out.fields.emplace_back(key, text(value, "source.fields." + key));
+  return out;
+}
+
+// A device preset limits the force at the tip to its device's peak; the
+// device under the engine must be able to give that force along the tool,
+// or the preset would feel like a weaker device than the one it names.
+void check_preset_force(const EngineSettings& s) {
+  if (!s.tip_force_saturation.enabled) return;
+  if (s.tip_force_saturation.limit_N > s.device_limits.insertion_force_N)
+    throw SettingsError("tip_force_saturation.limit_N is " + format_number(s.tip_force_saturation.limit_N) +
+                        " N, but this device preset's device can give only " +
+                        format_number(s.device_limits.insertion_force_N) +
+                        " N along the tool (device_limits.insertion_force_N): the engine cannot make it feel "
+                        "like the device named in source.device");
+}
+
 }  // namespace
+
+std::string source_text(const SettingsSource& source) {
+  std::string out = "Source: " + source.device + "\n  reference: " + source.reference + "\n";
+  for (const auto& [quantity, what] : source.fields) out += "  " + quantity + ": " + what + "\n";
+  return out;
+}
 
 NamedSettings settings_from_json(const json& j, const std::string& source) {
   try {
@@ -259,7 +303,7 @@ NamedSettings settings_from_json(const json& j, const std::string& source) {
     expect_object(j, "(top level)");
     std::vector<Block> top = engine_blocks(s);
     read_blocks(j, "", top,
-                {"name", "description", "translation", "rotation", "min_moment_arm_m"});
+                {"name", "description", "translation", "rotation", "min_moment_arm_m", "source"});
     if (j.contains("name")) {
       if (!j["name"].is_string()) throw SettingsError("settings field 'name' must be a string");
       out.name = j["name"].get<std::string>();
@@ -290,6 +334,10 @@ NamedSettings settings_from_json(const json& j, const std::string& source) {
       }
     }
     check_cross_fields(s);
+    if (j.contains("source")) {
+      out.source = read_source(j["source"]);
+      check_preset_force(s);
+    }
     return out;
   } catch (const SettingsError& e) {
     throw SettingsError(source + ": " + e.what());
@@ -330,6 +378,11 @@ json settings_to_json(const NamedSettings& named) {
   }
   for (const Block& b : engine_blocks(s)) out[b.name] = block_to_json(b);
   out["min_moment_arm_m"] = s.min_moment_arm_m;
+  if (named.source) {
+    json fields = json::object();
+    for (const auto& [quantity, what] : named.source->fields) fields[quantity] = what;
+    out["source"] = {{"device", named.source->device}, {"reference", named.source->reference}, {"fields", fields}};
+  }
   return out;
 }
 

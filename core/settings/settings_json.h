@@ -14,6 +14,8 @@
 // the value and the allowed range; nothing partial is ever returned.
 
 #include <filesystem>
+#include <optional>
+#include <utility>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -30,11 +32,28 @@ class SettingsError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Where a device preset's numbers come from (examples/settings/devices/):
+// the device, the document cited, and for each quantity of a specification
+// sheet what that document gives, or "not published". Settings that carry a
+// source are a device preset: their force limit must be one the device
+// under the engine can give (device_limits).
+struct SettingsSource {
+  std::string device;     // e.g. "Novint Falcon"
+  std::string reference;  // the document, with version, file and field
+  // quantity -> what the reference says (or "not published ..."), in the
+  // file's key order sorted by name.
+  std::vector<std::pair<std::string, std::string>> fields;
+};
+
 struct NamedSettings {
   std::string name;         // e.g. "All Degradations"
   std::string description;  // free text
   EngineSettings engine;
+  std::optional<SettingsSource> source{};  // device presets only
 };
+
+// The source block as text for a terminal: "Source: DEVICE\n  reference: ...\n  quantity: ...".
+std::string source_text(const SettingsSource& source);
 
 // `source` names the origin in error messages (a file path, "inline", ...).
 NamedSettings settings_from_json(const nlohmann::json& j, const std::string& source);

@@ -94,6 +94,16 @@ TEST(CliConventions, OldSpellingsStillWorkForOneReleaseButAreHidden) {
   EXPECT_EQ(status, 0) << out;
 }
 
+// A device preset's source is printed before its settings (issue 19 §3).
+TEST(CliConventions, SettingsCheckPrintsADevicePresetsSource) {
+  const std::string preset = std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/devices/novint_falcon.json";
+  const auto [status, out] = testing::run_cli(kBinary, "settings check --settings " + preset);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_THAT(out, HasSubstr("Source: Novint Falcon\n  reference: CHAI3D 3.3.0"));
+  EXPECT_THAT(out, HasSubstr("\n  friction: not published in the cited source"));
+  EXPECT_THAT(out, HasSubstr("\n  peak force: 8.0 N (m_maxLinearForce): tip_force_saturation.limit_N\n"));
+}
+
 TEST(CliConventions, NearestNameIsForTyposOnly) {
   const std::vector<std::string> names = {"study", "session", "stats", "export"};
   EXPECT_EQ(app::nearest_name("sesion", names), "session");
