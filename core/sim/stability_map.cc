@@ -162,10 +162,8 @@ StabilityMap run_stability_map(const StabilityMapConfig& c,
       map.cells.push_back(std::move(cell));
     }
   // The settings with and without the controller, as JSON, made once.
-  const EngineSettings off_settings = with_passivity_enabled(c.base, false);
-  const EngineSettings on_settings = with_passivity_enabled(c.base, true);
-  const nlohmann::json off_json = settings_to_json({"base", "", off_settings});
-  const nlohmann::json on_json = settings_to_json({"base", "", on_settings});
+  const nlohmann::json off_json = settings_to_json({"base", "", with_passivity_enabled(c.base, false)});
+  const nlohmann::json on_json = settings_to_json({"base", "", with_passivity_enabled(c.base, true)});
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
   auto contact = [&c](const EngineSettings& s, double rate_Hz, double k) {
@@ -196,13 +194,11 @@ StabilityMap run_stability_map(const StabilityMapConfig& c,
           StabilityCell& cell = map.cells[t - map.base_runs.size()];
           const StabilityParameter& p = c.parameters[cell.parameter];
           const nlohmann::json& base = cell.controller ? on_json : off_json;
-          // The base run of the same conditions, for the base value (a cell
-          // is listed after every base run, but may start before it ends:
-          // run it again, deterministic, rather than wait).
+          // The base value's own run, its effect switched on as every run
+          // of the search has it (the base settings' run may have it off).
           long cell_runs = 0;
-          cell.base_stable = is_stable(contact(cell.controller ? on_settings : off_settings, cell.rate_Hz,
-                                               cell.stiffness_N_per_m),
-                                       c.criterion);
+          cell.base_stable = is_stable(
+              contact(with_value(base, p.field, cell.base_value), cell.rate_Hz, cell.stiffness_N_per_m), c.criterion);
           ++cell_runs;
           auto passes = [&](double v) {
             const bool ok = is_stable(contact(with_value(base, p.field, v), cell.rate_Hz, cell.stiffness_N_per_m),

@@ -67,8 +67,8 @@ struct StabilityBaseRun {
 };
 
 // One parameter at one rate, stiffness and controller state. The search
-// starts from the base value, whose stability the base settings' own run
-// gives, and goes out towards each end of the parameter's range for the
+// starts from the base value (run with its effect switched on, as every
+// run of the search is; for Table 4.1's set that is the base run) and goes out towards each end of the parameter's range for the
 // nearest change (boundary_search.h): `below` towards range.lo, `above`
 // towards range.hi. So when the base is stable the map gives the stable
 // interval around it (Table 4.1's "largest stable mass" is above.stable),

@@ -65,7 +65,7 @@ TEST_F(StabilityMapCommandTest, AGridTooLargeForFiveMinutesAsksForYes) {
   const auto [rc, out] = map("--rates 150,200,300,400,500,600,700,800,900,1000,1200,1500,1800,2000 "
                              "--duration-s 600 --out " + (dir_ / "big").string());
   EXPECT_EQ(rc, 1) << out;
-  EXPECT_THAT(out, HasSubstr("hapticlab: error: the grid is large: 40376 runs, estimated "));
+  EXPECT_THAT(out, HasSubstr("hapticlab: error: the grid is large: up to 40376 runs, estimated "));
   EXPECT_THAT(out, HasSubstr("Pass --yes to run it anyway, or make it smaller (--rates, --effects, --stiffness, "
                              "--steps, --duration-s)"));
   EXPECT_FALSE(fs::exists(dir_ / "big"));
