@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/common/csv_format.h"
 #include "core/io/input_file.h"
 #include "protocols/protocol_error.h"
 #include "protocols/safety_json.h"
@@ -28,7 +29,7 @@ class Reader {
   Protocol read(const json& j) {
     expect_object(j, "(top level)");
     check_keys(j, "", {"study", "description", "ve", "tasks", "repetitions", "settings", "participants", "design",
-                       "seed", "training_trials", "safety", "null_settings"});
+                       "seed", "training_trials", "safety", "null_settings", "dose"});
     Protocol p;
     p.study = as_string(require(j, "study", ""), "study");
     if (j.contains("description")) p.description = as_string(j["description"], "description");
@@ -43,6 +44,7 @@ class Reader {
     p.tasks = read_tasks(require(j, "tasks", ""), "tasks");
     read_repetitions(require(j, "repetitions", ""), p);
     read_settings(require(j, "settings", ""), p);
+    if (j.contains("dose")) read_dose(j["dose"], p);
     const int default_training =
         j.contains("training_trials") ? as_int(j["training_trials"], "training_trials", 0, kMaxTrainingTrials) : 0;
     read_participants(require(j, "participants", ""), p, default_training);
@@ -157,26 +159,80 @@ class Reader {
     }
   }
 
+  // One entry of "settings" (or dose.settings): a file path, relative to
+  // the protocol's folder, or an inline settings object.
+  ProtocolSetting read_setting(const json& item, const std::string& path) const {
+    ProtocolSetting ps;
+    try {
+      if (item.is_string()) {
+        ps.source = item.get<std::string>();
+        std::filesystem::path file(ps.source);
+        if (file.is_relative()) file = base_dir_ / file;
+        ps.settings = load_settings_file(file);
+      } else if (item.is_object()) {
+        ps.source = "inline";
+        ps.settings = settings_from_json(item, source_ + " " + path);
+      } else {
+        fail(path, "is " + shown(item) + ", but must be a settings file path (string) or a settings object");
+      }
+    } catch (const SettingsError& e) {
+      fail(path, "(" + shown(item) + ") is not valid settings: " + e.what());
+    }
+    return ps;
+  }
+
   void read_settings(const json& v, Protocol& p) const {
     const json& arr = as_array(v, "settings");
+    for (std::size_t i = 0; i < arr.size(); ++i) p.settings.push_back(read_setting(arr[i], index_path("settings", i)));
+  }
+
+  // "dose": one degradation at several strengths (issue 19 §4). Each
+  // strength is a setting of its own, the base settings with `field` set to
+  // it and its block switched on, named "<base name>, <key> = <strength>";
+  // the schedule randomizes them like any other setting. The control stays
+  // in "settings".
+  void read_dose(const json& v, Protocol& p) const {
+    expect_object(v, "dose");
+    check_keys(v, "dose", {"settings", "field", "strengths"});
+    const ProtocolSetting base = read_setting(require(v, "settings", "dose"), "dose.settings");
+    const std::string field = as_string(require(v, "field", "dose"), "dose.field");
+    const json base_json = settings_to_json(base.settings);
+    // The field's path in the settings JSON: "translation.friction.dynamic_level_N"
+    // or "tip_force_saturation.limit_N".
+    std::vector<std::string> parts;
+    for (std::size_t start = 0, dot;; start = dot + 1) {
+      dot = field.find('.', start);
+      parts.push_back(field.substr(start, dot == std::string::npos ? std::string::npos : dot - start));
+      if (dot == std::string::npos) break;
+    }
+    const json* leaf = &base_json;
+    for (const std::string& key : parts) leaf = leaf->is_object() && leaf->contains(key) ? &(*leaf)[key] : nullptr;
+    if (parts.size() < 2 || leaf == nullptr || !leaf->is_number())
+      fail("dose.field", "is " + shown(v["field"]) + ", but must be a numeric settings field, e.g. "
+                         "\"translation.friction.dynamic_level_N\" (`hapticlab settings reference` lists them)");
+    const json& arr = as_array(require(v, "strengths", "dose"), "dose.strengths");
+    if (arr.size() < 2)
+      fail("dose.strengths", "has " + std::to_string(arr.size()) + " strength(s), but a dose-response needs at least 2");
     for (std::size_t i = 0; i < arr.size(); ++i) {
-      const std::string path = index_path("settings", i);
-      const json& item = arr[i];
+      const std::string path = index_path("dose.strengths", i);
+      if (!arr[i].is_number()) fail(path, "is " + shown(arr[i]) + ", but must be a number");
+      const double x = arr[i].get<double>();
+      if (i > 0 && !(x > arr[i - 1].get<double>()))
+        fail(path, "is " + shown(arr[i]) + ", but must be greater than " + index_path("dose.strengths", i - 1) + " (" +
+                       shown(arr[i - 1]) + "): strengths are listed in increasing order, each once");
+      json j = base_json;
+      json* block = &j;
+      for (std::size_t k = 0; k + 1 < parts.size(); ++k) block = &(*block)[parts[k]];
+      if (block->contains("enabled")) (*block)["enabled"] = true;
+      (*block)[parts.back()] = x;
+      j["name"] = base.settings.name + ", " + parts.back() + " = " + format_number(x);
       ProtocolSetting ps;
+      ps.source = (base.source == "inline" ? std::string("inline") : base.source) + ", " + field + " = " +
+                  format_number(x);
       try {
-        if (item.is_string()) {
-          ps.source = item.get<std::string>();
-          std::filesystem::path file(ps.source);
-          if (file.is_relative()) file = base_dir_ / file;
-          ps.settings = load_settings_file(file);
-        } else if (item.is_object()) {
-          ps.source = "inline";
-          ps.settings = settings_from_json(item, source_ + " " + path);
-        } else {
-          fail(path, "is " + shown(item) + ", but must be a settings file path (string) or a settings object");
-        }
+        ps.settings = settings_from_json(j, source_ + " " + path);
       } catch (const SettingsError& e) {
-        fail(path, "(" + shown(item) + ") is not valid settings: " + e.what());
+        fail(path, "(" + shown(arr[i]) + ") is not a valid " + field + ": " + e.what());
       }
       p.settings.push_back(std::move(ps));
     }
