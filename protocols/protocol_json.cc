@@ -206,7 +206,8 @@ class Reader {
       if (dot == std::string::npos) break;
     }
     const json* leaf = &base_json;
-    for (const std::string& key : parts) leaf = leaf->is_object() && leaf->contains(key) ? &(*leaf)[key] : nullptr;
+    for (const std::string& key : parts)
+      leaf = leaf != nullptr && leaf->is_object() && leaf->contains(key) ? &(*leaf)[key] : nullptr;
     if (parts.size() < 2 || leaf == nullptr || !leaf->is_number())
       fail("dose.field", "is " + shown(v["field"]) + ", but must be a numeric settings field, e.g. "
                          "\"translation.friction.dynamic_level_N\" (`hapticlab settings reference` lists them)");

@@ -91,6 +91,10 @@ TEST(ProtocolDoseTest, BadDosesAreNamedByTheirField) {
   j["dose"]["field"] = "translation.cogging.amplitude";
   EXPECT_EQ(dose_failure(j).first, "dose.field");
   EXPECT_THAT(dose_failure(j).second, HasSubstr("must be a numeric settings field"));
+  j["dose"]["field"] = "translation.viscosity.amplitude_N";  // a block that does not exist
+  EXPECT_EQ(dose_failure(j).first, "dose.field");
+  j["dose"]["field"] = "translation";  // a block, not a number
+  EXPECT_EQ(dose_failure(j).first, "dose.field");
   j = dose_protocol();
   j["dose"]["strengths"] = {0.3};
   EXPECT_EQ(dose_failure(j).first, "dose.strengths");
