@@ -70,6 +70,19 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
                               {"p", optional(c.p)}, {"significant", c.significant},
                               {"participants", c.participants}, {"mean_difference", c.mean_difference},
                               {"note", c.note}});
+  nlohmann::json dose;  // null unless a dose-response study
+  if (a.dose) {
+    nlohmann::json levels = nlohmann::json::array();
+    for (const an::DoseLevel& l : a.dose->levels) levels.push_back({{"setting", l.setting}, {"strength", l.strength}});
+    nlohmann::json rows = nlohmann::json::array();
+    for (const an::DoseResponseRow& r : a.dose_response)
+      rows.push_back({{"task", r.task}, {"measure", an::measure_column(r.measure)}, {"trend_p", optional(r.trend_p)},
+                      {"mean_slope", r.mean_slope}, {"participants", r.slopes},
+                      {"trend_significant", r.trend_significant},
+                      {"smallest_significant_strength", optional(r.smallest_significant_strength)},
+                      {"note", r.note}});
+    dose = {{"field", a.dose->field}, {"levels", levels}, {"rows", rows}};
+  }
   return {{"study", a.study_name},
           {"control", a.control},
           {"method", an::comparison_method_name(a.options.method)},
@@ -81,6 +94,7 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
           {"whole_design", whole},
           {"pairwise", pairwise},  // the thesis' procedure
           {"participant_pairwise", by_participant},
+          {"dose_response", dose},
           {"files", {{"metrics_csv", (out / "metrics.csv").string()}, {"html", files.html.string()},
                      {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};
 }

@@ -197,17 +197,8 @@ class Reader {
     const ProtocolSetting base = read_setting(require(v, "settings", "dose"), "dose.settings");
     const std::string field = as_string(require(v, "field", "dose"), "dose.field");
     const json base_json = settings_to_json(base.settings);
-    // The field's path in the settings JSON: "translation.friction.dynamic_level_N"
-    // or "tip_force_saturation.limit_N".
-    std::vector<std::string> parts;
-    for (std::size_t start = 0, dot;; start = dot + 1) {
-      dot = field.find('.', start);
-      parts.push_back(field.substr(start, dot == std::string::npos ? std::string::npos : dot - start));
-      if (dot == std::string::npos) break;
-    }
-    const json* leaf = &base_json;
-    for (const std::string& key : parts)
-      leaf = leaf != nullptr && leaf->is_object() && leaf->contains(key) ? &(*leaf)[key] : nullptr;
+    const std::vector<std::string> parts = split_settings_field(field);
+    const json* leaf = find_settings_field(base_json, field);
     if (parts.size() < 2 || leaf == nullptr || !leaf->is_number())
       fail("dose.field", "is " + shown(v["field"]) + ", but must be a numeric settings field, e.g. "
                          "\"translation.friction.dynamic_level_N\" (`hapticlab settings reference` lists them)");
@@ -226,7 +217,7 @@ class Reader {
       for (std::size_t k = 0; k + 1 < parts.size(); ++k) block = &(*block)[parts[k]];
       if (block->contains("enabled")) (*block)["enabled"] = true;
       (*block)[parts.back()] = x;
-      j["name"] = base.settings.name + ", " + parts.back() + " = " + format_number(x);
+      j["name"] = dose_setting_name(base.settings.name, field, x);
       ProtocolSetting ps;
       ps.source = (base.source == "inline" ? std::string("inline") : base.source) + ", " + field + " = " +
                   format_number(x);

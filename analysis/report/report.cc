@@ -13,6 +13,7 @@
 #include "analysis/report/box_stats.h"
 #include "analysis/report/gnuplot.h"
 #include "core/common/utc_time.h"
+#include "core/settings/settings_json.h"
 #include "analysis/stats/data_error.h"
 #include "core/common/build_info.h"
 #include "core/io/output_file.h"
@@ -535,6 +536,52 @@ Section correlation_section(const StudyAnalysis& a, const ReportOptions& report_
 
 // Energy the device exchanged with the hands per setting (device_energy.h):
 // a device that gives a hand more than it takes went unstable somewhere.
+// A dose-response study (analysis/study/dose_response.h): the trend over
+// strengths and the smallest strength that changes each measure.
+Section dose_response_section(const StudyAnalysis& a, const std::string& task) {
+  Section s;
+  const DoseSeries& dose = *a.dose;
+  const std::string unit = split_settings_field(dose.field).back();
+  s.title = "Dose-response, " + task;
+  s.intro = "The strengths of " + dose.field + ", " + a.control + " as " + num(dose.levels.front().strength) +
+            ". Each participant's median over their repetitions (and both hands, for per-hand measures) at "
+            "each strength; the least-squares slope of those medians on the strength, per participant; the "
+            "slopes tested against zero with the exact sign-flip test over participants. The smallest "
+            "significant strength: each strength against " + a.control + " (the participant-level p), tested "
+            "from the strongest down at alpha " + num(a.options.alpha) + " and stopped at the first that is not "
+            "significant (fixed sequence, Hsu & Berger 1999), so no Šidák correction is needed among the "
+            "strengths. Bold: p < " + num(a.options.alpha) + ".";
+  Table trend;
+  trend.header = {"Measure", "Mean slope [unit per " + unit + "]", "Participants", "p (trend)",
+                  "Smallest significant strength"};
+  Table medians;
+  medians.title = "Median over participants of each participant's median, and p against " + a.control;
+  medians.header = {"Measure"};
+  for (const DoseLevel& level : dose.levels) medians.header.push_back(num(level.strength));
+  for (const DoseResponseRow& r : a.dose_response) {
+    if (r.task != task) continue;
+    const std::string label = std::string(measure_label(r.measure)) + " [" + measure_unit(r.measure) + "]";
+    trend.rows.push_back({{label},
+                          {r.trend_p ? (r.mean_slope > 0 ? "+" : "") + num(r.mean_slope) : "N/A"},
+                          {std::to_string(r.slopes)},
+                          {r.trend_p ? format_p(*r.trend_p, a.options.alpha) : "N/A", r.trend_significant},
+                          {r.smallest_significant_strength ? num(*r.smallest_significant_strength) : "none"}});
+    std::vector<Cell> row{{label}};
+    for (std::size_t i = 0; i < r.level_medians.size(); ++i) {
+      std::string text = std::isfinite(r.level_medians[i]) ? num(r.level_medians[i]) : "N/A";
+      const bool significant = i < r.p_vs_control.size() && r.p_vs_control[i] && *r.p_vs_control[i] < a.options.alpha;
+      if (i < r.p_vs_control.size() && r.p_vs_control[i]) text += " (p " + format_p(*r.p_vs_control[i]) + ")";
+      row.push_back({text, significant});
+    }
+    medians.rows.push_back(std::move(row));
+  }
+  trend.note = "Participants: those with data at two or more strengths. With n participants the smallest possible "
+               "p is 2/2^n: 0.0625 for 5, 0.031 for 6.";
+  s.tables.push_back(std::move(trend));
+  s.tables.push_back(std::move(medians));
+  return s;
+}
+
 Section energy_section(const StudyAnalysis& a) {
   // Bold above this net: more than a passive VE and engine hand back at the
   // end of a trial. What they hold then is small: the demo's High Fidelity
@@ -909,6 +956,47 @@ class FigureBuilder {
     return s;
   }
 
+  // The dose-response curves: each participant's medians (thin) and their
+  // median (thick) against the strength; the smallest significant strength dashed.
+  Section dose_response() {
+    Section s;
+    s.title = "Dose-response curves";
+    const DoseSeries& dose = *a_.dose;
+    s.intro = "Each thin line is one participant's median per strength of " + dose.field +
+              "; the thick line is the median over participants. A dashed line marks the smallest significant "
+              "strength, where there is one.";
+    for (const DoseResponseRow& r : a_.dose_response) {
+      std::ostringstream data;
+      std::size_t series = 0;
+      for (const DoseParticipantFit& p : r.participants) {
+        for (std::size_t i = 0; i < p.medians.size(); ++i)
+          if (std::isfinite(p.medians[i])) data << dose.levels[i].strength << ' ' << p.medians[i] << '\n';
+        data << "\n\n";
+        ++series;
+      }
+      for (std::size_t i = 0; i < r.level_medians.size(); ++i)
+        if (std::isfinite(r.level_medians[i])) data << dose.levels[i].strength << ' ' << r.level_medians[i] << '\n';
+      if (series == 0) continue;
+      const std::string b = block_name();
+      script_.add_datablock(b, data.str());
+      ++block_;
+      std::ostringstream cmd;
+      cmd << "set title " << gnuplot_quote(r.task + ": " + measure_label(r.measure)) << "\nset xlabel "
+          << gnuplot_quote(dose.field) << " noenhanced\nset ylabel "
+          << gnuplot_quote(std::string(measure_label(r.measure)) + " [" + measure_unit(r.measure) + "]")
+          << "\nset grid\nset key left top\n";
+      if (r.smallest_significant_strength)
+        cmd << "set arrow from first " << *r.smallest_significant_strength << ", graph 0 to first "
+            << *r.smallest_significant_strength << ", graph 1 nohead dt 2 lc rgb 'red'\n";
+      cmd << "plot $" << b << " index 0:" << series - 1
+          << " with linespoints lw 1 pt 7 ps 0.5 lc rgb '#a0a0a0' notitle, $" << b << " index " << series
+          << " with linespoints lw 3 pt 7 lc rgb 'black' title 'median over participants'\n";
+      add(s, "dose_" + slug(r.task) + "_" + measure_column(r.measure) + ".svg", cmd.str(),
+          "Dose-response: " + r.task + ", " + measure_label(r.measure) + ".");
+    }
+    return s;
+  }
+
  private:
   std::string block_name() const { return "d" + std::to_string(block_); }
 
@@ -983,6 +1071,8 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
   sections.push_back(correlation_section(a, options));
   sections.push_back(ks_section(a));
   sections.push_back(energy_section(a));
+  if (a.dose)
+    for (const auto& task : a.tasks) sections.push_back(dose_response_section(a, task));
 
   ReportFiles files;
   if (options.plots) {
@@ -993,6 +1083,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
     sections.push_back(figures.boxes());
     sections.push_back(figures.correlations());
     if (a.options.ks) sections.push_back(figures.ks());
+    if (a.dose) sections.push_back(figures.dose_response());
     const std::string key = abbreviation_key(a.settings);
     for (auto& s : sections)
       if (!s.figures.empty() && !key.empty()) s.intro += (s.intro.empty() ? "" : " ") + key;

@@ -21,7 +21,17 @@ std::string setting_abbreviation(const std::string& name) {
   for (std::string w; words >> w;) parts.push_back(w);
   if (parts.size() < 2) return name;
   std::string out;
-  for (const auto& w : parts) out += w == "+" ? '+' : static_cast<char>(std::toupper(static_cast<unsigned char>(w[0])));
+  for (const auto& w : parts) {
+    // A number and "=" stay whole: a dose series' settings ("Insertion
+    // friction, dynamic_level_N = 0.45") differ only there.
+    char* end = nullptr;
+    std::strtod(w.c_str(), &end);
+    const bool number = end == w.c_str() + w.size();
+    if (number || w == "=" || w == "+")
+      out += w;
+    else
+      out += static_cast<char>(std::toupper(static_cast<unsigned char>(w[0])));
+  }
   return out;
 }
 
@@ -205,6 +215,35 @@ std::string format_headline_tables(const StudyAnalysis& a) {
     out << "\n";
   }
   out << "F Friedman, D Durbin, SM Skillings-Mack; * p < " << a.options.alpha << "\n";
+
+  if (a.dose) {
+    out << "\nDose-response of " << a.dose->field << " (each participant's slope over strengths, exact sign-flip "
+        << "test; the smallest significant strength by the fixed sequence from the strongest, alpha "
+        << a.options.alpha << ")\n";
+    out << pad("", kRowWidth);
+    for (Measure m : kAllMeasures) out << pad(measure_label(m), kColWidth);
+    out << "\n";
+    for (const auto& task : a.tasks) {
+      std::string trend_line = pad(task + " trend p", kRowWidth);
+      std::string smallest_line = pad(task + " smallest", kRowWidth);
+      for (Measure m : kAllMeasures) {
+        std::string trend = "N/A";
+        std::string smallest = "none";
+        for (const DoseResponseRow& r : a.dose_response) {
+          if (r.task != task || r.measure != m) continue;
+          if (r.trend_p)
+            trend = format_p(*r.trend_p, a.options.alpha) + (r.trend_significant ? "*" : "") +
+                    (r.mean_slope > 0 ? " up" : r.mean_slope < 0 ? " down" : "");
+          if (r.smallest_significant_strength) smallest = format_level(*r.smallest_significant_strength);
+        }
+        trend_line += pad(trend, kColWidth);
+        smallest_line += pad(smallest, kColWidth);
+      }
+      out << trend_line << "\n" << smallest_line << "\n";
+    }
+    out << "* p < " << a.options.alpha << "; up/down: the mean slope's sign; smallest: the smallest strength with a "
+        << "significant change from " << a.control << "\n";
+  }
   return out.str();
 }
 

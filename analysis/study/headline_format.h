@@ -9,7 +9,9 @@
 namespace hapticlab::analysis {
 
 // Short label for a setting in plots: initials of multi-word names
-// ("No Force Feedback" -> "NFF", "Inertia + Backlash" -> "I+B"), else the name.
+// ("No Force Feedback" -> "NFF", "Inertia + Backlash" -> "I+B"), numbers and
+// "=" kept whole ("Insertion friction, dynamic_level_N = 0.45" ->
+// "IFD=0.45"), else the name.
 std::string setting_abbreviation(const std::string& name);
 
 // p-value as the thesis prints it: 2 significant digits, scientific below 1e-3.

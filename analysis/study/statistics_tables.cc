@@ -21,6 +21,7 @@
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/stats/skillings_mack.h"
 #include "analysis/study/ordered_names.h"
+#include "analysis/study/dose_response.h"
 #include "analysis/study/participant_level.h"
 
 namespace hapticlab::analysis {
@@ -260,6 +261,8 @@ void run_statistics(StudyAnalysis& a) {
 
   // The same comparisons with one value per participant (the default method).
   a.participant_pairwise = participant_pairwise(a);
+  // A dose-response study: the trend over strengths and the smallest that changes the measure.
+  a.dose_response = dose_response(a);
 
   // What the tests are about: each setting's median and IQR per task.
   a.descriptive.clear();

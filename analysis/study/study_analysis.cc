@@ -15,6 +15,7 @@
 
 #include "analysis/stats/data_error.h"
 #include "analysis/study/ordered_names.h"
+#include "analysis/study/dose_response.h"
 #include "analysis/study/statistics_tables.h"
 #include "analysis/study/trial_reader.h"
 #include "db/study_db.h"
@@ -191,6 +192,9 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   for (const auto& [id, name] : setting_ids) add_unique(a.settings, name);
 
   choose_control(a, options);
+  std::vector<std::pair<std::string, std::string>> settings_json;
+  for (const auto& [id, name] : setting_ids) settings_json.emplace_back(name, db.setting_json(id));
+  a.dose = find_dose_series(study->protocol_json, a.control, settings_json);
 
   std::vector<db::TrialRow> analysed;
   for (const auto& row : rows) {

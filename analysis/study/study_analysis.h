@@ -219,6 +219,45 @@ struct KsRow {
   std::string note;
 };
 
+// A dose-response study's series (protocol "dose", docs/protocols.md): the
+// control and one setting per strength of one settings field.
+struct DoseLevel {
+  std::string setting;
+  double strength = 0.0;  // in the field's unit; the control's is 0 when its effect is off
+};
+struct DoseSeries {
+  std::string field;              // e.g. "translation.friction.dynamic_level_N"
+  std::vector<DoseLevel> levels;  // the control first, then by increasing strength
+};
+
+// One participant's dose-response in one task and measure.
+struct DoseParticipantFit {
+  std::string participant;
+  std::vector<double> medians;  // per level of the series: the median of the repetitions (and hands); NaN without data
+  std::optional<double> slope;  // least-squares slope over the levels with data, measure unit per field unit; empty with < 2 levels
+};
+
+// The dose-response of one task and measure (dose_response.h).
+struct DoseResponseRow {
+  std::string task;
+  Measure measure = Measure::kForceMedian;
+  std::vector<DoseParticipantFit> participants;
+  std::vector<double> level_medians;  // per level: the median over participants of their medians; NaN without data
+  // The trend: every participant's slope, tested against 0 with the exact
+  // sign-flip test over participants (two-sided), at the study's alpha.
+  std::optional<double> trend_p;
+  double mean_slope = 0.0;
+  std::size_t slopes = 0;  // participants with a slope
+  bool trend_significant = false;
+  // Each strength against the control (the participant-level p of
+  // participant_pairwise, index 0 empty for the control) and the minimum
+  // effective strength by the fixed-sequence step-down at alpha: empty when
+  // even the strongest is not significant.
+  std::vector<std::optional<double>> p_vs_control;
+  std::optional<double> smallest_significant_strength;
+  std::string note;
+};
+
 struct StudyAnalysis {
   AnalysisOptions options;
   std::filesystem::path db_path;
@@ -244,6 +283,8 @@ struct StudyAnalysis {
   std::vector<CorrelationRow> correlations;
   std::vector<KsRow> ks;
   std::vector<DescriptiveRow> descriptive;
+  std::optional<DoseSeries> dose;               // a dose-response study's series; empty otherwise
+  std::vector<DoseResponseRow> dose_response;   // per task x measure, when `dose` is set
 };
 
 // Reads the study (options.study_id, or the only one) and runs everything.

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/common/csv_format.h"
 #include "core/io/input_file.h"
 
 namespace hapticlab {
@@ -288,6 +289,28 @@ void check_preset_force(const EngineSettings& s) {
 }
 
 }  // namespace
+
+std::vector<std::string> split_settings_field(std::string_view dotted) {
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  for (std::size_t dot; (dot = dotted.find('.', start)) != std::string_view::npos; start = dot + 1)
+    parts.emplace_back(dotted.substr(start, dot - start));
+  parts.emplace_back(dotted.substr(start));
+  return parts;
+}
+
+const nlohmann::json* find_settings_field(const nlohmann::json& settings, std::string_view dotted) {
+  const nlohmann::json* node = &settings;
+  for (const std::string& key : split_settings_field(dotted)) {
+    if (!node->is_object() || !node->contains(key)) return nullptr;
+    node = &(*node)[key];
+  }
+  return node;
+}
+
+std::string dose_setting_name(std::string_view base, std::string_view field, double strength) {
+  return std::string(base) + ", " + split_settings_field(field).back() + " = " + format_number<double>(strength);  // shortest round trip, as the protocol wrote it
+}
 
 std::string source_text(const SettingsSource& source) {
   std::string out = "Source: " + source.device + "\n  reference: " + source.reference + "\n";

@@ -64,6 +64,19 @@ NamedSettings load_settings_file(const std::filesystem::path& path);
 // not depend on defaults that may change).
 nlohmann::json settings_to_json(const NamedSettings& s);
 
+// A field named by its dotted path ("translation.friction.dynamic_level_N",
+// "tip_force_saturation.limit_N") in a settings_to_json object: the keys from
+// the top down, and the field's value (nullptr when there is no such key).
+// The stability map, dose protocols and their analysis all name fields so.
+std::vector<std::string> split_settings_field(std::string_view dotted);
+const nlohmann::json* find_settings_field(const nlohmann::json& settings, std::string_view dotted);
+
+// The name a dose protocol (docs/protocols.md) gives its setting at
+// `strength`: "<base>, <key> = <strength>", key the field's last part, e.g.
+// "Insertion friction, dynamic_level_N = 0.45". The analysis finds the
+// series by it.
+std::string dose_setting_name(std::string_view base, std::string_view field, double strength);
+
 // Checks settings built in code against the same ranges the loader uses.
 void validate_settings(const EngineSettings& s);
 

@@ -18,28 +18,18 @@ namespace hapticlab {
 namespace {
 
 // "translation.inertia.mass_kg" -> {"translation", "inertia", "mass_kg"}.
-std::vector<std::string> split_path(const std::string& path) {
-  std::vector<std::string> parts;
-  std::size_t start = 0;
-  for (std::size_t dot; (dot = path.find('.', start)) != std::string::npos; start = dot + 1)
-    parts.push_back(path.substr(start, dot - start));
-  parts.push_back(path.substr(start));
-  return parts;
-}
-
 // The parameter's value set in the base, its block switched on (varying a
 // disabled effect's parameter would vary nothing).
 EngineSettings with_value(const nlohmann::json& base, const std::string& field, double value) {
   nlohmann::json j = base;
-  const std::vector<std::string> p = split_path(field);
+  const std::vector<std::string> p = split_settings_field(field);
   j[p[0]][p[1]]["enabled"] = true;
   j[p[0]][p[1]][p[2]] = value;
   return settings_from_json(j, "stability map, " + field + " = " + format_number(value)).engine;
 }
 
 double value_in(const nlohmann::json& base, const std::string& field) {
-  const std::vector<std::string> p = split_path(field);
-  return base.at(p[0]).at(p[1]).at(p[2]).get<double>();
+  return find_settings_field(base, field)->get<double>();
 }
 
 void validate(const StabilityMapConfig& c, const nlohmann::json& base) {
@@ -61,7 +51,7 @@ void validate(const StabilityMapConfig& c, const nlohmann::json& base) {
   for (const StabilityParameter& p : c.parameters) {
     const auto it = std::find_if(reference.begin(), reference.end(),
                                  [&](const SettingsFieldInfo& f) { return f.path == p.field; });
-    if (it == reference.end() || split_path(p.field).size() != 3 || !base.contains(split_path(p.field)[0]))
+    if (it == reference.end() || split_settings_field(p.field).size() != 3 || !base.contains(split_settings_field(p.field)[0]))
       bad("parameter '" + p.field + "' is not a settings field of an effect (see `hapticlab settings reference`)");
     const bool lo_ok = it->lo_exclusive ? p.range.lo > it->lo : p.range.lo >= it->lo;
     if (!lo_ok || p.range.hi > it->hi || !(p.range.lo < p.range.hi))
@@ -105,7 +95,7 @@ std::vector<StabilityParameter> default_stability_parameters() {
 }
 
 std::string stability_effect(const StabilityParameter& p) {
-  const std::vector<std::string> parts = split_path(p.field);
+  const std::vector<std::string> parts = split_settings_field(p.field);
   return parts.size() > 1 ? parts[1] : p.field;
 }
 

@@ -497,6 +497,9 @@ TEST(FormatTest, PValuesLikeTheThesis) {
   EXPECT_EQ(setting_abbreviation("No Force Feedback"), "NFF");
   EXPECT_EQ(setting_abbreviation("Inertia + Backlash"), "I+B");
   EXPECT_EQ(setting_abbreviation("Cogging"), "Cogging");
+  // A dose series' settings differ only in the number: it stays whole.
+  EXPECT_EQ(setting_abbreviation("Insertion friction, dynamic_level_N = 0.45"), "IFD=0.45");
+  EXPECT_EQ(setting_abbreviation("Insertion friction, dynamic_level_N = 1e-05"), "IFD=1e-05");
 }
 
 }  // namespace
