@@ -83,18 +83,28 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
                       {"note", r.note}});
     dose = {{"field", a.dose->field}, {"levels", levels}, {"rows", rows}};
   }
+  nlohmann::json staircases;  // null unless a staircase study
+  if (a.staircase) {
+    staircases = nlohmann::json::array();
+    for (const an::StaircaseRow& r : a.staircases)
+      staircases.push_back({{"participant", r.participant}, {"baseline", r.baseline},
+                            {"trials", r.trials.size()}, {"reversals", r.reversals}, {"finished", r.finished},
+                            {"stop_reason", r.stop_reason}, {"threshold", optional(r.threshold)}, {"note", r.note}});
+  }
   return {{"study", a.study_name},
           {"control", a.control},
           {"method", an::comparison_method_name(a.options.method)},
           {"trials", {{"analysed", a.counts.analysed}, {"complete", a.counts.complete},
                       {"aborted_excluded", a.counts.aborted_excluded},
                       {"aborted_included", a.counts.aborted_included}, {"not_run", a.counts.not_run},
-                      {"without_window", a.counts.without_window}, {"damaged_chunks", a.counts.damaged_chunks}}},
+                      {"without_window", a.counts.without_window}, {"damaged_chunks", a.counts.damaged_chunks},
+                      {"staircase", a.counts.staircase}}},
           {"sidak_level", a.sidak_level},
           {"whole_design", whole},
           {"pairwise", pairwise},  // the thesis' procedure
           {"participant_pairwise", by_participant},
           {"dose_response", dose},
+          {"staircase", staircases},
           {"files", {{"metrics_csv", (out / "metrics.csv").string()}, {"html", files.html.string()},
                      {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};
 }

@@ -114,6 +114,11 @@ std::vector<std::string> draw_power(const fs::path& out, const std::vector<plann
 
 int run_plan_power(const PlanPowerOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
+  // A staircase's trials depend on the responses; plan power simulates designed schedules.
+  if (protocol.staircase)
+    throw std::runtime_error(o.protocol + ": the protocol has a staircase, whose trials depend on each "
+                                          "participant's responses; plan power simulates designed schedules only "
+                                          "(run the staircase on simulated participants with session run)");
   const std::string protocol_text = protocols::read_protocol_text(o.protocol);
   planning::SimulatedStudyOptions sim;
   sim.max_trial_s = o.max_trial_s;

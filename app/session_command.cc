@@ -127,6 +127,23 @@ int run(const SessionCommandOptions& opt) {
                         {"stopped_by_operator", r.stopped_by_operator},
                         {"device_fault", r.device_fault ? nlohmann::json(r.device_fault_reason) : nlohmann::json()},
                         {"stale_session", r.stale_session ? nlohmann::json(*r.stale_session) : nlohmann::json()}};
+    if (r.staircase) {
+      const auto& st = r.staircase->state;
+      j["staircase"] = {{"field", r.staircase->spec.field},
+                        {"measure", r.staircase->spec.measure},
+                        {"baseline", r.staircase->baseline},
+                        {"trials", st.trials.size()},
+                        {"reversals", st.reversal_strengths},
+                        {"steps", [&] {
+                           nlohmann::json a = nlohmann::json::array();
+                           for (const auto& t : st.trials) a.push_back({{"strength", t.strength}, {"value", t.value},
+                                                                        {"changed", t.changed}});
+                           return a;
+                         }()},
+                        {"finished", st.finished},
+                        {"stop_reason", st.stop_reason},
+                        {"threshold", st.threshold ? nlohmann::json(*st.threshold) : nlohmann::json()}};
+    }
     std::printf("%s\n", j.dump(2).c_str());
   } else {
     std::printf("session %lld of %s: %d %s run (%d complete, %d aborted), %d re-queued, %d still planned, "
@@ -138,6 +155,7 @@ int run(const SessionCommandOptions& opt) {
                                          (r.training_trials == 1 ? "" : "s"))
                                             .c_str()
                                       : "");
+    if (r.staircase) std::printf("%s\n", analysis::staircase_summary(*r.staircase).c_str());
   }
   if (r.device_fault) {
     std::fprintf(stderr, "hapticlab session run: %s; the trial is re-queued, run the session again once the "

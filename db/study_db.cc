@@ -283,6 +283,14 @@ std::string StudyDb::setting_json(std::int64_t setting_id) {
   return s.column_text(0);
 }
 
+std::vector<std::pair<std::int64_t, std::string>> StudyDb::settings(std::int64_t study_id) {
+  Statement s = db_.prepare("SELECT id, name FROM setting WHERE study_id = ?1 ORDER BY id");
+  s.bind(1, study_id);
+  std::vector<std::pair<std::int64_t, std::string>> out;
+  while (s.step()) out.emplace_back(s.column_int64(0), s.column_text(1));
+  return out;
+}
+
 NamedSettings StudyDb::setting(std::int64_t setting_id) {
   return settings_from_json_text(setting_json(setting_id),
                                  db_.path() + ": setting " + std::to_string(setting_id));

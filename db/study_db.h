@@ -28,6 +28,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "core/loop/loop_timing.h"
@@ -162,6 +163,8 @@ class StudyDb {
   std::int64_t add_setting_json(std::int64_t study_id, std::string_view name, std::string_view parameters_json);
   std::string setting_json(std::int64_t setting_id);
   NamedSettings setting(std::int64_t setting_id);  // parsed back with settings_from_json
+  // Every setting row of the study (id, name), by id; also those no trial uses yet.
+  std::vector<std::pair<std::int64_t, std::string>> settings(std::int64_t study_id);
 
   // --- sessions and training
   std::int64_t begin_session(std::int64_t participant_id, std::string_view device, std::string_view clock);

@@ -29,8 +29,11 @@ void check_setting_names(const Protocol& p, const std::vector<std::string>& name
   }
 }
 
+// A staircase protocol's comparison is the staircase: its schedule may be
+// the baseline alone.
 void check_enough_settings(std::size_t count, const std::string& path, const std::string& what,
-                           const std::string& source) {
+                           const std::string& source, bool staircase) {
+  if (staircase && count >= 1) return;
   if (count < 2) {
     throw ProtocolError(source, path,
                         "gives " + what + " " + std::to_string(count) +
@@ -68,6 +71,10 @@ std::optional<std::string> task_name_problem(std::string_view name, Ve ve) {
   }
   if (name.front() == ' ' || name.back() == ' ') return "begins or ends with a space, but " + rule;
   return std::nullopt;
+}
+
+std::string staircase_base_row_name(std::string_view base_name) {
+  return std::string(kStaircaseBasePrefix) + std::string(base_name);
 }
 
 std::optional<std::size_t> Protocol::find_setting(std::string_view name) const {
@@ -135,7 +142,7 @@ void validate_protocol(const Protocol& p, const std::string& source) {
       }
     }
   }
-  if (p.settings.size() < 2) {
+  if (p.settings.size() < (p.staircase ? 1u : 2u)) {
     throw ProtocolError(source, "settings",
                         "has " + std::to_string(p.settings.size()) + " setting(s), but must have at least 2");
   }
@@ -193,7 +200,7 @@ void validate_protocol(const Protocol& p, const std::string& source) {
                                 " (the number of settings not in design.required)");
       }
       check_enough_settings(d.required.size() + static_cast<std::size_t>(d.k), "design",
-                            "each participant", source);
+                            "each participant", source, p.staircase.has_value());
       break;
     }
     case DesignType::kExplicit: {
@@ -204,7 +211,7 @@ void validate_protocol(const Protocol& p, const std::string& source) {
                                                 ", which is not in participants; every key must be a participant code");
         }
         check_setting_names(p, names, path, source);
-        check_enough_settings(names.size(), path, in_quotes(code), source);
+        check_enough_settings(names.size(), path, in_quotes(code), source, p.staircase.has_value());
       }
       for (std::size_t i = 0; i < p.participants.size(); ++i) {
         if (!d.assignments.count(p.participants[i].code)) {

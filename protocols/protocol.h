@@ -19,6 +19,7 @@
 
 #include "core/loop/force_guard.h"
 #include "core/settings/settings_json.h"
+#include "protocols/staircase.h"
 
 namespace hapticlab::protocols {
 
@@ -108,6 +109,19 @@ struct ParticipantSpec {
   int training_trials = 0;
 };
 
+// The "staircase" block: the settings its strengths are made from, and the
+// rule (protocols/staircase.h). Its trials are not scheduled in advance:
+// `session run` adds each one after the participant's schedule is done.
+struct ProtocolStaircase {
+  ProtocolSetting base;  // the field is set to each strength, its block switched on
+  StaircaseSpec spec;
+};
+
+// The name the study database gives the staircase's base settings, so a
+// session can find them without the protocol's files.
+std::string staircase_base_row_name(std::string_view base_name);
+inline constexpr std::string_view kStaircaseBasePrefix = "staircase: ";
+
 struct Protocol {
   std::string study;                      // study name, non-empty
   std::string description;                // free text, may be empty
@@ -128,6 +142,8 @@ struct Protocol {
   // a false positive (`plan power` counts them and refuses one that is not
   // such a copy). Names of `settings`; nothing else reads them.
   std::vector<std::string> null_settings;
+  // The optional "staircase" (a protocol has it or "dose", not both).
+  std::optional<ProtocolStaircase> staircase;
 
   // 0 for a task without repetitions.
   int repetitions_of(const Task& task) const {

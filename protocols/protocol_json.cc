@@ -26,10 +26,15 @@ class Reader {
   Reader(std::string source, std::filesystem::path base_dir)
       : source_(std::move(source)), base_dir_(std::move(base_dir)) {}
 
+  StaircaseSpec staircase_spec(const json& v, const std::string& only_task) {
+    only_task_ = only_task;
+    return read_staircase_spec(v, nullptr);
+  }
+
   Protocol read(const json& j) {
     expect_object(j, "(top level)");
     check_keys(j, "", {"study", "description", "ve", "tasks", "repetitions", "settings", "participants", "design",
-                       "seed", "training_trials", "safety", "null_settings", "dose"});
+                       "seed", "training_trials", "safety", "null_settings", "dose", "staircase"});
     Protocol p;
     p.study = as_string(require(j, "study", ""), "study");
     if (j.contains("description")) p.description = as_string(j["description"], "description");
@@ -57,8 +62,112 @@ class Reader {
         if (!p.find_setting(p.null_settings[i]))
           fail(index_path("null_settings", i), "is \"" + p.null_settings[i] + "\", but is not one of the settings");
     }
+    if (j.contains("staircase")) {
+      if (j.contains("dose")) fail("staircase", "is given with \"dose\", but a protocol has one or the other");
+      read_staircase(j["staircase"], p);
+    }
     validate_protocol(p, source_);
     return p;
+  }
+
+  // The rule of a "staircase" block; `p` (when given) is the protocol read
+  // so far, for the checks that need its tasks and settings.
+  StaircaseSpec read_staircase_spec(const json& v, const Protocol* p) const {
+    expect_object(v, "staircase");
+    check_keys(v, "staircase", {"settings", "field", "task", "measure", "change", "direction", "baseline", "start",
+                                "step", "min", "max", "down", "reversals", "max_trials"});
+    StaircaseSpec s;
+    s.field = as_string(require(v, "field", "staircase"), "staircase.field");
+    if (v.contains("task")) {
+      s.task = as_string(v["task"], "staircase.task");
+    } else if (p != nullptr && p->tasks.size() == 1) {
+      s.task = std::string(task_name(p->tasks.front()));
+    } else if (p == nullptr && !only_task_.empty()) {
+      s.task = only_task_;
+    } else {
+      fail("staircase.task", "is missing, but the protocol has several tasks: name the one the staircase runs");
+    }
+    if (p != nullptr && std::none_of(p->tasks.begin(), p->tasks.end(),
+                                     [&](const Task& t) { return task_name(t) == s.task; }))
+      fail("staircase.task", "is \"" + s.task + "\", but is not one of the protocol's tasks");
+    s.measure = as_string(require(v, "measure", "staircase"), "staircase.measure");
+    if (std::find(kStaircaseMeasures.begin(), kStaircaseMeasures.end(), s.measure) == kStaircaseMeasures.end()) {
+      std::string list;
+      for (auto m : kStaircaseMeasures) list += (list.empty() ? "" : ", ") + std::string(m);
+      fail("staircase.measure", "is " + shown(v["measure"]) + ", but must be one of " + list);
+    }
+    s.change = as_double(require(v, "change", "staircase"), "staircase.change", 0.0, 10.0, true);
+    if (v.contains("direction")) {
+      const std::string d = as_string(v["direction"], "staircase.direction");
+      if (d == "increase") s.direction = ChangeDirection::kIncrease;
+      else if (d == "decrease") s.direction = ChangeDirection::kDecrease;
+      else if (d == "either") s.direction = ChangeDirection::kEither;
+      else fail("staircase.direction", "is " + shown(v["direction"]) + ", but must be \"increase\", \"decrease\" or \"either\"");
+    }
+    // Without a baseline there is nothing for "changed" to be measured from.
+    if (!v.contains("baseline"))
+      fail("staircase.baseline", "is missing, but a staircase needs a baseline: the name of the setting whose "
+                                 "trials give each participant's reference value (e.g. \"High Fidelity\")");
+    s.baseline = as_string(v["baseline"], "staircase.baseline");
+    if (p != nullptr && !p->find_setting(s.baseline)) {
+      std::string names;
+      for (const ProtocolSetting& ps : p->settings) names += (names.empty() ? "\"" : ", \"") + ps.settings.name + "\"";
+      fail("staircase.baseline", "is \"" + s.baseline + "\", but is not one of the settings (" + names +
+                                     "): the baseline's trials must be in every participant's schedule");
+    }
+    s.min = as_double(require(v, "min", "staircase"), "staircase.min", -1e12, 1e12, false);
+    s.max = as_double(require(v, "max", "staircase"), "staircase.max", -1e12, 1e12, false);
+    if (!(s.max > s.min)) fail("staircase.max", "is " + shown(v["max"]) + ", but must be greater than staircase.min (" + shown(v["min"]) + ")");
+    s.start = as_double(require(v, "start", "staircase"), "staircase.start", s.min, s.max, false);
+    s.step = as_double(require(v, "step", "staircase"), "staircase.step", 0.0, s.max - s.min, true);
+    if (v.contains("down")) s.down = as_int(v["down"], "staircase.down", 1, 3);
+    if (v.contains("reversals")) s.reversals = as_int(v["reversals"], "staircase.reversals", 4, 30);
+    if (s.reversals % 2 != 0)
+      fail("staircase.reversals", "is " + shown(v["reversals"]) + ", but must be even: the threshold averages as "
+                                  "many peaks as valleys");
+    if (v.contains("max_trials")) s.max_trials = as_int(v["max_trials"], "staircase.max_trials", 5, 200);
+    if (s.max_trials <= s.reversals)
+      fail("staircase.max_trials", "is " + std::to_string(s.max_trials) + ", but must be greater than "
+                                   "staircase.reversals (" + std::to_string(s.reversals) + ")");
+    return s;
+  }
+
+  // The field a dose or staircase varies must be a number of its settings.
+  void check_numeric_field(const NamedSettings& base, const json& field, const std::string& path) const {
+    const json base_json = settings_to_json(base);
+    const json* leaf = field.is_string() ? find_settings_field(base_json, field.get<std::string>()) : nullptr;
+    if (leaf == nullptr || !leaf->is_number() || split_settings_field(field.get<std::string>()).size() < 2)
+      fail(path, "is " + shown(field) + ", but must be a numeric settings field, e.g. "
+                 "\"translation.friction.dynamic_level_N\" (`hapticlab settings reference` lists them)");
+  }
+
+  void read_staircase(const json& v, Protocol& p) const {
+    ProtocolStaircase st;
+    st.spec = read_staircase_spec(v, &p);
+    st.base = read_setting(require(v, "settings", "staircase"), "staircase.settings");
+    check_numeric_field(st.base.settings, v["field"], "staircase.field");
+    if (p.find_setting(st.base.settings.name))
+      fail("staircase.settings", "is named \"" + st.base.settings.name + "\", like one of the settings; give it a name of its own");
+    // Both ends must be strengths the settings accept.
+    for (const char* end : {"min", "max"}) {
+      const double x = end == std::string("min") ? st.spec.min : st.spec.max;
+      try {
+        settings_at_strength(st.base.settings, st.spec.field, x);
+      } catch (const SettingsError& e) {
+        fail(std::string("staircase.") + end, "(" + shown(v[end]) + ") is not a valid " + st.spec.field + ": " + e.what());
+      }
+    }
+    // Every participant needs the baseline's trials.
+    const std::string& b = st.spec.baseline;
+    if (p.design.type == DesignType::kIncomplete &&
+        std::find(p.design.required.begin(), p.design.required.end(), b) == p.design.required.end())
+      fail("staircase.baseline", "is \"" + b + "\", but is not in design.required: every participant needs the "
+                                 "baseline's trials");
+    for (const auto& [code, names] : p.design.assignments)
+      if (std::find(names.begin(), names.end(), b) == names.end())
+        fail("staircase.baseline", "is \"" + b + "\", but design.assignments." + code + " does not give it: every "
+                                   "participant needs the baseline's trials");
+    p.staircase = std::move(st);
   }
 
  private:
@@ -93,6 +202,18 @@ class Reader {
   std::string as_string(const json& v, const std::string& path) const {
     if (!v.is_string()) fail(path, "is " + shown(v) + ", but must be a string");
     return v.get<std::string>();
+  }
+
+  // A number in [lo, hi] (lo excluded when lo_exclusive).
+  double as_double(const json& v, const std::string& path, double lo, double hi, bool lo_exclusive) const {
+    if (!v.is_number()) fail(path, "is " + shown(v) + ", but must be a number");
+    const double x = v.get<double>();
+    if (lo_exclusive ? !(x > lo) : !(x >= lo))
+      fail(path, "is " + shown(v) + ", but must be " + (lo_exclusive ? "> " : ">= ") + format_number(lo) +
+                     " and <= " + format_number(hi));
+    if (!(x <= hi)) fail(path, "is " + shown(v) + ", but must be " + (lo_exclusive ? "> " : ">= ") + format_number(lo) +
+                                   " and <= " + format_number(hi));
+    return x;
   }
 
   const json& as_array(const json& v, const std::string& path) const {
@@ -196,12 +317,7 @@ class Reader {
     check_keys(v, "dose", {"settings", "field", "strengths"});
     const ProtocolSetting base = read_setting(require(v, "settings", "dose"), "dose.settings");
     const std::string field = as_string(require(v, "field", "dose"), "dose.field");
-    const json base_json = settings_to_json(base.settings);
-    const std::vector<std::string> parts = split_settings_field(field);
-    const json* leaf = find_settings_field(base_json, field);
-    if (parts.size() < 2 || leaf == nullptr || !leaf->is_number())
-      fail("dose.field", "is " + shown(v["field"]) + ", but must be a numeric settings field, e.g. "
-                         "\"translation.friction.dynamic_level_N\" (`hapticlab settings reference` lists them)");
+    check_numeric_field(base.settings, v["field"], "dose.field");
     const json& arr = as_array(require(v, "strengths", "dose"), "dose.strengths");
     if (arr.size() < 2)
       fail("dose.strengths", "has " + std::to_string(arr.size()) + " strength(s), but a dose-response needs at least 2");
@@ -212,17 +328,11 @@ class Reader {
       if (i > 0 && !(x > arr[i - 1].get<double>()))
         fail(path, "is " + shown(arr[i]) + ", but must be greater than " + index_path("dose.strengths", i - 1) + " (" +
                        shown(arr[i - 1]) + "): strengths are listed in increasing order, each once");
-      json j = base_json;
-      json* block = &j;
-      for (std::size_t k = 0; k + 1 < parts.size(); ++k) block = &(*block)[parts[k]];
-      if (block->contains("enabled")) (*block)["enabled"] = true;
-      (*block)[parts.back()] = x;
-      j["name"] = dose_setting_name(base.settings.name, field, x);
       ProtocolSetting ps;
       ps.source = (base.source == "inline" ? std::string("inline") : base.source) + ", " + field + " = " +
                   format_number(x);
       try {
-        ps.settings = settings_from_json(j, source_ + " " + path);
+        ps.settings = settings_at_strength(base.settings, field, x);
       } catch (const SettingsError& e) {
         fail(path, "(" + shown(arr[i]) + ") is not a valid " + field + ": " + e.what());
       }
@@ -294,9 +404,24 @@ class Reader {
   std::string source_;
   std::filesystem::path base_dir_;
   Ve ve_ = Ve::kSimulated;  // the protocol's, once read: how task names are checked
+  std::string only_task_;    // a stored protocol's task when it has one, for staircase_spec
 };
 
 }  // namespace
+
+std::optional<StaircaseSpec> staircase_from_protocol_text(std::string_view text, const std::string& source) {
+  json j;
+  try {
+    j = parse_json_strict(text);
+  } catch (const InputFileError& e) {
+    throw ProtocolError(source, "(file)", std::string("is refused: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("staircase")) return std::nullopt;
+  const json* tasks = j.contains("tasks") ? &j["tasks"] : nullptr;
+  const std::string only_task =
+      tasks != nullptr && tasks->is_array() && tasks->size() == 1 && (*tasks)[0].is_string() ? (*tasks)[0].get<std::string>() : "";
+  return Reader(source, {}).staircase_spec(j["staircase"], only_task);
+}
 
 Protocol protocol_from_json(const json& j, const std::filesystem::path& base_dir, const std::string& source) {
   return Reader(source, base_dir).read(j);

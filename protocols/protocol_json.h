@@ -9,6 +9,7 @@
 // protocol field and the SettingsError's message.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -26,6 +27,10 @@ Protocol protocol_from_json(const nlohmann::json& j, const std::filesystem::path
 Protocol protocol_from_json_text(std::string_view text, const std::filesystem::path& base_dir,
                                  const std::string& source);
 Protocol load_protocol_file(const std::filesystem::path& path);
+// The "staircase" rule of a protocol text a study stored (validated when
+// the study was created; its settings are in the database, not read here);
+// nullopt when it has none. ProtocolError when the block does not read.
+std::optional<StaircaseSpec> staircase_from_protocol_text(std::string_view text, const std::string& source);
 // The protocol file's text, within the size cap of JSON inputs (what a
 // study stores byte for byte); ProtocolError naming the file otherwise.
 std::string read_protocol_text(const std::filesystem::path& path);

@@ -117,7 +117,10 @@ StudyPlan make_study_plan(const Protocol& protocol) {
     int position = 0;
     for (const Task& task : pp.task_order) {
       const int blocks = protocol.repetitions_of(task);
-      const auto order = block_randomized_order(pp.setting_indices.size(), blocks, rng);
+      // A staircase protocol's baseline alone has nothing to randomize.
+      const auto order = pp.setting_indices.size() == 1
+                             ? std::vector<std::size_t>(static_cast<std::size_t>(blocks), 0)
+                             : block_randomized_order(pp.setting_indices.size(), blocks, rng);
       std::vector<int> seen(pp.setting_indices.size(), 0);
       for (std::size_t t = 0; t < order.size(); ++t) {
         const std::size_t local = order[t];
@@ -134,8 +137,9 @@ StudyPlan make_study_plan(const Protocol& protocol) {
     }
 
     // Always-on check of the thesis' rule; blocks guarantee it, this makes
-    // sure no later change breaks it silently.
-    if (longest_run(pp.trials) > kMaxRun) {
+    // sure no later change breaks it silently. (A staircase protocol may
+    // schedule its baseline alone, which cannot alternate.)
+    if (pp.setting_indices.size() > 1 && longest_run(pp.trials) > kMaxRun) {
       throw std::logic_error("make_study_plan(): participant " + spec.code + " has more than " +
                              std::to_string(kMaxRun) + " consecutive trials at one setting");
     }

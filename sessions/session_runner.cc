@@ -12,7 +12,9 @@
 #include "core/common/random.h"
 #include "core/device/device_factory.h"
 #include "core/sim/task_event.h"
+#include "sessions/staircase_planner.h"
 #include "sessions/study_session.h"
+#include "protocols/protocol_json.h"
 #include "protocols/rng.h"
 #include "protocols/safety_json.h"
 
@@ -117,7 +119,11 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   const int training_per_task =
       options.training_trials.value_or(protocol_training_trials(study.protocol_json, options.participant));
   const std::int64_t training_setting = training_setting_id(db, study.id);
-  const int scheduled = session.scheduled();
+  // A staircase adds up to max_trials trials after the schedule: N counts
+  // them as the bound they are.
+  const std::optional<protocols::StaircaseSpec> staircase_spec =
+      protocols::staircase_from_protocol_text(study.protocol_json, db.path());
+  const int scheduled = session.scheduled() + (staircase_spec ? staircase_spec->max_trials : 0);
   result.session_id = session.session_id();
   const OperatorForceLimits force_limits = protocols::safety_from_protocol_text(study.protocol_json, db.path());
   const Clock::time_point session_start = Clock::now();
@@ -167,7 +173,14 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
 
   while (!stop_requested(options)) {
     if (options.max_trials && result.trials_run >= *options.max_trials) break;
-    const std::optional<db::TrialRow> next = session.next_trial();
+    std::optional<db::TrialRow> next = session.next_trial();
+    // The schedule is done: a staircase (if the protocol has one) adds its
+    // next trial, until its stopping rule ends it.
+    if (!next) {
+      const auto staircase = plan_next_staircase_trial(db, study, session.participant_id());
+      if (staircase) result.staircase = staircase;
+      if (staircase && !staircase->state.finished) next = session.next_trial();
+    }
     if (!next) break;
     const db::TrialRow& trial = *next;
 

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/study/staircase_progress.h"
 #include "core/device/device_spec.h"
 #include "core/loop/loop_timing.h"
 #include "core/sim/trial_runner.h"
@@ -122,6 +123,10 @@ struct SessionResult {
   bool device_fault = false;
   std::string device_fault_reason;
   std::uint64_t samples_logged = 0;  // instrument updates (LoopSamples) stored
+  // The participant's staircase (protocol "staircase") as it stood when the
+  // session last planned from it: finished, with its threshold, once the
+  // stopping rule is met.
+  std::optional<analysis::StaircaseProgress> staircase;
   // Set when this participant's previous session had died without
   // releasing its lock (killed, crashed): who it was, for the operator.
   std::optional<std::string> stale_session;

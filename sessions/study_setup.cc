@@ -26,6 +26,12 @@ CreatedStudy create_study(db::StudyDb& db, const std::filesystem::path& protocol
   std::map<std::size_t, std::int64_t> setting_ids;  // protocol index -> row
   for (std::size_t i = 0; i < protocol.settings.size(); ++i)
     setting_ids[i] = db.add_setting(created.study_id, protocol.settings[i].settings);
+  // A staircase's strengths are made during the sessions, from these.
+  if (protocol.staircase) {
+    NamedSettings base = protocol.staircase->base.settings;
+    base.name = protocols::staircase_base_row_name(base.name);
+    db.add_setting(created.study_id, base);
+  }
   for (const protocols::ParticipantPlan& p : plan.participants) {
     const std::int64_t participant_id = db.add_participant(created.study_id, p.code);
     ++created.participants;

@@ -582,6 +582,37 @@ Section dose_response_section(const StudyAnalysis& a, const std::string& task) {
   return s;
 }
 
+// An adaptive staircase (analysis/study/staircase_progress.h): each
+// participant's threshold and how the staircase got there.
+Section staircase_section(const StudyAnalysis& a) {
+  Section s;
+  const protocols::StaircaseSpec& sp = *a.staircase;
+  s.title = "Adaptive staircase";
+  s.intro = "The strength of " + sp.field + " at which " + sp.measure + " changes (" +
+            std::string(protocols::change_direction_name(sp.direction)) + ") by " + num(100.0 * sp.change) +
+            " % from each participant's median under " + sp.baseline + ", in " + sp.task + ": a " +
+            std::to_string(sp.down) + "-down-1-up staircase (Levitt 1971) from " + num(sp.start) + " in steps of " +
+            num(sp.step) + " (halved at the first two reversals), within " + num(sp.min) + " to " + num(sp.max) +
+            ", stopped at " + std::to_string(sp.reversals) + " reversals or " + std::to_string(sp.max_trials) +
+            " trials. The threshold is the mean strength at the reversals after the first two. Its trials are "
+            "not in the comparisons above.";
+  Table t;
+  t.header = {"Participant", "Baseline", "Baseline trials", "Trials", "Reversals", "Threshold", "Stopped"};
+  for (const StaircaseRow& r : a.staircases) {
+    if (!r.note.empty()) {
+      t.rows.push_back({{r.participant}, {"N/A"}, {"0"}, {"0"}, {"0"}, {"N/A"}, {r.note}});
+      continue;
+    }
+    t.rows.push_back({{r.participant}, {num(r.baseline)}, {std::to_string(r.baseline_trials)},
+                      {std::to_string(r.trials.size())}, {std::to_string(r.reversals.size())},
+                      {r.threshold ? num(*r.threshold) : "none", r.threshold.has_value()},
+                      {r.finished ? r.stop_reason : "not finished"}});
+  }
+  t.note = "Baseline in the measure's unit; threshold in the field's.";
+  s.tables.push_back(std::move(t));
+  return s;
+}
+
 Section energy_section(const StudyAnalysis& a) {
   // Bold above this net: more than a passive VE and engine hand back at the
   // end of a trial. What they hold then is small: the demo's High Fidelity
@@ -956,6 +987,41 @@ class FigureBuilder {
     return s;
   }
 
+  // Each participant's staircase track: the strength of every trial,
+  // filled where the measure changed; the threshold dashed.
+  Section staircase_tracks() {
+    Section s;
+    s.title = "Staircase tracks";
+    s.intro = "The strength of each staircase trial; filled: the measure changed by the criterion, open: it did "
+              "not. Dashed: the threshold.";
+    for (const StaircaseRow& r : a_.staircases) {
+      if (r.trials.empty()) continue;
+      std::ostringstream changed, unchanged;
+      for (std::size_t i = 0; i < r.trials.size(); ++i)
+        (r.trials[i].changed ? changed : unchanged) << i + 1 << ' ' << r.trials[i].strength << '\n';
+      // gnuplot cannot plot an empty datablock: a point outside the range stands in.
+      if (changed.str().empty()) changed << "-1 0\n";
+      if (unchanged.str().empty()) unchanged << "-1 0\n";
+      std::ostringstream track;
+      for (std::size_t i = 0; i < r.trials.size(); ++i) track << i + 1 << ' ' << r.trials[i].strength << '\n';
+      const std::string b = block_name();
+      script_.add_datablock(b, track.str() + "\n\n" + changed.str() + "\n\n" + unchanged.str());
+      ++block_;
+      std::ostringstream cmd;
+      cmd << "set title " << gnuplot_quote("Staircase, " + r.participant) << "\nset xlabel 'staircase trial'\n"
+          << "set ylabel " << gnuplot_quote(a_.staircase->field) << " noenhanced\nset grid\nset key outside bottom center horizontal\n"
+          << "set xrange [0.5:" << r.trials.size() + 0.5 << "]\n";
+      if (r.threshold)
+        cmd << "set arrow from graph 0, first " << *r.threshold << " to graph 1, first " << *r.threshold
+            << " nohead dt 2 lc rgb 'red'\n";
+      cmd << "plot $" << b << " index 0 with lines lc rgb '#808080' notitle, $" << b
+          << " index 1 with points pt 7 ps 1.2 lc rgb 'black' title 'changed', $" << b
+          << " index 2 with points pt 6 ps 1.2 lc rgb 'black' title 'not changed'\n";
+      add(s, "staircase_" + slug(r.participant) + ".svg", cmd.str(), "Staircase track: " + r.participant + ".");
+    }
+    return s;
+  }
+
   // The dose-response curves: each participant's medians (thin) and their
   // median (thick) against the strength; the smallest significant strength dashed.
   Section dose_response() {
@@ -1073,6 +1139,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
   sections.push_back(energy_section(a));
   if (a.dose)
     for (const auto& task : a.tasks) sections.push_back(dose_response_section(a, task));
+  if (a.staircase) sections.push_back(staircase_section(a));
 
   ReportFiles files;
   if (options.plots) {
@@ -1084,6 +1151,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
     sections.push_back(figures.correlations());
     if (a.options.ks) sections.push_back(figures.ks());
     if (a.dose) sections.push_back(figures.dose_response());
+    if (a.staircase) sections.push_back(figures.staircase_tracks());
     const std::string key = abbreviation_key(a.settings);
     for (auto& s : sections)
       if (!s.figures.empty() && !key.empty()) s.intro += (s.intro.empty() ? "" : " ") + key;

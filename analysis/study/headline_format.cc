@@ -244,6 +244,21 @@ std::string format_headline_tables(const StudyAnalysis& a) {
     out << "* p < " << a.options.alpha << "; up/down: the mean slope's sign; smallest: the smallest strength with a "
         << "significant change from " << a.control << "\n";
   }
+  if (a.staircase) {
+    out << "\nAdaptive staircase of " << a.staircase->field << " (" << a.staircase->measure << " changed by "
+        << 100.0 * a.staircase->change << " % from " << a.staircase->baseline << "; " << a.counts.staircase
+        << " staircase trials, not in the comparisons above)\n";
+    for (const StaircaseRow& r : a.staircases) {
+      out << pad(r.participant, kRowWidth);
+      if (!r.note.empty()) {
+        out << r.note << "\n";
+        continue;
+      }
+      out << (r.threshold ? "threshold " + format_level(*r.threshold) : std::string("no threshold")) << " after "
+          << r.trials.size() << " trials, " << r.reversals.size() << " reversals"
+          << (r.finished ? " (" + r.stop_reason + ")" : std::string(" (not finished)")) << "\n";
+    }
+  }
   return out.str();
 }
 

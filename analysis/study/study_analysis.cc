@@ -16,6 +16,8 @@
 #include "analysis/stats/data_error.h"
 #include "analysis/study/ordered_names.h"
 #include "analysis/study/dose_response.h"
+#include "analysis/study/staircase_progress.h"
+#include "protocols/protocol_json.h"
 #include "analysis/study/statistics_tables.h"
 #include "analysis/study/trial_reader.h"
 #include "db/study_db.h"
@@ -144,6 +146,39 @@ void choose_control(StudyAnalysis& a, const AnalysisOptions& options) {
   }
 }
 
+namespace {
+
+// Each participant's staircase, when the protocol has one.
+void read_staircases(db::StudyDb& db, const db::StudyRow& study, const std::vector<db::TrialRow>& rows,
+                     StudyAnalysis& a) {
+  a.staircase = protocols::staircase_from_protocol_text(study.protocol_json, db.path() + ": the study's protocol");
+  if (!a.staircase) return;
+  std::vector<std::pair<std::string, std::int64_t>> who;
+  for (const db::TrialRow& row : rows)
+    if (std::find_if(who.begin(), who.end(), [&](const auto& w) { return w.second == row.participant_id; }) == who.end())
+      who.emplace_back(row.participant_code, row.participant_id);
+  for (const auto& [code, id] : who) {
+    StaircaseRow r;
+    r.participant = code;
+    try {
+      const std::optional<StaircaseProgress> p = staircase_progress(db, study, id);
+      if (!p) continue;  // not in the staircase's task
+      r.baseline = p->baseline;
+      r.baseline_trials = p->baseline_trials;
+      r.trials = p->state.trials;
+      r.reversals = p->state.reversal_strengths;
+      r.finished = p->state.finished;
+      r.stop_reason = p->state.stop_reason;
+      r.threshold = p->state.threshold;
+    } catch (const std::runtime_error& e) {
+      r.note = e.what();
+    }
+    a.staircases.push_back(std::move(r));
+  }
+}
+
+}  // namespace
+
 StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   options.validate();
   StudyAnalysis a;
@@ -185,7 +220,9 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   for (const auto& row : rows) {
     add_unique(a.participants, row.participant_code);
     add_unique(a.tasks, row.task);
-    setting_ids.emplace_back(row.setting_id, row.setting_name);
+    // A staircase's trials each have a strength of their own: not settings
+    // of the design, so not in its comparisons.
+    if (row.block != 0) setting_ids.emplace_back(row.setting_id, row.setting_name);
   }
   std::sort(setting_ids.begin(), setting_ids.end());
   setting_ids.erase(std::unique(setting_ids.begin(), setting_ids.end()), setting_ids.end());
@@ -198,6 +235,10 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
 
   std::vector<db::TrialRow> analysed;
   for (const auto& row : rows) {
+    if (row.block == 0) {
+      ++a.counts.staircase;
+      continue;
+    }
     const bool aborted = row.status == db::TrialStatus::kAborted;
     if (row.status == db::TrialStatus::kComplete) {
       ++a.counts.complete;
@@ -219,6 +260,7 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
     a.counts.damaged_chunks += t.damaged_chunks.size();
   }
   run_statistics(a);
+  read_staircases(db, *study, rows, a);
   return a;
 }
 

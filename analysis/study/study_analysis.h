@@ -31,6 +31,7 @@
 #include "analysis/stats/ks_bootstrap.h"
 #include "analysis/stats/percentile.h"
 #include "analysis/stats/test_result.h"
+#include "protocols/staircase.h"
 
 namespace hapticlab::db {
 class StudyDb;
@@ -126,6 +127,7 @@ struct TrialCounts {
   std::size_t not_run = 0;            // planned or running: no data
   std::size_t without_window = 0;     // analysed, but no task window (measures missing)
   std::size_t damaged_chunks = 0;     // sample chunks left out as damaged (their trials are without window)
+  std::size_t staircase = 0;          // adaptive staircase trials (block 0): reported apart, not compared
 };
 
 // A test that may not be possible; `note` says why when result is empty.
@@ -258,6 +260,20 @@ struct DoseResponseRow {
   std::string note;
 };
 
+// One participant's adaptive staircase (staircase_progress.h), as analyze
+// reports it. Its trials (block 0) are not in the designed comparisons.
+struct StaircaseRow {
+  std::string participant;
+  double baseline = 0.0;            // the measure's median over the baseline trials
+  std::size_t baseline_trials = 0;
+  std::vector<protocols::StaircaseTrial> trials;  // complete ones, in order
+  std::vector<double> reversals;    // strengths
+  bool finished = false;
+  std::string stop_reason;
+  std::optional<double> threshold;
+  std::string note;                 // why there is no staircase (e.g. no baseline)
+};
+
 struct StudyAnalysis {
   AnalysisOptions options;
   std::filesystem::path db_path;
@@ -285,6 +301,8 @@ struct StudyAnalysis {
   std::vector<DescriptiveRow> descriptive;
   std::optional<DoseSeries> dose;               // a dose-response study's series; empty otherwise
   std::vector<DoseResponseRow> dose_response;   // per task x measure, when `dose` is set
+  std::optional<protocols::StaircaseSpec> staircase;  // a staircase study's rule; empty otherwise
+  std::vector<StaircaseRow> staircases;               // per participant who has its task
 };
 
 // Reads the study (options.study_id, or the only one) and runs everything.

@@ -312,6 +312,21 @@ std::string dose_setting_name(std::string_view base, std::string_view field, dou
   return std::string(base) + ", " + split_settings_field(field).back() + " = " + format_number<double>(strength);  // shortest round trip, as the protocol wrote it
 }
 
+NamedSettings settings_at_strength(const NamedSettings& base, std::string_view field, double strength) {
+  nlohmann::json j = settings_to_json(base);
+  const std::vector<std::string> parts = split_settings_field(field);
+  const nlohmann::json* leaf = find_settings_field(j, field);
+  if (parts.size() < 2 || leaf == nullptr || !leaf->is_number())
+    throw SettingsError(std::string(field) + " is not a numeric settings field of '" + base.name + "'");
+  nlohmann::json* block = &j;
+  for (std::size_t k = 0; k + 1 < parts.size(); ++k) block = &(*block)[parts[k]];
+  if (block->contains("enabled")) (*block)["enabled"] = true;
+  (*block)[parts.back()] = strength;
+  const std::string name = dose_setting_name(base.name, field, strength);
+  j["name"] = name;
+  return settings_from_json(j, name);
+}
+
 std::string source_text(const SettingsSource& source) {
   std::string out = "Source: " + source.device + "\n  reference: " + source.reference + "\n";
   for (const auto& [quantity, what] : source.fields) out += "  " + quantity + ": " + what + "\n";

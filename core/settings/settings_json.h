@@ -77,6 +77,12 @@ const nlohmann::json* find_settings_field(const nlohmann::json& settings, std::s
 // series by it.
 std::string dose_setting_name(std::string_view base, std::string_view field, double strength);
 
+// `base` with `field` (dotted) set to `strength` and its effect switched on,
+// named dose_setting_name(base.name, field, strength): one strength of a dose
+// series or a staircase. Throws SettingsError naming the field when the
+// strength is outside its range or the field is not a number of `base`.
+NamedSettings settings_at_strength(const NamedSettings& base, std::string_view field, double strength);
+
 // Checks settings built in code against the same ranges the loader uses.
 void validate_settings(const EngineSettings& s);
 

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/app/cli_process.h"
+#include "tests/testing/scratch_dir.h"
 #include "tests/testing/files.h"
 
 namespace hapticlab::app {
@@ -23,18 +24,9 @@ using ::testing::HasSubstr;
 
 class DoseStudyTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("hapticlab_dose_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
   static std::pair<int, std::string> cli(const std::string& args) { return testing::run_cli(HAPTICLAB_CLI_PATH, args); }
-  fs::path dir_;
+  hapticlab::testing::ScratchDir scratch_{"hapticlab_dose_"};
+  const fs::path dir_ = scratch_.path();
 };
 
 TEST_F(DoseStudyTest, AnalyzeReportsTheSeriesItsTrendAndItsCurves) {

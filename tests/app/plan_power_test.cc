@@ -190,6 +190,12 @@ TEST_F(PlanPowerTest, BadInputIsNamed) {
   EXPECT_EQ(rc, 1);
   EXPECT_THAT(text, AllOf(HasSubstr("no setting is named 'High Fidelity'"), HasSubstr("'Friction'")));
   EXPECT_FALSE(fs::exists(dir_ / "c" / "plan_power.db"));
+  // A staircase protocol: its trials depend on the responses, so refused.
+  protocol_ = source_dir() / "examples" / "protocols" / "friction_staircase.json";
+  std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "s").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, HasSubstr("the protocol has a staircase, whose trials depend on each participant's responses"));
+  EXPECT_FALSE(fs::exists(dir_ / "s" / "plan_power.db"));
   // Another protocol into a folder that holds a plan: refused, not mixed.
   protocol_ = dir_ / "tiny.json";
   std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "d").string());

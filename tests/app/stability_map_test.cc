@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/app/cli_process.h"
+#include "tests/testing/scratch_dir.h"
 #include "tests/testing/files.h"
 
 namespace hapticlab::app {
@@ -20,20 +21,11 @@ using ::testing::HasSubstr;
 
 class StabilityMapCommandTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("hapticlab_smap_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
   std::pair<int, std::string> map(const std::string& args) {
     return testing::run_cli(HAPTICLAB_CLI_PATH, "stability map " + args);
   }
-  fs::path dir_;
+  hapticlab::testing::ScratchDir scratch_{"hapticlab_smap_"};
+  const fs::path dir_ = scratch_.path();
 };
 
 TEST_F(StabilityMapCommandTest, WritesTablesAndFiguresTheSameOnAnyNumberOfThreads) {

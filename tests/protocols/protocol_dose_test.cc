@@ -10,6 +10,7 @@
 #include "protocols/protocol_error.h"
 #include "protocols/protocol_json.h"
 #include "protocols/schedule.h"
+#include "tests/protocols/protocol_failure.h"
 
 namespace hapticlab::protocols {
 namespace {
@@ -34,12 +35,8 @@ json dose_protocol() {
 }
 
 std::pair<std::string, std::string> dose_failure(const json& j) {
-  try {
-    protocol_from_json(j, kDoseProtocolsDir, "dose.json");
-  } catch (const ProtocolError& e) {
-    return {e.field(), e.what()};
-  }
-  return {"(no error)", "(no error)"};
+  const testing::Failure f = testing::protocol_failure(j, kDoseProtocolsDir, "dose.json");
+  return {f.field, f.message};
 }
 
 TEST(ProtocolDoseTest, EachStrengthIsASettingOfItsOwnWithOnlyTheFieldChanged) {

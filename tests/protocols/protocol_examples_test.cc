@@ -148,8 +148,8 @@ TEST(ProtocolExamplesTest, EveryShippedProtocolLoadsAndPlans) {
     EXPECT_FALSE(plan.participants.empty()) << entry.path();
     ++count;
   }
-  EXPECT_EQ(count, 8);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch,
-                       // null_setting_check, calibration, friction_dose
+  EXPECT_EQ(count, 9);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch,
+                       // null_setting_check, calibration, friction_dose, friction_staircase
 }
 
 TEST(ProtocolExamplesTest, ExternalPegTouchIsTheLabsOwnTask) {

@@ -1,4 +1,5 @@
 #include "protocols/protocol_json.h"
+#include "tests/protocols/protocol_failure.h"
 
 #include "protocols/schedule.h"
 
@@ -36,20 +37,9 @@ json valid() {
 
 Protocol parse(const json& j) { return protocol_from_json(j, kProtocolsDir, "test.json"); }
 
-// The error for `j`: field path and message.
-struct Failure {
-  std::string field;
-  std::string message;
-};
+using testing::Failure;
 
-Failure failure_of(const json& j) {
-  try {
-    parse(j);
-  } catch (const ProtocolError& e) {
-    return {e.field(), e.what()};
-  }
-  return {"(no error)", "(no error)"};
-}
+Failure failure_of(const json& j) { return testing::protocol_failure(j, kProtocolsDir); }
 
 TEST(ProtocolJsonTest, ValidProtocolReadsEveryField) {
   const Protocol p = parse(valid());

@@ -112,7 +112,8 @@ TEST(DoseResponseTest, AThresholdResponseFindsTheThreshold) {
     if (l >= 3) return 1.0;
     return l == 0 ? 0.0 : (p % 2 == 0 ? 0.05 : -0.05);
   });
-  const DoseResponseRow& r = p95_row(a, dose_response(a));
+  const std::vector<DoseResponseRow> rows = dose_response(a);
+  const DoseResponseRow& r = p95_row(a, rows);
   ASSERT_TRUE(r.p_vs_control[1].has_value());
   EXPECT_DOUBLE_EQ(*r.p_vs_control[1], 1.0);
   EXPECT_DOUBLE_EQ(*r.p_vs_control[3], 0.03125);
@@ -128,7 +129,8 @@ TEST(DoseResponseTest, TheFixedSequenceStopsAtTheStrongestWhenItIsNotSignificant
     if (l == 4) return p % 2 == 0 ? 0.05 : -0.05;
     return l == 3 ? 1.0 : 0.0;
   });
-  const DoseResponseRow& r = p95_row(a, dose_response(a));
+  const std::vector<DoseResponseRow> rows = dose_response(a);
+  const DoseResponseRow& r = p95_row(a, rows);
   EXPECT_DOUBLE_EQ(*r.p_vs_control[3], 0.03125);
   EXPECT_DOUBLE_EQ(*r.p_vs_control[4], 1.0);
   EXPECT_FALSE(r.smallest_significant_strength.has_value());

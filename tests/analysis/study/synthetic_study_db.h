@@ -30,31 +30,13 @@
 #include <gtest/gtest.h>
 
 #include "db/study_db.h"
+#include "tests/testing/scratch_dir.h"
 
 namespace hapticlab::analysis::testing {
 
-class ScratchDir {
- public:
-  ScratchDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = "hapticlab_an_";
-    if (info != nullptr) name += std::string(info->test_suite_name()) + "_" + info->name();
-    for (char& c : name)
-      if (c == '/') c = '_';
-    path_ = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(path_);
-    std::filesystem::create_directories(path_);
-  }
-  ~ScratchDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
+// A scratch folder per test (tests/testing/scratch_dir.h).
+struct ScratchDir : hapticlab::testing::ScratchDir {
+  ScratchDir() : hapticlab::testing::ScratchDir("hapticlab_an_") {}
 };
 
 inline double setting_base_N(int setting) { return setting == 0 ? 1.0 : setting == 1 ? 2.0 : 1.5; }
