@@ -114,11 +114,6 @@ std::vector<std::string> draw_power(const fs::path& out, const std::vector<plann
 
 int run_plan_power(const PlanPowerOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
-  // A staircase's trials depend on the responses; plan power simulates designed schedules.
-  if (protocol.staircase)
-    throw std::runtime_error(o.protocol + ": the protocol has a staircase, whose trials depend on each "
-                                          "participant's responses; plan power simulates designed schedules only "
-                                          "(run the staircase on simulated participants with session run)");
   const std::string protocol_text = protocols::read_protocol_text(o.protocol);
   planning::SimulatedStudyOptions sim;
   sim.max_trial_s = o.max_trial_s;
@@ -296,6 +291,8 @@ int run_plan_power(const PlanPowerOptions& o) {
       wanted.push_back(s);
   const std::vector<planning::PowerRow> rows = planning::summarize_power(wanted, setting_order);
   const std::vector<planning::FalsePositiveRow> fp = planning::false_positive_rates(wanted, null_settings);
+  const std::vector<planning::StaircaseSummaryRow> stairs = planning::summarize_staircases(wanted);
+  const auto number_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   const fs::path csv = fs::path(o.out) / "power.csv";
   write_power_csv(csv, rows);
   std::vector<std::string> figures;
@@ -324,12 +321,22 @@ int run_plan_power(const PlanPowerOptions& o) {
                      {"studies", r.studies}, {"with_false_positive", r.with_false_positive}, {"rate", r.rate},
                      {"wilson_low", r.wilson_low}, {"wilson_high", r.wilson_high}});
     j["family_wise_false_positives"] = fps;
+    nlohmann::json st = nlohmann::json::array();
+    for (const auto& r : stairs)
+      st.push_back({{"participants", r.participants}, {"studies", r.studies}, {"staircases", r.staircases},
+                    {"with_threshold", r.with_threshold}, {"rate", r.rate}, {"wilson_low", r.wilson_low},
+                    {"wilson_high", r.wilson_high}, {"mean_threshold", number_or_null(r.mean_threshold)},
+                    {"sd_between_participants", number_or_null(r.sd_between_participants)},
+                    {"sd_of_study_means", number_or_null(r.sd_of_study_means)}, {"mean_trials", r.mean_trials}});
+    j["staircase"] = st;
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
   std::printf("\n%zu studies simulated in %.1f s (%.1f million loop updates, none stored)\n", stored, elapsed_s,
               static_cast<double>(updates) / 1e6);
   auto print_table = [&](const std::string& method, const char* title) {
+    // A staircase protocol's baseline alone has nothing to compare.
+    if (std::none_of(rows.begin(), rows.end(), [&](const planning::PowerRow& r) { return r.method == method; })) return;
     std::printf("\n%s, %s: share of simulated studies in which the setting differs significantly from the "
                 "control (Šidák level), Wilson 95 %% interval\n", title, o.measure.c_str());
     std::printf("%-12s %-32s", "task", "setting");
@@ -368,8 +375,19 @@ int run_plan_power(const PlanPowerOptions& o) {
                     r.method.c_str(), r.participants, 100 * r.rate, 100 * r.wilson_low, 100 * r.wilson_high,
                     r.studies, 100 * sim.analysis.alpha);
   }
-  std::printf("\nParticipant-level Friedman (Table 3.4) on %s: share of participants' tests significant\n",
-              o.measure.c_str());
+  if (protocol.staircase) {
+    const auto& sp = protocol.staircase->spec;
+    std::printf("\nStaircase of %s (%s changed by %g %% from %s): thresholds found, their mean and spread\n",
+                sp.field.c_str(), sp.measure.c_str(), 100 * sp.change, sp.baseline.c_str());
+    for (const auto& r : stairs)
+      std::printf("  %3d participants: %5.1f%% [%4.1f, %5.1f] of %d staircases ended with a threshold; mean %.3g, "
+                  "SD %.3g between participants, SD %.3g of a study's mean; %.1f trials each\n",
+                  r.participants, 100 * r.rate, 100 * r.wilson_low, 100 * r.wilson_high, r.staircases,
+                  r.mean_threshold, r.sd_between_participants, r.sd_of_study_means, r.mean_trials);
+  }
+  if (std::any_of(rows.begin(), rows.end(), [](const planning::PowerRow& r) { return r.method == "participant"; }))
+    std::printf("\nParticipant-level Friedman (Table 3.4) on %s: share of participants' tests significant\n",
+                o.measure.c_str());
   for (const auto& r : rows)
     if (r.method == "participant" && r.measure == o.measure)
       std::printf("  %-12s %3d participants: %5.1f%% [%4.1f, %5.1f] of %d tests\n", r.task.c_str(), r.participants,

@@ -91,6 +91,8 @@ StudyOutcome run_power_study(const protocols::Protocol& protocol, int participan
   o.trials_timed_out = s.trials_timed_out;
   o.updates = s.updates;
   o.findings = findings_of(s.analysis);
+  for (const analysis::StaircaseRow& r : s.analysis.staircases)
+    o.staircases.push_back({r.participant, r.threshold, static_cast<int>(r.trials.size())});
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return o;
 }
@@ -141,6 +143,51 @@ std::vector<FalsePositiveRow> false_positive_rates(const std::vector<StudyOutcom
     }
   }
   return with_rates(rows, &FalsePositiveRow::with_false_positive, &FalsePositiveRow::studies);
+}
+
+std::vector<StaircaseSummaryRow> summarize_staircases(const std::vector<StudyOutcome>& outcomes) {
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  const auto mean_sd = [kNone](const std::vector<double>& v) -> std::pair<double, double> {
+    if (v.empty()) return {kNone, kNone};
+    double mean = 0.0;
+    for (double x : v) mean += x;
+    mean /= static_cast<double>(v.size());
+    if (v.size() < 2) return {mean, kNone};
+    double ss = 0.0;
+    for (double x : v) ss += (x - mean) * (x - mean);
+    return {mean, std::sqrt(ss / static_cast<double>(v.size() - 1))};
+  };
+  std::map<int, std::vector<const StudyOutcome*>> by_size;
+  for (const StudyOutcome& o : outcomes)
+    if (!o.staircases.empty()) by_size[o.participants].push_back(&o);
+  std::vector<StaircaseSummaryRow> rows;
+  for (const auto& [participants, studies] : by_size) {
+    StaircaseSummaryRow r;
+    r.participants = participants;
+    r.studies = static_cast<int>(studies.size());
+    std::vector<double> thresholds, study_means;
+    double trials = 0.0;
+    for (const StudyOutcome* o : studies) {
+      std::vector<double> mine;
+      for (const StaircaseOutcome& s : o->staircases) {
+        ++r.staircases;
+        trials += s.trials;
+        if (s.threshold) mine.push_back(*s.threshold);
+      }
+      r.with_threshold += static_cast<int>(mine.size());
+      thresholds.insert(thresholds.end(), mine.begin(), mine.end());
+      if (!mine.empty()) study_means.push_back(mean_sd(mine).first);
+    }
+    r.rate = static_cast<double>(r.with_threshold) / r.staircases;
+    const analysis::ProportionInterval ci = analysis::wilson_interval(r.with_threshold, r.staircases);
+    r.wilson_low = ci.low;
+    r.wilson_high = ci.high;
+    std::tie(r.mean_threshold, r.sd_between_participants) = mean_sd(thresholds);
+    r.sd_of_study_means = mean_sd(study_means).second;
+    r.mean_trials = trials / r.staircases;
+    rows.push_back(r);
+  }
+  return rows;
 }
 
 }  // namespace hapticlab::planning

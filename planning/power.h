@@ -6,6 +6,7 @@
 // its power (or, for a setting that changes nothing, its false-positive
 // rate), with a Wilson 95 % interval.
 #include <cstdint>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -34,6 +35,13 @@ struct Finding {
   double p = 0.0;  // tests that could not be computed (no data) are not findings
 };
 
+// One simulated participant's staircase (a staircase protocol).
+struct StaircaseOutcome {
+  std::string participant;
+  std::optional<double> threshold;  // in the staircase field's unit; empty when none was found
+  int trials = 0;                   // staircase trials with the measure
+};
+
 struct StudyOutcome {
   int participants = 0;
   int index = 0;  // 0-based study number for this participant count
@@ -43,6 +51,7 @@ struct StudyOutcome {
   std::uint64_t updates = 0;
   double seconds = 0.0;  // wall time to simulate and analyse it
   std::vector<Finding> findings;
+  std::vector<StaircaseOutcome> staircases;  // a staircase protocol's, per participant
 };
 
 // The study seed of study `index` with `participants` participants under
@@ -92,5 +101,23 @@ struct FalsePositiveRow {
 };
 std::vector<FalsePositiveRow> false_positive_rates(const std::vector<StudyOutcome>& outcomes,
                                                    const std::set<std::string>& null_settings);
+
+// How well a staircase study measures the threshold, per participant
+// count: the share of staircases that ended with a threshold (Wilson 95 %),
+// the thresholds' mean and spread between participants, and the spread of a
+// study's mean threshold between studies (what a study of that size can
+// tell).
+struct StaircaseSummaryRow {
+  int participants = 0;
+  int studies = 0;
+  int staircases = 0;
+  int with_threshold = 0;
+  double rate = 0.0, wilson_low = 0.0, wilson_high = 0.0;
+  double mean_threshold = 0.0;          // over every threshold found; NaN when none
+  double sd_between_participants = 0.0;  // sample SD of those thresholds; NaN with fewer than 2
+  double sd_of_study_means = 0.0;        // sample SD of each study's mean threshold; NaN with fewer than 2 studies with one
+  double mean_trials = 0.0;              // staircase trials per participant
+};
+std::vector<StaircaseSummaryRow> summarize_staircases(const std::vector<StudyOutcome>& outcomes);
 
 }  // namespace hapticlab::planning

@@ -17,6 +17,9 @@ PowerStore::PowerStore(const std::filesystem::path& path, const std::string& inp
       "CREATE TABLE IF NOT EXISTS finding (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
       " method TEXT NOT NULL, task TEXT NOT NULL, setting TEXT NOT NULL, measure TEXT NOT NULL,"
       " participant TEXT NOT NULL, p REAL, significant INTEGER NOT NULL,"
+      " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
+      "CREATE TABLE IF NOT EXISTS staircase (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
+      " participant TEXT NOT NULL, threshold REAL, trials INTEGER NOT NULL,"
       " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));");
   db::Statement q = db_.prepare("SELECT inputs FROM run");
   if (q.step()) {
@@ -68,6 +71,15 @@ std::vector<StudyOutcome> PowerStore::load() {
     by_key.at({static_cast<int>(f.column_int64(0)), static_cast<int>(f.column_int64(1))})
         .findings.push_back(std::move(x));
   }
+  db::Statement st = db_.prepare("SELECT participants, idx, participant, threshold, trials FROM staircase ORDER BY rowid");
+  while (st.step()) {
+    StaircaseOutcome x;
+    x.participant = st.column_text(2);
+    if (!st.is_null(3)) x.threshold = st.column_double(3);
+    x.trials = static_cast<int>(st.column_int64(4));
+    by_key.at({static_cast<int>(st.column_int64(0)), static_cast<int>(st.column_int64(1))})
+        .staircases.push_back(std::move(x));
+  }
   std::vector<StudyOutcome> out;
   for (auto& [key, o] : by_key) out.push_back(std::move(o));
   return out;
@@ -96,6 +108,15 @@ void PowerStore::add(const StudyOutcome& o) {
     if (std::isnan(f.p)) ins.bind_null(8); else ins.bind(8, f.p);
     ins.bind(9, std::int64_t{f.significant ? 1 : 0});
     ins.run();
+  }
+  db::Statement stair = db_.prepare(
+      "INSERT INTO staircase (participants, idx, participant, threshold, trials) VALUES (?1, ?2, ?3, ?4, ?5)");
+  for (const StaircaseOutcome& s : o.staircases) {
+    stair.reset();
+    stair.bind(1, std::int64_t{o.participants}).bind(2, std::int64_t{o.index}).bind(3, s.participant);
+    if (s.threshold) stair.bind(4, *s.threshold); else stair.bind_null(4);
+    stair.bind(5, std::int64_t{s.trials});
+    stair.run();
   }
   tx.commit();
 }

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
 #include "analysis/study/ordered_names.h"
+#include "analysis/study/staircase_progress.h"
 #include "analysis/study/statistics_tables.h"
 #include "analysis/study/trial_reader.h"
 #include "core/sim/trial_runner.h"
@@ -90,6 +92,49 @@ SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participa
   std::vector<TaskEvent> events;
   analysis::TrialAccumulator accumulator;
   std::int64_t trial_id = 0;  // as study create numbers them: participants in order, then schedule order
+  std::int64_t staircase_id = 0;  // staircase trials come after all of them
+  for (const protocols::ParticipantPlan& pp : plan.participants) staircase_id += static_cast<std::int64_t>(pp.trials.size());
+  a.staircase = p.staircase ? std::optional(p.staircase->spec) : std::nullopt;
+  // One participant's staircase: the rule replayed after each trial, as
+  // plan_next_staircase_trial does over the database.
+  auto run_staircase = [&](const std::string& code, std::int64_t& next_id, auto& simulate) {
+    const protocols::StaircaseSpec& spec = p.staircase->spec;
+    analysis::StaircaseRow row;
+    row.participant = code;
+    std::vector<double> baseline;
+    for (const analysis::TrialRecord& t : a.trials)
+      if (t.participant == code && t.task == spec.task && t.setting == spec.baseline && t.status == "complete")
+        if (const double v = analysis::staircase_value(t, spec.measure); std::isfinite(v)) baseline.push_back(v);
+    const std::optional<double> base = analysis::staircase_baseline(baseline);
+    if (!base) {
+      row.note = "no baseline: no complete '" + spec.baseline + "' trial with a " + spec.measure + " above 0";
+      return row;
+    }
+    row.baseline = *base;
+    row.baseline_trials = baseline.size();
+    std::vector<std::pair<double, double>> steps;
+    protocols::StaircaseState state;
+    for (int started = 0;; ++started) {
+      state = protocols::replay_staircase(spec, *base, steps);
+      if (state.finished || started >= 2 * spec.max_trials) break;
+      const NamedSettings at = settings_at_strength(p.staircase->base.settings, spec.field, state.next_strength);
+      analysis::TrialRecord rec;
+      rec.setting = at.name;
+      rec.block = 0;
+      if (auto done = simulate(spec.task, at.engine, ++next_id, std::move(rec))) {
+        const double v = analysis::staircase_value(*done, spec.measure);
+        if (std::isfinite(v)) steps.emplace_back(state.next_strength, v);
+      }
+    }
+    row.trials = state.trials;
+    row.reversals = state.reversal_strengths;
+    row.finished = true;
+    row.stop_reason = state.finished ? state.stop_reason
+                                     : std::to_string(2 * spec.max_trials) + " trials started but only " +
+                                           std::to_string(steps.size()) + " complete (2 x max_trials)";
+    row.threshold = state.threshold;
+    return row;
+  };
   for (const protocols::ParticipantPlan& pp : plan.participants) {
     const std::uint64_t who = sessions::participant_seed(p.seed, pp.code);
     std::map<std::string, int> complete_of_task;
@@ -108,22 +153,12 @@ SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participa
       c.safety.force_limits = p.safety;
       return c;
     };
-    for (const protocols::PlannedTrial& t : pp.trials) {
-      ++trial_id;
-      const std::string task(protocols::task_name(t.task));
-      if (pp.training_trials > 0 && !trained[task]) {
-        trained[task] = true;
-        for (int k = 0; k < pp.training_trials; ++k) {
-          SimTrialConfig c = config(task, training_settings, sessions::training_seed(who, task, k), k);
-          c.publish_samples = false;
-          const SimTrialResult r = run_sim_trial(c);
-          out.updates += r.samples;
-          ++out.training_trials;
-        }
-      }
-      const SimTrialConfig c = config(task, p.settings.at(t.setting_index).settings.engine,
-                                      sessions::trial_seed(who, trial_id),
-                                      pp.training_trials + complete_of_task[task]);
+    // One trial as session run would run it: its record, or nullopt when it
+    // timed out and the analysis leaves aborted trials out.
+    auto simulate = [&](const std::string& task, const EngineSettings& settings, std::int64_t id,
+                        analysis::TrialRecord rec) -> std::optional<analysis::TrialRecord> {
+      const SimTrialConfig c =
+          config(task, settings, sessions::trial_seed(who, id), pp.training_trials + complete_of_task[task]);
       for (auto& k : kept) k.clear();
       events.clear();
       SimTrialSink sink;
@@ -144,27 +179,49 @@ SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participa
         ++out.trials_timed_out;
         if (!options.analysis.include_aborted) {
           ++a.counts.aborted_excluded;
-          continue;
+          return std::nullopt;
         }
       } else {
         ++complete_of_task[task];
       }
-      analysis::TrialRecord rec;
-      rec.trial_id = trial_id;
+      rec.trial_id = id;
       rec.participant = pp.code;
       rec.task = task;
-      rec.setting = t.setting;
-      rec.repetition = t.repetition;
-      rec.block = t.block;
-      rec.position = t.position;
       rec.status = r.task_complete ? "complete" : "aborted";
       accumulator.start(events, options.analysis);
       for (std::size_t hand = 0; hand < 2; ++hand) {
         for (const KeptSample& k : kept[hand]) accumulator.add(hand, k.t_s, k.position_m, k.velocity_m_per_s, k.force_N);
       }
       accumulator.finish(rec);
-      a.trials.push_back(std::move(rec));
+      return rec;
+    };
+    for (const protocols::PlannedTrial& t : pp.trials) {
+      ++trial_id;
+      const std::string task(protocols::task_name(t.task));
+      if (pp.training_trials > 0 && !trained[task]) {
+        trained[task] = true;
+        for (int k = 0; k < pp.training_trials; ++k) {
+          SimTrialConfig c = config(task, training_settings, sessions::training_seed(who, task, k), k);
+          c.publish_samples = false;
+          const SimTrialResult r = run_sim_trial(c);
+          out.updates += r.samples;
+          ++out.training_trials;
+        }
+      }
+      analysis::TrialRecord rec;
+      rec.setting = t.setting;
+      rec.repetition = t.repetition;
+      rec.block = t.block;
+      rec.position = t.position;
+      if (auto done = simulate(task, p.settings.at(t.setting_index).settings.engine, trial_id, std::move(rec)))
+        a.trials.push_back(std::move(*done));
     }
+    // The staircase, after the schedule, as session run adds it: trial ids
+    // after every designed trial, participants in order.
+    if (p.staircase &&
+        std::any_of(pp.trials.begin(), pp.trials.end(),
+                    [&](const protocols::PlannedTrial& t) { return protocols::task_name(t.task) == p.staircase->spec.task; }))
+      a.staircases.push_back(run_staircase(pp.code, staircase_id, simulate));
   }
   std::stable_sort(a.trials.begin(), a.trials.end(), [](const auto& x, const auto& y) {
     return x.participant < y.participant;  // analyze's order: by code, then position

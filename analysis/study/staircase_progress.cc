@@ -19,8 +19,17 @@
 namespace hapticlab::analysis {
 
 double staircase_measure(db::StudyDb& db, const db::TrialRow& trial, const std::string& measure) {
-  const AnalysisOptions options;
-  const TrialRecord record = read_trial(db, trial, options);
+  return staircase_value(read_trial(db, trial, AnalysisOptions{}), measure);
+}
+
+std::optional<double> staircase_baseline(const std::vector<double>& values) {
+  if (values.empty()) return std::nullopt;
+  const double median = percentile(values, 50.0);
+  if (!(median > 0.0)) return std::nullopt;
+  return median;
+}
+
+double staircase_value(const TrialRecord& record, const std::string& measure) {
   for (Measure m : kAllMeasures) {
     if (measure != measure_column(m)) continue;
     std::vector<double> values;
@@ -73,7 +82,7 @@ std::optional<StaircaseProgress> staircase_progress(db::StudyDb& db, const db::S
   }
   p.baseline_trials = baseline.size();
   if (!baseline.empty()) p.baseline = percentile(baseline, 50.0);
-  if (baseline.empty() || !(p.baseline > 0.0))
+  if (!staircase_baseline(baseline))
     throw std::runtime_error(
         "staircase.baseline: participant " + code + " has " +
         (baseline.empty() ? "no complete trial of the baseline '" + p.spec.baseline + "' in " + p.spec.task +

@@ -13,7 +13,9 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "analysis/study/study_analysis.h"
 #include "db/study_db.h"
 #include "protocols/staircase.h"
 
@@ -31,8 +33,13 @@ struct StaircaseProgress {
 
 // A trial's value of the measure a staircase follows ("force_p95_N", ...):
 // the median over the hands with data for a per-hand measure. NaN when the
-// trial has none.
+// trial has none. From its record (a simulated study), or read from the database.
+double staircase_value(const TrialRecord& record, const std::string& measure);
 double staircase_measure(db::StudyDb& db, const db::TrialRow& trial, const std::string& measure);
+
+// The baseline from the baseline trials' values: their median, or empty
+// when there is none or it is not above 0 (a change is a fraction of it).
+std::optional<double> staircase_baseline(const std::vector<double>& values);
 
 // Empty when the study's protocol has no staircase, or the participant has
 // no trial in its task. Throws std::runtime_error naming staircase.baseline

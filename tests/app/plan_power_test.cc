@@ -82,6 +82,42 @@ class PlanPowerTest : public ::testing::Test {
   fs::path dir_, protocol_;
 };
 
+// A staircase protocol: every simulated participant runs the staircase
+// after the baseline; the table says how often it ended with a threshold and
+// how far the thresholds spread (issue 19 section 4). The same on 1 and 2
+// threads, and resumed from the stored studies.
+TEST_F(PlanPowerTest, AStaircaseStudyReportsItsThresholds) {
+  nlohmann::json p = nlohmann::json::parse(read_text(source_dir() / "examples/protocols/friction_staircase.json"));
+  p["settings"] = {(source_dir() / "examples/settings/high_fidelity.json").string()};
+  p["repetitions"]["clip"] = 1;
+  p["staircase"]["reversals"] = 4;
+  p["staircase"]["max_trials"] = 6;
+  protocol_ = dir_ / "staircase.json";
+  std::ofstream(protocol_) << p.dump();
+  const std::string args = "--participants 2 --studies 2 --no-plots --json --out ";
+  const auto [rc, text] = testing::run_cli_stdout(HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() +
+                                                                          " --jobs 1 " + args + (dir_ / "a").string());
+  ASSERT_EQ(rc, 0) << text;
+  const nlohmann::json j = nlohmann::json::parse(text);
+  ASSERT_EQ(j.at("staircase").size(), 1u);
+  const nlohmann::json& row = j.at("staircase")[0];
+  EXPECT_EQ(row.at("participants"), 2);
+  EXPECT_EQ(row.at("studies"), 2);
+  EXPECT_EQ(row.at("staircases"), 4);  // 2 studies x 2 participants
+  EXPECT_GE(row.at("mean_trials").get<double>(), 1.0);
+  EXPECT_LE(row.at("mean_trials").get<double>(), 6.0);  // max_trials
+  EXPECT_EQ(row.at("rate").get<double>(), row.at("with_threshold").get<double>() / 4.0);
+  // Two threads, and a second run over the same folder (nothing left to simulate): the same table.
+  const auto [rc2, text2] = testing::run_cli_stdout(
+      HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() + " --jobs 2 " + args + (dir_ / "b").string());
+  ASSERT_EQ(rc2, 0) << text2;
+  EXPECT_EQ(nlohmann::json::parse(text2).at("staircase"), j.at("staircase"));
+  const auto [rc3, text3] = testing::run_cli_stdout(
+      HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() + " " + args + (dir_ / "a").string());
+  ASSERT_EQ(rc3, 0) << text3;
+  EXPECT_EQ(nlohmann::json::parse(text3).at("staircase"), j.at("staircase"));
+}
+
 TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
   const auto [one_rc, one] = plan("--participants 2 --studies 2 --seed 9 --jobs 1 --no-plots --out " + (dir_ / "one").string());
   ASSERT_EQ(one_rc, 0) << one;
@@ -190,12 +226,6 @@ TEST_F(PlanPowerTest, BadInputIsNamed) {
   EXPECT_EQ(rc, 1);
   EXPECT_THAT(text, AllOf(HasSubstr("no setting is named 'High Fidelity'"), HasSubstr("'Friction'")));
   EXPECT_FALSE(fs::exists(dir_ / "c" / "plan_power.db"));
-  // A staircase protocol: its trials depend on the responses, so refused.
-  protocol_ = source_dir() / "examples" / "protocols" / "friction_staircase.json";
-  std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "s").string());
-  EXPECT_EQ(rc, 1);
-  EXPECT_THAT(text, HasSubstr("the protocol has a staircase, whose trials depend on each participant's responses"));
-  EXPECT_FALSE(fs::exists(dir_ / "s" / "plan_power.db"));
   // Another protocol into a folder that holds a plan: refused, not mixed.
   protocol_ = dir_ / "tiny.json";
   std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "d").string());

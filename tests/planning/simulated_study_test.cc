@@ -109,6 +109,54 @@ TEST_F(SimulatedStudyTest, EqualsTheStudyRunThroughTheDatabase) {
   }
 }
 
+// A staircase protocol: the in-memory staircase runs the trials `session
+// run` would add (same ids, so the same seeds), and ends with the same
+// strengths, values and thresholds as the one stored and replayed by analyze.
+TEST_F(SimulatedStudyTest, TheStaircaseEqualsTheOneRunThroughTheDatabase) {
+  const std::filesystem::path settings = source_dir() / "examples" / "settings";
+  protocol_path_ = dir_ / "staircase.json";
+  std::ofstream(protocol_path_) << R"({
+    "study": "planning staircase", "tasks": ["clip"], "repetitions": {"clip": 1},
+    "settings": [")" << (settings / "high_fidelity.json").string() << R"("],
+    "staircase": {"settings": {"name": "Insertion friction", "translation": {"friction": {}}},
+                  "field": "translation.friction.dynamic_level_N", "measure": "force_p95_N", "change": 0.2,
+                  "baseline": "High Fidelity", "start": 0.9, "step": 0.2, "min": 0, "max": 2,
+                  "reversals": 4, "max_trials": 6},
+    "participants": ["P01", "P02"], "design": {"type": "complete"}, "seed": 7
+  })";
+  const std::filesystem::path db_path = dir_ / "staircase.db";
+  {
+    db::StudyDb db(db_path);
+    sessions::create_study(db, protocol_path_, "test");
+  }
+  for (const char* code : {"P01", "P02"}) {
+    sessions::SessionOptions o;
+    o.participant = code;
+    sessions::run_session(db_path, o);
+  }
+  const SimulatedStudyOptions options;
+  const analysis::StudyAnalysis stored = analysis::analyze_study_file(db_path, options.analysis);
+  const SimulatedStudy simulated = simulate_study(protocols::load_protocol_file(protocol_path_), 2, 7, options);
+  const analysis::StudyAnalysis& mem = simulated.analysis;
+  ASSERT_EQ(mem.staircases.size(), 2u);
+  ASSERT_EQ(stored.staircases.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const analysis::StaircaseRow& x = mem.staircases[i];
+    const analysis::StaircaseRow& y = stored.staircases[i];
+    EXPECT_EQ(x.participant, y.participant);
+    EXPECT_EQ(x.baseline, y.baseline);
+    ASSERT_EQ(x.trials.size(), y.trials.size()) << x.participant;
+    EXPECT_GE(x.trials.size(), 1u);
+    for (std::size_t k = 0; k < x.trials.size(); ++k) {
+      EXPECT_EQ(x.trials[k].strength, y.trials[k].strength) << x.participant << " trial " << k;
+      EXPECT_EQ(x.trials[k].value, y.trials[k].value) << x.participant << " trial " << k;
+    }
+    EXPECT_EQ(x.reversals, y.reversals);
+    EXPECT_EQ(x.stop_reason, y.stop_reason);
+    EXPECT_EQ(x.threshold, y.threshold);
+  }
+}
+
 TEST_F(SimulatedStudyTest, ResizingCyclesTheProtocolsParticipants) {
   const protocols::Protocol p = protocols::load_protocol_file(source_dir() / "examples/protocols/thesis_as_run.json");
   const protocols::Protocol five = resized_protocol(p, 5, 99);
