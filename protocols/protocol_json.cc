@@ -208,11 +208,9 @@ class Reader {
   double as_double(const json& v, const std::string& path, double lo, double hi, bool lo_exclusive) const {
     if (!v.is_number()) fail(path, "is " + shown(v) + ", but must be a number");
     const double x = v.get<double>();
-    if (lo_exclusive ? !(x > lo) : !(x >= lo))
+    if ((lo_exclusive ? !(x > lo) : !(x >= lo)) || !(x <= hi))
       fail(path, "is " + shown(v) + ", but must be " + (lo_exclusive ? "> " : ">= ") + format_number(lo) +
                      " and <= " + format_number(hi));
-    if (!(x <= hi)) fail(path, "is " + shown(v) + ", but must be " + (lo_exclusive ? "> " : ">= ") + format_number(lo) +
-                                   " and <= " + format_number(hi));
     return x;
   }
 

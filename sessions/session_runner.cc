@@ -177,7 +177,15 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     // The schedule is done: a staircase (if the protocol has one) adds its
     // next trial, until its stopping rule ends it.
     if (!next) {
-      const auto staircase = plan_next_staircase_trial(db, study, session.participant_id());
+      std::optional<analysis::StaircaseProgress> staircase;
+      try {
+        staircase = plan_next_staircase_trial(db, study, session.participant_id());
+      } catch (const std::runtime_error&) {
+        // No baseline: the schedule is done and nothing failed, so the
+        // session closes normally before the operator is told why.
+        session.end(db::SessionStatus::kClosed);
+        throw;
+      }
       if (staircase) result.staircase = staircase;
       if (staircase && !staircase->state.finished) next = session.next_trial();
     }

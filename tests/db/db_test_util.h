@@ -17,6 +17,7 @@
 #include "core/loop/loop_sample.h"
 #include "db/sample_codec.h"
 #include "db/study_db.h"
+#include "tests/testing/scratch_dir.h"
 
 namespace hapticlab::db::testing {
 
@@ -31,29 +32,11 @@ inline std::vector<std::byte> legacy_blob(std::span<const StoredSample> samples)
   return out;
 }
 
-class TempDir {
+// A scratch folder per test (tests/testing/scratch_dir.h), with a file helper.
+class TempDir : public hapticlab::testing::ScratchDir {
  public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = "hapticlab_db_";
-    if (info != nullptr) name += std::string(info->test_suite_name()) + "_" + info->name();
-    for (char& c : name)
-      if (c == '/') c = '_';
-    path_ = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(path_);
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-  std::filesystem::path file(const std::string& name) const { return path_ / name; }
-
- private:
-  std::filesystem::path path_;
+  TempDir() : hapticlab::testing::ScratchDir("hapticlab_db_") {}
+  std::filesystem::path file(const std::string& name) const { return path() / name; }
 };
 
 // Damage as a bad disk or a stray write would: one byte of chunk `chunk_id`'s
