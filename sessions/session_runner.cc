@@ -180,7 +180,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       std::optional<analysis::StaircaseProgress> staircase;
       try {
         staircase = plan_next_staircase_trial(db, study, session.participant_id());
-      } catch (const std::runtime_error&) {
+      } catch (const analysis::StaircaseBaselineError&) {
         // No baseline: the schedule is done and nothing failed, so the
         // session closes normally before the operator is told why.
         session.end(db::SessionStatus::kClosed);

@@ -16,7 +16,7 @@ namespace hapticlab::sessions {
 // participant's last position; its setting stored the first time a strength
 // is reached) unless the staircase is finished. Returns the progress it
 // planned from; empty when the study has no staircase or the participant
-// does not do its task. Throws std::runtime_error naming staircase.baseline
+// does not do its task. Throws analysis::StaircaseBaselineError naming staircase.baseline
 // when there is no baseline.
 std::optional<analysis::StaircaseProgress> plan_next_staircase_trial(db::StudyDb& db, const db::StudyRow& study,
                                                                      std::int64_t participant_id);

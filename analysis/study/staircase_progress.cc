@@ -83,7 +83,7 @@ std::optional<StaircaseProgress> staircase_progress(db::StudyDb& db, const db::S
   p.baseline_trials = baseline.size();
   if (!baseline.empty()) p.baseline = percentile(baseline, 50.0);
   if (!staircase_baseline(baseline))
-    throw std::runtime_error(
+    throw StaircaseBaselineError(
         "staircase.baseline: participant " + code + " has " +
         (baseline.empty() ? "no complete trial of the baseline '" + p.spec.baseline + "' in " + p.spec.task +
                                 " with a " + p.spec.measure

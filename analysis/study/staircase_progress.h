@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,13 @@
 #include "protocols/staircase.h"
 
 namespace hapticlab::analysis {
+
+// A participant without a baseline: nothing to measure a change from. Its
+// own type, so a database failure is never taken for it.
+class StaircaseBaselineError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct StaircaseProgress {
   protocols::StaircaseSpec spec;
@@ -42,7 +50,7 @@ double staircase_measure(db::StudyDb& db, const db::TrialRow& trial, const std::
 std::optional<double> staircase_baseline(const std::vector<double>& values);
 
 // Empty when the study's protocol has no staircase, or the participant has
-// no trial in its task. Throws std::runtime_error naming staircase.baseline
+// no trial in its task. Throws StaircaseBaselineError naming staircase.baseline
 // when the participant has no complete baseline trial with a value above 0
 // (nothing to measure a change from).
 std::optional<StaircaseProgress> staircase_progress(db::StudyDb& db, const db::StudyRow& study,

@@ -170,7 +170,7 @@ void read_staircases(db::StudyDb& db, const db::StudyRow& study, const std::vect
       r.finished = p->state.finished;
       r.stop_reason = p->state.stop_reason;
       r.threshold = p->state.threshold;
-    } catch (const std::runtime_error& e) {
+    } catch (const StaircaseBaselineError& e) {
       r.note = e.what();
     }
     a.staircases.push_back(std::move(r));

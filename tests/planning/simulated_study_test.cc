@@ -53,6 +53,21 @@ class SimulatedStudyTest : public ::testing::Test {
     std::error_code ignored;
     std::filesystem::remove_all(dir_, ignored);
   }
+  // The protocol as `study create`, `session run` (P01, then P02) and
+  // `analyze` give it.
+  analysis::StudyAnalysis run_through_database(const std::filesystem::path& db_path,
+                                               const SimulatedStudyOptions& options) const {
+    {
+      db::StudyDb db(db_path);
+      sessions::create_study(db, protocol_path_, "test");
+    }
+    for (const char* code : {"P01", "P02"}) {
+      sessions::SessionOptions o;
+      o.participant = code;
+      sessions::run_session(db_path, o);
+    }
+    return analysis::analyze_study_file(db_path, options.analysis);
+  }
   std::filesystem::path dir_, protocol_path_;
 };
 
@@ -63,17 +78,8 @@ bool same(double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == 
 // without storing a sample.
 TEST_F(SimulatedStudyTest, EqualsTheStudyRunThroughTheDatabase) {
   const std::filesystem::path db_path = dir_ / "study.db";
-  {
-    db::StudyDb db(db_path);
-    sessions::create_study(db, protocol_path_, "test");
-  }
-  for (const char* code : {"P01", "P02"}) {
-    sessions::SessionOptions o;
-    o.participant = code;
-    sessions::run_session(db_path, o);
-  }
   const SimulatedStudyOptions options;
-  const analysis::StudyAnalysis stored = analysis::analyze_study_file(db_path, options.analysis);
+  const analysis::StudyAnalysis stored = run_through_database(db_path, options);
 
   const SimulatedStudy simulated =
       simulate_study(protocols::load_protocol_file(protocol_path_), 2, 7, options);
@@ -125,17 +131,8 @@ TEST_F(SimulatedStudyTest, TheStaircaseEqualsTheOneRunThroughTheDatabase) {
     "participants": ["P01", "P02"], "design": {"type": "complete"}, "seed": 7
   })";
   const std::filesystem::path db_path = dir_ / "staircase.db";
-  {
-    db::StudyDb db(db_path);
-    sessions::create_study(db, protocol_path_, "test");
-  }
-  for (const char* code : {"P01", "P02"}) {
-    sessions::SessionOptions o;
-    o.participant = code;
-    sessions::run_session(db_path, o);
-  }
   const SimulatedStudyOptions options;
-  const analysis::StudyAnalysis stored = analysis::analyze_study_file(db_path, options.analysis);
+  const analysis::StudyAnalysis stored = run_through_database(db_path, options);
   const SimulatedStudy simulated = simulate_study(protocols::load_protocol_file(protocol_path_), 2, 7, options);
   const analysis::StudyAnalysis& mem = simulated.analysis;
   ASSERT_EQ(mem.staircases.size(), 2u);
