@@ -175,6 +175,7 @@ void ConsoleTuning::run(TaskKind task) {
         ++free_trial_;
         live_.clear();
         c.settings = engine_;
+        if (changed_ || applied_t_s_) applied_t_s_ = 0.0;  // every change is in from the start
         changed_ = false;
         c.trial_seed = static_cast<std::uint64_t>(free_trial_);
         c.max_duration_s = config_.max_s - elapsed_s_;
@@ -198,6 +199,7 @@ void ConsoleTuning::run(TaskKind task) {
         if (changed_) {
           rig.engine().set_settings(engine_);  // taken by the loop at its next update
           changed_ = false;
+          applied_t_s_ = rig.loop().elapsed_s();
         }
         if (++polls % 500 == 0) last_timing_ = rig.loop().timing();  // ~100 µs: about every 0.1 s
         return !stop_.load();
@@ -231,6 +233,7 @@ nlohmann::json ConsoleTuning::status() const {
                       {"settings", settings_}, {"free_trial", free_trial_}, {"log", log_},
                       {"saved", saved_},     {"error", error_}};
   if (running_) j["loop_t_s"] = live_.newest_t_s();
+  if (running_ && applied_t_s_) j["applied_t_s"] = *applied_t_s_;
   if (last_timing_ && last_timing_->mean_period_s > 0)
     j["loop"] = {{"rate_Hz", 1.0 / last_timing_->mean_period_s},
                  {"p99_period_ms", 1e3 * last_timing_->p99_period_s},
