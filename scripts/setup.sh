@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 build_dir=${1:-build}
 shift || true
 
-packages=(g++ make cmake pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
+packages=(g++ make cmake ninja-build pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
           libgtest-dev libgmock-dev libsqlite3-dev sqlite3 libboost-math-dev
           libbenchmark-dev gnuplot-nox python3 python3-numpy zlib1g-dev libzstd-dev
           libcpp-httplib-dev libjs-chart.js)
@@ -36,7 +36,12 @@ if ((${#missing[@]})); then
 fi
 
 echo "==> building in $build_dir"
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
+# Ninja for a new build folder: it compiles a target's files while the
+# libraries it links are still being built, where make waits for them. A
+# folder configured before keeps its generator (CMake refuses to switch).
+generator=()
+if [[ ! -f $build_dir/CMakeCache.txt ]]; then generator=(-G Ninja); fi
+cmake -S . -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
 targets=()
 for t in ${HAPTICLAB_TARGETS:-}; do targets+=(--target "$t"); done
 cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}"
