@@ -42,6 +42,7 @@ struct PlanPowerOptions {
   std::size_t jobs = 0;
   std::string out = "plan-power";
   std::string measure = "force_p95_N";
+  double rate_Hz = 1000.0;
   double max_trial_s = 300.0;
   bool plots = true;
   bool json = false;
@@ -116,6 +117,7 @@ int run_plan_power(const PlanPowerOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
   const std::string protocol_text = protocols::read_protocol_text(o.protocol);
   planning::SimulatedStudyOptions sim;
+  sim.rate_Hz = o.rate_Hz;
   sim.max_trial_s = o.max_trial_s;
   std::vector<int> counts = o.participants;
   if (counts.empty()) counts.push_back(static_cast<int>(protocol.participants.size()));
@@ -404,6 +406,7 @@ struct PlanCalibrateOptions {
   std::uint64_t seed = 1;
   std::size_t jobs = 0;
   std::string out = "plan-calibrate";
+  double rate_Hz = 1000.0;
   double max_trial_s = 300.0;
   bool json = false;
 };
@@ -411,6 +414,7 @@ struct PlanCalibrateOptions {
 int run_plan_calibrate(const PlanCalibrateOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
   planning::SimulatedStudyOptions sim;
+  sim.rate_Hz = o.rate_Hz;
   sim.max_trial_s = o.max_trial_s;
   analysis::StudyAnalysis names;
   for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
@@ -530,6 +534,9 @@ void add_plan_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::IsMember({"force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s",
                              "path_length_m"}));
+  cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000, as session run's")
+      ->check(CLI::Range(150.0, 2000.0))
+      ->capture_default_str();
   cmd->add_option("--max-trial-s", opt->max_trial_s, "Per-trial time limit [s], as session run's")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -556,6 +563,9 @@ void add_plan_command(CLI::App& app) {
   calibrate->add_option("--jobs,-j", cal->jobs, "Groups of 10 participants simulated at once (0: two per core)")
       ->check(CLI::Range(0, 256));
   calibrate->add_option("--out", cal->out, "Folder for calibration.csv")->capture_default_str();
+  calibrate->add_option("--rate-hz", cal->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000")
+      ->check(CLI::Range(150.0, 2000.0))
+      ->capture_default_str();
   calibrate->add_option("--max-trial-s", cal->max_trial_s, "Per-trial time limit [s], as session run's")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 3600.0));

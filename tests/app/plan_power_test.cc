@@ -76,8 +76,13 @@ class PlanPowerTest : public ::testing::Test {
                      << R"("], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 5})";
     return p;
   }
+  // The loop at 250 Hz: what these tests show (the same table on any
+  // thread count, resumed after a kill or a full disk) does not depend on
+  // the rate, and the simulation dominates their time (8x slower under the
+  // sanitizers than in release).
+  static constexpr const char* kRate = " --rate-hz 250 ";
   std::pair<int, std::string> plan(const std::string& args) {
-    return testing::run_cli(HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() + " " + args);
+    return testing::run_cli(HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() + kRate + args);
   }
   fs::path dir_, protocol_;
 };
@@ -94,7 +99,7 @@ TEST_F(PlanPowerTest, AStaircaseStudyReportsItsThresholds) {
   p["staircase"]["max_trials"] = 6;
   protocol_ = dir_ / "staircase.json";
   std::ofstream(protocol_) << p.dump();
-  const std::string args = "--participants 2 --studies 2 --no-plots --json --out ";
+  const std::string args = std::string(kRate) + "--participants 2 --studies 2 --no-plots --json --out ";
   const auto [rc, text] = testing::run_cli_stdout(HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() +
                                                                           " --jobs 1 " + args + (dir_ / "a").string());
   ASSERT_EQ(rc, 0) << text;
@@ -136,8 +141,8 @@ TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
 
 TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
   const fs::path out = dir_ / "killed";
-  testing::ChildProcess child({HAPTICLAB_CLI_PATH, "plan", "power", "--protocol", protocol_.string(), "--participants",
-                               "2", "--studies", "4", "--jobs", "1", "--no-plots", "--out", out.string()},
+  testing::ChildProcess child({HAPTICLAB_CLI_PATH, "plan", "power", "--protocol", protocol_.string(), "--rate-hz", "250",
+                               "--participants", "2", "--studies", "8", "--jobs", "1", "--no-plots", "--out", out.string()},
                               (dir_ / "child.log").string());
   ASSERT_TRUE(testing::wait_until([&] { return fs::exists(out / "plan_power.db") && stored_studies(out / "plan_power.db") >= 2; },
                                   std::chrono::seconds(60)))
@@ -146,12 +151,12 @@ TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
   child.wait();
   const int kept = stored_studies(out / "plan_power.db");
   ASSERT_GE(kept, 2);
-  ASSERT_LT(kept, 4) << "the run finished before it was killed; the test proves nothing";
-  const auto [rc, text] = plan("--participants 2 --studies 4 --jobs 1 --no-plots --out " + out.string());
+  ASSERT_LT(kept, 8) << "the run finished before it was killed; the test proves nothing";
+  const auto [rc, text] = plan("--participants 2 --studies 8 --jobs 1 --no-plots --out " + out.string());
   ASSERT_EQ(rc, 0) << text;
-  EXPECT_THAT(text, HasSubstr(std::to_string(kept) + " of 4 studies already in"));
-  EXPECT_EQ(stored_studies(out / "plan_power.db"), 4);
-  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 4 --no-plots --out " + (dir_ / "fresh").string());
+  EXPECT_THAT(text, HasSubstr(std::to_string(kept) + " of 8 studies already in"));
+  EXPECT_EQ(stored_studies(out / "plan_power.db"), 8);
+  const auto [fresh_rc, fresh] = plan("--participants 2 --studies 8 --no-plots --out " + (dir_ / "fresh").string());
   ASSERT_EQ(fresh_rc, 0) << fresh;
   EXPECT_EQ(read_text(out / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
 }
@@ -193,8 +198,8 @@ TEST_F(PlanPowerTest, AFullDiskIsNamedAndTheStoredStudiesResume) {
     GTEST_SKIP() << "mounting a tmpfs needs root in a mount namespace";
   const fs::path mnt = dir_ / "mnt";
   fs::create_directories(mnt);
-  const std::string run = std::string(HAPTICLAB_CLI_PATH) + " plan power --protocol " + protocol_.string() +
-                          " --participants 2 --studies 4 --jobs 1 --no-plots --out ";
+  const std::string run = std::string(HAPTICLAB_CLI_PATH) + " plan power --protocol " + protocol_.string() + kRate +
+                          "--participants 2 --studies 4 --jobs 1 --no-plots --out ";
   // 128 kB: the database and about 3 studies (its WAL grows ~30 kB a study).
   const std::string script = "mount -t tmpfs -o size=128k tmpfs " + mnt.string() + " && " + run + mnt.string() +
                              "/plan; rc=$?; mkdir -p " + (dir_ / "kept").string() + " && cp " + mnt.string() +
@@ -235,6 +240,16 @@ TEST_F(PlanPowerTest, BadInputIsNamed) {
   std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "d").string());
   EXPECT_EQ(rc, 1);
   EXPECT_THAT(text, HasSubstr("holds the studies of another plan"));
+  // The same protocol at another loop rate is another plan too; a rate out
+  // of the loop's range is named.
+  protocol_ = dir_ / "tiny.json";
+  const std::string tiny = "plan power --protocol " + protocol_.string() + " --studies 1 --no-plots --rate-hz ";
+  std::tie(rc, text) = testing::run_cli(HAPTICLAB_CLI_PATH, tiny + "500 --out " + (dir_ / "d").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr("holds the studies of another plan"), HasSubstr("rate 500 Hz")));
+  std::tie(rc, text) = testing::run_cli(HAPTICLAB_CLI_PATH, tiny + "100 --out " + (dir_ / "g").string());
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, AllOf(HasSubstr("--rate-hz"), HasSubstr("150")));
   // A declared null setting that is not a copy of the control: named, with
   // where it differs; one that is not a setting: named by the protocol reader.
   const fs::path settings = source_dir() / "examples" / "settings";

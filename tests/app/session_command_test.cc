@@ -141,7 +141,7 @@ TEST_F(SessionCommandTest, BlindSessionNeverNamesTheSettingTheOperatorViewDoes) 
   EXPECT_THAT(summary, HasSubstr("S1                  20        3        0        0       17"));
 }
 
-double magnitude(const std::map<std::string, std::string>& row, const std::string& prefix) {
+double magnitude(const testing::CsvRow& row, const std::string& prefix) {
   double s = 0.0;
   for (const char* axis : {"x", "y", "z"}) {
     const double v = std::stod(row.at(prefix + axis + "_N"));
