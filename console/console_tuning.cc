@@ -107,6 +107,7 @@ void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
   settings_ = std::move(edited);
   engine_ = parsed.engine;
   changed_ = true;
+  applied_t_s_.reset();  // until the loop has this change too
   append_log(field, before, value.dump());
 }
 

@@ -68,8 +68,9 @@ class ConsoleTuning {
 
   // running, task, the settings (the file's JSON), the log's newest
   // entries, the saved files, loop timing, an error that ended a trial;
-  // while running, loop_t_s (the newest sample drained) and applied_t_s
-  // (the loop time by which the newest change was in the engine).
+  // while running, loop_t_s (the newest sample drained) and, once no change
+  // waits for the loop, applied_t_s (the loop time by which every change so
+  // far was in the engine).
   nlohmann::json status() const;
   std::array<std::vector<LivePoint>, 2> live_since(double after_t_s) const;
   // A saved file or the log, for download (served_file.h).
@@ -93,9 +94,10 @@ class ConsoleTuning {
   nlohmann::json settings_;             // settings_to_json form, as edited
   EngineSettings engine_;               // settings_, parsed and checked
   bool changed_ = false;                // engine_ not yet handed to the running engine
-  // Loop time of this repetition by which the newest change was in the
+  // Loop time of this repetition by which every change so far was in the
   // engine (read after the hand-over, so the engine had it by the next
-  // update or the one after); none before a change reached this repetition.
+  // update or the one after); none while a change waits for the loop, or
+  // when nothing was changed.
   std::optional<double> applied_t_s_;
   int free_trial_ = 0;                  // repetitions of the task so far (1-based when running)
   double elapsed_s_ = 0.0;              // loop time of finished repetitions
