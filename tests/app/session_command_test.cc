@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "app/cli_process.h"
-#include "app/csv_rows.h"
+#include "testing/csv_rows.h"
 #include "db/study_db.h"
 
 #include <nlohmann/json.hpp>

@@ -19,7 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "app/cli_process.h"
-#include "app/csv_rows.h"
+#include "testing/csv_rows.h"
 #include "db/study_db.h"
 #include "protocols/protocol_json.h"
 #include "protocols/schedule.h"

@@ -18,8 +18,6 @@ namespace {
 using ::testing::HasSubstr;
 using nlohmann::json;
 
-const std::filesystem::path kDoseProtocolsDir = std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols";
-
 json dose_protocol() {
   return json::parse(R"({
     "study": "dose",
@@ -35,12 +33,12 @@ json dose_protocol() {
 }
 
 std::pair<std::string, std::string> dose_failure(const json& j) {
-  const testing::Failure f = testing::protocol_failure(j, kDoseProtocolsDir, "dose.json");
+  const testing::Failure f = testing::protocol_failure(j, testing::kExampleProtocolsDir, "dose.json");
   return {f.field, f.message};
 }
 
 TEST(ProtocolDoseTest, EachStrengthIsASettingOfItsOwnWithOnlyTheFieldChanged) {
-  const Protocol p = protocol_from_json(dose_protocol(), kDoseProtocolsDir, "dose.json");
+  const Protocol p = protocol_from_json(dose_protocol(), testing::kExampleProtocolsDir, "dose.json");
   ASSERT_EQ(p.settings.size(), 4u);
   EXPECT_EQ(p.settings[0].settings.name, "High Fidelity");
   const double strengths[] = {0.15, 0.3, 0.6};
@@ -51,7 +49,7 @@ TEST(ProtocolDoseTest, EachStrengthIsASettingOfItsOwnWithOnlyTheFieldChanged) {
     EXPECT_TRUE(s.settings.engine.translation.cogging.enabled);
     EXPECT_EQ(s.settings.engine.translation.cogging.amplitude, strengths[i]);
     // Everything else is the base file's.
-    json got = settings_to_json(s.settings), base = settings_to_json(load_settings_file(kDoseProtocolsDir / "../settings/cogging.json"));
+    json got = settings_to_json(s.settings), base = settings_to_json(load_settings_file(testing::kExampleProtocolsDir / "../settings/cogging.json"));
     got.erase("name");
     base.erase("name");
     got["translation"]["cogging"].erase("amplitude_N");
@@ -64,7 +62,7 @@ TEST(ProtocolDoseTest, EachStrengthIsASettingOfItsOwnWithOnlyTheFieldChanged) {
 }
 
 TEST(ProtocolDoseTest, TheShippedFrictionDoseProtocolPlans) {
-  const Protocol p = load_protocol_file(kDoseProtocolsDir / "friction_dose.json");
+  const Protocol p = load_protocol_file(testing::kExampleProtocolsDir / "friction_dose.json");
   ASSERT_EQ(p.settings.size(), 5u);
   EXPECT_EQ(p.settings[4].settings.name, "Insertion friction, dynamic_level_N = 0.9");
   EXPECT_EQ(p.settings[4].settings.engine.translation.friction.dynamic_level, 0.9);
@@ -111,7 +109,7 @@ TEST(ProtocolDoseTest, BadDosesAreNamedByTheirField) {
   j["dose"]["settings"] = "../settings/high_fidelity.json";
   j["dose"]["field"] = "tip_force_saturation.limit_N";
   j["dose"]["strengths"] = {1.0, 2.0};
-  const Protocol p = protocol_from_json(j, kDoseProtocolsDir, "dose.json");
+  const Protocol p = protocol_from_json(j, testing::kExampleProtocolsDir, "dose.json");
   EXPECT_EQ(p.settings[1].settings.name, "High Fidelity, limit_N = 1");
   EXPECT_TRUE(p.settings[1].settings.engine.tip_force_saturation.enabled);
 }

@@ -1,6 +1,7 @@
 #pragma once
-// The error a protocol document gets: the field path and the message, or
-// "(no error)" for both when it reads.
+// The protocol tests' shared helpers: the error a protocol document gets
+// (the field path and the message, or "(no error)" for both when it reads),
+// and the folder of the shipped protocols, which relative paths start from.
 #include <filesystem>
 #include <string>
 
@@ -10,6 +11,9 @@
 #include "protocols/protocol_json.h"
 
 namespace hapticlab::protocols::testing {
+
+inline const std::filesystem::path kExampleProtocolsDir =
+    std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols";
 
 struct Failure {
   std::string field;

@@ -18,8 +18,6 @@ namespace {
 using ::testing::HasSubstr;
 using nlohmann::json;
 
-const std::filesystem::path kProtocolsDir = std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols";
-
 // A valid protocol; each test breaks one thing.
 json valid() {
   return json::parse(R"({
@@ -35,11 +33,11 @@ json valid() {
   })");
 }
 
-Protocol parse(const json& j) { return protocol_from_json(j, kProtocolsDir, "test.json"); }
+Protocol parse(const json& j) { return protocol_from_json(j, testing::kExampleProtocolsDir, "test.json"); }
 
 using testing::Failure;
 
-Failure failure_of(const json& j) { return testing::protocol_failure(j, kProtocolsDir); }
+Failure failure_of(const json& j) { return testing::protocol_failure(j, testing::kExampleProtocolsDir); }
 
 TEST(ProtocolJsonTest, ValidProtocolReadsEveryField) {
   const Protocol p = parse(valid());
@@ -284,13 +282,13 @@ TEST(ProtocolJsonTest, WrongTypesAndBadJson) {
   j["settings"][0] = 3;
   EXPECT_EQ(failure_of(j).field, "settings[0]");
   try {
-    protocol_from_json_text("{ \"study\": ", kProtocolsDir, "broken.json");
+    protocol_from_json_text("{ \"study\": ", testing::kExampleProtocolsDir, "broken.json");
     FAIL();
   } catch (const ProtocolError& e) {
     EXPECT_THAT(e.what(), HasSubstr("broken.json"));
     EXPECT_THAT(e.what(), HasSubstr("not valid JSON"));
   }
-  EXPECT_THROW(load_protocol_file(kProtocolsDir / "does_not_exist.json"), ProtocolError);
+  EXPECT_THROW(load_protocol_file(testing::kExampleProtocolsDir / "does_not_exist.json"), ProtocolError);
 }
 
 // Issue 15: with "ve": "external" the tasks are the lab's own, named freely;

@@ -18,9 +18,6 @@ namespace {
 using ::testing::HasSubstr;
 using nlohmann::json;
 
-const std::filesystem::path kStaircaseProtocolsDir =
-    std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "protocols";
-
 json staircase_protocol() {
   return json::parse(R"({
     "study": "staircase",
@@ -37,7 +34,7 @@ json staircase_protocol() {
 }
 
 TEST(ProtocolStaircaseTest, TheBlockIsReadWithItsDefaultsAndTheBaselineAloneIsScheduled) {
-  const Protocol p = protocol_from_json(staircase_protocol(), kStaircaseProtocolsDir, "s.json");
+  const Protocol p = protocol_from_json(staircase_protocol(), testing::kExampleProtocolsDir, "s.json");
   ASSERT_TRUE(p.staircase.has_value());
   const StaircaseSpec& s = p.staircase->spec;
   EXPECT_EQ(s.task, "clip");  // the only task
@@ -63,13 +60,13 @@ TEST(ProtocolStaircaseTest, TheBlockIsReadWithItsDefaultsAndTheBaselineAloneIsSc
 TEST(ProtocolStaircaseTest, AStaircaseWithoutABaselineIsNamed) {
   json j = staircase_protocol();
   j["staircase"].erase("baseline");
-  auto f = testing::protocol_failure(j, kStaircaseProtocolsDir);
+  auto f = testing::protocol_failure(j, testing::kExampleProtocolsDir);
   EXPECT_EQ(f.field, "staircase.baseline");
   EXPECT_THAT(f.message, HasSubstr("is missing, but a staircase needs a baseline"));
 
   j = staircase_protocol();
   j["staircase"]["baseline"] = "Cogging";
-  f = testing::protocol_failure(j, kStaircaseProtocolsDir);
+  f = testing::protocol_failure(j, testing::kExampleProtocolsDir);
   EXPECT_EQ(f.field, "staircase.baseline");
   EXPECT_THAT(f.message, HasSubstr("is \"Cogging\", but is not one of the settings (\"High Fidelity\")"));
 
@@ -77,7 +74,7 @@ TEST(ProtocolStaircaseTest, AStaircaseWithoutABaselineIsNamed) {
   j = staircase_protocol();
   j["settings"] = {"../settings/high_fidelity.json", "../settings/cogging.json", "../settings/no_force_feedback.json"};
   j["design"] = {{"type", "incomplete"}, {"required", {"Cogging"}}, {"k", 1}};
-  f = testing::protocol_failure(j, kStaircaseProtocolsDir);
+  f = testing::protocol_failure(j, testing::kExampleProtocolsDir);
   EXPECT_EQ(f.field, "staircase.baseline");
   EXPECT_THAT(f.message, HasSubstr("is not in design.required"));
 }
@@ -106,14 +103,14 @@ TEST(ProtocolStaircaseTest, BadRulesAreNamed) {
   for (const Case& c : cases) {
     json j = staircase_protocol();
     j["staircase"][c.key] = c.value;
-    const auto f = testing::protocol_failure(j, kStaircaseProtocolsDir);
+    const auto f = testing::protocol_failure(j, testing::kExampleProtocolsDir);
     EXPECT_EQ(f.field, c.field) << c.key << " = " << c.value << ": " << f.message;
     EXPECT_THAT(f.message, HasSubstr(c.says)) << c.key;
   }
   json both = staircase_protocol();
   both["dose"] = {{"settings", "../settings/cogging.json"}, {"field", "translation.cogging.amplitude_N"},
                   {"strengths", {0.1, 0.2}}};
-  EXPECT_EQ(testing::protocol_failure(both, kStaircaseProtocolsDir).field, "staircase");
+  EXPECT_EQ(testing::protocol_failure(both, testing::kExampleProtocolsDir).field, "staircase");
 }
 
 }  // namespace

@@ -16,7 +16,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "tests/app/csv_rows.h"
+#include "testing/csv_rows.h"
 #include "tests/app/cli_process.h"
 #include "db/study_db.h"
 #include "tests/testing/child_process.h"

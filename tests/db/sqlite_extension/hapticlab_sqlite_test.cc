@@ -21,6 +21,7 @@
 #include "db/db_test_util.h"
 #include "db/sample_codec.h"
 #include "db/sqlite_handle.h"
+#include "testing/csv_rows.h"
 
 namespace hapticlab::db {
 namespace {
@@ -34,26 +35,13 @@ const std::string kHapticlab = HAPTICLAB_CLI_PATH;
 const std::string kSqlite3 = HAPTICLAB_SQLITE3_CLI;
 const std::string kExtension = HAPTICLAB_SQLITE_EXTENSION;
 
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> cells;
-  std::string cell;
-  bool quoted = false;
-  for (char c : line) {
-    if (c == '"') quoted = !quoted;
-    else if (c == ',' && !quoted) cells.push_back(std::exchange(cell, {}));
-    else cell += c;
-  }
-  cells.push_back(cell);
-  return cells;
-}
-
 std::vector<std::vector<std::string>> csv_lines(const std::string& text) {
   std::vector<std::vector<std::string>> rows;
   std::istringstream in(text);
   std::string line;
   while (std::getline(in, line)) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    rows.push_back(split_csv(line));
+    rows.push_back(hapticlab::testing::split_csv_line(line));
   }
   return rows;
 }
