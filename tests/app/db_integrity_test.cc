@@ -14,6 +14,7 @@
 #include "app/cli_process.h"
 #include "db/db_test_util.h"
 #include "db/sqlite_handle.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab::app {
 namespace {
@@ -24,12 +25,6 @@ using ::testing::HasSubstr;
 
 std::pair<int, std::string> cli(const std::string& args) { return testing::run_cli(HAPTICLAB_CLI_PATH, args); }
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 // The synthetic study (tests/analysis/study/synthetic_study_db.h): 11 trials
 // with samples, 10 updates per hand in one chunk each, 22 chunks. Chunk 1 is
@@ -102,7 +97,7 @@ TEST_F(DbIntegrityTest, ExportLeavesOutADamagedChunkNamesItAndExitsOne) {
   for (const auto& entry : fs::directory_iterator(out_dir))
     if (entry.path().filename().string().ends_with("_trial1_samples.csv")) samples = entry.path();
   ASSERT_FALSE(samples.empty()) << out;
-  std::istringstream text(read_text(samples));
+  std::istringstream text(testing::slurp(samples));
   std::string line;
   std::getline(text, line);
   int rows = 0;
@@ -123,7 +118,7 @@ TEST_F(DbIntegrityTest, AnalyzeLeavesOutTheDamagedTrialAndWarns) {
   EXPECT_EQ(code, 0) << out;
   EXPECT_THAT(out, AllOf(HasSubstr("warning: left out damaged sample chunk: trial 1, left instrument (0), ticks 0..9"),
                          HasSubstr("(1 damaged sample chunk(s) left out)")));
-  EXPECT_THAT(read_text(out_dir / "metrics.csv"), HasSubstr("1 damaged sample chunk(s) left out"));
+  EXPECT_THAT(testing::slurp(out_dir / "metrics.csv"), HasSubstr("1 damaged sample chunk(s) left out"));
 }
 
 // Format 2 with a right checksum over bytes that are no zstd frame (a

@@ -17,6 +17,7 @@
 
 #include "tests/app/cli_process.h"
 #include "tests/testing/child_process.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab::app {
 namespace {
@@ -29,12 +30,6 @@ fs::path source_dir() {
   return HAPTICLAB_SOURCE_DIR;
 }
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // Studies stored so far, read through SQLite (read-only), as any reader may.
 int stored_studies(const fs::path& db) {
@@ -92,7 +87,7 @@ class PlanPowerTest : public ::testing::Test {
 // how far the thresholds spread (issue 19 section 4). The same on 1 and 2
 // threads, and resumed from the stored studies.
 TEST_F(PlanPowerTest, AStaircaseStudyReportsItsThresholds) {
-  nlohmann::json p = nlohmann::json::parse(read_text(source_dir() / "examples/protocols/friction_staircase.json"));
+  nlohmann::json p = nlohmann::json::parse(testing::slurp(source_dir() / "examples/protocols/friction_staircase.json"));
   p["settings"] = {(source_dir() / "examples/settings/high_fidelity.json").string()};
   p["repetitions"]["clip"] = 1;
   p["staircase"]["reversals"] = 4;
@@ -128,15 +123,15 @@ TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
   ASSERT_EQ(one_rc, 0) << one;
   const auto [two_rc, two] = plan("--participants 2 --studies 2 --seed 9 --jobs 2 --no-plots --out " + (dir_ / "two").string());
   ASSERT_EQ(two_rc, 0) << two;
-  const std::string csv = read_text(dir_ / "one" / "power.csv");
-  EXPECT_EQ(csv, read_text(dir_ / "two" / "power.csv"));
+  const std::string csv = testing::slurp(dir_ / "one" / "power.csv");
+  EXPECT_EQ(csv, testing::slurp(dir_ / "two" / "power.csv"));
   EXPECT_THAT(csv, HasSubstr("2,pairwise,clip,No Force Feedback,force_p95_N,2,"));
   EXPECT_THAT(csv, HasSubstr("2,participant,clip,,force_p95_N,4,"));  // 2 studies x 2 participants' Table 3.4 tests
   EXPECT_THAT(one, HasSubstr("2 studies simulated"));
   // Another seed, other studies (2 studies x 5 measures x 3 methods: some rate differs).
   const auto [other_rc, other] = plan("--participants 2 --studies 2 --seed 10 --no-plots --out " + (dir_ / "other").string());
   ASSERT_EQ(other_rc, 0) << other;
-  EXPECT_NE(csv, read_text(dir_ / "other" / "power.csv"));
+  EXPECT_NE(csv, testing::slurp(dir_ / "other" / "power.csv"));
 }
 
 TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
@@ -146,7 +141,7 @@ TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
                               (dir_ / "child.log").string());
   ASSERT_TRUE(testing::wait_until([&] { return fs::exists(out / "plan_power.db") && stored_studies(out / "plan_power.db") >= 2; },
                                   std::chrono::seconds(60)))
-      << read_text(dir_ / "child.log");
+      << testing::slurp(dir_ / "child.log");
   child.kill(SIGKILL);
   child.wait();
   const int kept = stored_studies(out / "plan_power.db");
@@ -158,7 +153,7 @@ TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {
   EXPECT_EQ(stored_studies(out / "plan_power.db"), 8);
   const auto [fresh_rc, fresh] = plan("--participants 2 --studies 8 --no-plots --out " + (dir_ / "fresh").string());
   ASSERT_EQ(fresh_rc, 0) << fresh;
-  EXPECT_EQ(read_text(out / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
+  EXPECT_EQ(testing::slurp(out / "power.csv"), testing::slurp(dir_ / "fresh" / "power.csv"));
 }
 
 // A copy of the control under another name is found as a null setting;
@@ -215,7 +210,7 @@ TEST_F(PlanPowerTest, AFullDiskIsNamedAndTheStoredStudiesResume) {
   ASSERT_EQ(rc, 0) << text;
   const auto [fresh_rc, fresh] = plan("--participants 2 --studies 4 --no-plots --out " + (dir_ / "fresh").string());
   ASSERT_EQ(fresh_rc, 0) << fresh;
-  EXPECT_EQ(read_text(dir_ / "kept" / "power.csv"), read_text(dir_ / "fresh" / "power.csv"));
+  EXPECT_EQ(testing::slurp(dir_ / "kept" / "power.csv"), testing::slurp(dir_ / "fresh" / "power.csv"));
 }
 
 TEST_F(PlanPowerTest, BadInputIsNamed) {

@@ -157,8 +157,11 @@ double magnitude(const testing::CsvRow& row, const std::string& prefix) {
 // contact dynamics. Replayed through No Force Feedback, the same motion
 // meets the same tissue but the device displays nothing.
 TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
+  // Recorded and replayed at 250 Hz: a replay must give the recorded forces
+  // at any rate, and the trial's rows (both CSVs read here) are this test's
+  // time.
   const auto [status, out] = testing::run_cli(
-      kBinary, "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 1");
+      kBinary, "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 1 --rate-hz 250");
   ASSERT_EQ(status, 0) << out;
   std::int64_t trial = 0;
   {
@@ -172,7 +175,8 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
 
   const fs::path replay_csv = dir_ / "replay.csv";
   const auto [status2, summary] = testing::run_cli(
-      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --out " + replay_csv.string());
+      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --rate-hz 250 --out " +
+                   replay_csv.string());
   ASSERT_EQ(status2, 0) << summary;
   EXPECT_THAT(summary, HasSubstr("end_of_data"));
   EXPECT_THAT(summary, HasSubstr("task complete"));
@@ -204,7 +208,7 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
 
   const fs::path no_ffb_csv = dir_ / "no_ffb.csv";
   const auto [status4, summary4] = testing::run_cli(
-      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --settings " +
+      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --rate-hz 250 --settings " +
                    std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/no_force_feedback.json --out " +
                    no_ffb_csv.string());
   ASSERT_EQ(status4, 0) << summary4;

@@ -38,8 +38,10 @@ class ComparatorTest(unittest.TestCase):
         db = cls.dir / "study.db"
         fx.run_cli("study", "create", "--protocol", str(fx.SOURCE_DIR / "examples/protocols/thesis_quick.json"),
                    "--db", str(db))
-        # One participant's whole session: 20 trials, 2 tasks x 5 settings x 2 repetitions.
-        fx.run_cli("session", "run", "--db", str(db), "--participant", "S1", "--training-trials", "0")
+        # One participant's whole session: 20 trials, 2 tasks x 5 settings x 2
+        # repetitions; at 250 Hz, a quarter of the samples to simulate and read.
+        fx.run_cli("session", "run", "--db", str(db), "--participant", "S1", "--training-trials", "0",
+                   "--rate-hz", "250")
         fx.run_cli("analyze", "--db", str(db), "--out", str(cls.dir / "analysis"), "--no-ks", "--no-plots")
         cls.metrics_csv = cls.dir / "analysis" / "metrics.csv"
         done = subprocess.run([sys.executable, str(COMPARATOR), str(db), "--metrics-out", str(cls.dir / "np.csv"),

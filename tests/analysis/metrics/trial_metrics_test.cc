@@ -16,7 +16,7 @@ using ::testing::HasSubstr;
 
 // Values below are exact in binary or differ from the hand-worked result by
 // rounding only.
-constexpr double kTolerance = 1e-12;
+constexpr double kMetricsTolerance = 1e-12;
 
 TaskEvent ev(double t_s, TaskEventType type, int instrument) {
   return {t_s, type, static_cast<std::int8_t>(instrument), 0};
@@ -98,10 +98,10 @@ TEST(HandMetricsTest, WorkedExampleMatlab) {
   const HandMetrics m = hand_metrics(worked_series(), {1.0, 4.0});
   EXPECT_EQ(m.samples, 4u);
   EXPECT_EQ(m.force_samples, 3u);
-  EXPECT_NEAR(m.path_length_m, 17.0, kTolerance);
-  EXPECT_NEAR(m.speed_median_m_per_s, 3.0, kTolerance);
-  EXPECT_NEAR(m.force_median_N, 2.0, kTolerance);
-  EXPECT_NEAR(m.force_p95_N, 3.0, kTolerance);
+  EXPECT_NEAR(m.path_length_m, 17.0, kMetricsTolerance);
+  EXPECT_NEAR(m.speed_median_m_per_s, 3.0, kMetricsTolerance);
+  EXPECT_NEAR(m.force_median_N, 2.0, kMetricsTolerance);
+  EXPECT_NEAR(m.force_p95_N, 3.0, kMetricsTolerance);
 }
 
 // The accumulator, fed one sample at a time and reused for a second hand,
@@ -124,16 +124,16 @@ TEST(WindowAccumulatorTest, StreamsWhatWindowValuesComputesAndReusesItsBuffers) 
   for (std::size_t i = 0; i < s.size(); ++i) acc.add(s.t_s[i], s.tip_position_m[i], s.tip_velocity_m_per_s[i], s.ve_force_N[i]);
   EXPECT_EQ(values.samples, 5u);
   EXPECT_EQ(values.force_N, (std::vector<double>{0.5, 2.0, 3.0, 70.0}));
-  EXPECT_NEAR(values.path_length_m, 17.0 + std::sqrt(9569.0), kTolerance);
+  EXPECT_NEAR(values.path_length_m, 17.0 + std::sqrt(9569.0), kMetricsTolerance);
 }
 
 // The percentile definition is the caller's: R type 7 puts the 95th of
 // {0.5, 2, 3} at 1 + 2·0.95 = 2.9, i.e. 2 + 0.9·(3 − 2) = 2.9; nearest rank
 // puts the median of {1, 2, 4, 5} at x(ceil(2)) = 2.
 TEST(HandMetricsTest, PercentileMethodIsSelectable) {
-  EXPECT_NEAR(hand_metrics(worked_series(), {1.0, 4.0}, PercentileMethod::kR7).force_p95_N, 2.9, kTolerance);
+  EXPECT_NEAR(hand_metrics(worked_series(), {1.0, 4.0}, PercentileMethod::kR7).force_p95_N, 2.9, kMetricsTolerance);
   EXPECT_NEAR(hand_metrics(worked_series(), {1.0, 4.0}, PercentileMethod::kNearestRank).speed_median_m_per_s, 2.0,
-              kTolerance);
+              kMetricsTolerance);
 }
 
 // The threshold is inclusive: exactly 1 mN is contact, just below is not.
@@ -169,7 +169,7 @@ TEST(HandMetricsTest, WindowValuesKeepTimeOrder) {
   const WindowValues v = window_values(worked_series(), {1.0, 4.0});
   EXPECT_EQ(v.speed_m_per_s, (std::vector<double>{1, 5, 2, 4}));
   EXPECT_EQ(v.force_N.size(), 3u);
-  EXPECT_NEAR(v.force_N[1], 2.0, kTolerance);
+  EXPECT_NEAR(v.force_N[1], 2.0, kMetricsTolerance);
 }
 
 // The CDF grid: MATLAB percentiles of |v| = {1, 2, 4, 5} at p = 0, 25, 50,
@@ -178,13 +178,13 @@ TEST(HandMetricsTest, QuantileGrid) {
   WindowValues v = window_values(worked_series(), {1.0, 4.0});
   HandQuantiles q;
   const HandMetrics m = summarize_window(v, PercentileMethod::kMatlab, 5, &q);
-  EXPECT_NEAR(m.speed_median_m_per_s, 3.0, kTolerance);
+  EXPECT_NEAR(m.speed_median_m_per_s, 3.0, kMetricsTolerance);
   ASSERT_EQ(q.speed_m_per_s.size(), 5u);
   const std::vector<double> expected = {1, 1.5, 3, 4.5, 5};
-  for (std::size_t i = 0; i < 5; ++i) EXPECT_NEAR(q.speed_m_per_s[i], expected[i], kTolerance) << i;
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_NEAR(q.speed_m_per_s[i], expected[i], kMetricsTolerance) << i;
   ASSERT_EQ(q.force_N.size(), 5u);
-  EXPECT_NEAR(q.force_N.front(), 0.5, kTolerance);
-  EXPECT_NEAR(q.force_N.back(), 3.0, kTolerance);
+  EXPECT_NEAR(q.force_N.front(), 0.5, kMetricsTolerance);
+  EXPECT_NEAR(q.force_N.back(), 3.0, kMetricsTolerance);
 }
 
 TEST(HandMetricsTest, BadInputNamesTheProblem) {

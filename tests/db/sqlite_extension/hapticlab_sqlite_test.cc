@@ -73,7 +73,8 @@ class SqliteExtensionTest : public ::testing::Test {
     for (const std::string& args :
          {"study create --protocol " + std::string(HAPTICLAB_SOURCE_DIR) + "/examples/protocols/thesis_quick.json --db " +
               *db_,
-          "session run --db " + *db_ + " --participant S1 --training-trials 0 --max-trials 1",
+          // 250 Hz: fewer rows to compare, the same chunks' layout.
+          "session run --db " + *db_ + " --participant S1 --training-trials 0 --max-trials 1 --rate-hz 250",
           "export --db " + *db_ + " --trial 1 --format csv --out " + (*dir_ / "csv").string()}) {
       const auto [status, out] = hapticlab::testing::run_cli(kHapticlab, args);
       ASSERT_EQ(status, 0) << args << "\n" << out;
