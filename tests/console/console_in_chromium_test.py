@@ -266,8 +266,11 @@ def main():
         driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
         driver.find_element(By.ID, "note").send_keys("participant adjusts the chair")
         click("add-note")
-        first = status()["trial_number"]
+        # The reason typed first, the running trial read last: between
+        # reading it and the click, only the click's round trip (typing on a
+        # busy machine took long enough for trials to end meanwhile).
         driver.find_element(By.ID, "reason").send_keys("participant sneezed")
+        first = status()["trial_number"]
         click("abort")
         wait_for("the aborted trial's status", lambda: status().get("last_status") == "aborted", 20)
         wait_for("the next trial", lambda: status().get("phase") == "trial", 30)
