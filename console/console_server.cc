@@ -337,7 +337,16 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
     session.rest(body["seconds"].get<double>());
   });
   control("/api/session/end-training", [&](const nlohmann::json&) { session.end_training(); });
-  control("/api/session/abort", [&](const nlohmann::json& body) { session.abort_trial(text_field(body, "reason", 500)); });
+  control("/api/session/abort", [&](const nlohmann::json& body) {
+    // The trial the operator saw running (0: none); absent: the one running now.
+    std::optional<std::int64_t> trial_id;
+    if (body.contains("trial_id")) {
+      if (!body["trial_id"].is_number_integer())
+        throw std::invalid_argument("trial_id: " + body["trial_id"].dump() + ", must be a trial's id (/api/status)");
+      trial_id = body["trial_id"].get<std::int64_t>();
+    }
+    session.abort_trial(text_field(body, "reason", 500), trial_id);
+  });
   control("/api/results/export", [&](const nlohmann::json& body) {
     const std::string participant = body.value("participant", std::string());
     if (!participant.empty() && !known_participant(participant))

@@ -113,15 +113,22 @@ void ConsoleSession::end_training() {
   log_action("operator_end_training", "");
 }
 
-void ConsoleSession::abort_trial(const std::string& reason) {
-  {
-    // Between trials the runner would take it at the next trial's start
-    // and abort that one: refused instead.
-    std::lock_guard lock(mutex_);
-    if (!running_ || !progress_ || progress_->phase != sessions::SessionProgress::Phase::kTrialStarted)
-      throw std::invalid_argument("abort: no trial is running");
-  }
-  log_action("operator_abort", reason, true);
+void ConsoleSession::abort_trial(const std::string& reason, std::optional<std::int64_t> trial_id) {
+  // Checked and queued under one lock, for the trial running now: between
+  // trials, or once it has ended, the runner would otherwise abort the next
+  // one, which the operator never saw (the page sends the trial it shows;
+  // typing a reason can outlast a trial).
+  std::lock_guard lock(mutex_);
+  if (!running_ || !progress_ || progress_->phase != sessions::SessionProgress::Phase::kTrialStarted)
+    throw std::invalid_argument("abort: no trial is running");
+  const std::string running = "trial " + std::to_string(progress_->trial_number) + ", id " +
+                              std::to_string(progress_->trial_id) + ", is running";
+  if (trial_id == 0)  // the page showed none running when the operator clicked
+    throw std::invalid_argument("abort: no trial was running when it was sent (" + running + "); nothing was aborted");
+  if (trial_id && *trial_id != progress_->trial_id)
+    throw std::invalid_argument("abort: trial id " + std::to_string(*trial_id) + " has ended (" + running +
+                                "); nothing was aborted");
+  pending_actions_.push_back({"operator_abort", reason, true, progress_->trial_id});
 }
 
 void ConsoleSession::note(const std::string& text) {
@@ -213,6 +220,7 @@ nlohmann::json ConsoleSession::operator_status() const {
     const auto& p = *progress_;
     j["phase"] = phase_name(p.phase);
     j["trial_number"] = p.trial_number;
+    j["trial_id"] = p.trial_id;
     j["trial_count"] = p.trial_count;
     j["task"] = p.task;
     j["setting"] = p.setting;

@@ -55,8 +55,10 @@ class ConsoleSession {
   void rest(double seconds);
   void end_training();
   // Re-queued; the session goes on. Throws std::invalid_argument when no
-  // trial is running.
-  void abort_trial(const std::string& reason);
+  // trial is running, or when `trial_id` (the trial the operator saw; 0:
+  // none) is not the one running: it has ended, and the next one is not
+  // aborted for it.
+  void abort_trial(const std::string& reason, std::optional<std::int64_t> trial_id = std::nullopt);
   // Logged with the running trial, or the next one; throws
   // std::invalid_argument when no session is running.
   void note(const std::string& text);

@@ -246,6 +246,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     SessionProgress started;
     started.phase = SessionProgress::Phase::kTrialStarted;
     started.trial_number = session.complete() + 1;
+    started.trial_id = trial.id;
     started.task = trial.task;
     started.setting = settings.name;
     started.repetition = trial.repetition;
@@ -274,6 +275,11 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       actions.clear();
       options.take_operator_events(actions);
       for (const OperatorEvent& a : actions) {
+        if (a.abort && a.trial_id != 0 && a.trial_id != trial.id) {
+          outcome.closing_events.push_back({trial.id, t_s, "operator_abort_missed", -1, 0,
+                                            "trial " + std::to_string(a.trial_id) + " had ended: " + a.detail});
+          continue;
+        }
         outcome.closing_events.push_back({trial.id, t_s, a.type, -1, 0, a.detail});
         if (a.abort && !operator_abort) operator_abort = a.detail;
       }

@@ -43,6 +43,7 @@ struct SessionProgress {
   Phase phase = Phase::kTrialStarted;
   std::string participant;
   int trial_number = 0;   // k: 1-based, counting this participant's complete trials + 1
+  std::int64_t trial_id = 0;  // the trial's id in the database (0 in training)
   int trial_count = 0;    // N: trials in the participant's schedule
   std::string task;
   std::string setting;    // operator view only
@@ -59,10 +60,16 @@ struct SessionProgress {
 // (or at 0 of the next trial when it came between trials). `abort` ends the
 // running trial as aborted with `detail` as its reason; it is re-queued and
 // the session goes on.
+//
+// An abort names the trial it is meant for (`trial_id`, 0: whichever
+// runs): one that reaches the runner after that trial ended is not applied
+// to the next, which the operator never saw; it is logged there as
+// "operator_abort_missed", naming the trial it was for.
 struct OperatorEvent {
   std::string type;    // event type, e.g. "operator_note", "operator_pause"
   std::string detail;  // free text (the note, the abort reason)
   bool abort = false;
+  std::int64_t trial_id = 0;
 };
 
 // How the running trial's loop is doing, for a monitor (the console's live

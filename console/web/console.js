@@ -33,7 +33,11 @@ $("pause").addEventListener("click", () => control("pause", { paused: true }));
 $("resume").addEventListener("click", () => control("pause", { paused: false }));
 $("rest").addEventListener("click", () => control("rest", { seconds: Number($("rest-s").value) }));
 $("end-training").addEventListener("click", () => control("end-training"));
-$("abort").addEventListener("click", () => control("abort", { reason: $("reason").value }));
+// The trial shown when the button is pressed (0: none shown running): one
+// that ended meanwhile is not aborted, nor the next in its place (the server
+// refuses, and says so).
+let shownTrialId = 0;
+$("abort").addEventListener("click", () => control("abort", { reason: $("reason").value, trial_id: shownTrialId }));
 $("add-note").addEventListener("click", async () => { if (await control("note", { text: $("note").value })) $("note").value = ""; });
 
 const text = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
@@ -142,6 +146,7 @@ function followLive(url, repetitionKey, twoCharts, counter, onStatus) {
 }
 followLive("/events/live", "trial_number", charts, "livePoints", (s) => {
   window.hapticlab.liveMessages++;
+  shownTrialId = s.running && s.phase === "trial" ? s.trial_id : 0;
   $("status").innerHTML = describe(s);
   $("live-status").innerHTML = s.running ? describe(s) + `<br>points received: ${window.hapticlab.livePoints}` : "No trial running.";
 });

@@ -236,6 +236,47 @@ TEST_F(SessionFixture, OperatorAbortWithAReasonRequeuesAndTheSessionGoesOn) {
                                                                       {"operator_abort", "participant sneezed"}}));
 }
 
+// An abort names the trial the operator saw. During that trial it aborts
+// it; taken once another trial runs (the first ended while the reason was
+// typed), it aborts nothing and is logged with the running trial as
+// missed, naming the trial it was for.
+TEST_F(SessionFixture, AnAbortForATrialThatHasEndedDoesNotAbortTheNext) {
+  SessionOptions o = options_for("A1");
+  o.max_trials = 2;
+  std::int64_t running = 0, first = 0;
+  o.on_progress = [&](const SessionProgress& p) {
+    if (p.phase == SessionProgress::Phase::kTrialStarted) running = p.trial_id;
+  };
+  int polls = 0;
+  bool stale_sent = false;
+  o.take_operator_events = [&](std::vector<OperatorEvent>& out) {
+    if (running == 0) return;  // training, before the first trial
+    if (first == 0) first = running;
+    if (running == first && ++polls == 3) out.push_back({"operator_abort", "meant for this one", true, first});
+    if (running != first && !stale_sent) {
+      out.push_back({"operator_abort", "meant for the first", true, first});
+      stale_sent = true;
+    }
+  };
+  const SessionResult r = run_session(db_path_, o);
+  EXPECT_EQ(r.trials_aborted, 1);
+  EXPECT_EQ(r.trials_complete, 1);
+  ASSERT_TRUE(stale_sent);
+  const auto trials = trials_of(db_path_, "A1");
+  ASSERT_GE(trials.size(), 2u);
+  EXPECT_EQ(trials[0].id, first);
+  EXPECT_EQ(trials[0].abort_reason, "operator abort: meant for this one");
+  EXPECT_EQ(trials[1].status, TrialStatus::kComplete);
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(db_path_, open);
+  std::vector<std::pair<std::string, std::string>> actions;
+  for (const auto& e : db.events(trials[1].id))
+    if (e.type.starts_with("operator_")) actions.emplace_back(e.type, e.detail);
+  EXPECT_EQ(actions, (std::vector<std::pair<std::string, std::string>>{
+                         {"operator_abort_missed", "trial " + std::to_string(first) + " had ended: meant for the first"}}));
+}
+
 TEST_F(SessionFixture, DeviceFaultAbortsTheTrialAndEndsTheSession) {
   SessionOptions o = options_for("A1");
   int configured = 0;
