@@ -25,7 +25,6 @@ using ::testing::HasSubstr;
 
 std::pair<int, std::string> cli(const std::string& args) { return testing::run_cli(HAPTICLAB_CLI_PATH, args); }
 
-
 // The synthetic study (tests/analysis/study/synthetic_study_db.h): 11 trials
 // with samples, 10 updates per hand in one chunk each, 22 chunks. Chunk 1 is
 // trial 1's left hand, ticks 0..9.

@@ -30,7 +30,6 @@ fs::path source_dir() {
   return HAPTICLAB_SOURCE_DIR;
 }
 
-
 // Studies stored so far, read through SQLite (read-only), as any reader may.
 int stored_studies(const fs::path& db) {
   sqlite3* c = nullptr;
