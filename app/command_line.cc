@@ -1,0 +1,92 @@
+// The `hapticlab` command tree: every subcommand registered on one CLI::App.
+// Kept in the library, not in main.cc, so that CLI11 (header-only) is
+// compiled once, in the library's unity batch, instead of again for the
+// executable (app/CMakeLists.txt).
+#include "app/command_line.h"
+
+#include <csignal>
+
+#include <CLI/CLI.hpp>
+
+#include "app/bench_engine.h"
+#include "app/engine_demo.h"
+#include "app/study_demo.h"
+#include "app/engine_replay.h"
+#include "app/settings_check.h"
+#include "app/sim_replay.h"
+#include "app/sim_run.h"
+#include "app/stats_command.h"
+#include "app/analyze_command.h"
+#include "app/bench_analyze.h"
+#include "app/study_command.h"
+#include "app/session_command.h"
+#include "app/console_command.h"
+#include "app/bench_loop.h"
+#include "app/export_command.h"
+#include "app/bench_db.h"
+#include "app/device_command.h"
+#include "app/bench_device.h"
+#include "app/device_serve_sim.h"
+#include "app/bench_udp.h"
+#include "app/cli_errors.h"
+#include "app/plan_command.h"
+#include "app/stability_command.h"
+#include "core/common/build_info.h"
+
+namespace hapticlab::app {
+
+int hapticlab_main(int argc, char** argv) {
+  // A file size limit (ulimit -f) should fail the write with EFBIG, which the
+  // output files report with the path, instead of killing the process with
+  // SIGXFSZ and leaving a temporary file behind.
+  std::signal(SIGXFSZ, SIG_IGN);
+  CLI::App app{"HapticLab: make a high-end haptic device feel like inexpensive hardware, "
+               "and study whether it matters.",
+               "hapticlab"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", software_version());
+
+  add_study_demo_command(app);
+
+  CLI::App* engine = app.add_subcommand("engine", "Run the degradation engine offline");
+  engine->require_subcommand(1);
+  add_engine_replay_command(*engine);
+  add_engine_demo_command(*engine);
+
+  CLI::App* settings = app.add_subcommand("settings", "Work with settings files");
+  settings->require_subcommand(1);
+  add_settings_check_command(*settings);
+
+  CLI::App* sim = app.add_subcommand("sim", "Simulated rig: participant, workstation and tasks");
+  sim->require_subcommand(1);
+  add_sim_run_command(*sim);
+  add_sim_replay_command(*sim);
+
+  add_study_command(app);
+  add_session_command(app);
+  add_console_command(app);
+  add_stats_command(app);
+  add_analyze_command(app);
+  add_export_command(app);
+  add_plan_command(app);
+  add_stability_command(app);
+  CLI::App* device = app.add_subcommand("device", "Work with haptic devices: check one, serve the simulated one");
+  device->require_subcommand(1);
+  add_device_check_command(*device);
+  add_device_serve_sim_command(*device);
+
+  CLI::App* bench = app.add_subcommand("bench", "Measure performance");
+  bench->require_subcommand(1);
+  add_bench_engine_command(*bench);
+  add_bench_loop_commands(*bench);
+  add_bench_analyze_command(*bench);
+  add_bench_db_command(*bench);
+  add_bench_device_command(*bench);
+  add_bench_udp_command(*bench);
+
+  add_help_command(app);
+  app.footer(exit_status_help());
+  return run_command_line(app, argc, argv);
+}
+
+}  // namespace hapticlab::app
