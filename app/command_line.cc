@@ -34,6 +34,17 @@
 #include "core/common/build_info.h"
 
 namespace hapticlab::app {
+namespace {
+
+// A command that only groups others (`hapticlab bench ...`): one of them
+// must be named.
+CLI::App& command_group(CLI::App& parent, const char* name, const char* description) {
+  CLI::App* group = parent.add_subcommand(name, description);
+  group->require_subcommand(1);
+  return *group;
+}
+
+}  // namespace
 
 int hapticlab_main(int argc, char** argv) {
   // A file size limit (ulimit -f) should fail the write with EFBIG, which the
@@ -48,19 +59,16 @@ int hapticlab_main(int argc, char** argv) {
 
   add_study_demo_command(app);
 
-  CLI::App* engine = app.add_subcommand("engine", "Run the degradation engine offline");
-  engine->require_subcommand(1);
-  add_engine_replay_command(*engine);
-  add_engine_demo_command(*engine);
+  CLI::App& engine = command_group(app, "engine", "Run the degradation engine offline");
+  add_engine_replay_command(engine);
+  add_engine_demo_command(engine);
 
-  CLI::App* settings = app.add_subcommand("settings", "Work with settings files");
-  settings->require_subcommand(1);
-  add_settings_check_command(*settings);
+  CLI::App& settings = command_group(app, "settings", "Work with settings files");
+  add_settings_check_command(settings);
 
-  CLI::App* sim = app.add_subcommand("sim", "Simulated rig: participant, workstation and tasks");
-  sim->require_subcommand(1);
-  add_sim_run_command(*sim);
-  add_sim_replay_command(*sim);
+  CLI::App& sim = command_group(app, "sim", "Simulated rig: participant, workstation and tasks");
+  add_sim_run_command(sim);
+  add_sim_replay_command(sim);
 
   add_study_command(app);
   add_session_command(app);
@@ -70,19 +78,17 @@ int hapticlab_main(int argc, char** argv) {
   add_export_command(app);
   add_plan_command(app);
   add_stability_command(app);
-  CLI::App* device = app.add_subcommand("device", "Work with haptic devices: check one, serve the simulated one");
-  device->require_subcommand(1);
-  add_device_check_command(*device);
-  add_device_serve_sim_command(*device);
+  CLI::App& device = command_group(app, "device", "Work with haptic devices: check one, serve the simulated one");
+  add_device_check_command(device);
+  add_device_serve_sim_command(device);
 
-  CLI::App* bench = app.add_subcommand("bench", "Measure performance");
-  bench->require_subcommand(1);
-  add_bench_engine_command(*bench);
-  add_bench_loop_commands(*bench);
-  add_bench_analyze_command(*bench);
-  add_bench_db_command(*bench);
-  add_bench_device_command(*bench);
-  add_bench_udp_command(*bench);
+  CLI::App& bench = command_group(app, "bench", "Measure performance");
+  add_bench_engine_command(bench);
+  add_bench_loop_commands(bench);
+  add_bench_analyze_command(bench);
+  add_bench_db_command(bench);
+  add_bench_device_command(bench);
+  add_bench_udp_command(bench);
 
   add_help_command(app);
   app.footer(exit_status_help());
