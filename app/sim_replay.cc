@@ -1,5 +1,7 @@
 #include "app/sim_replay.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -28,7 +30,7 @@ struct SimReplayOptions {
   std::string task;
   std::string settings;
   std::optional<std::uint64_t> trial_seed;
-  double rate_Hz = 1000.0;
+  std::optional<double> rate_Hz;  // default: the recording's (recorded_rate_Hz), else 1 kHz
   std::string output;
 };
 
@@ -40,7 +42,25 @@ struct Recording {
   std::uint64_t trial_seed = 1;
   NamedSettings settings;
   std::string what;  // for the summary line
+  std::optional<double> recorded_rate_Hz;  // a database trial's loop rate
 };
+
+// The loop rate a trial was recorded at: the median period between its
+// updates, as a whole number of hertz, within the loop's 150..2000 Hz. The
+// median, because a wall-clock recording's periods jitter and a few late
+// updates must not move it. Replayed at another rate, the engine's filters
+// and the VE step differently from the session's, and a replay through
+// the trial's own setting no longer gives back its forces.
+std::optional<double> recorded_rate_Hz(const std::vector<ReplayFrame>& frames) {
+  std::vector<double> periods_s;
+  periods_s.reserve(frames.size());
+  for (std::size_t k = 1; k < frames.size(); ++k)
+    if (frames[k].t_s > frames[k - 1].t_s) periods_s.push_back(frames[k].t_s - frames[k - 1].t_s);
+  if (periods_s.empty()) return std::nullopt;
+  auto middle = periods_s.begin() + static_cast<std::ptrdiff_t>(periods_s.size() / 2);
+  std::nth_element(periods_s.begin(), middle, periods_s.end());
+  return std::clamp(std::round(1.0 / *middle), 150.0, 2000.0);
+}
 
 Recording from_database(const SimReplayOptions& opt) {
   db::OpenOptions open;
@@ -54,6 +74,7 @@ Recording from_database(const SimReplayOptions& opt) {
     for (const db::TrialRow& t : db.trials(study.id)) {
       if (t.id != *opt.trial) continue;
       r.frames = db::load_replay_frames(db, t.id);  // throws for a trial without samples
+      r.recorded_rate_Hz = recorded_rate_Hz(r.frames);
       r.task = t.task;
       r.trial_seed = opt.trial_seed.value_or(
           sessions::trial_seed(sessions::participant_seed(study.seed, t.participant_code), t.id));
@@ -91,7 +112,8 @@ int run(const SimReplayOptions& opt) {
   config.task = parse_task_kind(rec.task);
   config.settings = rec.settings.engine;
   config.trial_seed = rec.trial_seed;
-  config.rate_Hz = opt.rate_Hz;
+  config.rate_Hz = opt.rate_Hz.value_or(rec.recorded_rate_Hz.value_or(1000.0));
+  const char* rate_source = opt.rate_Hz ? "" : rec.recorded_rate_Hz ? ", the recording's rate" : ", the default";
   // The whole recording, and a little more: the loop ends at its last frame.
   const double recording_s = rec.frames.back().t_s - rec.frames.front().t_s;
   config.max_duration_s = recording_s + 1.0;
@@ -100,9 +122,10 @@ int run(const SimReplayOptions& opt) {
 
   const SimTrialResult r = run_sim_trial_to_csv(config, opt.output);
 
-  std::printf("replayed %s through %s: %.2f s of %.2f s recorded (%s), task %s, %llu samples, "
+  std::printf("replayed %s through %s at %g Hz%s: %.2f s of %.2f s recorded (%s), task %s, %llu samples, "
               "peak VE force left %.2f N right %.2f N%s -> %s\n",
-              rec.what.c_str(), rec.settings.name.c_str(), r.duration_s, recording_s, to_string(r.stop_reason),
+              rec.what.c_str(), rec.settings.name.c_str(), config.rate_Hz, rate_source, r.duration_s, recording_s,
+              to_string(r.stop_reason),
               r.task_complete ? "complete" : "not complete", static_cast<unsigned long long>(r.samples),
               r.peak_ve_force_N[0], r.peak_ve_force_N[1], r.dropped_samples > 0 ? " (SAMPLES DROPPED)" : "",
               opt.output.c_str());
@@ -140,9 +163,10 @@ void add_sim_replay_command(CLI::App& sim) {
   cmd->add_option("--trial-seed", opt->trial_seed,
                   "Task layout seed (default for a database trial: the one its simulated session used; "
                   "for --csv: 1)");
-  cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
-      ->check(CLI::Range(150.0, 2000.0))
-      ->capture_default_str();
+  cmd->add_option("--rate-hz", opt->rate_Hz,
+                  "Haptic loop rate [Hz], 150..2000 (default for a database trial: the rate it was recorded at, "
+                  "from its median update period; for --csv: 1000)")
+      ->check(CLI::Range(150.0, 2000.0));
   CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update)");
   const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
   cmd->callback([opt, out_option] {

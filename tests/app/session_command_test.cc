@@ -159,7 +159,7 @@ double magnitude(const testing::CsvRow& row, const std::string& prefix) {
 TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
   // Recorded and replayed at 250 Hz: a replay must give the recorded forces
   // at any rate, and the trial's rows (both CSVs read here) are this test's
-  // time.
+  // time. The first replay names no rate: it takes the recording's.
   const auto [status, out] = testing::run_cli(
       kBinary, "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 1 --rate-hz 250");
   ASSERT_EQ(status, 0) << out;
@@ -175,9 +175,9 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
 
   const fs::path replay_csv = dir_ / "replay.csv";
   const auto [status2, summary] = testing::run_cli(
-      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --rate-hz 250 --out " +
-                   replay_csv.string());
+      kBinary, "sim replay --db " + db_ + " --trial " + std::to_string(trial) + " --out " + replay_csv.string());
   ASSERT_EQ(status2, 0) << summary;
+  EXPECT_THAT(summary, HasSubstr("at 250 Hz, the recording's rate"));
   EXPECT_THAT(summary, HasSubstr("end_of_data"));
   EXPECT_THAT(summary, HasSubstr("task complete"));
 
