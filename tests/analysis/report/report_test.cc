@@ -19,6 +19,7 @@
 #include "analysis/report/gnuplot.h"
 #include "analysis/stats/data_error.h"
 #include "study/synthetic_study_db.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab::analysis {
 namespace {
@@ -26,12 +27,7 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-std::string slurp(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using hapticlab::testing::slurp;
 
 class ReportTest : public ::testing::Test {
  protected:

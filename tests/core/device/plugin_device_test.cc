@@ -19,6 +19,7 @@
 #include "core/device/sim_device.h"
 #include "core/loop/clock.h"
 #include "tests/testing/test_paths.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab {
 namespace {
@@ -40,12 +41,7 @@ std::string thrown(F&& f) {
   return "";
 }
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::slurp;
 
 fs::path temp_path(const std::string& name) {
   return fs::temp_directory_path() / ("hapticlab_plugin_device_" + name + "_" + std::to_string(::getpid()));
@@ -189,7 +185,7 @@ TEST(PluginDeviceTest, ANonFiniteCommandNeverReachesThePluginAForceBeyondPeakIsC
     EXPECT_EQ(device.write(command), DeviceStatus::kOk);  // sent, clipped to the fake's peak 0.2 N
     device.halt();
   }  // destroy writes the report
-  const std::string text = read_file(report);
+  const std::string text = slurp(report);
   fs::remove(report);
   EXPECT_EQ(text, "writes 2 nonzero_writes 1 max_abs_force 0.2 halts 1\n");
 }

@@ -22,6 +22,7 @@
 #include "db/sample_codec.h"
 #include "db/sqlite_handle.h"
 #include "testing/csv_rows.h"
+#include "tests/testing/files.h"
 
 namespace hapticlab::db {
 namespace {
@@ -46,12 +47,7 @@ std::vector<std::vector<std::string>> csv_lines(const std::string& text) {
   return rows;
 }
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using hapticlab::testing::slurp;
 
 // One shell word (POSIX sh single quotes).
 std::string shell_word(const std::string& s) {
@@ -132,7 +128,7 @@ TEST_F(SqliteExtensionTest, RowsEqualTheExportCsvBitForBit) {
   const auto [status, out] = sql(*db_, {select + " FROM samples(1)"});
   ASSERT_EQ(status, 0) << out.substr(0, 2000);
   const auto rows = csv_lines(out);
-  const auto csv = csv_lines(read_text(*export_));
+  const auto csv = csv_lines(slurp(*export_));
   ASSERT_GT(csv.size(), 1000u) << "the trial must have stored samples";
   ASSERT_EQ(rows.size(), csv.size()) << "row count (header included)";
 
@@ -171,7 +167,7 @@ TEST_F(SqliteExtensionTest, RowsEqualTheExportCsvBitForBit) {
 }
 
 TEST_F(SqliteExtensionTest, ArgumentsWhereClauseAndJoinAgree) {
-  const auto csv = csv_lines(read_text(*export_));
+  const auto csv = csv_lines(slurp(*export_));
   std::size_t left = 0, right = 0;
   for (std::size_t r = 1; r < csv.size(); ++r) (csv[r][5] == "0" ? left : right) += 1;
   ASSERT_GT(left, 0u);
