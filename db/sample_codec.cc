@@ -3,6 +3,7 @@
 #include "core/loop/sample_channels.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdio>
@@ -65,14 +66,18 @@ double* float_channel(InstrumentSample& s, std::size_t channel) noexcept {
 constexpr std::size_t kFirstFloat = 2, kEndFloat = 25;
 constexpr std::size_t kEngineStatus = 25, kDeviceStatus = 26, kInContact = 27;
 
+static_assert(std::endian::native == std::endian::little, "the chunk format is little-endian; memcpy assumes it");
+
 class Reader {
  public:
   explicit Reader(std::span<const std::byte> blob) : blob_(blob) {}
-  std::uint64_t get(int bytes) {
-    if (pos_ + static_cast<std::size_t>(bytes) > blob_.size())
-      throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
+  // The next `Bytes` bytes, little-endian (asserted above for the memcpy).
+  template <int Bytes>
+  std::uint64_t get() {
+    if (pos_ + Bytes > blob_.size()) throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
     std::uint64_t v = 0;
-    for (int i = 0; i < bytes; ++i) v |= std::uint64_t(std::to_integer<std::uint8_t>(blob_[pos_++])) << (8 * i);
+    std::memcpy(&v, blob_.data() + pos_, Bytes);
+    pos_ += Bytes;
     return v;
   }
   bool at_end() const noexcept { return pos_ == blob_.size(); }
@@ -84,43 +89,43 @@ class Reader {
 
 // Reads the values of one channel whose tag was just read, calling
 // `set(i, bits)` for every sample.
-template <typename Set>
-void get_values(Reader& r, std::uint8_t tag, std::size_t n, int bytes, std::size_t channel, Set set) {
+template <int Bytes, typename Set>
+void get_values(Reader& r, std::uint8_t tag, std::size_t n, std::size_t channel, Set set) {
   if (tag == kConstant) {
-    const std::uint64_t v = r.get(bytes);
+    const std::uint64_t v = r.get<Bytes>();
     for (std::size_t i = 0; i < n; ++i) set(i, v);
   } else if (tag == kPerUpdate) {
-    for (std::size_t i = 0; i < n; ++i) set(i, r.get(bytes));
+    for (std::size_t i = 0; i < n; ++i) set(i, r.get<Bytes>());
   } else {
     throw ChunkError(ChunkError::Kind::kStructure,
                      std::string("channel ") + kChannelNames[channel] + " has unknown tag " + std::to_string(tag));
   }
 }
 
-template <typename Set>
-void get_channel(Reader& r, std::size_t n, int bytes, std::size_t channel, Set set) {
-  get_values(r, static_cast<std::uint8_t>(r.get(1)), n, bytes, channel, set);
+template <int Bytes, typename Set>
+void get_channel(Reader& r, std::size_t n, std::size_t channel, Set set) {
+  get_values<Bytes>(r, static_cast<std::uint8_t>(r.get<1>()), n, channel, set);
 }
 
 void decode_into(Reader& r, std::size_t count, StoredSample* s) {
-  get_channel(r, count, 8, 0, [&](std::size_t i, std::uint64_t v) { s[i].dt_s = std::bit_cast<double>(v); });
-  const auto t_tag = static_cast<std::uint8_t>(r.get(1));
+  get_channel<8>(r, count, 0, [&](std::size_t i, std::uint64_t v) { s[i].dt_s = std::bit_cast<double>(v); });
+  const auto t_tag = static_cast<std::uint8_t>(r.get<1>());
   if (t_tag == kRunningSum) {
-    s[0].t_s = std::bit_cast<double>(r.get(8));
+    s[0].t_s = std::bit_cast<double>(r.get<8>());
     for (std::size_t i = 1; i < count; ++i) s[i].t_s = s[i - 1].t_s + s[i].dt_s;
   } else {
-    get_values(r, t_tag, count, 8, 1, [&](std::size_t i, std::uint64_t v) { s[i].t_s = std::bit_cast<double>(v); });
+    get_values<8>(r, t_tag, count, 1, [&](std::size_t i, std::uint64_t v) { s[i].t_s = std::bit_cast<double>(v); });
   }
   for (std::size_t c = kFirstFloat; c < kEndFloat; ++c)
-    get_channel(r, count, 4, c, [&](std::size_t i, std::uint64_t v) {
+    get_channel<4>(r, count, c, [&](std::size_t i, std::uint64_t v) {
       *float_channel(s[i].value, c) = double{std::bit_cast<float>(static_cast<std::uint32_t>(v))};
     });
-  get_channel(r, count, 4, kEngineStatus,
-              [&](std::size_t i, std::uint64_t v) { s[i].value.engine_status = static_cast<std::uint32_t>(v); });
-  get_channel(r, count, 4, kDeviceStatus, [&](std::size_t i, std::uint64_t v) {
+  get_channel<4>(r, count, kEngineStatus,
+                 [&](std::size_t i, std::uint64_t v) { s[i].value.engine_status = static_cast<std::uint32_t>(v); });
+  get_channel<4>(r, count, kDeviceStatus, [&](std::size_t i, std::uint64_t v) {
     s[i].device_status = std::bit_cast<std::int32_t>(static_cast<std::uint32_t>(v));
   });
-  get_channel(r, count, 1, kInContact, [&](std::size_t i, std::uint64_t v) { s[i].value.in_contact = v != 0; });
+  get_channel<1>(r, count, kInContact, [&](std::size_t i, std::uint64_t v) { s[i].value.in_contact = v != 0; });
 }
 
 }  // namespace
@@ -164,10 +169,12 @@ class Writer {
  public:
   explicit Writer(std::size_t capacity) : out_(capacity) {}
   void byte(std::uint8_t v) noexcept { out_[pos_++] = static_cast<std::byte>(v); }
-  // Little-endian, `bytes` of `bits` (the machines we run on are
-  // little-endian; the loop spells it out so the format does not depend on it).
-  void le(std::uint64_t bits, int bytes) noexcept {
-    for (int i = 0; i < bytes; ++i) out_[pos_++] = static_cast<std::byte>(bits >> (8 * i));
+  // Little-endian, the low `Bytes` of `bits` (the memcpy relies on the
+  // machine being little-endian, asserted above).
+  template <int Bytes>
+  void le(std::uint64_t bits) noexcept {
+    std::memcpy(out_.data() + pos_, &bits, Bytes);
+    pos_ += Bytes;
   }
   std::vector<std::byte> take() {
     out_.resize(pos_);
@@ -181,13 +188,13 @@ class Writer {
 
 // One channel from its values' stored bit patterns, update i's at
 // bits[i * stride]: tag, then one value (all equal) or all of them.
-template <typename Bits>
-void put_bits(Writer& w, const Bits* bits, std::size_t n, int bytes, std::size_t stride = 1) {
+template <int Bytes, typename Bits>
+void put_bits(Writer& w, const Bits* bits, std::size_t n, std::size_t stride = 1) {
   bool constant = true;
   for (std::size_t i = 1; i < n && constant; ++i) constant = bits[i * stride] == bits[0];
   w.byte(constant ? kConstant : kPerUpdate);
   const std::size_t values = constant ? 1 : n;
-  for (std::size_t i = 0; i < values; ++i) w.le(static_cast<std::uint64_t>(bits[i * stride]), bytes);
+  for (std::size_t i = 0; i < values; ++i) w.le<Bytes>(static_cast<std::uint64_t>(bits[i * stride]));
 }
 
 // Bytes per value of each channel, in blob order (t_s's running-sum tag
@@ -206,8 +213,6 @@ constexpr int channel_bytes(std::size_t channel) noexcept {
 // are unchanged, so the inverse walks the same layout. `forward` false
 // undoes it. Throws ChunkError (kStructure) for a body that does not hold
 // `n` updates' worth of channels.
-static_assert(std::endian::native == std::endian::little, "the chunk format is little-endian; memcpy assumes it");
-
 struct Segment {
   std::uint8_t tag = kConstant;
   std::byte* values = nullptr;  // the channel's first value
@@ -243,8 +248,8 @@ U load(const std::byte* p) noexcept {
   return v;
 }
 
-// Values <-> bit planes. The first m = n - n % 8 values of `sizeof(U)`
-// bytes become 8 * sizeof(U) planes of m / 8 bytes: plane k holds bit k % 8
+// Values <-> bit planes. The first m = n - n % 8 values of W bytes become
+// 8 * W planes of m / 8 bytes: plane k holds bit k % 8
 // of byte k / 8 of every value, value i's at bit i % 8 of the plane's byte
 // i / 8. The last n % 8 values follow as they are. Differences of a smooth
 // signal share their high bits (zero, or all ones when negative), so most
@@ -263,26 +268,77 @@ inline std::uint64_t transpose8x8(std::uint64_t x) noexcept {
   return x;
 }
 
-// Bit planes of n values of w bytes at v, in place: `to_planes` makes
-// them, false undoes it (the same transpose, read and written the other way).
-void bit_planes(std::byte* v, std::size_t n, std::size_t w, bool to_planes, std::vector<std::byte>& scratch) {
+// 8 x 8 bytes transposed: byte c of x[r] and byte r of x[c] trade places.
+// Blocks first (the 4 x 4 corners, then 2 x 2, then single bytes), each
+// swap a masked XOR, as transpose8x8 does for bits. Spelled out and always
+// inlined (GCC kept it a call, 6 % of the encoder), so the eight words stay
+// in registers.
+[[gnu::always_inline]] inline void swap_masked(std::uint64_t& a, std::uint64_t& b, int shift, std::uint64_t mask) noexcept {
+  const std::uint64_t t = ((a >> shift) ^ b) & mask;
+  a ^= t << shift;
+  b ^= t;
+}
+[[gnu::always_inline]] inline void transpose_bytes8x8(std::array<std::uint64_t, 8>& x) noexcept {
+  constexpr std::uint64_t k4 = 0x00000000FFFFFFFFull, k2 = 0x0000FFFF0000FFFFull, k1 = 0x00FF00FF00FF00FFull;
+  swap_masked(x[0], x[4], 32, k4);
+  swap_masked(x[1], x[5], 32, k4);
+  swap_masked(x[2], x[6], 32, k4);
+  swap_masked(x[3], x[7], 32, k4);
+  swap_masked(x[0], x[2], 16, k2);
+  swap_masked(x[1], x[3], 16, k2);
+  swap_masked(x[4], x[6], 16, k2);
+  swap_masked(x[5], x[7], 16, k2);
+  swap_masked(x[0], x[1], 8, k1);
+  swap_masked(x[2], x[3], 8, k1);
+  swap_masked(x[4], x[5], 8, k1);
+  swap_masked(x[6], x[7], 8, k1);
+}
+
+// The 8 bytes of `word` to p[0], p[stride], ..., p[7 * stride], low byte
+// first, and back: one byte of each of 8 consecutive planes. Unrolled by
+// hand (GCC at -O2 keeps the loop, and it dominated the encoder).
+inline void scatter8(std::byte* p, std::size_t stride, std::uint64_t word) noexcept {
+  p[0] = static_cast<std::byte>(word);
+  p[stride] = static_cast<std::byte>(word >> 8);
+  p[2 * stride] = static_cast<std::byte>(word >> 16);
+  p[3 * stride] = static_cast<std::byte>(word >> 24);
+  p[4 * stride] = static_cast<std::byte>(word >> 32);
+  p[5 * stride] = static_cast<std::byte>(word >> 40);
+  p[6 * stride] = static_cast<std::byte>(word >> 48);
+  p[7 * stride] = static_cast<std::byte>(word >> 56);
+}
+inline std::uint64_t gather8(const std::byte* p, std::size_t stride) noexcept {
+  const auto at = [&](std::size_t k) { return std::uint64_t{std::to_integer<std::uint8_t>(p[k * stride])} << (8 * k); };
+  return at(0) | at(1) | at(2) | at(3) | at(4) | at(5) | at(6) | at(7);
+}
+
+// Bit planes of n values of W bytes at v, in place: `to_planes` makes
+// them, false undoes it. Per group of 8 values: their bytes transposed
+// (word b = byte b of each value), then each word's bits (transpose8x8),
+// whose 8 bytes are the group's byte in planes 8b..8b+7. The group's values
+// are loaded and stored whole, not byte by byte: this runs on every chunk
+// the writer thread stores and every chunk analyze reads.
+template <std::size_t W>
+void bit_planes(std::byte* v, std::size_t n, bool to_planes, std::vector<std::byte>& scratch) {
+  static_assert(W == 4 || W == 8);
   const std::size_t groups = n / 8;
-  scratch.resize(n * w);
+  scratch.resize(n * W);
+  std::byte* const out = scratch.data();
   for (std::size_t g = 0; g < groups; ++g) {
-    for (std::size_t b = 0; b < w; ++b) {
-      // Byte b of values 8g..8g+7, and bit planes 8b..8b+7 at their byte g.
-      const auto value_byte = [&](std::size_t r) { return (8 * g + r) * w + b; };
-      const auto plane_byte = [&](std::size_t c) { return (8 * b + c) * groups + g; };
-      std::uint64_t in = 0;
-      for (std::size_t k = 0; k < 8; ++k)
-        in |= std::uint64_t{std::to_integer<std::uint8_t>(v[to_planes ? value_byte(k) : plane_byte(k)])} << (8 * k);
-      const std::uint64_t out = transpose8x8(in);  // its own inverse
-      for (std::size_t k = 0; k < 8; ++k)
-        scratch[to_planes ? plane_byte(k) : value_byte(k)] = static_cast<std::byte>(out >> (8 * k));
+    std::array<std::uint64_t, 8> x{};
+    if (to_planes) {
+      for (std::size_t r = 0; r < 8; ++r) std::memcpy(&x[r], v + (8 * g + r) * W, W);
+      transpose_bytes8x8(x);
+      for (std::size_t b = 0; b < W; ++b) scatter8(out + 8 * b * groups + g, groups, transpose8x8(x[b]));
+    } else {
+      // transpose8x8 is its own inverse.
+      for (std::size_t b = 0; b < W; ++b) x[b] = transpose8x8(gather8(v + 8 * b * groups + g, groups));
+      transpose_bytes8x8(x);
+      for (std::size_t r = 0; r < 8; ++r) std::memcpy(out + (8 * g + r) * W, &x[r], W);
     }
   }
-  std::memcpy(scratch.data() + groups * 8 * w, v + groups * 8 * w, (n - groups * 8) * w);
-  std::memcpy(v, scratch.data(), n * w);
+  std::memcpy(out + groups * 8 * W, v + groups * 8 * W, (n - groups * 8) * W);
+  std::memcpy(v, out, n * W);
 }
 
 // Differences modulo 2^bits, in place (first value kept), and their sums.
@@ -336,11 +392,15 @@ void precondition(std::span<std::byte> body, std::size_t n, bool forward, std::v
       if (g.width == 4) sum ? sums<std::uint32_t>(g.values, n) : differences<std::uint32_t>(g.values, n);
       else sum ? sums<std::uint64_t>(g.values, n) : differences<std::uint64_t>(g.values, n);
     };
+    const auto planes = [&](bool to_planes) {
+      if (g.width == 4) bit_planes<4>(g.values, n, to_planes, scratch);
+      else bit_planes<8>(g.values, n, to_planes, scratch);
+    };
     if (forward) {
       diff(false);
-      bit_planes(g.values, n, g.width, true, scratch);
+      planes(true);
     } else {
-      bit_planes(g.values, n, g.width, false, scratch);
+      planes(false);
       diff(true);
     }
   }
@@ -387,12 +447,12 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s, std::uint8_
   const std::size_t n = s.size();
   Writer w(kChunkHeaderBytes + max_body_bytes(n));
   w.byte(kChunkFormatPlain);
-  w.le(0, 4);  // the checksum, filled in below
+  w.le<4>(0);  // the checksum, filled in below
   std::vector<std::uint64_t> bits64(n);
   std::vector<std::uint32_t> bits32(n);
 
   for (std::size_t i = 0; i < n; ++i) bits64[i] = std::bit_cast<std::uint64_t>(s[i].dt_s);
-  put_bits(w, bits64.data(), n, 8);
+  put_bits<8>(w, bits64.data(), n);
 
   // t_s: when every t is the previous t plus this dt, bit for bit (the
   // usual case with the virtual clock), t[0] alone restores the rest.
@@ -401,23 +461,23 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s, std::uint8_
     running_sum = std::bit_cast<std::uint64_t>(s[i - 1].t_s + s[i].dt_s) == std::bit_cast<std::uint64_t>(s[i].t_s);
   if (running_sum) {
     w.byte(kRunningSum);
-    w.le(std::bit_cast<std::uint64_t>(s[0].t_s), 8);
+    w.le<8>(std::bit_cast<std::uint64_t>(s[0].t_s));
   } else {
     for (std::size_t i = 0; i < n; ++i) bits64[i] = std::bit_cast<std::uint64_t>(s[i].t_s);
-    put_bits(w, bits64.data(), n, 8);
+    put_bits<8>(w, bits64.data(), n);
   }
 
   // Float channels: converted update by update into an n x 23 table, then
   // written column by column.
   std::vector<std::uint32_t> table(n * kNumFloat);
   for (std::size_t i = 0; i < n; ++i) float_bits(s[i].value, &table[i * kNumFloat]);
-  for (std::size_t c = 0; c < kNumFloat; ++c) put_bits(w, &table[c], n, 4, kNumFloat);
+  for (std::size_t c = 0; c < kNumFloat; ++c) put_bits<4>(w, &table[c], n, kNumFloat);
   for (std::size_t i = 0; i < n; ++i) bits32[i] = s[i].value.engine_status;
-  put_bits(w, bits32.data(), n, 4);
+  put_bits<4>(w, bits32.data(), n);
   for (std::size_t i = 0; i < n; ++i) bits32[i] = std::bit_cast<std::uint32_t>(s[i].device_status);
-  put_bits(w, bits32.data(), n, 4);
+  put_bits<4>(w, bits32.data(), n);
   for (std::size_t i = 0; i < n; ++i) bits32[i] = s[i].value.in_contact ? 1u : 0u;
-  put_bits(w, bits32.data(), n, 1);
+  put_bits<1>(w, bits32.data(), n);
   std::vector<std::byte> blob = w.take();
   if (format == kChunkFormat) {
     // The plain body, preconditioned, becomes one zstd frame behind the
@@ -494,7 +554,7 @@ void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const s
   Reader r(body);
   // Format 0 holds the old blob whole, its own format byte (1) first.
   if (format == kChunkFormatMigrated) {
-    const auto legacy = r.get(1);
+    const auto legacy = r.get<1>();
     if (legacy != 1)
       throw ChunkError(ChunkError::Kind::kStructure,
                        "migrated chunk starts with format " + std::to_string(legacy) + ", expected 1");

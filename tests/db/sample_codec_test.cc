@@ -5,6 +5,8 @@
 #include <span>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <random>
 #include <limits>
 #include <string>
 #include <vector>
@@ -346,6 +348,76 @@ TEST(SampleCodec, FormatTwoGoldenBitPlanes) {
   std::vector<StoredSample> out;
   decode_chunk(0, 8, blob, out);
   for (std::size_t i = 0; i < 8; ++i) EXPECT_EQ(out[i].value.raw_position[0], in[i].value.raw_position[0]) << i;
+}
+
+// Differences of n values' bit patterns (the first kept), in bit planes by
+// the definition of sample_codec.h, one bit at a time: bit k of value i
+// (bit k % 8 of its byte k / 8) at bit i % 8 of byte i / 8 of plane k; the
+// last n % 8 differences follow as they are.
+template <typename U>
+std::vector<std::byte> planes_by_definition(const std::byte* values, std::size_t n) {
+  constexpr std::size_t kWidth = sizeof(U);
+  std::vector<U> d(n);
+  U prev = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    U x;
+    std::memcpy(&x, values + i * kWidth, kWidth);
+    d[i] = static_cast<U>(x - prev);
+    prev = x;
+  }
+  const std::size_t m = n - n % 8;
+  std::vector<std::byte> out(n * kWidth, std::byte{0});
+  for (std::size_t k = 0; k < 8 * kWidth; ++k)
+    for (std::size_t i = 0; i < m; ++i)
+      if ((d[i] >> k) & 1u) out[k * (m / 8) + i / 8] |= static_cast<std::byte>(1u << (i % 8));
+  std::memcpy(out.data() + m * kWidth, d.data() + m, (n - m) * kWidth);
+  return out;
+}
+
+// Bit planes of long chunks against their definition, for lengths with and
+// without values past the last group of 8: random dt_s (8 bytes; t_s its
+// running sum) and raw_insertion_m (4 bytes, any finite float32 of either
+// sign), every other channel constant. The frame must hold the plain body
+// with those two channels' values replaced by their planes.
+TEST(SampleCodec, FormatTwoBitPlanesFollowTheirDefinitionForAnyLength) {
+  std::mt19937_64 rng(7);
+  for (std::size_t n : {8u, 9u, 16u, 23u, 1000u, 1003u}) {
+    std::vector<StoredSample> in(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      in[i].tick = i;
+      in[i].dt_s = 1e-3 * (1.0 + std::ldexp(static_cast<double>(rng() >> 11), -53));
+      in[i].t_s = i == 0 ? 1.0 : in[i - 1].t_s + in[i].dt_s;
+      in[i].device_status = -1;
+      // Bit 30 clear: the exponent is below all ones, so never NaN or infinity.
+      in[i].value.raw_position[0] = double{std::bit_cast<float>(static_cast<std::uint32_t>(rng()) & 0xBFFFFFFFu)};
+    }
+    const std::vector<std::byte> plain = encode_chunk(in, kChunkFormatPlain);
+    const std::vector<std::byte> blob = encode_chunk(in);
+    const auto frame = std::span(blob).subspan(kChunkHeaderBytes);
+    std::vector<std::byte> body(ZSTD_getFrameContentSize(frame.data(), frame.size()));
+    ASSERT_EQ(ZSTD_decompress(body.data(), body.size(), frame.data(), frame.size()), body.size());
+
+    // The plain body: dt's tag and n values, t's running-sum tag and t[0],
+    // raw_insertion_m's tag and n values, then the constants.
+    std::vector<std::byte> want(plain.begin() + kChunkHeaderBytes, plain.end());
+    ASSERT_EQ(std::to_integer<int>(want[0]), 0) << "dt_s per update";
+    ASSERT_EQ(std::to_integer<int>(want[1 + 8 * n]), 2) << "t_s a running sum";
+    ASSERT_EQ(std::to_integer<int>(want[10 + 8 * n]), 0) << "raw_insertion_m per update";
+    const std::vector<std::byte> dt = planes_by_definition<std::uint64_t>(want.data() + 1, n);
+    const std::vector<std::byte> raw = planes_by_definition<std::uint32_t>(want.data() + 11 + 8 * n, n);
+    std::copy(dt.begin(), dt.end(), want.begin() + 1);
+    std::copy(raw.begin(), raw.end(), want.begin() + 11 + static_cast<std::ptrdiff_t>(8 * n));
+    EXPECT_EQ(hex(body), hex(want)) << n << " updates";
+
+    std::vector<StoredSample> out;
+    decode_chunk(0, n, blob, out);
+    for (std::size_t i = 0; i < n; ++i) {
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(out[i].dt_s), std::bit_cast<std::uint64_t>(in[i].dt_s)) << i;
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(out[i].value.raw_position[0]),
+                std::bit_cast<std::uint64_t>(in[i].value.raw_position[0]))
+          << i;
+    }
+  }
 }
 
 // A format-2 chunk whose checksum is right but whose frame does not
