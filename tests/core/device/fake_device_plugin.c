@@ -2,8 +2,15 @@
  * A fake hardware device plugin for the tests: it reads a fixed pose and
  * misbehaves on request. Written in C, against the installed-style header,
  * as a lab's plugin would be. Options:
- *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create|jump
- *     (jump: from the 101st read on, the left insertion reads 1 m further, as a slipped encoder would)
+ *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create|jump|
+ *         crash_in_read|crash_in_write|hang_in_read|slow_write
+ *     (jump: from the 101st read on, the left insertion reads 1 m further, as a slipped encoder would;
+ *      crash_in_read, crash_in_write: SIGSEGV in that call once `after` calls of it have returned;
+ *      hang_in_read: from then on read() does not return for hang_ms (0: never);
+ *      slow_write: every write() takes write_delay_us, as a device on a slow bus would)
+ *   after=N          calls that behave before a crash_in_* or hang_in_read fault strikes (default 200)
+ *   hang_ms=N        how long hang_in_read blocks (default 0: for ever)
+ *   write_delay_us=N how long slow_write's write() takes (default 5000)
  *   report=PATH   at destroy, write "writes N nonzero_writes M max_abs_force F halts H" to PATH
  * Built three times (tests/core/device/CMakeLists.txt): as is, with
  * FAKE_ABI_VERSION=2, and with FAKE_NO_ENTRY (no entry point).
@@ -15,13 +22,17 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #ifndef FAKE_ABI_VERSION
 #define FAKE_ABI_VERSION HL_DEVICE_PLUGIN_ABI_VERSION
 #endif
 
-enum fault { NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS, JUMP };
+enum fault {
+  NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS, JUMP,
+  CRASH_IN_READ, CRASH_IN_WRITE, HANG_IN_READ, SLOW_WRITE
+};
 
 struct hl_device {
   enum fault fault;
@@ -29,7 +40,23 @@ struct hl_device {
   int configured, active;
   long reads, writes, nonzero_writes, halts;
   double max_abs_force;
+  long after, hang_ms, write_delay_us;
 };
+
+/* A non-negative whole number option, or -1. */
+static long whole_number(const char* text) {
+  char* end = NULL;
+  long v = strtol(text, &end, 10);
+  return (end == text || *end != '\0' || v < 0) ? -1 : v;
+}
+
+static void sleep_us(long us) {
+  struct timespec ts;
+  ts.tv_sec = us / 1000000;
+  ts.tv_nsec = (us % 1000000) * 1000;
+  while (nanosleep(&ts, &ts) != 0) {
+  }
+}
 
 /* The fixed pose: inside the workstation's range on every joint. */
 static const double kPose[HL_DEVICE_NUM_JOINTS] = {0.05, 0.1, -0.1, 0.0, 0.2};
@@ -39,6 +66,8 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
   hl_device* d = calloc(1, sizeof *d);
   size_t i;
   if (d == NULL) return NULL;
+  d->after = 200;
+  d->write_delay_us = 5000;
   for (i = 0; i < count; ++i) {
     if (strcmp(keys[i], "fault") == 0) {
       const char* v = values[i];
@@ -49,6 +78,10 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
       else if (strcmp(v, "nan_read") == 0) d->fault = NAN_READ;
       else if (strcmp(v, "invalid_ratings") == 0) d->fault = INVALID_RATINGS;
       else if (strcmp(v, "jump") == 0) d->fault = JUMP;
+      else if (strcmp(v, "crash_in_read") == 0) d->fault = CRASH_IN_READ;
+      else if (strcmp(v, "crash_in_write") == 0) d->fault = CRASH_IN_WRITE;
+      else if (strcmp(v, "hang_in_read") == 0) d->fault = HANG_IN_READ;
+      else if (strcmp(v, "slow_write") == 0) d->fault = SLOW_WRITE;
       else if (strcmp(v, "exit_in_create") == 0) exit(7);
       else {
         snprintf(error, error_size, "fault: '%s' is not a fault of the fake device", v);
@@ -57,8 +90,21 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
       }
     } else if (strcmp(keys[i], "report") == 0) {
       snprintf(d->report, sizeof d->report, "%s", values[i]);
+    } else if (strcmp(keys[i], "after") == 0 || strcmp(keys[i], "hang_ms") == 0 ||
+               strcmp(keys[i], "write_delay_us") == 0) {
+      const long v = whole_number(values[i]);
+      if (v < 0) {
+        snprintf(error, error_size, "%s: '%s' is not a whole number >= 0", keys[i], values[i]);
+        free(d);
+        return NULL;
+      }
+      if (keys[i][0] == 'a') d->after = v;
+      else if (keys[i][0] == 'h') d->hang_ms = v;
+      else d->write_delay_us = v;
     } else {
-      snprintf(error, error_size, "'%s' is not an option of the fake device; it takes fault, report", keys[i]);
+      snprintf(error, error_size,
+               "'%s' is not an option of the fake device; it takes fault, report, after, hang_ms, write_delay_us",
+               keys[i]);
       free(d);
       return NULL;
     }
@@ -99,6 +145,13 @@ static hl_device_status fake_activate(hl_device* d, const hl_device_clock* clock
 static hl_device_status fake_read(hl_device* d, hl_device_reading* reading) {
   int i, j;
   if (!d->active) return HL_DEVICE_NOT_ACTIVE;
+  if (d->fault == CRASH_IN_READ && d->reads >= d->after) raise(SIGSEGV);
+  if (d->fault == HANG_IN_READ && d->reads >= d->after) {
+    if (d->hang_ms == 0)
+      for (;;) pause(); /* a bus transfer that never completes */
+    sleep_us(d->hang_ms * 1000);
+  }
+  if (d->fault != JUMP) ++d->reads;
   for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
     for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) reading->position[i][j] = kPose[j];
   /* Reported as fine: HapticLab must notice the NaN itself. */
@@ -111,6 +164,8 @@ static hl_device_status fake_read(hl_device* d, hl_device_reading* reading) {
 static hl_device_status fake_write(hl_device* d, const hl_device_command* command) {
   int i, j, nonzero = 0;
   if (!d->active) return HL_DEVICE_NOT_ACTIVE;
+  if (d->fault == CRASH_IN_WRITE && d->writes >= d->after) raise(SIGSEGV);
+  if (d->fault == SLOW_WRITE) sleep_us(d->write_delay_us);
   for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
     for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) {
       nonzero |= command->force[i][j] != 0.0;
