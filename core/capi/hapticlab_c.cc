@@ -27,10 +27,13 @@ struct hl_engine {
   // Operator stop (hl_engine_halt), set from any thread, read once per
   // update and refresh on the loop thread.
   std::atomic<bool> halted{false};
-  // hl_engine_set_ramp_in: ramp length [s] (0: off) and each instrument's
-  // time since it was set [s].
+  // hl_engine_set_ramp_in: ramp length [s] (0: off), each instrument's time
+  // since it was set [s], and the ramp's time of the current update: the
+  // time before that update's dt, so the first update commands exactly
+  // zero, as the loop's ForceGuard does (its t_s is 0 at the first update).
   double ramp_in_s = 0.0;
   std::array<double, hapticlab::kNumInstruments> ramp_elapsed_s{};
+  std::array<double, hapticlab::kNumInstruments> ramp_t_s{};
 };
 
 namespace {
@@ -80,7 +83,7 @@ static_assert((HL_HALTED & (HL_FAULT_MASK | hapticlab::kFaultMask | HL_DT_DEFERR
 // Scales the output's forces by the instrument's ramp-in (1 once it is over).
 void apply_ramp_in(const hl_engine& engine, int instrument, hl_output* out) {
   if (!(engine.ramp_in_s > 0.0)) return;
-  const double scale = engine.ramp_elapsed_s[static_cast<std::size_t>(instrument)] / engine.ramp_in_s;
+  const double scale = engine.ramp_t_s[static_cast<std::size_t>(instrument)] / engine.ramp_in_s;
   if (scale >= 1.0) return;
   const double s = std::max(0.0, scale);
   for (double& f : out->displayed_force_N) f *= s;
@@ -150,7 +153,9 @@ int hl_engine_update(hl_engine* engine, int instrument, const hl_input* in, hl_o
   out->degraded_insertion_m = r.degraded_position[hapticlab::kInsertion];
   out->degraded_pitch_rad = r.degraded_position[hapticlab::kPitch];
   out->degraded_yaw_rad = r.degraded_position[hapticlab::kYaw];
-  if (std::isfinite(in->dt_s) && in->dt_s > 0.0) engine->ramp_elapsed_s[static_cast<std::size_t>(instrument)] += in->dt_s;
+  const auto ui = static_cast<std::size_t>(instrument);
+  engine->ramp_t_s[ui] = engine->ramp_elapsed_s[ui];
+  if (std::isfinite(in->dt_s) && in->dt_s > 0.0) engine->ramp_elapsed_s[ui] += in->dt_s;
   apply_ramp_in(*engine, instrument, out);
   zero_forces_if_halted(*engine, out);
   return HL_OK;
@@ -179,6 +184,7 @@ int hl_engine_set_ramp_in(hl_engine* engine, double ramp_s) {
   if (engine == nullptr || !(ramp_s >= 0.0 && ramp_s <= 10.0)) return HL_ERROR_INVALID_ARGUMENT;
   engine->ramp_in_s = ramp_s;
   engine->ramp_elapsed_s = {};
+  engine->ramp_t_s = {};
   return HL_OK;
 }
 

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "core/loop/force_guard.h"
+#include "core/loop/haptic_loop.h"
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
 #include "core/loop/spsc_queue.h"
@@ -25,10 +26,11 @@ namespace {
 
 namespace hl = hapticlab;
 
-// The queues of `session run`'s loop (HapticLoopConfig): ~16 s of 1 kHz
-// samples, so a writer held up by another station's commit loses nothing.
-constexpr std::size_t kSampleQueueCapacity = std::size_t{1} << 14;
-constexpr std::size_t kEventQueueCapacity = std::size_t{1} << 12;
+// The queues of `session run`'s loop (LoopConfig), as study.h documents them.
+constexpr std::size_t kSampleQueueCapacity = HL_STUDY_SAMPLE_QUEUE_CAPACITY;
+constexpr std::size_t kEventQueueCapacity = HL_STUDY_EVENT_QUEUE_CAPACITY;
+static_assert(kSampleQueueCapacity == hl::LoopConfig{}.sample_queue_capacity);
+static_assert(kEventQueueCapacity == hl::LoopConfig{}.event_queue_capacity);
 
 static_assert(HL_EVENT_INSERTION_PASSED == static_cast<int>(hl::TaskEventType::kInsertionPassed));
 static_assert(HL_EVENT_INSERTION_WITHDRAWN == static_cast<int>(hl::TaskEventType::kInsertionWithdrawn));
@@ -37,8 +39,12 @@ static_assert(HL_EVENT_CONTACT_END == static_cast<int>(hl::TaskEventType::kConta
 static_assert(HL_EVENT_GRASP_START == static_cast<int>(hl::TaskEventType::kGraspStart));
 static_assert(HL_EVENT_GRASP_END == static_cast<int>(hl::TaskEventType::kGraspEnd));
 static_assert(HL_EVENT_TASK_COMPLETE == static_cast<int>(hl::TaskEventType::kTaskComplete));
-// The operator's abort is logged by the API itself (hl_study_request_stop).
-constexpr int kLastVeEventType = static_cast<int>(hl::TaskEventType::kTaskComplete);
+// The types study.h defines. The simulated VE's own (tissue_removed,
+// clip_applied, clip_missed: 6..8) and operator_abort, which the API logs
+// itself (hl_study_request_stop), are not the application's to log.
+constexpr bool is_ve_event_type(int type) noexcept {
+  return (type >= HL_EVENT_INSERTION_PASSED && type <= HL_EVENT_GRASP_END) || type == HL_EVENT_TASK_COMPLETE;
+}
 
 void write_error(char* error, size_t size, const std::string& message) {
   if (error != nullptr && size > 0) std::snprintf(error, size, "%s", message.c_str());
@@ -70,6 +76,13 @@ struct hl_study {
   std::atomic<bool> stop{false};
   std::atomic<std::uint64_t> dropped_samples{0};
   std::atomic<std::uint64_t> dropped_events{0};
+  // Refused at the call (HL_ERROR_INVALID_ARGUMENT) and counted, so a bad
+  // sample never reaches the writer, whose chunks must not overlap in ticks.
+  std::atomic<std::uint64_t> rejected_samples{0};
+  std::atomic<std::uint64_t> rejected_events{0};
+  // The loop thread's own: the tick of the last sample accepted this trial.
+  bool have_tick = false;
+  std::uint64_t last_tick = 0;
   std::atomic<double> last_t_s{0.0};  // of the last sample logged: when a stop took effect
 };
 
@@ -87,6 +100,8 @@ int finish_trial(hl_study& s, hl::db::TrialOutcome outcome, char* error, size_t 
   }
   outcome.dropped_samples = s.dropped_samples.load(std::memory_order_relaxed);
   outcome.dropped_events = s.dropped_events.load(std::memory_order_relaxed);
+  outcome.device_counters.emplace_back("rejected_samples", s.rejected_samples.load(std::memory_order_relaxed));
+  outcome.device_counters.emplace_back("rejected_events", s.rejected_events.load(std::memory_order_relaxed));
   outcome.timing = s.timing.summary();
   s.trial.reset();
   try {
@@ -217,6 +232,9 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
     }
     study->dropped_samples.store(0, std::memory_order_relaxed);
     study->dropped_events.store(0, std::memory_order_relaxed);
+    study->rejected_samples.store(0, std::memory_order_relaxed);
+    study->rejected_events.store(0, std::memory_order_relaxed);
+    study->have_tick = false;
     study->last_t_s.store(0.0, std::memory_order_relaxed);
     study->timing.reset();
     try {
@@ -252,6 +270,16 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
 int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
   if (study == nullptr || sample == nullptr) return HL_ERROR_INVALID_ARGUMENT;
   if (!study->trial_open.load(std::memory_order_acquire)) return HL_ERROR_STATE;
+  // A tick that does not increase (a repeated update, a counter reset) or a
+  // time that is not a number would put two samples at one place in the
+  // trial: refused here, and the trial goes on.
+  if ((study->have_tick && sample->tick <= study->last_tick) || !std::isfinite(sample->t_s) ||
+      !std::isfinite(sample->dt_s)) {
+    study->rejected_samples.fetch_add(1, std::memory_order_relaxed);
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
+  study->have_tick = true;
+  study->last_tick = sample->tick;
   hl::LoopSample s;
   s.tick = sample->tick;
   s.t_s = sample->t_s;
@@ -283,9 +311,11 @@ int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
 
 int hl_study_log_event(hl_study* study, double t_s, int type, int instrument, int32_t index) {
   if (study == nullptr) return HL_ERROR_INVALID_ARGUMENT;
-  if (type < 0 || type > kLastVeEventType || instrument < -1 || instrument > 1 || !std::isfinite(t_s))
-    return HL_ERROR_INVALID_ARGUMENT;
   if (!study->trial_open.load(std::memory_order_acquire)) return HL_ERROR_STATE;
+  if (!is_ve_event_type(type) || instrument < -1 || instrument > 1 || !std::isfinite(t_s)) {
+    study->rejected_events.fetch_add(1, std::memory_order_relaxed);
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
   const hl::TaskEvent e{t_s, static_cast<hl::TaskEventType>(type), static_cast<std::int8_t>(instrument), index};
   if (!study->events.try_push(e)) {
     study->dropped_events.fetch_add(1, std::memory_order_relaxed);
@@ -298,6 +328,13 @@ int hl_study_dropped(const hl_study* study, uint64_t* samples, uint64_t* events)
   if (study == nullptr) return HL_ERROR_INVALID_ARGUMENT;
   if (samples != nullptr) *samples = study->dropped_samples.load(std::memory_order_relaxed);
   if (events != nullptr) *events = study->dropped_events.load(std::memory_order_relaxed);
+  return HL_OK;
+}
+
+int hl_study_rejected(const hl_study* study, uint64_t* samples, uint64_t* events) {
+  if (study == nullptr) return HL_ERROR_INVALID_ARGUMENT;
+  if (samples != nullptr) *samples = study->rejected_samples.load(std::memory_order_relaxed);
+  if (events != nullptr) *events = study->rejected_events.load(std::memory_order_relaxed);
   return HL_OK;
 }
 

@@ -126,6 +126,59 @@ TEST_F(StudyApiTest, CallsOutOfOrderAreRefusedAndLoseNothing) {
   EXPECT_EQ(db.session(*t.session_id).status, db::SessionStatus::kClosed);
 }
 
+// Issue 33: one repeated tick used to pass (HL_OK), then fail the whole
+// trial at hl_study_end_trial as a storage failure (513 samples lost, the
+// session over). A sample that cannot be stored where it says, and an
+// event type study.h does not define, are refused at the call and counted;
+// the trial goes on and is stored whole.
+TEST_F(StudyApiTest, ARepeatedTickOrAnUndefinedEventIsRefusedAtTheCallAndTheTrialGoesOn) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK) << error_;
+  int refused = 0;
+  for (std::uint64_t k = 0; k < 600; ++k) {
+    const hl_sample sk = sample_at(k);
+    ASSERT_EQ(hl_study_log_sample(study_, &sk), HL_OK);
+    if (k == 100 || k == 300) {  // the same update again, and a counter that went back
+      const hl_sample again = sample_at(k == 100 ? k : k - 50);
+      EXPECT_EQ(hl_study_log_sample(study_, &again), HL_ERROR_INVALID_ARGUMENT);
+      ++refused;
+    }
+  }
+  hl_sample no_time = sample_at(600);
+  no_time.t_s = NAN;
+  EXPECT_EQ(hl_study_log_sample(study_, &no_time), HL_ERROR_INVALID_ARGUMENT);
+  ++refused;
+  // 6..8 are the simulated VE's own types (tissue_removed, clip_applied,
+  // clip_missed), 10 is operator_abort: none is defined by study.h.
+  for (int type : {6, 7, 8, 10, 11, -1})
+    EXPECT_EQ(hl_study_log_event(study_, 0.2, type, -1, 0), HL_ERROR_INVALID_ARGUMENT) << "type " << type;
+  EXPECT_EQ(hl_study_log_event(study_, 0.010, HL_EVENT_INSERTION_PASSED, 0, 0), HL_OK);
+  std::uint64_t rejected_samples = 0, rejected_events = 0;
+  ASSERT_EQ(hl_study_rejected(study_, &rejected_samples, &rejected_events), HL_OK);
+  EXPECT_EQ(rejected_samples, static_cast<std::uint64_t>(refused));
+  EXPECT_EQ(rejected_events, 6u);
+  const std::int64_t id = trial_.trial_id;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+  // The session goes on: the next trial starts.
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_ABORTED, "test over", error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.trial(id).status, db::TrialStatus::kComplete);
+  EXPECT_EQ(db.sample_count(id, 0), 600u);
+  EXPECT_EQ(db.sample_count(id, 1), 600u);
+  const auto counters = db.device_counters(id);
+  const auto counter = [&](const std::string& name) {
+    for (const auto& [n, v] : counters)
+      if (n == name) return static_cast<std::int64_t>(v);
+    return std::int64_t{-1};
+  };
+  EXPECT_EQ(counter("rejected_samples"), refused);
+  EXPECT_EQ(counter("rejected_events"), 6);
+  ASSERT_EQ(db.events(id).size(), 1u);
+}
+
 TEST_F(StudyApiTest, TrialsComeInScheduleOrderBlindedWithTheirSettingsEngine) {
   ASSERT_EQ(hl_study_start_session(study_, "A1", "test rig", error_, sizeof error_), HL_OK) << error_;
   db::StudyDb db = open_db();
@@ -154,8 +207,8 @@ TEST_F(StudyApiTest, TrialsComeInScheduleOrderBlindedWithTheirSettingsEngine) {
       EXPECT_EQ(out.displayed_force_N[2], 0.0);
     } else {
       // Each trial's force ramps in over 0.3 s, as in HapticLab's own loop:
-      // 2 ms into the trial, 2/300 of it.
-      EXPECT_NEAR(out.displayed_force_N[2], 2.0 * 0.002 / 0.3, 1e-12) << planned[i].setting_name;
+      // the second update starts 1 ms into the trial, so 1/300 of it.
+      EXPECT_NEAR(out.displayed_force_N[2], 2.0 * 0.001 / 0.3, 1e-12) << planned[i].setting_name;
       EXPECT_NE(out.status & HL_RAMPING, 0u);
       for (int k = 0; k < 300; ++k) ASSERT_EQ(hl_engine_update(trial_.engine, 0, &in, &out), HL_OK);
       EXPECT_NEAR(out.displayed_force_N[2], 2.0, 1e-9) << planned[i].setting_name;

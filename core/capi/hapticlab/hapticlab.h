@@ -155,7 +155,8 @@ HL_API void hl_engine_halt(hl_engine* engine);
  * Force ramp-in, so that a trial never begins with a step to a large force
  * (a VE that starts in contact, a degradation with a standing force): each
  * instrument's forces and joint commands are scaled by min(1, t / ramp_s),
- * t being the sum of that instrument's dt since this call, with HL_RAMPING
+ * t being the sum of that instrument's dt of the updates before this one
+ * since this call (so the first update commands exactly 0), with HL_RAMPING
  * in status while the scale is below 1. ramp_s = 0 turns it off (the
  * default of hl_engine_create). The engines of the study API's trials ramp
  * in over 0.3 s, as HapticLab's own loop does (docs/safety.md). Call it

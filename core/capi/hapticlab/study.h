@@ -29,8 +29,16 @@
  *   with HL_ERROR_BUSY naming the process that holds it).
  * - Samples and events go through lock-free queues to a writer thread that
  *   stores them in the database; logging never blocks, allocates or does
- *   I/O. A full queue drops the item and counts it (hl_study_dropped), and
- *   the counts are stored with the trial.
+ *   I/O. The queues hold HL_STUDY_SAMPLE_QUEUE_CAPACITY samples (16 s at
+ *   1 kHz, so a writer held up by another station's commit loses nothing)
+ *   and HL_STUDY_EVENT_QUEUE_CAPACITY events. A full queue drops the item
+ *   and counts it (hl_study_dropped), and the counts are stored with the
+ *   trial.
+ * - A sample or event that cannot be stored as given (a tick that does not
+ *   increase, an event type this header does not define, ...) is refused
+ *   at the call with HL_ERROR_INVALID_ARGUMENT and counted
+ *   (hl_study_rejected); the trial goes on, and the counts are stored with
+ *   it (device counters rejected_samples, rejected_events).
  * - Blinding: hl_trial holds only what a participant may see. The setting's
  *   name is given separately, for the operator.
  *
@@ -72,6 +80,10 @@ typedef struct hl_study hl_study;
 #define HL_ERROR_DATABASE (-4)   /* the study database failed (missing, damaged, disk full) */
 #define HL_ERROR_BUSY (-5)       /* the participant has a live session in another process */
 #define HL_ERROR_STUDY (-6)      /* unknown participant, or a database without a study */
+
+/* Capacity of the queues between the logging calls and the writer thread. */
+#define HL_STUDY_SAMPLE_QUEUE_CAPACITY 16384
+#define HL_STUDY_EVENT_QUEUE_CAPACITY 4096
 
 /* Task events (docs/ve_events.md). instrument: 0 left, 1 right, -1 the task as a whole. */
 #define HL_EVENT_INSERTION_PASSED 0    /* the tool's insertion rose through 20 mm */
@@ -116,9 +128,9 @@ typedef struct hl_sample_instrument {
 } hl_sample_instrument;
 
 typedef struct hl_sample {
-  uint64_t tick;    /* 0-based update number; a jump is logged as missing updates */
-  double t_s;       /* loop clock at the start of the update, s */
-  double dt_s;      /* time since the previous update, s */
+  uint64_t tick;    /* 0-based update number, increasing within a trial; a jump is logged as missing updates */
+  double t_s;       /* loop clock at the start of the update, s (finite) */
+  double dt_s;      /* time since the previous update, s (finite) */
   int32_t device_status; /* the device's own status code, 0 = ok */
   hl_sample_instrument instrument[2]; /* 0 left, 1 right */
 } hl_sample;
@@ -157,21 +169,27 @@ HL_API int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_
 /*
  * Logs one haptic update of the open trial. Real-time safe: copies into a
  * lock-free queue. HL_OK, HL_STUDY_DROPPED (queue full; counted),
- * HL_ERROR_STATE without an open trial, HL_ERROR_INVALID_ARGUMENT for NULL.
+ * HL_ERROR_STATE without an open trial, HL_ERROR_INVALID_ARGUMENT for NULL
+ * and, counted in hl_study_rejected, for a tick not greater than the last
+ * one accepted in this trial or a t_s or dt_s that is NaN or infinite (the
+ * sample is not stored; the trial goes on).
  */
 HL_API int hl_study_log_sample(hl_study* study, const hl_sample* sample);
 
 /*
  * Logs a task event of the open trial (HL_EVENT_*), at loop time t_s, of
  * instrument 0, 1 or -1; index: an item number where the VE has several
- * (0 otherwise). Real-time safe. Return codes as hl_study_log_sample; an
- * unknown type, a bad instrument or a non-finite t_s is
- * HL_ERROR_INVALID_ARGUMENT.
+ * (0 otherwise). Real-time safe. Return codes as hl_study_log_sample; a
+ * type other than the HL_EVENT_* above, a bad instrument or a non-finite
+ * t_s is HL_ERROR_INVALID_ARGUMENT, counted in hl_study_rejected.
  */
 HL_API int hl_study_log_event(hl_study* study, double t_s, int type, int instrument, int32_t index);
 
 /* Samples and events of the open (or last) trial dropped because a queue was full. */
 HL_API int hl_study_dropped(const hl_study* study, uint64_t* samples, uint64_t* events);
+
+/* Samples and events of the open (or last) trial refused as invalid (HL_ERROR_INVALID_ARGUMENT). */
+HL_API int hl_study_rejected(const hl_study* study, uint64_t* samples, uint64_t* events);
 
 /*
  * Ends the open trial: stores what is still queued, then the outcome
