@@ -12,6 +12,7 @@
 #include <string>
 
 #include "core/engine/engine.h"
+#include "core/engine/joint_transform.h"
 #include "core/engine/status.h"
 #include "core/settings/settings_json.h"
 
@@ -212,5 +213,12 @@ void hl_engine_halt(hl_engine* engine) {
 }
 
 void hl_engine_destroy(hl_engine* engine) { delete engine; }
+
+int hl_tip_position(double insertion_m, double pitch_rad, double yaw_rad, double tip_m[3]) {
+  if (tip_m == nullptr) return HL_ERROR_INVALID_ARGUMENT;
+  const Eigen::Vector3d tip = hapticlab::tip_position(hapticlab::JointVector(insertion_m, pitch_rad, yaw_rad));
+  for (int i = 0; i < 3; ++i) tip_m[i] = tip[i];
+  return HL_OK;
+}
 
 }  // extern "C"

@@ -72,13 +72,6 @@ typedef struct {
   int inside_20mm; /* insertion above INSERTION_EVENT_M */
 } tool_state;
 
-/* Tip of an instrument at pitch = yaw = 0: down the -z axis from the pivot. */
-static void tip_of(double insertion_m, double tip_m[3]) {
-  tip_m[0] = 0.0;
-  tip_m[1] = 0.0;
-  tip_m[2] = -insertion_m;
-}
-
 static int check(int rc, const char* what, const char* error) {
   if (rc < 0) fprintf(stderr, "external_app: %s failed (%d): %s\n", what, rc, error);
   return rc;
@@ -133,7 +126,8 @@ static int run_trial(hl_study* study, const hl_trial* trial, long stall_after, d
       tool_state* s = &tool[i];
       const double previous_tip[3] = {s->tip_m[0], s->tip_m[1], s->tip_m[2]};
       s->insertion_m = out.degraded_insertion_m;
-      tip_of(s->insertion_m, s->tip_m);
+      /* The scripted hand keeps pitch = yaw = 0: the tip goes down -z from the pivot. */
+      hl_tip_position(out.degraded_insertion_m, out.degraded_pitch_rad, out.degraded_yaw_rad, s->tip_m);
       const int inside = s->insertion_m >= INSERTION_EVENT_M;
       if (inside && !s->inside_20mm) hl_study_log_event(study, t_s, HL_EVENT_INSERTION_PASSED, i, 0);
       if (!inside && s->inside_20mm) hl_study_log_event(study, t_s, HL_EVENT_INSERTION_WITHDRAWN, i, 0);

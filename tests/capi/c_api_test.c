@@ -214,7 +214,25 @@ static void test_ramp_in_scales_force_by_elapsed_time(void) {
   hl_engine_destroy(e);
 }
 
+/* Joint-to-tip kinematics worked out by hand from eq. 2.20. */
+static void test_tip_position(void) {
+  double tip[3];
+  const double pi = 3.14159265358979323846;
+  CHECK(hl_tip_position(0.1, 0.0, 0.0, NULL) == HL_ERROR_INVALID_ARGUMENT, "NULL tip accepted");
+  CHECK(hl_tip_position(0.1, 0.0, 0.0, tip) == HL_OK, "tip refused");
+  CHECK(tip[0] == 0.0 && tip[1] == 0.0 && tip[2] == -0.1, "straight down: %g %g %g", tip[0], tip[1], tip[2]);
+  /* pitch 30 deg: y = 0.1 sin 30 = 0.05, z = -0.1 cos 30. */
+  CHECK(hl_tip_position(0.1, pi / 6.0, 0.0, tip) == HL_OK, "tip refused");
+  CHECK(fabs(tip[0]) < 1e-15 && fabs(tip[1] - 0.05) < 1e-15 && fabs(tip[2] + 0.1 * cos(pi / 6.0)) < 1e-15,
+        "pitch 30 deg: %g %g %g", tip[0], tip[1], tip[2]);
+  /* yaw 90 deg, pitch 60 deg: x = 0.2 cos 60 = 0.1, y = 0.2 sin 60, z = 0. */
+  CHECK(hl_tip_position(0.2, pi / 3.0, pi / 2.0, tip) == HL_OK, "tip refused");
+  CHECK(fabs(tip[0] - 0.1) < 1e-15 && fabs(tip[1] - 0.2 * sin(pi / 3.0)) < 1e-15 && fabs(tip[2]) < 1e-15,
+        "yaw 90, pitch 60 deg: %g %g %g", tip[0], tip[1], tip[2]);
+}
+
 int main(void) {
+  test_tip_position();
   CHECK(strlen(hl_version()) > 0, "no version");
   test_bad_settings_give_a_message();
   test_friction_from_example_file();

@@ -2,7 +2,8 @@
 # scratch prefix, moves the whole prefix elsewhere, then from an empty
 # folder runs `demo --quick` and `engine demo` (which must find the shipped
 # protocols and settings under <prefix>/share/hapticlab, not in this source
-# tree), and builds and runs the example C driver with pkg-config.
+# tree), and builds and runs the example C driver and the study API's
+# example application with pkg-config.
 #   -DBUILD_DIR=... -DWORK_DIR=... -DSOURCE_DIR=...
 file(REMOVE_RECURSE ${WORK_DIR})
 execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/first
@@ -65,4 +66,28 @@ execute_process(COMMAND ${CMAKE_COMMAND} -E env LD_LIBRARY_PATH=${prefix}/lib
                 RESULT_VARIABLE rc OUTPUT_QUIET)
 if(rc)
   message(FATAL_ERROR "the example driver built with pkg-config failed (${rc})")
+endif()
+
+# The study API's example application, built with pkg-config alone (as a lab
+# with make or meson would), runs a session of a study the moved CLI made.
+execute_process(COMMAND ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${prefix}/lib/pkgconfig
+                        ${PKG_CONFIG} --cflags --libs hapticlab-study
+                OUTPUT_VARIABLE flags OUTPUT_STRIP_TRAILING_WHITESPACE RESULT_VARIABLE rc)
+if(rc OR NOT flags MATCHES "-lhapticlab_study" OR NOT flags MATCHES "-lhapticlab( |$)")
+  message(FATAL_ERROR "pkg-config --cflags --libs hapticlab-study gave '${flags}'")
+endif()
+separate_arguments(flags UNIX_COMMAND "${flags}")
+execute_process(COMMAND cc -std=c99 -o ${WORK_DIR}/external_app ${SOURCE_DIR}/examples/external_app/external_app.c
+                        ${flags} -lm
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc)
+  message(FATAL_ERROR "building examples/external_app with pkg-config failed:\n${err}")
+endif()
+run_in_empty_folder("study create"
+  ${prefix}/bin/hapticlab study create --protocol ${prefix}/share/hapticlab/protocols/external_peg_touch.json
+  --db peg.db)
+run_in_empty_folder("the study API's example application"
+  ${CMAKE_COMMAND} -E env LD_LIBRARY_PATH=${prefix}/lib ${WORK_DIR}/external_app peg.db P01)
+if(NOT last_output MATCHES "schedule complete")
+  message(FATAL_ERROR "the example application built with pkg-config did not complete its session:\n${last_output}")
 endif()

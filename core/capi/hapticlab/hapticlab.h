@@ -167,6 +167,25 @@ HL_API int hl_engine_set_ramp_in(hl_engine* engine, double ramp_s);
 
 HL_API void hl_engine_destroy(hl_engine* engine);
 
+/*
+ * Joint-to-tip kinematics of one instrument pivoting about its trocar
+ * (thesis eq. 2.20): the tool tip at (insertion_m, pitch_rad, yaw_rad) in
+ * the world frame of that instrument's trocar, the frame of
+ * hl_input.ve_force_N and hl_output (origin at the pivot, z up out of the
+ * patient; at pitch = yaw = 0 the tool points down -z):
+ *
+ *   tip = insertion · ( sin(yaw)·cos(pitch), sin(pitch), −cos(yaw)·cos(pitch) )  [m]
+ *
+ * Give it the degraded joints (hl_output degraded_*) for the tip the VE
+ * shows, which is what hl_sample's tip_position_m asks for. The analysis
+ * needs only a fixed origin per instrument (paths and speeds are
+ * differences); HapticLab's own sessions add the trocar's place on the
+ * workstation (x = -0.05 m left, +0.05 m right). Real-time safe. Returns
+ * HL_ERROR_INVALID_ARGUMENT for a NULL tip_m (then nothing is written);
+ * non-finite joints give a non-finite tip.
+ */
+HL_API int hl_tip_position(double insertion_m, double pitch_rad, double yaw_rad, double tip_m[3]);
+
 #ifdef __cplusplus
 }
 #endif
