@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "core/device/hand_attachment.h"
 #include "core/device/plugin_device.h"
 #include "core/loop/clock.h"
+#include "core/loop/rate_monitor.h"
 #include "core/sim/participant.h"
 
 namespace hapticlab::app {
@@ -32,6 +34,7 @@ struct CheckOptions {
   std::vector<std::string> device_options;
   double seconds = 2.0;
   double rate_Hz = 1000.0;
+  double rate_tolerance_fraction = RateCheck::kDefaultToleranceFraction;
   bool json = false;
 };
 
@@ -50,9 +53,13 @@ struct CheckResult {
   std::array<std::uint64_t, kNumDeviceStatuses> write_faults{};
   std::uint64_t outside_rating = 0;  // ok readings outside [min_position, max_position]
   std::uint64_t over_velocity = 0;   // ok readings implying a speed above max_velocity
+  // The first window (up to 1 s, as in a session) whose achieved rate left
+  // the tolerance: a device too slow for the rate asked of it.
+  std::optional<RateViolation> rate_violation;
 
+  double achieved_Hz() const { return elapsed_s > 0.0 ? static_cast<double>(updates - 1) / elapsed_s : 0.0; }
   std::uint64_t faults() const {
-    std::uint64_t n = outside_rating + over_velocity;
+    std::uint64_t n = outside_rating + over_velocity + (rate_violation ? 1 : 0);
     for (std::uint64_t c : read_faults) n += c;
     for (std::uint64_t c : write_faults) n += c;
     return n;
@@ -66,23 +73,31 @@ double percentile(const std::vector<double>& sorted, double fraction) {
   return sorted[std::clamp<std::size_t>(rank, 1, sorted.size()) - 1];
 }
 
-// The loop of the check: read, zero force, at the rate on the wall clock.
-// Like the haptic loop it never bursts to catch up after a late update.
+// The loop of the check: read, zero force, at the rate on the wall clock,
+// for opt.seconds of it (a device too slow for the rate runs fewer
+// updates, not longer). Like the haptic loop it never bursts to catch up
+// after a late update, and checks the achieved rate as a session does.
 CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& clock, const CheckOptions& opt) {
   CheckResult r;
   const double period_s = 1.0 / opt.rate_Hz;
-  const auto total = static_cast<std::uint64_t>(std::llround(opt.seconds * opt.rate_Hz));
-  r.dt_s.reserve(total);
+  r.dt_s.reserve(static_cast<std::size_t>(std::llround(opt.seconds * opt.rate_Hz)) + 1);
   const DeviceCommand zero{};
   DeviceReading previous{};
   bool have_previous = false;
+  RateMonitor rate(RateCheck{opt.rate_tolerance_fraction, std::min(RateCheck::kDefaultWindow_s, opt.seconds)});
   double next_s = clock.now_s(), first_s = next_s, previous_s = next_s;
-  for (std::uint64_t k = 0; k < total; ++k) {
+  for (std::uint64_t k = 0;; ++k) {
     clock.sleep_until(next_s);
     const double now_s = clock.now_s();
     next_s = std::max(next_s + period_s, now_s);
-    if (k == 0) first_s = now_s;
-    else r.dt_s.push_back(now_s - previous_s);
+    if (k == 0) {
+      first_s = now_s;
+      rate.start(now_s);
+    } else {
+      if (now_s - first_s >= opt.seconds - 0.5 * period_s) break;
+      r.dt_s.push_back(now_s - previous_s);
+      if (rate.update(now_s, period_s) && !r.rate_violation) r.rate_violation = rate.violation();
+    }
 
     DeviceReading reading;
     const DeviceStatus status = device.read(reading);
@@ -111,6 +126,10 @@ CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& 
     ++r.updates;
   }
   r.elapsed_s = previous_s - first_s;
+  // The whole run, for one shorter than a window (or the part after the last).
+  const double achieved_Hz = r.achieved_Hz();
+  if (!r.rate_violation && r.updates > 1 && std::abs(achieved_Hz / opt.rate_Hz - 1.0) > opt.rate_tolerance_fraction)
+    r.rate_violation = RateViolation{achieved_Hz, opt.rate_Hz, r.elapsed_s, opt.rate_tolerance_fraction};
   std::sort(r.dt_s.begin(), r.dt_s.end());
   return r;
 }
@@ -128,6 +147,16 @@ std::string fault_list(const CheckResult& r) {
   }
   if (r.outside_rating > 0) add("reading outside the rated range " + std::to_string(r.outside_rating));
   if (r.over_velocity > 0) add("faster than max_velocity " + std::to_string(r.over_velocity));
+  if (r.rate_violation) {
+    char text[200];
+    const RateViolation& v = *r.rate_violation;
+    std::snprintf(text, sizeof text,
+                  "rate_violation: %.1f Hz achieved where %.0f Hz was asked (%+.1f %%, tolerance %.1f %%, over "
+                  "%.2f s)",
+                  v.achieved_Hz, v.asked_Hz, 100.0 * (v.achieved_Hz / v.asked_Hz - 1.0), 100.0 * v.tolerance_fraction,
+                  v.window_s);
+    add(text);
+  }
   return s.empty() ? "none" : s;
 }
 
@@ -144,9 +173,8 @@ void print_text(const DeviceSpec& spec, const Device& device, const DeviceRating
                   force_unit(j), x.max_velocity, position_unit(j));
     }
   const double nominal_us = 1e6 / opt.rate_Hz;
-  const double achieved_Hz = r.elapsed_s > 0.0 ? static_cast<double>(r.updates - 1) / r.elapsed_s : 0.0;
-  std::printf("rate: %.1f Hz achieved over %llu updates (nominal %.0f Hz)\n", achieved_Hz,
-              static_cast<unsigned long long>(r.updates), opt.rate_Hz);
+  std::printf("rate: %.1f Hz achieved over %llu updates (nominal %.0f Hz, tolerance %.1f %%)\n", r.achieved_Hz(),
+              static_cast<unsigned long long>(r.updates), opt.rate_Hz, 100.0 * opt.rate_tolerance_fraction);
   const double p99_us = percentile(r.dt_s, 0.99) * 1e6;
   std::printf("dt: p50 %.1f us, p99 %.1f us, max %.1f us; jitter (p99 - nominal) %.1f us\n",
               percentile(r.dt_s, 0.5) * 1e6, p99_us, r.dt_s.empty() ? 0.0 : r.dt_s.back() * 1e6,
@@ -186,7 +214,7 @@ void print_json(const DeviceSpec& spec, const Device& device, const DeviceRating
     if (r.read_faults[static_cast<std::size_t>(k)] > 0) read_faults[name] = r.read_faults[static_cast<std::size_t>(k)];
     if (r.write_faults[static_cast<std::size_t>(k)] > 0) write_faults[name] = r.write_faults[static_cast<std::size_t>(k)];
   }
-  const double achieved_Hz = r.elapsed_s > 0.0 ? static_cast<double>(r.updates - 1) / r.elapsed_s : 0.0;
+  const double achieved_Hz = r.achieved_Hz();
   const nlohmann::json j = {
       {"device", spec.describe()},
       {"name", device.name()},
@@ -205,6 +233,12 @@ void print_json(const DeviceSpec& spec, const Device& device, const DeviceRating
         {"write", write_faults},
         {"outside_rating", r.outside_rating},
         {"over_velocity", r.over_velocity},
+        {"rate_violation", r.rate_violation ? nlohmann::json{{"achieved_Hz", r.rate_violation->achieved_Hz},
+                                                              {"asked_Hz", r.rate_violation->asked_Hz},
+                                                              {"window_s", r.rate_violation->window_s},
+                                                              {"tolerance_fraction",
+                                                               r.rate_violation->tolerance_fraction}}
+                                            : nlohmann::json()},
         {"total", r.faults()}}}};
   std::printf("%s\n", j.dump(2).c_str());
 }
@@ -278,6 +312,11 @@ void add_device_check_command(CLI::App& device) {
       ->capture_default_str();
   cmd->add_option("--rate-hz", opt->rate_Hz, "Loop rate [Hz], 150..2000")
       ->check(CLI::Range(150.0, 2000.0))
+      ->capture_default_str();
+  cmd->add_option("--rate-tolerance", opt->rate_tolerance_fraction,
+                  "How far the achieved rate may stray from --rate-hz (fraction, 0.001..0.5; a session takes its "
+                  "protocol's rate_tolerance_fraction)")
+      ->check(CLI::Range(0.001, 0.5))
       ->capture_default_str();
   cmd->add_flag("--json", opt->json, "Machine-readable output");
   cmd->callback([opt] {

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -100,6 +101,12 @@ int run(const SessionCommandOptions& opt) {
       }
     }
   };
+  // At once, not at the end of the trial: the device may be stuck.
+  options.on_alert = [&](const std::string& alert) {
+    line.finish();
+    std::fprintf(stderr, "hapticlab session run: %s\n", alert.c_str());
+    std::fflush(stderr);
+  };
   sessions::SessionResult r;
   try {
     r = sessions::run_session(opt.db, options);
@@ -107,6 +114,13 @@ int run(const SessionCommandOptions& opt) {
     line.finish();
     std::fprintf(stderr, "hapticlab session run: %s\n", e.what());
     return 3;
+  } catch (const sessions::DeviceHungError& e) {
+    line.finish();
+    std::fprintf(stderr, "hapticlab session run: %s\n", e.what());
+    std::fflush(nullptr);
+    // A thread is still inside the device's code: ending the process the
+    // usual way would wait for it, or destroy what it is using.
+    std::_Exit(3);
   }
   line.finish();
   if (r.stale_session)

@@ -172,6 +172,22 @@ void SessionLock::record_abort_reason(const std::string& reason) noexcept {
   }
 }
 
+void SessionLock::clear_abort_reason() noexcept {
+  if (fd_ < 0) return;
+  try {
+    write_owner(fd_, "session");
+    keep_file_ = false;
+  } catch (...) {
+    // Kept: the reason is then the one recorded, which is still true.
+  }
+}
+
+SessionLock::CrashNoteTarget SessionLock::crash_note_target() const noexcept {
+  struct stat st {};
+  if (fd_ < 0 || ::fstat(fd_, &st) != 0) return {};
+  return {fd_, static_cast<long>(st.st_size)};
+}
+
 SessionLock::~SessionLock() {
   if (fd_ < 0) return;
   // Unlink first, while still holding the lock (see the header).

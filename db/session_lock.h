@@ -86,6 +86,18 @@ class SessionLock {
   // Rewrites the file in place (a few hundred bytes, within the block it
   // already has), which works on a full disk. Never throws.
   void record_abort_reason(const std::string& reason) noexcept;
+  // Takes back what record_abort_reason wrote: the trial ended after all
+  // and its own reason is in the database. Never throws.
+  void clear_abort_reason() noexcept;
+
+  // Where a crash handler may append one more "abort_reason=..." line (the
+  // last one counts) without allocating: the lock file's descriptor and
+  // its end. Valid while the lock is held and nothing else writes it.
+  struct CrashNoteTarget {
+    int fd = -1;
+    long offset = 0;
+  };
+  CrashNoteTarget crash_note_target() const noexcept;
 
  private:
   SessionLock(int fd, std::filesystem::path path) : fd_(fd), path_(std::move(path)) {}

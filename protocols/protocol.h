@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/loop/force_guard.h"
+#include "core/loop/rate_monitor.h"
 #include "core/settings/settings_json.h"
 #include "protocols/staircase.h"
 
@@ -122,6 +123,10 @@ struct ProtocolStaircase {
 std::string staircase_base_row_name(std::string_view base_name);
 inline constexpr std::string_view kStaircaseBasePrefix = "staircase: ";
 
+// The range of "rate_tolerance_fraction" (docs/protocols.md).
+inline constexpr double kMinRateToleranceFraction = 0.001;
+inline constexpr double kMaxRateToleranceFraction = 0.5;
+
 struct Protocol {
   std::string study;                      // study name, non-empty
   std::string description;                // free text, may be empty
@@ -137,6 +142,10 @@ struct Protocol {
   // The optional "safety" object: force limits below the device's
   // (protocols/safety_json.h, docs/safety.md). Default: the device's own.
   OperatorForceLimits safety;
+  // How far the haptic loop's achieved update rate may stray from the
+  // session's (fraction, over each 1 s window; core/loop/rate_monitor.h)
+  // before a trial ends as rate_violation and is re-queued.
+  double rate_tolerance_fraction = RateCheck::kDefaultToleranceFraction;
   // The optional "null_settings": settings that are the control's
   // parameters under another name, so that any difference found for them is
   // a false positive (`plan power` counts them and refuses one that is not

@@ -34,7 +34,8 @@ class Reader {
   Protocol read(const json& j) {
     expect_object(j, "(top level)");
     check_keys(j, "", {"study", "description", "ve", "tasks", "repetitions", "settings", "participants", "design",
-                       "seed", "training_trials", "safety", "null_settings", "dose", "staircase"});
+                       "seed", "training_trials", "safety", "rate_tolerance_fraction", "null_settings", "dose",
+                       "staircase"});
     Protocol p;
     p.study = as_string(require(j, "study", ""), "study");
     if (j.contains("description")) p.description = as_string(j["description"], "description");
@@ -56,6 +57,9 @@ class Reader {
     read_design(require(j, "design", ""), p);
     p.seed = as_seed(require(j, "seed", ""), "seed");
     if (j.contains("safety")) p.safety = safety_from_json(j["safety"], source_);
+    if (j.contains("rate_tolerance_fraction"))
+      p.rate_tolerance_fraction = as_double(j["rate_tolerance_fraction"], "rate_tolerance_fraction",
+                                            kMinRateToleranceFraction, kMaxRateToleranceFraction, false);
     if (j.contains("null_settings")) {
       p.null_settings = read_names(j["null_settings"], "null_settings");
       for (std::size_t i = 0; i < p.null_settings.size(); ++i)
@@ -206,11 +210,11 @@ class Reader {
 
   // A number in [lo, hi] (lo excluded when lo_exclusive).
   double as_double(const json& v, const std::string& path, double lo, double hi, bool lo_exclusive) const {
-    if (!v.is_number()) fail(path, "is " + shown(v) + ", but must be a number");
+    const std::string rule = std::string("must be a number ") + (lo_exclusive ? "> " : ">= ") + format_number(lo) +
+                             " and <= " + format_number(hi);
+    if (!v.is_number()) fail(path, "is " + shown(v) + ", but " + rule);
     const double x = v.get<double>();
-    if ((lo_exclusive ? !(x > lo) : !(x >= lo)) || !(x <= hi))
-      fail(path, "is " + shown(v) + ", but must be " + (lo_exclusive ? "> " : ">= ") + format_number(lo) +
-                     " and <= " + format_number(hi));
+    if ((lo_exclusive ? !(x > lo) : !(x >= lo)) || !(x <= hi)) fail(path, "is " + shown(v) + ", but " + rule);
     return x;
   }
 
@@ -406,6 +410,17 @@ class Reader {
 };
 
 }  // namespace
+
+double rate_tolerance_from_protocol_text(std::string_view text, const std::string& source) {
+  const json j = json::parse(text);
+  const auto it = j.find("rate_tolerance_fraction");
+  if (it == j.end()) return RateCheck::kDefaultToleranceFraction;
+  if (!it->is_number() || !(it->get<double>() >= kMinRateToleranceFraction) ||
+      !(it->get<double>() <= kMaxRateToleranceFraction))
+    throw ProtocolError(source, "rate_tolerance_fraction",
+                        "is " + it->dump() + ", but must be a number >= 0.001 and <= 0.5");
+  return it->get<double>();
+}
 
 std::optional<StaircaseSpec> staircase_from_protocol_text(std::string_view text, const std::string& source) {
   json j;

@@ -31,6 +31,9 @@ Protocol load_protocol_file(const std::filesystem::path& path);
 // the study was created; its settings are in the database, not read here);
 // nullopt when it has none. ProtocolError when the block does not read.
 std::optional<StaircaseSpec> staircase_from_protocol_text(std::string_view text, const std::string& source);
+// The "rate_tolerance_fraction" of a protocol text a study stored; the
+// default (RateCheck::kDefaultToleranceFraction) when it has none.
+double rate_tolerance_from_protocol_text(std::string_view text, const std::string& source);
 // The protocol file's text, within the size cap of JSON inputs (what a
 // study stores byte for byte); ProtocolError naming the file otherwise.
 std::string read_protocol_text(const std::filesystem::path& path);

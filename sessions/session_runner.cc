@@ -12,6 +12,7 @@
 #include "core/common/random.h"
 #include "core/device/device_factory.h"
 #include "core/sim/task_event.h"
+#include "sessions/crash_note.h"
 #include "sessions/staircase_planner.h"
 #include "sessions/study_session.h"
 #include "protocols/protocol_json.h"
@@ -43,7 +44,22 @@ void check_options(const SessionOptions& options) {
                                 " is outside 0..1000");
   if (options.max_trials && *options.max_trials < 0)
     throw std::invalid_argument("max_trials: " + std::to_string(*options.max_trials) + " must be >= 0");
+  if (!(options.device_hang_grace_s > 0.0) || !std::isfinite(options.device_hang_grace_s))
+    throw std::invalid_argument("device_hang_grace_s: " + format_number(options.device_hang_grace_s) +
+                                " must be a positive number of seconds");
 }
+
+// Watchdog trips that are the host's, not the device's (a late update, a
+// stalled VE step, a slow writer) end only their trial; this many in a row
+// mean the machine cannot run the study, and end the session.
+constexpr int kMaxWatchdogTripsInARow = 3;
+
+// On the virtual clock no watchdog runs (simulated time waits for the
+// loop): a device call that has kept the loop from advancing this long in
+// wall time is taken as hung.
+constexpr double kVirtualClockHang_s = 1.0;
+
+std::string ms_text(double s) { return std::to_string(static_cast<long long>(std::llround(1e3 * s))) + " ms"; }
 
 // The protocol's training trials for `code`: the participant entry's
 // training_trials, else the top-level one, else 0. The stored protocol was
@@ -126,6 +142,8 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   const int scheduled = session.scheduled() + (staircase_spec ? staircase_spec->max_trials : 0);
   result.session_id = session.session_id();
   const OperatorForceLimits force_limits = protocols::safety_from_protocol_text(study.protocol_json, db.path());
+  const double rate_tolerance = protocols::rate_tolerance_from_protocol_text(study.protocol_json, db.path());
+  int watchdog_trips_in_a_row = 0;
   const Clock::time_point session_start = Clock::now();
   std::set<std::string> trained;
   double trial_wall_s = 0.0;  // wall time of trials finished in this session
@@ -155,6 +173,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     c.realtime = options.realtime;
     c.max_duration_s = options.max_trial_s;
     c.safety.force_limits = force_limits;
+    c.safety.rate.tolerance_fraction = rate_tolerance;
     return c;
   };
 
@@ -253,7 +272,10 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     progress(started);
 
     const Clock::time_point trial_start = Clock::now();
-    SimRig rig(config);
+    // On the heap: a device call that never returns keeps the loop thread
+    // inside the rig, which then can never be destroyed (DeviceHungError).
+    auto rig_owner = std::make_unique<SimRig>(config);
+    SimRig& rig = *rig_owner;
     HapticLoop& loop = rig.loop();
     // Powered before the trial is recorded as started, so a device that is
     // not calibrated or homed leaves the trial planned, not aborted.
@@ -285,9 +307,65 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       }
     };
     take_actions(0.0);
+    // A crash of this process (an in-process plugin's) leaves its cause in
+    // the lock file for the next session's recovery (crash_note.h).
+    std::optional<CrashNote> crash_note;
+    crash_note.emplace(session.crash_note_target(), loop, rig.device());
+    // A device call that does not return: the operator hears of it at once,
+    // the lock file says so in case the process is killed now, and after
+    // the grace period the session gives up on it.
+    std::optional<Clock::time_point> hung_since;
+    DeviceCall hung_call = DeviceCall::kNone;
+    std::uint64_t last_ticks = 0;
+    Clock::time_point ticks_moved = Clock::now();
     if (loop.start()) {
       for (int polls = 0; loop.running(); ++polls) {
         take_actions(loop.elapsed_s());
+        const std::uint64_t ticks = loop.ticks();
+        if (ticks != last_ticks) last_ticks = ticks, ticks_moved = Clock::now();
+        if (!hung_since) {
+          const DeviceCall in_call = loop.device_call().load(std::memory_order_acquire);
+          const bool tripped = loop.watchdog_tripped();
+          const bool virtual_hang = options.clock == ClockKind::kVirtual && in_call != DeviceCall::kNone &&
+                                    seconds_since(ticks_moved) > kVirtualClockHang_s;
+          if (tripped || virtual_hang) {
+            hung_since = Clock::now();
+            hung_call = tripped ? loop.watchdog_call() : in_call;
+            const double limit_s = tripped ? config.safety.watchdog_timeout_s : kVirtualClockHang_s;
+            const std::string what = hung_call != DeviceCall::kNone
+                                         ? "device " + std::string(to_string(hung_call)) + "() has not returned"
+                                         : std::string("the haptic loop has completed no update");
+            if (options.on_alert)
+              options.on_alert(what + " for " + ms_text(limit_s) + " in trial " + std::to_string(trial.id) +
+                               "; the watchdog halted the device (zero force)");
+            if (hung_call != DeviceCall::kNone)
+              session.record_pending_reason("device " + std::string(to_string(hung_call)) + " hung for at least " +
+                                            ms_text(limit_s) + " (the session ended before it returned)");
+          }
+        }
+        if (hung_since && hung_call != DeviceCall::kNone && loop.running() &&
+            seconds_since(*hung_since) > options.device_hang_grace_s) {
+          // The loop thread is inside the device's code: record the trial and
+          // the session from here, and leave the rig to the stuck thread.
+          const double hung_s = seconds_since(*hung_since) +
+                                (options.clock == ClockKind::kVirtual ? kVirtualClockHang_s
+                                                                      : config.safety.watchdog_timeout_s);
+          outcome.status = db::TrialStatus::kAborted;
+          outcome.abort_reason = "device " + std::string(to_string(hung_call)) + " hung for " + ms_text(hung_s) +
+                                 " and had not returned when the session gave up on it";
+          outcome.dropped_samples = loop.dropped_samples();
+          outcome.dropped_events = loop.dropped_events();
+          outcome.timing = loop.timing();
+          crash_note.reset();
+          session.finish_trial(outcome);
+          session.clear_pending_reason();
+          session.end(db::SessionStatus::kInterrupted);
+          (void)rig_owner.release();
+          throw DeviceHungError(outcome.abort_reason + " (trial " + std::to_string(trial.id) +
+                                ", re-queued with its samples up to the hang). The device's code cannot be "
+                                "stopped inside this process: restart the device, then run the session again; "
+                                "an isolated plugin (docs/devices.md) is killed and restarted instead");
+        }
         // timing() reads a histogram (~100 µs): every 50th poll, ~100 ms.
         if (options.on_loop_status && polls % 50 == 0)
           options.on_loop_status({loop.elapsed_s(), loop.timing(), loop.dropped_samples()});
@@ -301,6 +379,13 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       }
       loop.join();
     }
+    crash_note.reset();
+    if (hung_since && hung_call != DeviceCall::kNone) session.clear_pending_reason();
+    // A stall the polls above missed (this thread was not scheduled in
+    // time): said now, never not at all.
+    if (!hung_since && loop.watchdog_tripped() && options.on_alert)
+      options.on_alert("the watchdog halted the device (zero force) in trial " + std::to_string(trial.id) + ": " +
+                       describe(loop.safety_trip()));
     if (loop.stop_reason() == StopReason::kStopRequested && operator_abort) {
       // Ended by the operator's abort (its event is in closing_events);
       // re-queued, and the session goes on.
@@ -330,14 +415,39 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
         outcome.abort_reason = time_limit_reason(format_number(options.max_trial_s) + " s");
         break;
       case StopReason::kSafetyLimit:
-      case StopReason::kWatchdog:
         // Zero force was commanded; re-queued like a device fault.
         outcome.status = db::TrialStatus::kAborted;
-        outcome.abort_reason =
-            std::string(loop.stop_reason() == StopReason::kWatchdog ? "watchdog: " : "safety limit: ") +
-            describe(loop.safety_trip());
+        outcome.abort_reason = "safety limit: " + describe(loop.safety_trip());
         result.device_fault = true;
         result.device_fault_reason = outcome.abort_reason;
+        break;
+      case StopReason::kRateViolation:
+        // The rate is a controlled variable: the trial measured another
+        // condition. Re-queued; a device that cannot keep the rate will not
+        // keep it in the next trial either, so the session ends.
+        outcome.status = db::TrialStatus::kAborted;
+        outcome.abort_reason = "rate_violation: " + describe(loop.safety_trip());
+        result.device_fault = true;
+        result.device_fault_reason = outcome.abort_reason;
+        break;
+      case StopReason::kWatchdog:
+        outcome.status = db::TrialStatus::kAborted;
+        if (loop.safety_trip().kind == SafetyTripKind::kDeviceCallHung) {
+          // The device's own call hung: a device fault, as a timeout is.
+          outcome.abort_reason = describe(loop.safety_trip());
+          result.device_fault = true;
+          result.device_fault_reason = outcome.abort_reason;
+          break;
+        }
+        // The host fell behind (a late update, a stalled step, a slow
+        // writer): zero force was commanded, the trial is re-queued and the
+        // session goes on, unless it keeps happening.
+        outcome.abort_reason = "watchdog: " + describe(loop.safety_trip());
+        if (++watchdog_trips_in_a_row >= kMaxWatchdogTripsInARow) {
+          result.device_fault = true;
+          result.device_fault_reason = outcome.abort_reason + " (" + std::to_string(kMaxWatchdogTripsInARow) +
+                                       " trials in a row; this machine cannot keep the loop's timing now)";
+        }
         break;
       default:
         outcome.status = db::TrialStatus::kAborted;
@@ -352,6 +462,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
         result.device_fault_reason = outcome.abort_reason;
         break;
     }
+    if (loop.stop_reason() != StopReason::kWatchdog) watchdog_trips_in_a_row = 0;
     // Throws, with the session recorded as interrupted, on a storage failure.
     result.samples_logged += session.finish_trial(outcome);
     const double trial_sim_s = loop.elapsed_s();

@@ -113,6 +113,13 @@ struct SessionOptions {
   std::function<bool()> hold_before_trial;
   std::function<void(std::vector<OperatorEvent>&)> take_operator_events;
   std::function<void(const LoopStatus&)> on_loop_status;  // may be null
+  // Something the operator must hear of at once, while the trial still
+  // runs: "device read() has not returned for 20 ms; the watchdog halted
+  // the device (zero force)". On the session's thread; may be null.
+  std::function<void(const std::string&)> on_alert;
+  // How long a device call that does not return is waited for after the
+  // alert before the session gives up on it (DeviceHungError) [s], > 0.
+  double device_hang_grace_s = 2.0;
   // For tests: adjusts a trial's rig configuration (e.g. injects a fault).
   std::function<void(SimTrialConfig&, const db::TrialRow&)> configure_trial;
   db::SampleWriterConfig writer;
@@ -149,13 +156,25 @@ class DeviceNotReadyError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A device call (read or write) did not return, even after the watchdog
+// halted the device and device_hang_grace_s passed. The trial was recorded
+// as aborted ("device read hung for N ms ...", samples up to the hang kept,
+// re-queued) and the session closed as interrupted; but the haptic loop's
+// thread is still inside the device's code and cannot be stopped, so the
+// process must end without waiting for it (the command exits with 3).
+// Only in-process plugins can do this; an isolated one is killed instead.
+class DeviceHungError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // Opens (and recovers) the database, takes the participant's SessionLock
 // (db/session_lock.h), runs the session, returns what happened. Throws
 // std::invalid_argument for bad options (naming them), db::SessionBusyError
 // when the participant has a live session elsewhere (naming its pid),
 // std::runtime_error for an unknown participant or a database without a
 // study, DeviceNotReadyError when the device refuses to activate, db::DbError
-// for a database failure.
+// for a database failure, DeviceHungError (above).
 SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options);
 
 // Seeds of simulated participants (documented above).

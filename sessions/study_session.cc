@@ -169,6 +169,18 @@ void StudySession::abandon_trial() noexcept {
   running_.reset();
 }
 
+void StudySession::record_pending_reason(const std::string& reason) noexcept {
+  if (lock_) lock_->record_abort_reason(reason);
+}
+
+void StudySession::clear_pending_reason() noexcept {
+  if (lock_) lock_->clear_abort_reason();
+}
+
+db::SessionLock::CrashNoteTarget StudySession::crash_note_target() const noexcept {
+  return lock_ ? lock_->crash_note_target() : db::SessionLock::CrashNoteTarget{};
+}
+
 void StudySession::end(db::SessionStatus status) {
   if (writer_) throw std::logic_error("StudySession::end(): trial " + std::to_string(running_->id) + " is still running");
   if (ended_) throw std::logic_error("StudySession::end(): the session has already ended");

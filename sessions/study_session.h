@@ -117,6 +117,17 @@ class StudySession {
   // Re-queued copies added by finish_trial so far.
   int requeued() const noexcept { return requeued_; }
 
+  // While the running trial is in trouble the database cannot hear of yet
+  // (a device call that does not return): `reason` goes into the lock file,
+  // so that if this process is killed now, the next session's recovery
+  // records it as the trial's abort reason instead of "crashed or killed".
+  // clear_pending_reason() takes it back once the trial has ended by
+  // itself. Never throw.
+  void record_pending_reason(const std::string& reason) noexcept;
+  void clear_pending_reason() noexcept;
+  // Where a crash handler appends the cause of a crash (crash_note.h).
+  db::SessionLock::CrashNoteTarget crash_note_target() const noexcept;
+
   // Closes the session row. Throws std::logic_error while a trial runs.
   void end(db::SessionStatus status = db::SessionStatus::kClosed);
   bool ended() const noexcept { return ended_; }

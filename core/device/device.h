@@ -128,6 +128,11 @@ class Device {
   // the operator ("no answer from udp:127.0.0.1:5000 within 10 ms"); empty
   // when the status says it all.
   virtual std::string fault_detail() const { return {}; }
+  // Whether read() and write() can wait on something outside this process
+  // (a bus, a socket, a plugin's driver), so that a loop stalled inside
+  // them points at the device. false for devices that only compute (the
+  // built-in simulation, replay): a stall there is the host's.
+  virtual bool calls_may_block() const noexcept { return true; }
 };
 
 }  // namespace hapticlab

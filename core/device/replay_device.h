@@ -48,6 +48,7 @@ class ReplayDevice final : public Device {
   DeviceStatus write(const DeviceCommand& command) noexcept override;
   DeviceStatus deactivate() noexcept override;
   const char* name() const noexcept override { return "replay"; }
+  bool calls_may_block() const noexcept override { return false; }
   // No motors and nobody at a handle: the loop's range and velocity checks
   // have nothing to protect, and a recording may come from other hardware
   // (above), so the ranges and velocities are unbounded. The force ratings

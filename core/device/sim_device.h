@@ -99,6 +99,7 @@ class SimDevice final : public Device, public HandAttachment {
   // until the next activate(), like an amplifier's enable line.
   void halt() noexcept override { halted_.store(true, std::memory_order_release); }
   const char* name() const noexcept override { return "sim"; }
+  bool calls_may_block() const noexcept override { return false; }
   HandAttachment* hand_attachment() noexcept override { return this; }
 
   // --- HandAttachment

@@ -1,5 +1,9 @@
 #include "core/loop/haptic_loop.h"
 
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -20,6 +24,7 @@ const char* to_string(StopReason reason) noexcept {
     case StopReason::kEndOfData: return "end_of_data";
     case StopReason::kSafetyLimit: return "safety_limit";
     case StopReason::kWatchdog: return "watchdog";
+    case StopReason::kRateViolation: return "rate_violation";
   }
   return "unknown";
 }
@@ -53,6 +58,8 @@ void validate(const LoopSafetyConfig& c) {
   check_range("max_lateness_s", c.max_lateness_s, 0.001, 10.0);
   check_range("watchdog_timeout_s", c.watchdog_timeout_s, 0.001, 10.0);
   check_range("writer_stall_s", c.writer_stall_s, 0.001, 60.0);
+  check_range("rate.tolerance_fraction", c.rate.tolerance_fraction, 0.001, 0.5);
+  check_range("rate.window_s", c.rate.window_s, 0.05, 60.0);
 }
 
 namespace {
@@ -134,7 +141,7 @@ bool HapticLoop::activate() {
 
 void HapticLoop::start_watchdog() {
   if (clock_.is_virtual()) return;
-  watchdog_ = std::make_unique<Watchdog>(ticks_, device_, config_.safety.watchdog_timeout_s);
+  watchdog_ = std::make_unique<Watchdog>(ticks_, device_, config_.safety.watchdog_timeout_s, &device_call_);
   watchdog_->start();
 }
 
@@ -206,7 +213,24 @@ StopReason HapticLoop::loop_body() {
   const auto late_trip = [this](double late_s) {
     return SafetyTrip{.kind = SafetyTripKind::kDeadlineMissed, .value = late_s, .limit = config_.safety.max_lateness_s};
   };
+  // A call the watchdog found the loop stuck in: how long it took in all.
+  const auto hung_trip = [this](DeviceCall call, double call_s) {
+    return SafetyTrip{.kind = SafetyTripKind::kDeviceCallHung,
+                      .value = std::max(call_s, watchdog_->stalled_for_s()),
+                      .limit = watchdog_->timeout_s(),
+                      .call = call};
+  };
+  const auto stall_trip = [&](DeviceCall call, double call_s) {
+    return watchdog_->call() == call ? hung_trip(call, call_s) : watchdog_trip();
+  };
   reading_guard_.reset();
+  loop_tid_.store(static_cast<int>(::syscall(SYS_gettid)), std::memory_order_release);
+  // A device that only computes never makes a stall the device's.
+  const bool device_may_block = device_.calls_may_block();
+  // (wall clock) => the achieved rate against the schedule's (RateMonitor).
+  RateMonitor rate_monitor(config_.safety.rate);
+  rate_monitor.start(t0_s);
+  double asked_period_s = schedule_.nominal_period_s();  // what the schedule asked before this update
 
   for (std::uint64_t tick = 0;; ++tick) {
     const double now_s = clock_.now_s();
@@ -216,6 +240,14 @@ StopReason HapticLoop::loop_body() {
     const double dt_s = first ? schedule_.nominal_period_s() : now_s - last_start_s;
     if (!first) timing_.record(dt_s, now_s > deadline_s + schedule_.nominal_period_s());
     last_start_s = now_s;
+    if (!first && !clock_.is_virtual() && rate_monitor.update(now_s, asked_period_s)) {
+      const RateViolation& v = rate_monitor.violation();
+      return trip(StopReason::kRateViolation, SafetyTrip{.kind = SafetyTripKind::kRateOutOfTolerance,
+                                                         .value = v.achieved_Hz,
+                                                         .limit = v.asked_Hz,
+                                                         .limit_low = v.tolerance_fraction,
+                                                         .window_s = v.window_s});
+    }
 
     if (stop_requested_.load(std::memory_order_relaxed)) {
       finish(StopReason::kStopRequested);
@@ -224,9 +256,12 @@ StopReason HapticLoop::loop_body() {
     // (wall clock) => watchdog: this update should have started at deadline_s.
     if (lateness_trips(now_s - deadline_s)) return trip(StopReason::kWatchdog, late_trip(now_s - deadline_s));
 
+    if (device_may_block) device_call_.store(DeviceCall::kRead, std::memory_order_release);
     const DeviceStatus read_status = device_.read(reading);
+    device_call_.store(DeviceCall::kNone, std::memory_order_release);
     // A read that hung: the watchdog has halted the device meanwhile.
-    if (watchdog_ && watchdog_->tripped()) return trip(StopReason::kWatchdog, watchdog_trip());
+    if (watchdog_ && watchdog_->tripped())
+      return trip(StopReason::kWatchdog, stall_trip(DeviceCall::kRead, clock_.now_s() - now_s));
     if (read_status == DeviceStatus::kEndOfData) {
       finish(StopReason::kEndOfData);
       return StopReason::kEndOfData;
@@ -293,7 +328,14 @@ StopReason HapticLoop::loop_body() {
     // (command, t) => ramp-in and limits: the last stage before the motors.
     if (const int limited = force_guard_.apply(command, t_s); limited > 0)
       limited_commands_.fetch_add(static_cast<std::uint64_t>(limited), std::memory_order_relaxed);
+    const double write_start_s = clock_.is_virtual() ? 0.0 : clock_.now_s();
+    if (device_may_block) device_call_.store(DeviceCall::kWrite, std::memory_order_release);
     const DeviceStatus write_status = device_.write(command);
+    device_call_.store(DeviceCall::kNone, std::memory_order_release);
+    // A write that hung: the force it carried is long stale, and the
+    // watchdog has halted the device meanwhile.
+    if (watchdog_ && watchdog_->tripped() && watchdog_->call() == DeviceCall::kWrite)
+      return trip(StopReason::kWatchdog, hung_trip(DeviceCall::kWrite, clock_.now_s() - write_start_s));
     if (write_status != DeviceStatus::kOk) {
       device_status_.store(static_cast<std::int32_t>(write_status), std::memory_order_release);
       finish(StopReason::kDeviceFault);
@@ -364,7 +406,8 @@ StopReason HapticLoop::loop_body() {
       return StopReason::kMaxDuration;
     }
 
-    deadline_s += schedule_.next_period_s();
+    asked_period_s = schedule_.next_period_s();
+    deadline_s += asked_period_s;
     // (wall clock) => watchdog: an update that overran makes the next one late.
     const double end_s = clock_.now_s();
     if (lateness_trips(end_s - deadline_s)) return trip(StopReason::kWatchdog, late_trip(end_s - deadline_s));

@@ -30,7 +30,11 @@
 // halts the device if the loop completes no update for watchdog_timeout_s,
 // and an update that starts more than max_lateness_s late, or a sample
 // queue that stays full for writer_stall_s, writes zero and ends the loop
-// with StopReason::kWatchdog. safety_trip() says which limit and by how much.
+// with StopReason::kWatchdog; when the stall was inside a device call (a
+// read or write that did not return), the trip says which call
+// (SafetyTripKind::kDeviceCallHung). An achieved rate outside the rate
+// tolerance ends it with StopReason::kRateViolation. safety_trip() says
+// which limit and by how much.
 // A stop request is honoured at the start of an update and again just
 // before its write, so at most the write already under way carries force.
 
@@ -46,6 +50,7 @@
 #include "core/loop/force_guard.h"
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
+#include "core/loop/rate_monitor.h"
 #include "core/loop/rate_schedule.h"
 #include "core/loop/realtime.h"
 #include "core/loop/reading_guard.h"
@@ -66,6 +71,7 @@ enum class StopReason : std::uint8_t {
   kEndOfData,       // a replay device ran out of recording: a normal end, not a fault
   kSafetyLimit,     // a reading outside the device's range or faster than its max velocity
   kWatchdog,        // the loop ran late, stalled, or its sample writer fell behind (wall clock)
+  kRateViolation,   // the loop ran outside the rate tolerance (wall clock; LoopSafetyConfig::rate)
 };
 const char* to_string(StopReason reason) noexcept;
 
@@ -91,6 +97,10 @@ struct LoopSafetyConfig {
   // loop [s], 0.001..60: the writer has stalled and the trial is no longer
   // recorded, which on a healthy host does not happen.
   double writer_stall_s = 0.25;
+  // The achieved update rate must stay within rate.tolerance_fraction of
+  // the schedule's over every window of rate.window_s (RateMonitor); else
+  // zero force and StopReason::kRateViolation.
+  RateCheck rate;
 };
 // Throws std::invalid_argument naming the field, the value and its range.
 void validate(const LoopSafetyConfig& config);
@@ -174,6 +184,16 @@ class HapticLoop {
   std::uint64_t limited_commands() const noexcept { return limited_commands_.load(std::memory_order_relaxed); }
   // The guard the commands pass; valid after activate().
   const ForceGuard& force_guard() const noexcept { return force_guard_; }
+  // Any thread, while the loop runs: the watchdog has halted the device
+  // because the loop completed no update for watchdog_timeout_s, and which
+  // device call the loop was in then (kNone: elsewhere). The loop may still
+  // be stuck in that call.
+  bool watchdog_tripped() const noexcept { return watchdog_ && watchdog_->tripped(); }
+  DeviceCall watchdog_call() const noexcept { return watchdog_ ? watchdog_->call() : DeviceCall::kNone; }
+  // Any thread: the device call the loop thread is in now (a crash handler
+  // reads it), and the loop thread's kernel thread id (0 before it runs).
+  const std::atomic<DeviceCall>& device_call() const noexcept { return device_call_; }
+  int loop_thread_id() const noexcept { return loop_tid_.load(std::memory_order_acquire); }
 
   // Consumer side of the queues (one consumer thread).
   SpscQueue<LoopSample>& samples() noexcept { return samples_; }
@@ -208,6 +228,8 @@ class HapticLoop {
   std::unique_ptr<Watchdog> watchdog_;
   bool activated_ = false;  // control thread: activate() succeeded, loop not yet run
 
+  std::atomic<DeviceCall> device_call_{DeviceCall::kNone};
+  std::atomic<int> loop_tid_{0};
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> running_{false};
   std::atomic<StopReason> stop_reason_{StopReason::kNotStopped};

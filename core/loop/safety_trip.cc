@@ -41,6 +41,17 @@ const char* to_string(SafetyTripKind kind) noexcept {
     case SafetyTripKind::kDeadlineMissed: return "deadline_missed";
     case SafetyTripKind::kLoopStalled: return "loop_stalled";
     case SafetyTripKind::kWriterStalled: return "writer_stalled";
+    case SafetyTripKind::kRateOutOfTolerance: return "rate_out_of_tolerance";
+    case SafetyTripKind::kDeviceCallHung: return "device_call_hung";
+  }
+  return "unknown";
+}
+
+const char* to_string(DeviceCall call) noexcept {
+  switch (call) {
+    case DeviceCall::kNone: return "none";
+    case DeviceCall::kRead: return "read";
+    case DeviceCall::kWrite: return "write";
   }
   return "unknown";
 }
@@ -65,6 +76,14 @@ std::string describe(const SafetyTrip& trip) {
     case SafetyTripKind::kWriterStalled:
       return format("the sample writer fell behind: the sample queue stayed full for %.3f s (limit %.3f s)",
                     trip.value, trip.limit);
+    case SafetyTripKind::kRateOutOfTolerance:
+      return format("the loop ran at %.1f Hz where the schedule asked for %.1f Hz", trip.value, trip.limit) +
+             format(" (%+.1f %%, tolerance %.1f %%", 100.0 * (trip.value / trip.limit - 1.0), 100.0 * trip.limit_low) +
+             format(", over %.2f s)", trip.window_s);
+    case SafetyTripKind::kDeviceCallHung:
+      return std::string("device ") + to_string(trip.call) +
+             format(" hung for %.0f ms (watchdog limit %.0f ms); the device was halted", 1e3 * trip.value,
+                    1e3 * trip.limit);
   }
   return "unknown safety trip";
 }

@@ -11,6 +11,10 @@
 //   kLoopStalled         how long the loop had completed no update when the
 //                        watchdog halted the device [s]; limit = watchdog_timeout_s
 //   kWriterStalled       how long the sample queue had stayed full [s]; limit = writer_stall_s
+//   kRateOutOfTolerance  the rate the loop achieved [Hz]; limit = the rate the schedule asked
+//                        for [Hz], limit_low = the tolerance (fraction), window_s = the window
+//   kDeviceCallHung      how long the device call (call: read or write) had not returned when
+//                        the watchdog halted the device [s]; limit = watchdog_timeout_s
 
 #include <cstdint>
 #include <string>
@@ -24,7 +28,13 @@ enum class SafetyTripKind : std::uint8_t {
   kDeadlineMissed,
   kLoopStalled,
   kWriterStalled,
+  kRateOutOfTolerance,
+  kDeviceCallHung,
 };
+
+// Which device call a kDeviceCallHung trip was in.
+enum class DeviceCall : std::uint8_t { kNone = 0, kRead, kWrite };
+const char* to_string(DeviceCall call) noexcept;  // "read", "write", "none"
 
 struct SafetyTrip {
   SafetyTripKind kind = SafetyTripKind::kNone;
@@ -33,12 +43,15 @@ struct SafetyTrip {
   double value = 0.0;
   double limit = 0.0;       // the upper limit (or the only one)
   double limit_low = 0.0;   // kPositionOutOfRange: the lower end of the allowed span
+  double window_s = 0.0;    // kRateOutOfTolerance: how long the rate was measured over [s]
+  DeviceCall call = DeviceCall::kNone;  // kDeviceCallHung
 
   bool tripped() const noexcept { return kind != SafetyTripKind::kNone; }
 };
 
 // "position_out_of_range", "velocity_too_high", "deadline_missed",
-// "loop_stalled", "writer_stalled", "none".
+// "loop_stalled", "writer_stalled", "rate_out_of_tolerance",
+// "device_call_hung", "none".
 const char* to_string(SafetyTripKind kind) noexcept;
 
 // One sentence for the operator and the trial's abort reason, e.g.

@@ -5,8 +5,9 @@
 
 namespace hapticlab {
 
-Watchdog::Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s) noexcept
-    : heartbeat_(heartbeat), device_(device), timeout_s_(timeout_s) {}
+Watchdog::Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s,
+                   const std::atomic<DeviceCall>* call) noexcept
+    : heartbeat_(heartbeat), device_(device), timeout_s_(timeout_s), call_(call) {}
 
 Watchdog::~Watchdog() { stop(); }
 
@@ -18,6 +19,7 @@ void Watchdog::start() {
   }
   tripped_.store(false, std::memory_order_release);
   stalled_for_s_.store(0.0, std::memory_order_release);
+  tripped_call_.store(DeviceCall::kNone, std::memory_order_release);
   armed_.store(true, std::memory_order_release);
   thread_ = std::thread([this] { watch(); });
 }
@@ -54,6 +56,7 @@ void Watchdog::watch() {
     if (quiet > timeout && armed_.exchange(false, std::memory_order_acq_rel)) {
       // Cut the force first; the loop reads the flag when it comes back.
       device_.halt();
+      if (call_ != nullptr) tripped_call_.store(call_->load(std::memory_order_acquire), std::memory_order_release);
       stalled_for_s_.store(quiet.count(), std::memory_order_release);
       tripped_.store(true, std::memory_order_release);
     }

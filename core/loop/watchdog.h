@@ -24,13 +24,16 @@
 #include <thread>
 
 #include "core/device/device.h"
+#include "core/loop/safety_trip.h"
 
 namespace hapticlab {
 
 class Watchdog {
  public:
-  // timeout_s > 0. `heartbeat` and `device` must outlive the watchdog.
-  Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s) noexcept;
+  // timeout_s > 0. `heartbeat`, `device` and `call` (the device call the
+  // loop is in, if it says; may be null) must outlive the watchdog.
+  Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s,
+           const std::atomic<DeviceCall>* call = nullptr) noexcept;
   ~Watchdog();
   Watchdog(const Watchdog&) = delete;
   Watchdog& operator=(const Watchdog&) = delete;
@@ -46,6 +49,8 @@ class Watchdog {
   // How long the heartbeat had not moved when the watchdog halted [s].
   double stalled_for_s() const noexcept { return stalled_for_s_.load(std::memory_order_acquire); }
   double timeout_s() const noexcept { return timeout_s_; }
+  // The device call the loop was in when the watchdog halted (kNone: not in one).
+  DeviceCall call() const noexcept { return tripped_call_.load(std::memory_order_acquire); }
 
  private:
   void watch();
@@ -60,6 +65,8 @@ class Watchdog {
   std::atomic<bool> armed_{false};
   std::atomic<bool> tripped_{false};
   std::atomic<double> stalled_for_s_{0.0};
+  const std::atomic<DeviceCall>* call_;
+  std::atomic<DeviceCall> tripped_call_{DeviceCall::kNone};
 };
 
 }  // namespace hapticlab

@@ -2,6 +2,7 @@
 // sim, the sim plugin and fake plugins that misbehave.
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -52,12 +53,19 @@ void expect_rests_at_start_pose(const nlohmann::json& report) {
   }
 }
 
+// The checks below are not about the rate: they allow the loaded CI host
+// half of it (--rate-tolerance 0.5). The check runs for --seconds of wall
+// time, so a host that loses updates runs fewer of them.
+const std::string kLenientRate = " --rate-tolerance 0.5";
+
 TEST(DeviceCheckTest, TheSimDeviceAtRestReadsItsStartPose) {
-  const auto [status, out] = testing::run_cli(kBinary, "device check --device sim --seconds 0.2 --json");
+  const auto [status, out] =
+      testing::run_cli(kBinary, "device check --device sim --seconds 0.2 --json" + kLenientRate);
   ASSERT_EQ(status, 0) << out;
   const nlohmann::json report = parse_report(out);
   EXPECT_EQ(report["name"], "sim");
-  EXPECT_EQ(report["updates"], 200);
+  EXPECT_LE(report["updates"].get<int>(), 200);
+  EXPECT_GE(report["updates"].get<int>(), 100);
   EXPECT_EQ(report["faults"]["total"], 0);
   // Rate achieved on the wall clock: the loop never bursts, so at most the
   // nominal rate; a loaded CI machine may lose a few updates' worth.
@@ -69,7 +77,7 @@ TEST(DeviceCheckTest, TheSimDeviceAtRestReadsItsStartPose) {
 
 TEST(DeviceCheckTest, TheSimPluginReadsTheSameAsTheBuiltInSim) {
   const auto [status, out] =
-      testing::run_cli(kBinary, "device check --device plugin:" + kSimPlugin + " --seconds 0.2 --json");
+      testing::run_cli(kBinary, "device check --device plugin:" + kSimPlugin + " --seconds 0.2 --json" + kLenientRate);
   ASSERT_EQ(status, 0) << out;
   const nlohmann::json report = parse_report(out);
   EXPECT_EQ(report["name"], "sim-plugin");
@@ -77,7 +85,8 @@ TEST(DeviceCheckTest, TheSimPluginReadsTheSameAsTheBuiltInSim) {
 }
 
 TEST(DeviceCheckTest, TextReportNamesTheDeviceRatingsRateJitterRangesAndFaults) {
-  const auto [status, out] = testing::run_cli(kBinary, "device check --device plugin:" + kFake + " --seconds 0.1");
+  const auto [status, out] =
+      testing::run_cli(kBinary, "device check --device plugin:" + kFake + " --seconds 0.1" + kLenientRate);
   ASSERT_EQ(status, 0) << out;
   EXPECT_THAT(out, HasSubstr("hapticlab device check: plugin:" + kFake + " (fake), 0.1 s at 1000 Hz"));
   EXPECT_THAT(out, HasSubstr("right grip"));
@@ -92,14 +101,15 @@ TEST(DeviceCheckTest, OnlyZeroForceIsCommanded) {
   const fs::path report = fs::temp_directory_path() / ("hapticlab_device_check_" + std::to_string(::getpid()));
   const auto [status, out] = testing::run_cli(
       kBinary, "device check --device plugin:" + kFake + " --device-option report=" + report.string() +
-                   " --seconds 0.1");
+                   " --seconds 0.1 --json" + kLenientRate);
   ASSERT_EQ(status, 0) << out;
   std::ifstream in(report);
   std::stringstream text;
   text << in.rdbuf();
   fs::remove(report);
-  // One write per update, 0.1 s at 1 kHz, and none of them nonzero.
-  EXPECT_EQ(text.str(), "writes 100 nonzero_writes 0 max_abs_force 0 halts 0\n");
+  // One write per update, and none of them nonzero.
+  const int updates = parse_report(out)["updates"].get<int>();
+  EXPECT_EQ(text.str(), "writes " + std::to_string(updates) + " nonzero_writes 0 max_abs_force 0 halts 0\n");
 }
 
 TEST(DeviceCheckTest, ANotCalibratedDeviceIsNotDrivenAndSaysSo) {
@@ -113,13 +123,36 @@ TEST(DeviceCheckTest, ANotCalibratedDeviceIsNotDrivenAndSaysSo) {
 
 TEST(DeviceCheckTest, NanReadingsAreCountedAsFaults) {
   const auto [status, out] = testing::run_cli(
-      kBinary, "device check --device plugin:" + kFake + " --device-option fault=nan_read --seconds 0.1");
+      kBinary, "device check --device plugin:" + kFake + " --device-option fault=nan_read --seconds 0.1" +
+                   kLenientRate);
   EXPECT_EQ(status, kExitDeviceFault) << out;
-  EXPECT_THAT(out, HasSubstr("faults: read non_finite_reading 100"));
-  EXPECT_THAT(out, HasSubstr("100 faults in 100 updates"));
+  const std::string n = out.substr(out.find(" faults in ") + 11, out.find(" updates") - out.find(" faults in ") - 11);
+  EXPECT_THAT(out, HasSubstr("faults: read non_finite_reading " + n + "\n"));
+  EXPECT_THAT(out, HasSubstr(n + " faults in " + n + " updates"));
   // A reading with a fault counts for no joint.
   EXPECT_THAT(out, HasSubstr("left  pitch     no reading"));
   EXPECT_THAT(out, HasSubstr("right grip      no reading"));
+}
+
+// Issue 33: a plugin whose write() takes 5 ms was reported as "faults:
+// none" at 172 Hz, and a 1 s check ran 6.2 s. The rate is a fault now, and
+// the check keeps to its time.
+TEST(DeviceCheckTest, ADeviceTooSlowForTheRateIsAFaultAndTheCheckKeepsItsTime) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto [status, out] = testing::run_cli(
+      kBinary, "device check --device plugin:" + kFake + " --device-option fault=slow_write --seconds 0.5 --json");
+  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(status, kExitDeviceFault) << out;
+  EXPECT_LT(took_s, 2.0) << out;
+  const nlohmann::json report = parse_report(out);
+  const nlohmann::json& v = report["faults"]["rate_violation"];
+  ASSERT_TRUE(v.is_object()) << out;
+  EXPECT_GT(v["achieved_Hz"].get<double>(), 100.0);
+  EXPECT_LT(v["achieved_Hz"].get<double>(), 215.0);
+  EXPECT_EQ(v["asked_Hz"].get<double>(), 1000.0);
+  EXPECT_EQ(v["tolerance_fraction"].get<double>(), 0.1);
+  EXPECT_EQ(report["faults"]["total"], 1);
+  EXPECT_THAT(out, HasSubstr("rate_violation: "));  // on stderr, for the operator
 }
 
 TEST(DeviceCheckTest, ACrashInConfigureIsReportedNotSuffered) {

@@ -352,3 +352,27 @@ TEST(ProtocolJsonTest, ExternalTasksAreScheduledAndCounterbalanced) {
 
 }  // namespace
 }  // namespace hapticlab::protocols
+
+namespace hapticlab::protocols {
+namespace {
+
+// Issue 33: the update rate is a controlled variable, so how far a session's
+// achieved rate may stray is the protocol's to say, with a stated default.
+TEST(ProtocolJsonTest, RateToleranceIsReadWithItsDefaultAndRange) {
+  EXPECT_DOUBLE_EQ(parse(valid()).rate_tolerance_fraction, 0.10);
+  json j = valid();
+  j["rate_tolerance_fraction"] = 0.25;
+  EXPECT_DOUBLE_EQ(parse(j).rate_tolerance_fraction, 0.25);
+  EXPECT_DOUBLE_EQ(rate_tolerance_from_protocol_text(j.dump(), "study.db"), 0.25);
+  EXPECT_DOUBLE_EQ(rate_tolerance_from_protocol_text(valid().dump(), "study.db"), 0.10);
+  for (const json& bad : {json(0.0), json(0.6), json("10%"), json(nullptr)}) {
+    j["rate_tolerance_fraction"] = bad;
+    const Failure f = failure_of(j);
+    EXPECT_EQ(f.field, "rate_tolerance_fraction") << bad;
+    EXPECT_THAT(f.message, HasSubstr("0.001")) << f.message;
+    EXPECT_THAT(f.message, HasSubstr("0.5")) << f.message;
+  }
+}
+
+}  // namespace
+}  // namespace hapticlab::protocols

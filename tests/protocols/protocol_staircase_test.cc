@@ -88,10 +88,10 @@ TEST(ProtocolStaircaseTest, BadRulesAreNamed) {
   };
   const Case cases[] = {
       {"measure", "force_max_N", "staircase.measure", "must be one of force_median_N, force_p95_N"},
-      {"change", 0, "staircase.change", "must be > 0 and <= 10"},
+      {"change", 0, "staircase.change", "must be a number > 0 and <= 10"},
       {"direction", "up", "staircase.direction", "must be \"increase\", \"decrease\" or \"either\""},
-      {"start", 3, "staircase.start", "must be >= 0 and <= 2"},
-      {"step", 0, "staircase.step", "must be > 0 and <= 2"},
+      {"start", 3, "staircase.start", "must be a number >= 0 and <= 2"},
+      {"step", 0, "staircase.step", "must be a number > 0 and <= 2"},
       {"max", -1, "staircase.max", "must be greater than staircase.min"},
       {"max", 1e9, "staircase.max", "is not a valid translation.friction.dynamic_level_N"},
       {"reversals", 7, "staircase.reversals", "must be even"},

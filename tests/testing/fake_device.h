@@ -8,6 +8,7 @@
 // insertion 0.10 m, pitch 0.1, yaw −0.1, twist 0, grip 0.2 rad. Cues, each
 // by read number (0-based; -1 = never):
 //   stall_at_read        that read sleeps stall_s, then answers normally
+//   write_delay_s        every write sleeps this long first
 //   nan_at_read          instrument 0's grip reads NaN (status kOk)
 //   jump_from_read       instrument 1's insertion reads 1 m further out
 //   fast_from_read       instrument 0's pitch moves fast_rad_per_read more per read
@@ -69,6 +70,7 @@ class FakeDevice final : public Device {
     return DeviceStatus::kOk;
   }
   DeviceStatus write(const DeviceCommand& command) noexcept override {
+    if (write_delay_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(write_delay_s));
     if (writes_.size() < kMaxWrites) {  // reserved: never reallocates on the loop thread
       writes_.push_back(command);
       write_times_.push_back(Steady::now());
@@ -103,6 +105,7 @@ class FakeDevice final : public Device {
   DeviceStatus activate_status = DeviceStatus::kOk;
   int stall_at_read = -1;
   double stall_s = 0.1;
+  double write_delay_s = 0.0;  // every write takes this long (a device on a slow bus)
   int nan_at_read = -1;
   int jump_from_read = -1;
   int fast_from_read = -1;

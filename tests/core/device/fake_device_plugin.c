@@ -11,7 +11,8 @@
  *   after=N          calls that behave before a crash_in_* or hang_in_read fault strikes (default 200)
  *   hang_ms=N        how long hang_in_read blocks (default 0: for ever)
  *   write_delay_us=N how long slow_write's write() takes (default 5000)
- *   report=PATH   at destroy, write "writes N nonzero_writes M max_abs_force F halts H" to PATH
+ *   report=PATH   at destroy and at every halt, write "writes N nonzero_writes M max_abs_force F halts H" to
+ *                 PATH (at halt too, since a process that crashed never destroys its device)
  * Built three times (tests/core/device/CMakeLists.txt): as is, with
  * FAKE_ABI_VERSION=2, and with FAKE_NO_ENTRY (no entry point).
  */
@@ -181,14 +182,7 @@ static hl_device_status fake_deactivate(hl_device* d) {
   return HL_DEVICE_OK;
 }
 
-static void fake_halt(hl_device* d) { ++d->halts; }
-
-static const char* fake_name(const hl_device* d) {
-  (void)d;
-  return "fake";
-}
-
-static void fake_destroy(hl_device* d) {
+static void write_report(const hl_device* d) {
   if (d->report[0] != '\0') {
     FILE* f = fopen(d->report, "w");
     if (f != NULL) {
@@ -197,6 +191,20 @@ static void fake_destroy(hl_device* d) {
       fclose(f);
     }
   }
+}
+
+static void fake_halt(hl_device* d) {
+  ++d->halts;
+  write_report(d);
+}
+
+static const char* fake_name(const hl_device* d) {
+  (void)d;
+  return "fake";
+}
+
+static void fake_destroy(hl_device* d) {
+  write_report(d);
   free(d);
 }
 
