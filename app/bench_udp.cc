@@ -4,10 +4,13 @@
 #include <cstdio>
 #include <memory>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
+#include "app/insecure_flag.h"
 #include "core/device/udp_device.h"
 #include "core/device/udp_sim_server.h"
 #include "core/loop/clock.h"
@@ -15,12 +18,28 @@
 namespace hapticlab::app {
 namespace {
 
-void bench_udp(double seconds, double rate_Hz, int port, bool json) {
+struct BenchUdpOptions {
+  double seconds = 10.0;
+  double rate_Hz = 1000.0;
+  std::string host = "127.0.0.1";
+  int port = 0;
+  std::string key_file;
+  bool insecure = false;
+  bool json = false;
+};
+
+void bench_udp(const BenchUdpOptions& o) {
+  const double seconds = o.seconds, rate_Hz = o.rate_Hz;
+  const bool json = o.json;
+  int port = o.port;
   std::optional<UdpSimServer> server;
   std::atomic<bool> stop{false};
   std::thread serving;
   if (port == 0) {
-    server.emplace("127.0.0.1", 0);
+    if (o.host != "127.0.0.1")
+      throw std::invalid_argument("--host " + o.host + ": without --port the bench serves the simulated workstation "
+                                  "itself, on 127.0.0.1; give --port of the driver at " + o.host);
+    server.emplace("127.0.0.1", 0, o.key_file.empty() ? udp::Key{} : udp::read_key_file(o.key_file, "--key-file"));
     port = server->port();
     serving = std::thread([&] { server->run(stop); });
   }
@@ -34,12 +53,15 @@ void bench_udp(double seconds, double rate_Hz, int port, bool json) {
   } join{stop, serving};
 
   UdpDeviceOptions options;
+  options.host = o.host;
   options.port = port;
   options.timeout_ms = 100;
+  options.key_file = o.key_file;
+  options.insecure = o.insecure;
   UdpDevice device(options);
   WallClock clock;
   if (device.configure(DeviceConfig{rate_Hz, 1}) != DeviceStatus::kOk || device.activate(clock) != DeviceStatus::kOk)
-    throw std::runtime_error("bench udp: the device behind udp:127.0.0.1:" + std::to_string(port) +
+    throw std::runtime_error("bench udp: the device behind udp:" + o.host + ":" + std::to_string(port) +
                              " refused to start");
   // Zero forces and no hand: the round trip is the figure, not the physics.
   const auto updates = static_cast<long>(seconds * rate_Hz);
@@ -60,39 +82,45 @@ void bench_udp(double seconds, double rate_Hz, int port, bool json) {
     nlohmann::json j = {{"benchmark", "udp"}, {"rate_Hz", rate_Hz}, {"seconds", seconds},
                         {"polls", updates},   {"failed_reads", failed}, {"p50_round_trip_us", p50_us},
                         {"p99_round_trip_us", p99_us}, {"timeouts", c.timeouts}, {"stale", c.stale},
-                        {"out_of_order", c.out_of_order}, {"malformed", c.malformed}};
+                        {"out_of_order", c.out_of_order}, {"malformed", c.malformed},
+                        {"authenticated", device.authenticated()}, {"rejected_mac", c.rejected_mac},
+                        {"wrong_nonce", c.wrong_nonce}, {"wrong_source", c.wrong_source}};
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
-  std::printf("hapticlab bench udp: POLL -> STATE round trip over loopback, %.0f Hz, %.1f s, %s udp:127.0.0.1:%d\n",
-              rate_Hz, seconds, server ? "simulated workstation served by this process on" : "the driver at", port);
+  std::printf("hapticlab bench udp: POLL -> STATE round trip, %.0f Hz, %.1f s, %s udp:%s:%d, %s\n", rate_Hz,
+              seconds, server ? "simulated workstation served by this process on" : "the driver at", o.host.c_str(),
+              port, device.authenticated() ? "authenticated (HMAC-SHA-256)" : "not authenticated");
   std::printf("polls %ld, round trip p50 %.0f us, p99 %.0f us (1 us bins); target p99 < 200 us: %s\n", updates,
               p50_us, p99_us, p99_us < 200.0 ? "met" : "NOT met");
-  std::printf("failed reads %llu, timeouts %llu, stale %llu, out of order %llu, malformed %llu\n",
+  std::printf("failed reads %llu, timeouts %llu, stale %llu, out of order %llu, malformed %llu, rejected: bad MAC "
+              "%llu, wrong nonce %llu, wrong source %llu\n",
               static_cast<unsigned long long>(failed), static_cast<unsigned long long>(c.timeouts),
               static_cast<unsigned long long>(c.stale), static_cast<unsigned long long>(c.out_of_order),
-              static_cast<unsigned long long>(c.malformed));
+              static_cast<unsigned long long>(c.malformed), static_cast<unsigned long long>(c.rejected_mac),
+              static_cast<unsigned long long>(c.wrong_nonce), static_cast<unsigned long long>(c.wrong_source));
 }
 
 }  // namespace
 
 void add_bench_udp_command(CLI::App& bench) {
-  struct Opts {
-    double seconds = 10.0;
-    double rate_Hz = 1000.0;
-    int port = 0;
-    bool json = false;
-  };
-  auto o = std::make_shared<Opts>();
-  CLI::App* cmd = bench.add_subcommand("udp", "Measure the UDP bridge's round trip (POLL -> STATE) over loopback");
+  auto o = std::make_shared<BenchUdpOptions>();
+  CLI::App* cmd = bench.add_subcommand("udp", "Measure the UDP bridge's round trip (POLL -> STATE), over loopback "
+                                              "or to a driver on the network");
   cmd->add_option("--seconds", o->seconds, "How long to run [s]")->check(CLI::Range(0.1, 3600.0))->capture_default_str();
   cmd->add_option("--rate-hz", o->rate_Hz, "Poll rate [Hz], 150..2000")
       ->check(CLI::Range(150.0, 2000.0))
       ->capture_default_str();
-  cmd->add_option("--port", o->port, "Port of a running `device serve-sim` on 127.0.0.1 (0: serve in this process)")
+  cmd->add_option("--port", o->port,
+                  "Port of a running `device serve-sim` or driver (0: serve the simulated workstation in this process)")
       ->check(CLI::Range(0, 65535));
+  cmd->add_option("--host", o->host, "IPv4 address of the driver (with --port)")->capture_default_str();
+  cmd->add_option("--key-file", o->key_file,
+                  "The bridge's shared key (as --device-option key_file=PATH); without --port the served "
+                  "workstation uses it too");
+  add_insecure_flag(cmd, o->insecure);
   cmd->add_flag("--json", o->json, "Machine-readable output");
-  cmd->callback([o] { bench_udp(o->seconds, o->rate_Hz, o->port, o->json); });
+  cmd->callback([o] { bench_udp(*o); });
 }
 
 }  // namespace hapticlab::app

@@ -85,7 +85,7 @@ struct LoopSafetyConfig {
   // pushes back with energy it should not have.
   double max_lateness_s = 0.020;
   // The watchdog thread halts the device when no update completes for this
-  // long [s], 0.001..10.
+  // long [s], 0.001..10, plus the device's read_timeout_s().
   double watchdog_timeout_s = 0.020;
   // A sample queue that stays full (samples dropped) this long ends the
   // loop [s], 0.001..60: the writer has stalled and the trial is no longer

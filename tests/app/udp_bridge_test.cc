@@ -176,7 +176,7 @@ class Relay {
         host_len = sizeof host;
         const ssize_t n = ::recvfrom(host_fd_, buf.data(), buf.size(), 0, reinterpret_cast<sockaddr*>(&host), &host_len);
         udp::Header h;
-        if (n > 0 && udp::decode_header(buf.data(), static_cast<std::size_t>(n), h)) {
+        if (n > 0 && udp::decode_header(buf.data(), static_cast<std::size_t>(n), udp::Key{}, h) == udp::Verdict::kOk) {
           if (h.type == udp::Type::kPoll && ++polls == kill_at_) {
             ::kill(server_pid_, SIGKILL);
             silent = true;
@@ -289,7 +289,7 @@ TEST_F(UdpBridgeTest, ServeSimIgnoresMalformedDatagramsAndKeepsServing) {
     const char junk[] = "not a HapticLab datagram";
     ::sendto(fd, junk, sizeof junk, 0, reinterpret_cast<sockaddr*>(&a), sizeof a);
     std::array<std::byte, udp::kMaxDatagramBytes> b;
-    const std::size_t n = udp::encode(udp::Header{udp::Type::kPoll, 1, 0.0}, b.data());
+    const std::size_t n = udp::encode(udp::Header{udp::Type::kPoll, 1, 0.0}, udp::Key{}, b.data());
     ::sendto(fd, b.data(), n - 1, 0, reinterpret_cast<sockaddr*>(&a), sizeof a);  // truncated
     ::close(fd);
   }
