@@ -591,6 +591,84 @@ TEST_F(UdpBridgeTest, OnTheWallClockPollsCarryTheStoredTimeAndASilentDriverIsDev
     ASSERT_NEAR(poll_times_s[k], samples[k].t_s, 250e-6) << "update " << k;
 }
 
+TEST_F(UdpBridgeTest, ThePythonExampleDriverSpeaksTheAuthenticatedFormatAndIgnoresForgedCommands) {
+  const std::string key_file = new_key_file("bridge.key");
+  ChildProcess driver({"/usr/bin/python3", std::string(HAPTICLAB_SOURCE_DIR) + "/examples/udp_driver/udp_driver.py",
+                       "--port", "0", "--key-file", key_file},
+                      (dir_ / "driver.log").string());
+  const std::string marker = "driver on udp:127.0.0.1:";
+  int port = 0;
+  for (int i = 0; i < 500 && port == 0; ++i) {
+    const std::string out = driver.output();
+    if (const auto at = out.find(marker); at != std::string::npos && out.find('\n', at) != std::string::npos)
+      port = std::stoi(out.substr(at + marker.size()));
+    else
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_NE(port, 0) << driver.output();
+  const std::string device = " --device udp:127.0.0.1:" + std::to_string(port) + " --device-option timeout_ms=500";
+  // The host with the key: the check runs, zero force throughout.
+  const auto [code, out] = run_cli(kBinary, "device check --seconds 0.1" + device + " --device-option key_file=" + key_file);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_THAT(out, HasSubstr("(my-device)"));
+  // A host of the test's own, with the key: HELLO, ACTIVATE, one COMMAND
+  // of 0.5 N. Then the same COMMAND again (a replay), and 5 N COMMANDs in
+  // the session (its nonces, a newer sequence) but with another key, and
+  // without one.
+  {
+    const std::string key_hex = [&] {
+      std::ifstream in(key_file);
+      std::string line;
+      std::getline(in, line);
+      return line;
+    }();
+    const std::string raw_key = hex_bytes(key_hex);
+    const udp::Key key(std::as_bytes(std::span(raw_key.data(), raw_key.size())));
+    const std::string other_raw = "0123456789abcdef0123456789abcdef";
+    const udp::Key other(std::as_bytes(std::span(other_raw.data(), other_raw.size())));
+    const int fd = udp_socket_on(0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<std::uint16_t>(port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    std::array<std::byte, udp::kMaxDatagramBytes> b;
+    const auto send = [&](std::size_t n) { ::sendto(fd, b.data(), n, 0, reinterpret_cast<sockaddr*>(&a), sizeof a); };
+    const auto receive = [&](udp::Header& h) {
+      pollfd p{fd, POLLIN, 0};
+      if (::poll(&p, 1, 2000) <= 0) return false;
+      const ssize_t n = ::recv(fd, b.data(), b.size(), 0);
+      return n > 0 && udp::decode_header(b.data(), static_cast<std::size_t>(n), key, h) == udp::Verdict::kOk;
+    };
+    const std::uint64_t host_nonce = 0x5eed5eed5eed5eedull;
+    send(udp::encode(udp::Header{udp::Type::kHello, 1, 0.0, host_nonce, 0}, key, b.data()));
+    udp::Header reply;
+    ASSERT_TRUE(receive(reply));
+    const std::uint64_t device_nonce = reply.device_nonce;
+    send(udp::encode(udp::Header{udp::Type::kActivate, 2, 0.0, host_nonce, device_nonce}, key, b.data()));
+    ASSERT_TRUE(receive(reply));
+    udp::Command push;
+    push.force[0][kJointInsertion] = 0.5;
+    const std::size_t n = udp::encode(udp::Header{udp::Type::kCommand, 3, 0.0, host_nonce, device_nonce}, push, key,
+                                      b.data());
+    send(n);
+    send(n);  // replayed
+    push.force[0][kJointInsertion] = 5.0;
+    send(udp::encode(udp::Header{udp::Type::kCommand, 4, 0.0, host_nonce, device_nonce}, push, other, b.data()));
+    send(udp::encode(udp::Header{udp::Type::kCommand, 5, 0.0, host_nonce, device_nonce}, push, udp::Key{}, b.data()));
+    send(udp::encode(udp::Header{udp::Type::kCommand, 6, 0.0, host_nonce + 1, device_nonce}, push, key, b.data()));
+    send(udp::encode(udp::Header{udp::Type::kDeactivate, 7, 0.0, host_nonce, device_nonce}, key, b.data()));
+    ASSERT_TRUE(receive(reply));  // every datagram before the DEACTIVATE has been handled
+    ::close(fd);
+  }
+  driver.kill(SIGTERM);
+  driver.wait();
+  // The 0.5 N COMMAND applied once; the replay, the forgeries and the
+  // other session's refused, each by what gave it away.
+  const std::string log = driver.output();
+  EXPECT_THAT(log, HasSubstr("rejected_mac 2, wrong_nonce 1, old_sequence 1, commands "));
+  EXPECT_THAT(log, HasSubstr("largest force applied 0.5\n"));
+}
+
 TEST_F(UdpBridgeTest, ServeSimOnAPortInUseIsAClearError) {
   const int fd = udp_socket_on(0);
   const int port = port_of(fd);
