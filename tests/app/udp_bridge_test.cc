@@ -119,10 +119,14 @@ class UdpBridgeTest : public ::testing::Test {
   int servers_ = 0;
 };
 
-// Trial 1 of both studies, sample for sample: equal bit for bit, times included.
-void expect_same_samples(const std::string& udp_db, const std::string& sim_db) {
+// Trial 1 of both studies, sample for sample: equal bit for bit, times
+// included, and ended the same way.
+void expect_same_samples(const std::string& udp_db, const std::string& sim_db,
+                         db::TrialStatus status = db::TrialStatus::kComplete) {
   db::StudyDb u(udp_db), s(sim_db);
-  ASSERT_EQ(u.trials().front().status, db::TrialStatus::kComplete);
+  ASSERT_EQ(u.trials().front().status, status);
+  ASSERT_EQ(s.trials().front().status, status);
+  EXPECT_EQ(u.trials().front().abort_reason, s.trials().front().abort_reason);
   for (int instrument = 0; instrument < 2; ++instrument) {
     const std::vector<db::StoredSample> a = u.samples(1, instrument), b = s.samples(1, instrument);
     ASSERT_EQ(a.size(), b.size());
@@ -450,7 +454,9 @@ TEST_F(UdpBridgeTest, ForgedStatesAndCommandsFromASpoofingProcessChangeNothingAn
   std::unique_ptr<ChildProcess> server;
   const int port = start_server(server, {"--key-file", key_file});
   const std::string udp_db = create_study("udp"), sim_db = create_study("sim");
-  const std::string run = " --participant S1 --training-trials 0 --max-trials 1";
+  // 5 s of the trial (5000 updates) are plenty for the forger and keep
+  // the test short; both trials end at that limit.
+  const std::string run = " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5";
   std::pair<int, std::string> udp_run;
   int forged_states = 0, forged_commands = 0;
   {
@@ -468,7 +474,7 @@ TEST_F(UdpBridgeTest, ForgedStatesAndCommandsFromASpoofingProcessChangeNothingAn
   EXPECT_GT(forged_states, 1000);
   // Every stored sample is what serve-sim computed, and serve-sim was
   // moved by the host's COMMANDs alone: the run equals the built-in sim's.
-  expect_same_samples(udp_db, sim_db);
+  expect_same_samples(udp_db, sim_db, db::TrialStatus::kAborted);
   const auto counters = counters_of(udp_db, 1);
   EXPECT_EQ(counters.at("authenticated"), 1u);
   EXPECT_GT(counters.at("rejected_mac"), 0u);  // the forged STATEs, stored with the trial
