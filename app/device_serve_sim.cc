@@ -2,9 +2,11 @@
 
 #include <cstdio>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "app/interrupt_flag.h"
+#include "core/device/udp_device.h"
 #include "core/device/udp_protocol.h"
 #include "core/device/udp_sim_server.h"
 
@@ -15,6 +17,7 @@ void add_device_serve_sim_command(CLI::App& device) {
     int port = 0;
     std::string host = "127.0.0.1";
     std::string key_file;
+    bool insecure = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd = device.add_subcommand(
@@ -25,9 +28,19 @@ void add_device_serve_sim_command(CLI::App& device) {
   cmd->add_option("--key-file", o->key_file,
                   "The bridge's shared key (hex, mode 600; `hapticlab device keygen`): only datagrams made with it "
                   "are served; the host gives the same file as --device-option key_file=PATH");
+  cmd->add_flag("--insecure", o->insecure,
+                "Serve on an address beyond loopback without --key-file: anyone on the network could then "
+                "drive it (docs/udp_bridge.md, \"Trust\")");
   cmd->callback([o] {
     udp::Key key;
     if (!o->key_file.empty()) key = udp::read_key_file(o->key_file, "--key-file");
+    // As the host refuses an unauthenticated bridge beyond loopback, so
+    // does its far side: there it would take COMMANDs from anyone.
+    if (!key.keyed() && !o->insecure && !is_loopback_ipv4(o->host))
+      throw std::invalid_argument("--host " + o->host +
+                                  ": refused: serving beyond loopback without a key lets anyone on the network send "
+                                  "COMMANDs; give --key-file PATH (`hapticlab device keygen --out PATH`, the same "
+                                  "file as the host's --device-option key_file), or say --insecure");
     UdpSimServer server(o->host, o->port, key);
     InterruptFlag interrupted;
     // Tests and scripts wait for this line (and read the port from it).

@@ -77,8 +77,13 @@ def main():
     parser.add_argument("--port", type=int, default=5000, help="UDP port (0: any free one, printed)")
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--key-file", help="the bridge's shared key (hex, mode 600)")
+    parser.add_argument("--insecure", action="store_true",
+                        help="serve an address beyond loopback without a key (anyone there could move the device)")
     args = parser.parse_args()
     key = read_key(args.key_file) if args.key_file else b""
+    if not key and not args.insecure and not args.host.startswith("127."):
+        sys.exit(f"--host {args.host}: refused: without --key-file anyone on the network could send COMMANDs to "
+                 "this device; give the key file HapticLab uses (device-option key_file), or say --insecure")
     flags = FLAG_KEYED if key else 0
 
     def mac(body):

@@ -557,10 +557,19 @@ TEST_F(UdpBridgeTest, AWrongKeyOrNoKeyBeyondLoopbackStartsNothing) {
   }
   ::close(listener);
 
+  // The far side refuses the same: serve-sim and the example driver.
+  for (const std::string& serve :
+       {std::string(kBinary) + " device serve-sim --port 0 --host " + address,
+        "/usr/bin/python3 " + std::string(HAPTICLAB_SOURCE_DIR) + "/examples/udp_driver/udp_driver.py --port 0 --host " +
+            address}) {
+    const auto [serve_code, serve_out] = testing::run_shell("timeout 20 " + serve + " 2>&1");
+    EXPECT_NE(serve_code, 0) << serve;
+    EXPECT_THAT(serve_out, HasSubstr("--host " + address + ": refused")) << serve;
+  }
   // --insecure runs it: serve-sim on that address, no key on either side.
   if (have_address) {
     std::unique_ptr<ChildProcess> open_server;
-    const int open_port = start_server(open_server, {}, address);
+    const int open_port = start_server(open_server, {"--insecure"}, address);
     const auto [check_code, check_out] =
         run_cli(kBinary, "device check --seconds 0.1 --insecure --device udp:" + address + ":" +
                              std::to_string(open_port) + " --device-option timeout_ms=200");
