@@ -72,6 +72,7 @@ void Sha256::compress(const std::byte* block) noexcept {
 }
 
 void Sha256::update(std::span<const std::byte> data) noexcept {
+  if (data.empty()) return;  // its data() may be null, which memcpy must not see
   total_bytes_ += data.size();
   const std::byte* p = data.data();
   std::size_t n = data.size();
