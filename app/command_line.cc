@@ -26,6 +26,7 @@
 #include "app/bench_db.h"
 #include "app/device_command.h"
 #include "app/bench_device.h"
+#include "app/device_keygen.h"
 #include "app/device_serve_sim.h"
 #include "app/bench_udp.h"
 #include "app/cli_errors.h"
@@ -78,9 +79,10 @@ int hapticlab_main(int argc, char** argv) {
   add_export_command(app);
   add_plan_command(app);
   add_stability_command(app);
-  CLI::App& device = command_group(app, "device", "Work with haptic devices: check one, serve the simulated one");
+  CLI::App& device = command_group(app, "device", "Work with haptic devices: check one, serve the simulated one, make a bridge key");
   add_device_check_command(device);
   add_device_serve_sim_command(device);
+  add_device_keygen_command(device);
 
   CLI::App& bench = command_group(app, "bench", "Measure performance");
   add_bench_engine_command(bench);

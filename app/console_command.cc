@@ -10,8 +10,10 @@
 #include <string>
 #include <vector>
 
+#include "app/insecure_flag.h"
 #include "app/interrupt_flag.h"
 #include "console/console_server.h"
+#include "core/device/device_factory.h"
 #include "core/device/device_spec.h"
 #include "core/loop/realtime.h"
 #include "core/sim/trial_runner.h"
@@ -26,6 +28,7 @@ struct ConsoleOptions {
   std::string token_file;
   std::string device = "sim";
   std::vector<std::string> device_options;
+  bool insecure = false;
   std::string clock = "virtual";
   double max_trial_s = 300.0;
   int training_trials = -1;
@@ -74,6 +77,10 @@ int run(const ConsoleOptions& opt) {
   config.session.db = opt.db;
   config.session.device = parse_device_spec(opt.device);
   add_device_options(config.session.device, opt.device_options);
+  config.session.device.insecure = opt.insecure;
+  // Refused now rather than at the first session (the device itself is
+  // opened only then).
+  check_device_spec(config.session.device);
   config.session.clock = parse_clock_kind(opt.clock);
   config.session.max_trial_s = opt.max_trial_s;
   if (opt.training_trials >= 0) config.session.training_trials = opt.training_trials;
@@ -116,6 +123,7 @@ void add_console_command(CLI::App& app) {
   cmd->add_option("--device", opt->device, "Device for sessions, as for `session run` (sim, plugin:PATH, udp:HOST:PORT)")
       ->capture_default_str();
   cmd->add_option("--device-option", opt->device_options, "key=value for the device, repeatable");
+  add_insecure_flag(cmd, opt->insecure);
   cmd->add_option("--clock", opt->clock, "virtual (simulated device, as fast as it runs) or wall")
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/insecure_flag.h"
 #include "core/device/device_factory.h"
 #include "core/device/hand_attachment.h"
 #include "core/device/plugin_device.h"
@@ -32,6 +33,7 @@ const char* force_unit(int joint) { return joint == kJointInsertion ? "N" : "N*m
 struct CheckOptions {
   std::string device;
   std::vector<std::string> device_options;
+  bool insecure = false;
   double seconds = 2.0;
   double rate_Hz = 1000.0;
   double rate_tolerance_fraction = RateCheck::kDefaultToleranceFraction;
@@ -246,6 +248,7 @@ void print_json(const DeviceSpec& spec, const Device& device, const DeviceRating
 int run_check(const CheckOptions& opt) {
   DeviceSpec spec = parse_device_spec(opt.device);
   add_device_options(spec, opt.device_options);
+  spec.insecure = opt.insecure;
   const DeviceConfig config{opt.rate_Hz, 0};
   // A plugin that crashes does it in a child process, with a message.
   probe_device(spec, config);
@@ -307,6 +310,7 @@ void add_device_check_command(CLI::App& device) {
                   "Device: sim, plugin:PATH.so (docs/devices.md), udp:[HOST:]PORT (docs/udp_bridge.md)")
       ->required();
   cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
+  add_insecure_flag(cmd, opt->insecure);
   cmd->add_option("--seconds", opt->seconds, "How long to read [s], 0.05..3600")
       ->check(CLI::Range(0.05, 3600.0))
       ->capture_default_str();

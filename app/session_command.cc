@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/insecure_flag.h"
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
 #include "core/device/device_spec.h"
@@ -27,6 +28,7 @@ struct SessionCommandOptions {
   std::string participant;
   std::string device = "sim";
   std::vector<std::string> device_options;
+  bool insecure = false;
   std::string clock = "virtual";
   double rate_Hz = 1000.0;
   double max_trial_s = 300.0;
@@ -61,6 +63,7 @@ int run(const SessionCommandOptions& opt) {
   options.participant = opt.participant;
   options.device = parse_device_spec(opt.device);
   add_device_options(options.device, opt.device_options);
+  options.device.insecure = opt.insecure;
   options.clock = parse_clock_kind(opt.clock);
   options.rate_Hz = opt.rate_Hz;
   options.max_trial_s = opt.max_trial_s;
@@ -211,6 +214,7 @@ void add_session_command(CLI::App& app) {
       })
       ->capture_default_str();
   cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
+  add_insecure_flag(cmd, opt->insecure);
   cmd->add_option("--clock", opt->clock, "virtual: as fast as the CPU allows; wall: real time")
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();

@@ -331,7 +331,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           if (tripped || virtual_hang) {
             hung_since = Clock::now();
             hung_call = tripped ? loop.watchdog_call() : in_call;
-            const double limit_s = tripped ? config.safety.watchdog_timeout_s : kVirtualClockHang_s;
+            const double limit_s = tripped ? loop.watchdog_timeout_s() : kVirtualClockHang_s;
             const std::string what = hung_call != DeviceCall::kNone
                                          ? "device " + std::string(to_string(hung_call)) + "() has not returned"
                                          : std::string("the haptic loop has completed no update");
@@ -348,8 +348,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           // The loop thread is inside the device's code: record the trial and
           // the session from here, and leave the rig to the stuck thread.
           const double hung_s = seconds_since(*hung_since) +
-                                (options.clock == ClockKind::kVirtual ? kVirtualClockHang_s
-                                                                      : config.safety.watchdog_timeout_s);
+                                (options.clock == ClockKind::kVirtual ? kVirtualClockHang_s : loop.watchdog_timeout_s());
           outcome.status = db::TrialStatus::kAborted;
           outcome.abort_reason = "device " + std::string(to_string(hung_call)) + " hung for " + ms_text(hung_s) +
                                  " and had not returned when the session gave up on it";

@@ -1,8 +1,9 @@
 #pragma once
 // CRC-32C (Castagnoli; reflected polynomial 0x82F63B78, initial value and
 // final xor 0xFFFFFFFF; crc32c(0, "123456789") == 0xE3069283). Used by the
-// sample chunks of the study database (db/sample_codec.h) and the UDP
-// bridge's datagrams (core/device/udp_protocol.h). Real-time safe.
+// sample chunks of the study database (db/sample_codec.h); the UDP bridge's
+// datagrams used it up to format version 1 (version 2 has a MAC instead,
+// core/device/udp_protocol.h). Real-time safe.
 
 #include <cstddef>
 #include <cstdint>

@@ -110,6 +110,18 @@ class Device {
   // does, for devices without a separate way to cut the output.
   virtual void halt() noexcept {}
 
+  // Real-time thread, once per loop run, before its first read(): the
+  // clock's time of the loop's first update. The loop's t_s (the stored
+  // samples' time) is clock.now_s() - t0_s; a device that sends the time
+  // elsewhere (the UDP bridge's POLL) sends it in this base, so the far
+  // side's log lines up with the study file. Default: nothing.
+  virtual void set_loop_origin(double t0_s) noexcept { (void)t0_s; }
+  // Any thread. The longest a read() waits for the device before it gives
+  // up with kTimeout [s]; 0 (default) for a device that does not wait. The
+  // loop's watchdog allows this on top of its own limit, so a device that
+  // stops answering ends the trial with the device's reason.
+  virtual double read_timeout_s() const noexcept { return 0.0; }
+
   virtual const char* name() const noexcept = 0;
 
   // Any thread. What the device can do (see DeviceRatings); fixed once

@@ -15,14 +15,21 @@ void reject_options(const DeviceSpec& spec) {
                                 spec.describe() + " device, which takes none");
 }
 
-std::unique_ptr<Device> open_udp(const DeviceSpec& spec) {
+UdpDeviceOptions udp_options(const DeviceSpec& spec) {
   UdpDeviceOptions options;
   options.host = spec.host;
   options.port = spec.port;
+  options.insecure = spec.insecure;
   for (const auto& [key, value] : spec.options) {
+    if (key == "key_file") {
+      if (value.empty()) throw std::invalid_argument("device-option key_file: names no file");
+      options.key_file = value;
+      continue;
+    }
     if (key != "timeout_ms")
       throw std::invalid_argument("device-option: '" + key + "' is not an option of the " + spec.describe() +
-                                  " device; it takes timeout_ms (1..1000, default 10)");
+                                  " device; it takes timeout_ms (1..1000, default 10) and key_file (the shared "
+                                  "key, docs/udp_bridge.md)");
     std::size_t end = 0;
     int ms = 0;
     try {
@@ -35,21 +42,34 @@ std::unique_ptr<Device> open_udp(const DeviceSpec& spec) {
                                   "' is not a whole number of milliseconds in 1..1000");
     options.timeout_ms = ms;
   }
-  return std::make_unique<UdpDevice>(options);
+  return options;
+}
+
+void check_insecure(const DeviceSpec& spec) {
+  if (spec.insecure && spec.kind != DeviceSpec::Kind::kUdp)
+    throw std::invalid_argument("--insecure: applies to the UDP bridge (udp:HOST:PORT) only, not to the " +
+                                spec.describe() + " device");
 }
 
 }  // namespace
 
 std::unique_ptr<Device> open_device(const DeviceSpec& spec) {
+  check_insecure(spec);
   switch (spec.kind) {
     case DeviceSpec::Kind::kSim: {
       reject_options(spec);
       return std::make_unique<SimDevice>(sim_backend_params());
     }
     case DeviceSpec::Kind::kPlugin: return std::make_unique<PluginDevice>(spec.path, spec.options);
-    case DeviceSpec::Kind::kUdp: return open_udp(spec);
+    case DeviceSpec::Kind::kUdp: return std::make_unique<UdpDevice>(udp_options(spec));
   }
   throw std::runtime_error("device: " + spec.describe() + " cannot be opened by this build");
+}
+
+void check_device_spec(const DeviceSpec& spec) {
+  check_insecure(spec);
+  if (spec.kind == DeviceSpec::Kind::kSim) reject_options(spec);
+  if (spec.kind == DeviceSpec::Kind::kUdp) (void)UdpDevice::checked_key(udp_options(spec));
 }
 
 SimDeviceParams sim_backend_params() {

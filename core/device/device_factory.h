@@ -15,6 +15,13 @@ namespace hapticlab {
 // ABI version, ...), with a message for the operator.
 std::unique_ptr<Device> open_device(const DeviceSpec& spec);
 
+// What open_device refuses without touching the device: unknown or bad
+// options, an --insecure that does not apply, and for the UDP bridge an
+// unreadable key file or a host beyond loopback without a key or
+// --insecure. For a command that opens the device only later (the
+// console). Throws std::invalid_argument as open_device does.
+void check_device_spec(const DeviceSpec& spec);
+
 // Before a session or a check: a device plugin is loaded, created and
 // configured (with `config`) in a child process, so one that crashes is
 // reported ("plugin PATH crashed (SIGSEGV) in configure; nothing was

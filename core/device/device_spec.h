@@ -10,8 +10,9 @@
 //                        HOST defaults to 127.0.0.1
 //
 // Options are free-form key=value pairs passed to the backend (a plugin's
-// configure(), the bridge's timeout); each backend rejects keys it does
-// not know, naming them.
+// configure(), the bridge's timeout and key file); each backend rejects
+// keys it does not know, naming them. `--insecure` lets the bridge run
+// without a key to a host beyond loopback.
 
 #include <map>
 #include <memory>
@@ -30,6 +31,9 @@ struct DeviceSpec {
   std::string host;        // kUdp
   int port = 0;            // kUdp, 1..65535
   std::map<std::string, std::string> options;
+  // kUdp only: no key_file is acceptable for a host outside 127.0.0.0/8
+  // (the operator said --insecure).
+  bool insecure = false;
 
   // The spec as the operator wrote it, without options ("udp:127.0.0.1:5000").
   std::string describe() const;

@@ -24,34 +24,57 @@ std::int64_t steady_ns() noexcept {
       .count();
 }
 
-// Sequence numbers wrap after 2^32 datagrams (50 days at 1 kHz); compared
-// modulo 2^32 so the wrap is not an error.
-bool newer(std::uint32_t a, std::uint32_t b) noexcept { return static_cast<std::int32_t>(a - b) > 0; }
-
 }  // namespace
 
-UdpDevice::UdpDevice(const UdpDeviceOptions& options)
-    : endpoint_("udp:" + options.host + ":" + std::to_string(options.port)), options_(options) {
+bool is_loopback_ipv4(const std::string& host) noexcept {
+  in_addr a{};
+  return inet_pton(AF_INET, host.c_str(), &a) == 1 && (ntohl(a.s_addr) >> 24) == 127;
+}
+
+udp::Key UdpDevice::checked_key(const UdpDeviceOptions& options) {
+  const std::string endpoint = "udp:" + options.host + ":" + std::to_string(options.port);
   if (options.port < 1 || options.port > 65535)
-    throw std::invalid_argument("device " + endpoint_ + ": port " + std::to_string(options.port) +
+    throw std::invalid_argument("device " + endpoint + ": port " + std::to_string(options.port) +
                                 " is outside 1..65535");
   if (options.timeout_ms < 1 || options.timeout_ms > 1000)
     throw std::invalid_argument("device-option timeout_ms: " + std::to_string(options.timeout_ms) +
                                 " is outside 1..1000 (milliseconds)");
-  sockaddr_in peer{};
-  peer.sin_family = AF_INET;
-  peer.sin_port = htons(static_cast<std::uint16_t>(options.port));
-  if (inet_pton(AF_INET, options.host.c_str(), &peer.sin_addr) != 1)
-    throw std::invalid_argument("device " + endpoint_ + ": host '" + options.host +
+  in_addr address{};
+  if (inet_pton(AF_INET, options.host.c_str(), &address) != 1)
+    throw std::invalid_argument("device " + endpoint + ": host '" + options.host +
                                 "' is not an IPv4 address such as 127.0.0.1");
+  if (!options.key_file.empty()) {
+    if (options.insecure)
+      throw std::invalid_argument("device " + endpoint + ": --insecure and device-option key_file " +
+                                  options.key_file +
+                                  " together: the key authenticates the bridge, --insecure allows it without one; "
+                                  "give one of them");
+    return udp::read_key_file(options.key_file, "device-option key_file");
+  }
+  if (!is_loopback_ipv4(options.host) && !options.insecure)
+    throw std::invalid_argument(
+        "device " + endpoint + ": refused: the UDP bridge to " + options.host +
+        ", which is not a loopback address, has no key, so anyone who can send datagrams to this machine or to the "
+        "driver could forge device readings and force commands. Authenticate it: make a key with `hapticlab device "
+        "keygen --out bridge.key` (or `openssl rand -hex 32 > bridge.key && chmod 600 bridge.key`), give the driver "
+        "the same file and add --device-option key_file=bridge.key (docs/udp_bridge.md, \"Trust\"). On a network "
+        "you trust, --insecure runs it without a key");
+  return udp::Key{};
+}
+
+UdpDevice::UdpDevice(const UdpDeviceOptions& options)
+    : endpoint_("udp:" + options.host + ":" + std::to_string(options.port)),
+      options_(options),
+      // Trust is decided before a datagram leaves.
+      key_(checked_key(options)) {
+  peer_.sin_family = AF_INET;
+  peer_.sin_port = htons(static_cast<std::uint16_t>(options.port));
+  inet_pton(AF_INET, options.host.c_str(), &peer_.sin_addr);
+  host_nonce_ = udp::new_nonce();
   fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (fd_ < 0) throw std::runtime_error("device " + endpoint_ + ": cannot create a UDP socket: " + std::strerror(errno));
-  // Connected: the kernel drops datagrams from anyone but the driver.
-  if (::connect(fd_, reinterpret_cast<const sockaddr*>(&peer), sizeof peer) != 0) {
-    const std::string why = std::strerror(errno);
-    ::close(fd_);
-    throw std::runtime_error("device " + endpoint_ + ": cannot reach it: " + why);
-  }
+  // Not connected: a connected socket drops datagrams from other addresses
+  // in the kernel, uncounted; await() drops and counts them (wrong_source).
 
   // Handshake. HELLO again every 100 ms: the first may have gone out
   // before the driver's socket existed.
@@ -64,17 +87,49 @@ UdpDevice::UdpDevice(const UdpDeviceOptions& options)
   }
   if (!answered) {
     ::close(fd_);
-    throw std::runtime_error("device: no device answers at " + endpoint_ + " within " +
-                             std::to_string(options.handshake_timeout_ms) +
-                             " ms; is `hapticlab device serve-sim --port " + std::to_string(options.port) +
-                             "` or your driver running?");
+    throw std::runtime_error(handshake_failure());
   }
+  // The session is the pair of nonces from here on; the device's
+  // sequence counts from its HELLO_REPLY.
+  device_nonce_ = rx_header_.device_nonce;
+  have_rx_sequence_ = true;
+  rx_sequence_ = rx_header_.sequence;
   udp::HelloReply hello;
   udp::decode(rx_.data(), hello);
   name_ = hello.name;
   if (name_[0] == '\0') std::memcpy(name_.data(), "udp", 4);
   ratings_ = hello.ratings;
   simulated_ = (hello.flags & udp::kFlagSimulated) != 0;
+}
+
+std::string UdpDevice::handshake_failure() const {
+  const std::string within = std::to_string(options_.handshake_timeout_ms) + " ms";
+  if (seen_other_version_ > 0)
+    return "device: the driver at " + endpoint_ + " answers in format version " + std::to_string(other_version_) +
+           " of the UDP bridge; this HapticLab speaks version " + std::to_string(udp::kVersion) +
+           " (authenticated datagrams, docs/udp_bridge.md): update the driver";
+  if (seen_bad_mac_ > 0)
+    return "device: authentication failed: " + std::to_string(seen_bad_mac_) + " datagrams from " + endpoint_ +
+           " carry an HMAC that does not match the key in device-option key_file " + options_.key_file +
+           "; the driver must use the same key file";
+  if (seen_unkeyed_ > 0)
+    return "device: authentication: the driver at " + endpoint_ +
+           " answers without a key, but device-option key_file " + options_.key_file +
+           " asks for authenticated datagrams; start the driver with the same key file (serve-sim: --key-file " +
+           options_.key_file + ")";
+  if (seen_keyed_ > 0)
+    return "device: authentication: the driver at " + endpoint_ +
+           " authenticates its datagrams with a key; give HapticLab the same key file: --device-option "
+           "key_file=PATH";
+  if (key_.keyed())
+    return "device: no authenticated answer from " + endpoint_ + " within " + within +
+           ": is `hapticlab device serve-sim --port " + std::to_string(options_.port) + " --key-file " +
+           options_.key_file + "` or your driver running, and does it use the key in device-option key_file " +
+           options_.key_file + "? (authentication: a driver with another key, or none, ignores every datagram)";
+  return "device: no device answers at " + endpoint_ + " within " + within +
+         "; is `hapticlab device serve-sim --port " + std::to_string(options_.port) +
+         "` or your driver running? (a driver that authenticates ignores a host without its key: give it with "
+         "--device-option key_file=PATH)";
 }
 
 UdpDevice::~UdpDevice() {
@@ -86,34 +141,46 @@ UdpDevice::~UdpDevice() {
 }
 
 double UdpDevice::now_s() const noexcept {
-  return clock_ != nullptr ? clock_->now_s() : last_poll_time_s_.load(std::memory_order_relaxed);
+  return clock_ != nullptr ? clock_->now_s() - origin_s_ : last_poll_time_s_.load(std::memory_order_relaxed);
 }
 
+// Any thread (halt() sends from the watchdog's): the buffer is the
+// caller's stack, the key and nonces are fixed, the sequence is atomic.
+// Two threads sending at once may reach the driver out of order, and a
+// driver drops the older one; that is only ever the watchdog's zero
+// COMMAND racing a loop that is not stuck after all, whose own next write
+// is zero (halted_) and whose next check ends the trial.
 void UdpDevice::send(udp::Type type, double time_s) noexcept {
   std::array<std::byte, udp::kMaxDatagramBytes> buf;
-  const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s};
-  const std::size_t n = udp::encode(h, buf.data());
-  // A lost datagram shows up as a timeout of the request it belonged to.
-  if (::send(fd_, buf.data(), n, MSG_NOSIGNAL) == static_cast<ssize_t>(n))
-    sent_.fetch_add(1, std::memory_order_relaxed);
+  const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s, host_nonce_,
+                      device_nonce_};
+  send_datagram(udp::encode(h, key_, buf.data()), buf.data());
 }
 
 template <typename Payload>
 void UdpDevice::send(udp::Type type, double time_s, const Payload& payload) noexcept {
   std::array<std::byte, udp::kMaxDatagramBytes> buf;
-  const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s};
-  const std::size_t n = udp::encode(h, payload, buf.data());
-  if (::send(fd_, buf.data(), n, MSG_NOSIGNAL) == static_cast<ssize_t>(n))
+  const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s, host_nonce_,
+                      device_nonce_};
+  send_datagram(udp::encode(h, payload, key_, buf.data()), buf.data());
+}
+
+void UdpDevice::send_datagram(std::size_t n, const std::byte* data) noexcept {
+  // A lost datagram shows up as a timeout of the request it belonged to.
+  if (::sendto(fd_, data, n, MSG_NOSIGNAL, reinterpret_cast<const sockaddr*>(&peer_), sizeof peer_) ==
+      static_cast<ssize_t>(n))
     sent_.fetch_add(1, std::memory_order_relaxed);
 }
 
 bool UdpDevice::await(udp::Type type, std::uint32_t sequence, std::int64_t deadline_ns) noexcept {
   for (;;) {
-    const ssize_t n = ::recv(fd_, rx_.data(), rx_.size(), MSG_DONTWAIT);
+    sockaddr_in from{};
+    socklen_t from_len = sizeof from;
+    const ssize_t n =
+        ::recvfrom(fd_, rx_.data(), rx_.size(), MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&from), &from_len);
     if (n < 0) {
       if (errno == EINTR) continue;
-      // EAGAIN: nothing yet. ECONNREFUSED: the driver's port is closed (it
-      // died); keep waiting, it may come back within the timeout.
+      // EAGAIN: nothing yet; keep waiting until the deadline.
       const std::int64_t left_ns = deadline_ns - steady_ns();
       if (left_ns <= 0) return false;
       pollfd p{fd_, POLLIN, 0};
@@ -121,23 +188,51 @@ bool UdpDevice::await(udp::Type type, std::uint32_t sequence, std::int64_t deadl
       ::ppoll(&p, 1, &ts, nullptr);
       continue;
     }
+    // Only the driver's address and port: the check a connected socket did
+    // in the kernel, counted. (A forger can put the driver's address on a
+    // datagram; the MAC is what it cannot make.)
+    if (from_len != sizeof from || from.sin_family != AF_INET || from.sin_addr.s_addr != peer_.sin_addr.s_addr ||
+        from.sin_port != peer_.sin_port) {
+      wrong_source_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
     received_.fetch_add(1, std::memory_order_relaxed);
     udp::Header h;
-    if (!udp::decode_header(rx_.data(), static_cast<std::size_t>(n), h)) {
-      malformed_.fetch_add(1, std::memory_order_relaxed);
+    const udp::Verdict verdict = udp::decode_header(rx_.data(), static_cast<std::size_t>(n), key_, h);
+    if (verdict != udp::Verdict::kOk) {
+      switch (verdict) {
+        case udp::Verdict::kOtherVersion:
+          ++seen_other_version_;
+          std::memcpy(&other_version_, rx_.data() + 4, sizeof other_version_);
+          break;
+        case udp::Verdict::kUnkeyed: ++seen_unkeyed_; break;
+        case udp::Verdict::kKeyed: ++seen_keyed_; break;
+        case udp::Verdict::kBadMac: ++seen_bad_mac_; break;
+        default: break;
+      }
+      (udp::is_rejected_mac(verdict) ? rejected_mac_ : malformed_).fetch_add(1, std::memory_order_relaxed);
       continue;
     }
-    if (have_rx_sequence_ && !newer(h.sequence, rx_sequence_)) {
-      out_of_order_.fetch_add(1, std::memory_order_relaxed);
+    // This session's, not a replay of another's: the host's nonce always;
+    // the device's once its HELLO_REPLY named it (before, any but 0).
+    const bool handshaken = device_nonce_ != 0;
+    if (h.host_nonce != host_nonce_ || (handshaken ? h.device_nonce != device_nonce_ : h.device_nonce == 0)) {
+      wrong_nonce_.fetch_add(1, std::memory_order_relaxed);
       continue;
     }
-    have_rx_sequence_ = true;
-    rx_sequence_ = h.sequence;
+    if (handshaken) {
+      if (have_rx_sequence_ && !udp::newer_sequence(h.sequence, rx_sequence_)) {
+        out_of_order_.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
+      have_rx_sequence_ = true;
+      rx_sequence_ = h.sequence;
+    }
     // Every reply starts with the sequence of the request it answers.
     std::uint32_t echo = 0;
     std::memcpy(&echo, rx_.data() + udp::kHeaderBytes, sizeof echo);
     const bool is_reply = h.type == udp::Type::kHelloReply || h.type == udp::Type::kAck || h.type == udp::Type::kState;
-    if (!is_reply || newer(echo, sequence)) {
+    if (!is_reply || udp::newer_sequence(echo, sequence)) {
       // A request type, or an answer to a request not yet sent: not from a
       // driver that follows the format.
       malformed_.fetch_add(1, std::memory_order_relaxed);
@@ -148,6 +243,7 @@ bool UdpDevice::await(udp::Type type, std::uint32_t sequence, std::int64_t deadl
       continue;
     }
     rx_size_ = static_cast<std::size_t>(n);
+    rx_header_ = h;
     return true;
   }
 }
@@ -176,8 +272,11 @@ DeviceStatus UdpDevice::configure(const DeviceConfig& config) {
 
 DeviceStatus UdpDevice::activate(const Clock& clock) {
   clock_ = &clock;
+  // Times count from here until the loop names its first update (0 on a
+  // fresh virtual clock either way).
+  origin_s_ = clock.now_s();
   halted_.store(false, std::memory_order_release);
-  const DeviceStatus s = request_ack(udp::Type::kActivate, clock.now_s(), nullptr, options_.handshake_timeout_ms);
+  const DeviceStatus s = request_ack(udp::Type::kActivate, 0.0, nullptr, options_.handshake_timeout_ms);
   active_ = s == DeviceStatus::kOk;
   return s;
 }
@@ -263,6 +362,9 @@ UdpDevice::Counts UdpDevice::counts() const noexcept {
   c.out_of_order = out_of_order_.load(std::memory_order_relaxed);
   c.malformed = malformed_.load(std::memory_order_relaxed);
   c.timeouts = timeouts_.load(std::memory_order_relaxed);
+  c.rejected_mac = rejected_mac_.load(std::memory_order_relaxed);
+  c.wrong_nonce = wrong_nonce_.load(std::memory_order_relaxed);
+  c.wrong_source = wrong_source_.load(std::memory_order_relaxed);
   return c;
 }
 
@@ -280,8 +382,11 @@ double UdpDevice::round_trip_quantile_s(double q) const noexcept {
 std::vector<std::pair<std::string, std::uint64_t>> UdpDevice::counters() const {
   const Counts c = counts();
   std::vector<std::pair<std::string, std::uint64_t>> out = {
-      {"packets_sent", c.sent},   {"packets_received", c.received}, {"stale", c.stale},
-      {"out_of_order", c.out_of_order}, {"malformed", c.malformed}, {"timeouts", c.timeouts}};
+      {"packets_sent", c.sent},         {"packets_received", c.received},
+      {"stale", c.stale},               {"out_of_order", c.out_of_order},
+      {"malformed", c.malformed},       {"timeouts", c.timeouts},
+      {"rejected_mac", c.rejected_mac}, {"wrong_nonce", c.wrong_nonce},
+      {"wrong_source", c.wrong_source}, {"authenticated", key_.keyed() ? 1u : 0u}};
   if (round_trips_ > 0) {
     out.emplace_back("round_trip_p50_us", static_cast<std::uint64_t>(std::lround(round_trip_quantile_s(0.5) * 1e6)));
     out.emplace_back("round_trip_p99_us", static_cast<std::uint64_t>(std::lround(round_trip_quantile_s(0.99) * 1e6)));

@@ -1,9 +1,13 @@
 #include "core/device/udp_protocol.h"
 
-#include <bit>
-#include <limits>
+#include <sys/random.h>
 
-#include "core/common/crc32c.h"
+#include <bit>
+#include <cerrno>
+#include <limits>
+#include <stdexcept>
+
+#include "core/common/secret_file.h"
 
 namespace hapticlab::udp {
 namespace {
@@ -27,8 +31,9 @@ class Out {
     std::memcpy(p_ + n_, src, size);
     n_ += size;
   }
-  std::size_t finish() noexcept {
-    put(crc32c(0, std::span<const std::byte>(p_, n_)));
+  std::size_t finish(const Key& key) noexcept {
+    const Sha256::Digest mac = key.hmac().mac(std::span<const std::byte>(p_, n_));
+    bytes(mac.data(), kMacBytes);
     return n_;
   }
 
@@ -60,17 +65,50 @@ class In {
   std::size_t n_ = 0;
 };
 
-Out start(const Header& h, std::byte* out) noexcept {
+Out start(const Header& h, const Key& key, std::byte* out) noexcept {
   Out o(out);
   o.put(kMagic);
   o.put(kVersion);
   o.put(static_cast<std::uint16_t>(h.type));
   o.put(h.sequence);
+  o.put(key.keyed() ? kFlagKeyed : std::uint32_t{0});
+  o.put(h.host_nonce);
+  o.put(h.device_nonce);
   o.put(h.time_s);
   return o;
 }
 
 }  // namespace
+
+Key::Key(std::span<const std::byte> secret) : hmac_(secret), keyed_(true) {
+  if (secret.size() < kMinKeyBytes)
+    throw std::invalid_argument("UDP bridge key: " + std::to_string(secret.size()) + " bytes, must be at least " +
+                                std::to_string(kMinKeyBytes));
+}
+
+Key read_key_file(const std::string& path, const std::string& what) {
+  // 32 hex digits = 16 bytes = 128 bits, HMAC-SHA-256's truncated tag
+  // length; `openssl rand -hex 32` and `hapticlab device keygen` give 64.
+  const std::string hex = read_secret_file(path, what, SecretRules{.min_chars = 2 * kMinKeyBytes, .min_distinct = 8,
+                                                                   .hex_only = true});
+  if (hex.size() % 2 != 0)
+    throw std::invalid_argument(what + ": " + path + " holds " + std::to_string(hex.size()) +
+                                " hex digits, an odd number; a key is whole bytes (e.g. `openssl rand -hex 32`)");
+  const std::string raw = hex_bytes(hex);
+  return Key(std::as_bytes(std::span(raw.data(), raw.size())));
+}
+
+std::uint64_t new_nonce() {
+  std::uint64_t nonce = 0;
+  while (nonce == 0) {
+    const ssize_t n = ::getrandom(&nonce, sizeof nonce, 0);
+    if (n < 0 && errno == EINTR) continue;
+    if (n != static_cast<ssize_t>(sizeof nonce))
+      throw std::runtime_error(std::string("UDP bridge: no random session nonce from the kernel (getrandom: ") +
+                               std::strerror(errno) + ")");
+  }
+  return nonce;
+}
 
 std::size_t payload_bytes(Type type) noexcept {
   switch (type) {
@@ -89,10 +127,10 @@ std::size_t payload_bytes(Type type) noexcept {
   return std::numeric_limits<std::size_t>::max();
 }
 
-std::size_t encode(const Header& h, std::byte* out) noexcept { return start(h, out).finish(); }
+std::size_t encode(const Header& h, const Key& key, std::byte* out) noexcept { return start(h, key, out).finish(key); }
 
-std::size_t encode(const Header& h, const HelloReply& p, std::byte* out) noexcept {
-  Out o = start(h, out);
+std::size_t encode(const Header& h, const HelloReply& p, const Key& key, std::byte* out) noexcept {
+  Out o = start(h, key, out);
   o.put(p.echo_sequence);
   o.put(p.flags);
   o.bytes(p.name.data(), kNameBytes);
@@ -104,49 +142,49 @@ std::size_t encode(const Header& h, const HelloReply& p, std::byte* out) noexcep
       o.put(r.peak_force);
       o.put(r.max_velocity);
     }
-  return o.finish();
+  return o.finish(key);
 }
 
-std::size_t encode(const Header& h, const Configure& p, std::byte* out) noexcept {
-  Out o = start(h, out);
+std::size_t encode(const Header& h, const Configure& p, const Key& key, std::byte* out) noexcept {
+  Out o = start(h, key, out);
   o.put(p.nominal_rate_Hz);
   o.put(p.seed);
-  return o.finish();
+  return o.finish(key);
 }
 
-std::size_t encode(const Header& h, const Ack& p, std::byte* out) noexcept {
-  Out o = start(h, out);
+std::size_t encode(const Header& h, const Ack& p, const Key& key, std::byte* out) noexcept {
+  Out o = start(h, key, out);
   o.put(p.echo_sequence);
   o.put(static_cast<std::int32_t>(p.status));
-  return o.finish();
+  return o.finish(key);
 }
 
-std::size_t encode(const Header& h, const State& p, std::byte* out) noexcept {
-  Out o = start(h, out);
+std::size_t encode(const Header& h, const State& p, const Key& key, std::byte* out) noexcept {
+  Out o = start(h, key, out);
   o.put(p.echo_sequence);
   o.put(static_cast<std::int32_t>(p.status));
   o.put(p.device_time_s);
   for (const auto* field : {&p.position, &p.hand_force, &p.motor_force})
     for (const DeviceJoints& j : *field) o.joints(j);
-  return o.finish();
+  return o.finish(key);
 }
 
-std::size_t encode(const Header& h, const Command& p, std::byte* out) noexcept {
-  Out o = start(h, out);
+std::size_t encode(const Header& h, const Command& p, const Key& key, std::byte* out) noexcept {
+  Out o = start(h, key, out);
   for (const DeviceJoints& j : p.force) o.joints(j);
-  return o.finish();
+  return o.finish(key);
 }
 
-std::size_t encode(const Header& h, const StartPose& p, std::byte* out) noexcept {
-  Out o = start(h, out);
+std::size_t encode(const Header& h, const StartPose& p, const Key& key, std::byte* out) noexcept {
+  Out o = start(h, key, out);
   o.put(p.instrument);
   o.put(std::uint32_t{0});
   o.joints(p.position);
-  return o.finish();
+  return o.finish(key);
 }
 
-std::size_t encode(const Header& h, const Hand& p, std::byte* out) noexcept {
-  Out o = start(h, out);
+std::size_t encode(const Header& h, const Hand& p, const Key& key, std::byte* out) noexcept {
+  Out o = start(h, key, out);
   o.put(p.instrument);
   o.put(std::uint32_t{0});
   for (const HandCoupling& c : p.hand) {
@@ -157,26 +195,38 @@ std::size_t encode(const Header& h, const Hand& p, std::byte* out) noexcept {
     o.put(c.force);
     o.put(c.mass);
   }
-  return o.finish();
+  return o.finish(key);
 }
 
-bool decode_header(const std::byte* data, std::size_t size, Header& h) noexcept {
-  if (size < kHeaderBytes + kCrcBytes) return false;
+Verdict decode_header(const std::byte* data, std::size_t size, const Key& key, Header& h) noexcept {
+  // Version 1 datagrams are 20 header bytes and a CRC: shorter than any
+  // of version 2, so the version is looked at before the length.
+  if (size < 8) return Verdict::kMalformed;
   std::uint32_t magic;
   std::uint16_t version, type;
   std::memcpy(&magic, data, 4);
   std::memcpy(&version, data + 4, 2);
   std::memcpy(&type, data + 6, 2);
-  if (magic != kMagic || version != kVersion) return false;
+  if (magic != kMagic) return Verdict::kMalformed;
+  if (version != kVersion) return Verdict::kOtherVersion;
   const std::size_t payload = payload_bytes(static_cast<Type>(type));
-  if (payload == std::numeric_limits<std::size_t>::max() || size != kHeaderBytes + payload + kCrcBytes) return false;
-  std::uint32_t crc;
-  std::memcpy(&crc, data + size - kCrcBytes, 4);
-  if (crc != crc32c(0, std::span<const std::byte>(data, size - kCrcBytes))) return false;
+  if (payload == std::numeric_limits<std::size_t>::max() || size != kHeaderBytes + payload + kMacBytes)
+    return Verdict::kMalformed;
+  std::uint32_t flags;
+  std::memcpy(&flags, data + 12, 4);
+  // Neither side lets the other choose whether to authenticate: a keyed
+  // receiver takes nothing unkeyed (no downgrade by a forger).
+  if (key.keyed() && (flags & kFlagKeyed) == 0) return Verdict::kUnkeyed;
+  if (!key.keyed() && (flags & kFlagKeyed) != 0) return Verdict::kKeyed;
+  if (!key.hmac().verify(std::span<const std::byte>(data, size - kMacBytes),
+                         std::span<const std::byte>(data + size - kMacBytes, kMacBytes)))
+    return Verdict::kBadMac;
   h.type = static_cast<Type>(type);
   std::memcpy(&h.sequence, data + 8, 4);
-  std::memcpy(&h.time_s, data + 12, 8);
-  return true;
+  std::memcpy(&h.host_nonce, data + 16, 8);
+  std::memcpy(&h.device_nonce, data + 24, 8);
+  std::memcpy(&h.time_s, data + 32, 8);
+  return Verdict::kOk;
 }
 
 void decode(const std::byte* data, HelloReply& p) noexcept {

@@ -11,12 +11,13 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 #include "core/device/udp_protocol.h"
 
 namespace hapticlab {
 
-UdpSimServer::UdpSimServer(const std::string& host, int port) {
+UdpSimServer::UdpSimServer(const std::string& host, int port, udp::Key key) : key_(std::move(key)) {
   if (port < 0 || port > 65535)
     throw std::invalid_argument("--port " + std::to_string(port) + " is outside 0..65535 (0: any free port)");
   sockaddr_in addr{};
@@ -44,7 +45,7 @@ UdpSimServer::~UdpSimServer() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-void UdpSimServer::run(const std::atomic<bool>& stop) noexcept {
+void UdpSimServer::run(const std::atomic<bool>& stop) {
   std::array<std::byte, udp::kMaxDatagramBytes + 16> buf;
   while (!stop.load(std::memory_order_relaxed)) {
     pollfd p{fd_, POLLIN, 0};
@@ -59,41 +60,13 @@ void UdpSimServer::run(const std::atomic<bool>& stop) noexcept {
   }
 }
 
-void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* from, unsigned from_len) noexcept {
+void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* from, unsigned from_len) {
   udp::Header h;
-  if (!udp::decode_header(data, size, h)) {
-    malformed_.fetch_add(1, std::memory_order_relaxed);
+  if (const udp::Verdict v = udp::decode_header(data, size, key_, h); v != udp::Verdict::kOk) {
+    (udp::is_rejected_mac(v) ? rejected_mac_ : malformed_).fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  std::array<std::byte, udp::kMaxDatagramBytes> out;
-  const auto reply_header = [&](udp::Type type) {
-    return udp::Header{type, ++tx_sequence_, sim_ ? sim_->time_s() : 0.0};
-  };
-  const auto send = [&](std::size_t n) {
-    ::sendto(fd_, out.data(), n, MSG_NOSIGNAL, static_cast<const sockaddr*>(from), from_len);
-  };
-  const auto ack = [&](DeviceStatus status) {
-    send(udp::encode(reply_header(udp::Type::kAck), udp::Ack{h.sequence, status}, out.data()));
-  };
-  // The packets' time drives the physics; a non-finite one is ignored.
-  if (std::isfinite(h.time_s) && h.type != udp::Type::kHello && h.type != udp::Type::kConfigure &&
-      h.type != udp::Type::kSetStartPose)
-    clock_.set(h.time_s);
-
   switch (h.type) {
-    case udp::Type::kHello: {
-      // As open_device() builds the built-in sim, so both compute the same.
-      SimDeviceParams params;
-      params.max_substep_s = 1e-3;
-      sim_ = std::make_unique<SimDevice>(params);
-      udp::HelloReply r;
-      r.echo_sequence = h.sequence;
-      r.flags = udp::kFlagSimulated | udp::kFlagCalibrated;
-      std::memcpy(r.name.data(), "sim", 4);
-      r.ratings = sim_->ratings();
-      send(udp::encode(reply_header(udp::Type::kHelloReply), r, out.data()));
-      return;
-    }
     case udp::Type::kHelloReply:
     case udp::Type::kAck:
     case udp::Type::kState:
@@ -101,15 +74,57 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
       return;
     default: break;
   }
-  if (!sim_) {  // no HELLO yet: nothing to drive
-    if (h.type == udp::Type::kPoll) {
-      udp::State s;
-      s.echo_sequence = h.sequence;
-      s.status = DeviceStatus::kNotConfigured;
-      send(udp::encode(reply_header(udp::Type::kState), s, out.data()));
-    } else if (h.type != udp::Type::kCommand && h.type != udp::Type::kHand) {
-      ack(DeviceStatus::kNotConfigured);
+  // The session's, and newer than anything it has sent: a datagram of an
+  // earlier session, or one of this session sent again, is a replay.
+  if (h.type == udp::Type::kHello) {
+    if (h.host_nonce == 0 || h.device_nonce != 0) {
+      wrong_nonce_.fetch_add(1, std::memory_order_relaxed);
+      return;
     }
+    if (sim_ && h.host_nonce == host_nonce_ && !udp::newer_sequence(h.sequence, host_sequence_)) {
+      out_of_order_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+  } else {
+    if (!sim_ || h.host_nonce != host_nonce_ || h.device_nonce != device_nonce_) {
+      wrong_nonce_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    if (!udp::newer_sequence(h.sequence, host_sequence_)) {
+      out_of_order_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+  }
+  host_sequence_ = h.sequence;
+
+  std::array<std::byte, udp::kMaxDatagramBytes> out;
+  const auto reply_header = [&](udp::Type type) {
+    return udp::Header{type, ++tx_sequence_, sim_ ? sim_->time_s() : 0.0, host_nonce_, device_nonce_};
+  };
+  const auto send = [&](std::size_t n) {
+    ::sendto(fd_, out.data(), n, MSG_NOSIGNAL, static_cast<const sockaddr*>(from), from_len);
+  };
+  const auto ack = [&](DeviceStatus status) {
+    send(udp::encode(reply_header(udp::Type::kAck), udp::Ack{h.sequence, status}, key_, out.data()));
+  };
+  // The packets' time drives the physics; a non-finite one is ignored.
+  if (std::isfinite(h.time_s) && h.type != udp::Type::kHello && h.type != udp::Type::kConfigure &&
+      h.type != udp::Type::kSetStartPose)
+    clock_.set(h.time_s);
+
+  if (h.type == udp::Type::kHello) {
+    host_nonce_ = h.host_nonce;
+    device_nonce_ = udp::new_nonce();
+    // As open_device() builds the built-in sim, so both compute the same.
+    SimDeviceParams params;
+    params.max_substep_s = 1e-3;
+    sim_ = std::make_unique<SimDevice>(params);
+    udp::HelloReply r;
+    r.echo_sequence = h.sequence;
+    r.flags = udp::kFlagSimulated | udp::kFlagCalibrated;
+    std::memcpy(r.name.data(), "sim", 4);
+    r.ratings = sim_->ratings();
+    send(udp::encode(reply_header(udp::Type::kHelloReply), r, key_, out.data()));
     return;
   }
   switch (h.type) {
@@ -140,7 +155,7 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
         s.hand_force[static_cast<std::size_t>(i)] = sim_->hand_force(i);
         s.motor_force[static_cast<std::size_t>(i)] = sim_->motor_force(i);
       }
-      send(udp::encode(reply_header(udp::Type::kState), s, out.data()));
+      send(udp::encode(reply_header(udp::Type::kState), s, key_, out.data()));
       return;
     }
     case udp::Type::kCommand: {

@@ -3,9 +3,13 @@
 // of UdpDevice, as `hapticlab device serve-sim` runs it in its own process.
 // Its SimDevice's clock is the time the packets carry (the host loop's
 // clock), so a virtual-clock session over the bridge computes what the
-// built-in sim computes. A HELLO starts a fresh SimDevice (each trial opens
-// the device anew). A malformed datagram is counted and ignored; every
-// request is answered at the address it came from.
+// built-in sim computes. A HELLO starts a fresh SimDevice and a session
+// (the host's nonce, a new one of its own; each trial opens the device
+// anew). A datagram that is malformed, fails its MAC (with the key, or the
+// empty key when there is none), carries another session's nonces or
+// repeats an earlier sequence of the session (a replay) is counted and
+// ignored: a forged COMMAND moves nothing. Every request is answered at the
+// address it came from.
 
 #include <atomic>
 #include <cstdint>
@@ -13,26 +17,34 @@
 #include <string>
 
 #include "core/device/sim_device.h"
+#include "core/device/udp_protocol.h"
 #include "core/loop/clock.h"
 
 namespace hapticlab {
 
 class UdpSimServer {
  public:
-  // Binds host:port (port 0: the system picks one, see port()). Throws
+  // Binds host:port (port 0: the system picks one, see port()). `key`:
+  // the shared key the host must use too (default: none). Throws
   // std::invalid_argument for a host that is not an IPv4 address,
   // std::runtime_error naming the port when it is in use.
-  UdpSimServer(const std::string& host, int port);
+  UdpSimServer(const std::string& host, int port, udp::Key key = {});
   ~UdpSimServer();
   UdpSimServer(const UdpSimServer&) = delete;
   UdpSimServer& operator=(const UdpSimServer&) = delete;
 
   int port() const noexcept { return port_; }
   // Serves until `stop` becomes true (checked at least every 100 ms).
-  void run(const std::atomic<bool>& stop) noexcept;
+  // Throws std::runtime_error only if the kernel has no random numbers for
+  // a session nonce.
+  void run(const std::atomic<bool>& stop);
 
   std::uint64_t received() const noexcept { return received_.load(std::memory_order_relaxed); }
   std::uint64_t malformed() const noexcept { return malformed_.load(std::memory_order_relaxed); }
+  std::uint64_t rejected_mac() const noexcept { return rejected_mac_.load(std::memory_order_relaxed); }
+  std::uint64_t wrong_nonce() const noexcept { return wrong_nonce_.load(std::memory_order_relaxed); }
+  std::uint64_t out_of_order() const noexcept { return out_of_order_.load(std::memory_order_relaxed); }
+  bool authenticated() const noexcept { return key_.keyed(); }
 
  private:
   // A clock that reads the time of the last packet.
@@ -47,14 +59,18 @@ class UdpSimServer {
     double now_s_ = 0.0;
   };
 
-  void handle(const std::byte* data, std::size_t size, const void* from, unsigned from_len) noexcept;
+  void handle(const std::byte* data, std::size_t size, const void* from, unsigned from_len);
 
   int fd_ = -1;
   int port_ = 0;
-  std::unique_ptr<SimDevice> sim_;
+  udp::Key key_;
+  std::unique_ptr<SimDevice> sim_;  // null until the first HELLO
   PacketClock clock_;
   std::uint32_t tx_sequence_ = 0;
-  std::atomic<std::uint64_t> received_{0}, malformed_{0};
+  // The session: its nonces and the host's newest sequence in it.
+  std::uint64_t host_nonce_ = 0, device_nonce_ = 0;
+  std::uint32_t host_sequence_ = 0;
+  std::atomic<std::uint64_t> received_{0}, malformed_{0}, rejected_mac_{0}, wrong_nonce_{0}, out_of_order_{0};
 };
 
 }  // namespace hapticlab

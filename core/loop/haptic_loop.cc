@@ -141,7 +141,10 @@ bool HapticLoop::activate() {
 
 void HapticLoop::start_watchdog() {
   if (clock_.is_virtual()) return;
-  watchdog_ = std::make_unique<Watchdog>(ticks_, device_, config_.safety.watchdog_timeout_s, &device_call_);
+  // A device that waits for its answer (the UDP bridge's timeout_ms) names
+  // its own silence (device_timeout): the watchdog waits that long on top.
+  watchdog_ = std::make_unique<Watchdog>(ticks_, device_,
+                                         config_.safety.watchdog_timeout_s + device_.read_timeout_s(), &device_call_);
   watchdog_->start();
 }
 
@@ -200,6 +203,7 @@ StopReason HapticLoop::loop_body() {
   LoopSample sample;
 
   const double t0_s = clock_.now_s();
+  device_.set_loop_origin(t0_s);
   double deadline_s = t0_s;           // scheduled start of the current update
   double last_start_s = t0_s;
   double complete_at_s = -1.0;

@@ -91,7 +91,7 @@ struct LoopSafetyConfig {
   // pushes back with energy it should not have.
   double max_lateness_s = 0.020;
   // The watchdog thread halts the device when no update completes for this
-  // long [s], 0.001..10.
+  // long [s], 0.001..10, plus the device's read_timeout_s().
   double watchdog_timeout_s = 0.020;
   // A sample queue that stays full (samples dropped) this long ends the
   // loop [s], 0.001..60: the writer has stalled and the trial is no longer
@@ -190,6 +190,11 @@ class HapticLoop {
   // be stuck in that call.
   bool watchdog_tripped() const noexcept { return watchdog_ && watchdog_->tripped(); }
   DeviceCall watchdog_call() const noexcept { return watchdog_ ? watchdog_->call() : DeviceCall::kNone; }
+  // The watchdog's timeout: watchdog_timeout_s plus the device's own read
+  // timeout [s].
+  double watchdog_timeout_s() const noexcept {
+    return watchdog_ ? watchdog_->timeout_s() : config_.safety.watchdog_timeout_s;
+  }
   // Any thread: the device call the loop thread is in now (a crash handler
   // reads it), and the loop thread's kernel thread id (0 before it runs).
   const std::atomic<DeviceCall>& device_call() const noexcept { return device_call_; }

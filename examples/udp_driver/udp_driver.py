@@ -1,38 +1,38 @@
 #!/usr/bin/env python3
-"""A minimal driver side of the HapticLab UDP bridge (docs/udp_bridge.md).
+"""A minimal driver side of the HapticLab UDP bridge (docs/udp_bridge.md), format version 2.
 
 Run it next to your device driver, then `hapticlab session run --device
 udp:127.0.0.1:5000`. Replace read_encoders() and apply_forces() with your
 device's calls; fill RATINGS with your device's limits. Standard library only.
+
+Authentication: with --key-file KEY (the same file HapticLab gets as
+`--device-option key_file=KEY`; make one with `hapticlab device keygen --out
+KEY`), every datagram carries an HMAC-SHA-256 made with the key, and this
+driver ignores any that does not, or that belongs to another session or
+repeats an earlier one: a forged COMMAND moves nothing. Without a key, the
+MAC is made with the empty key (a checksum that anyone can compute), for
+loopback only.
 """
 import argparse
+import hashlib
+import hmac
+import os
+import secrets
+import signal
 import socket
+import stat
 import struct
+import sys
 import time
 
-MAGIC, VERSION = 0x42554C48, 1
-HELLO, HELLO_REPLY, CONFIGURE, ACTIVATE, DEACTIVATE, ACK, POLL, STATE, COMMAND = range(1, 10)
-PAYLOAD = {HELLO: 0, CONFIGURE: 16, ACTIVATE: 0, DEACTIVATE: 0, POLL: 0, COMMAND: 80, 10: 48, 11: 248}
-HEADER = struct.Struct("<IHHId")  # magic, version, type, sequence, time_s: 20 bytes
+MAGIC, VERSION = 0x42554C48, 2
+HELLO, HELLO_REPLY, CONFIGURE, ACTIVATE, DEACTIVATE, ACK, POLL, STATE, COMMAND, SET_START_POSE, HAND = range(1, 12)
+PAYLOAD = {HELLO: 0, CONFIGURE: 16, ACTIVATE: 0, DEACTIVATE: 0, POLL: 0, COMMAND: 80, SET_START_POSE: 48, HAND: 248}
+# magic, version, type, sequence, flags, host nonce, device nonce, time_s: 40 bytes
+HEADER = struct.Struct("<IHHIIQQd")
+MAC_BYTES = 16
+FLAG_KEYED = 1
 FLAG_SIMULATED, FLAG_CALIBRATED = 1, 2
-
-# CRC-32C (Castagnoli), reflected polynomial 0x82F63B78; zlib.crc32 is another CRC.
-_TABLE = []
-for _i in range(256):
-    _c = _i
-    for _ in range(8):
-        _c = (_c >> 1) ^ 0x82F63B78 if _c & 1 else _c >> 1
-    _TABLE.append(_c)
-
-
-def crc32c(data: bytes) -> int:
-    crc = 0xFFFFFFFF
-    for b in data:
-        crc = _TABLE[(crc ^ b) & 0xFF] ^ (crc >> 8)
-    return crc ^ 0xFFFFFFFF
-
-
-assert crc32c(b"123456789") == 0xE3069283
 
 # Per joint (insertion [m], pitch, yaw, twist, grip [rad]): min, max position,
 # continuous force, peak force [N or N·m], max velocity [units/s]. Illustrative
@@ -55,47 +55,115 @@ def apply_forces(forces):
     """Send 2 x 5 forces [N, N·m] to your amplifiers, now."""
 
 
-def packet(kind, seq, t, payload=b""):
-    body = HEADER.pack(MAGIC, VERSION, kind, seq, t) + payload
-    return body + struct.pack("<I", crc32c(body))
+def newer(a, b):
+    """Whether sequence a comes after b, modulo 2**32 (sequences wrap)."""
+    return 0 < (a - b) % 2**32 < 2**31
+
+
+def read_key(path):
+    """The key in `path`: hex on one line, in a file only its owner may read (mode 600)."""
+    mode = stat.S_IMODE(os.stat(path).st_mode)
+    if mode & 0o077:
+        sys.exit(f"--key-file: {path} is open to other users (mode {mode:04o}); chmod 600 it")
+    with open(path, encoding="ascii") as f:
+        text = f.read().rstrip("\r\n")
+    if len(text) < 32 or len(text) % 2:
+        sys.exit(f"--key-file: {path} must hold an even number of hex digits, at least 32 (e.g. `openssl rand -hex 32`)")
+    return bytes.fromhex(text)
 
 
 def main():
     parser = argparse.ArgumentParser()
-    parser.add_argument("--port", type=int, default=5000)
+    parser.add_argument("--port", type=int, default=5000, help="UDP port (0: any free one, printed)")
     parser.add_argument("--host", default="127.0.0.1")
+    parser.add_argument("--key-file", help="the bridge's shared key (hex, mode 600)")
+    parser.add_argument("--insecure", action="store_true",
+                        help="serve an address beyond loopback without a key (anyone there could move the device)")
     args = parser.parse_args()
+    key = read_key(args.key_file) if args.key_file else b""
+    if not key and not args.insecure and not args.host.startswith("127."):
+        sys.exit(f"--host {args.host}: refused: without --key-file anyone on the network could send COMMANDs to "
+                 "this device; give the key file HapticLab uses (device-option key_file), or say --insecure")
+    flags = FLAG_KEYED if key else 0
+
+    def mac(body):
+        return hmac.digest(key, body, "sha256")[:MAC_BYTES]
+
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind((args.host, args.port))
-    print(f"driver on udp:{args.host}:{args.port}", flush=True)
+    print(f"driver on udp:{args.host}:{sock.getsockname()[1]} "
+          f"({'authenticated' if key else 'not authenticated: no --key-file'})", flush=True)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+
     seq, start, active = 0, time.monotonic(), False
-    while True:
-        data, peer = sock.recvfrom(2048)
-        if len(data) < 24 or struct.unpack_from("<I", data, len(data) - 4)[0] != crc32c(data[:-4]):
-            continue  # malformed: ignore it
-        magic, version, kind, req_seq, t = HEADER.unpack_from(data)
-        if magic != MAGIC or version != VERSION or len(data) != 24 + PAYLOAD.get(kind, -1000):
-            continue
+    host_nonce = device_nonce = host_seq = 0  # the session; 0: none yet
+    counts = dict(received=0, malformed=0, rejected_mac=0, wrong_nonce=0, old_sequence=0, commands=0)
+    peak_force = 0.0
+
+    def send(kind, payload, peer):
+        nonlocal seq
         seq += 1
-        now = time.monotonic() - start
-        if kind == HELLO:
-            name = b"my-device".ljust(32, b"\0")
-            ratings = b"".join(struct.pack("<5d", *r) for r in RATINGS)
-            sock.sendto(packet(HELLO_REPLY, seq, now, struct.pack("<II", req_seq, FLAG_CALIBRATED) + name + ratings),
-                        peer)
-        elif kind in (CONFIGURE, ACTIVATE, DEACTIVATE):
-            active = kind == ACTIVATE
-            if kind == DEACTIVATE:
-                apply_forces([[0.0] * 5, [0.0] * 5])
-            sock.sendto(packet(ACK, seq, now, struct.pack("<Ii", req_seq, 0)), peer)
-        elif kind == POLL:
-            position = [x for instrument in read_encoders() for x in instrument]
-            zeros = [0.0] * 20  # hand and motor force: simulated devices only
-            sock.sendto(packet(STATE, seq, now, struct.pack("<Iid", req_seq, 0 if active else 2, now) +
-                               struct.pack("<30d", *position, *zeros)), peer)
-        elif kind == COMMAND and active:
-            f = struct.unpack_from("<10d", data, 20)
-            apply_forces([list(f[:5]), list(f[5:])])
+        body = HEADER.pack(MAGIC, VERSION, kind, seq, flags, host_nonce, device_nonce,
+                           time.monotonic() - start) + payload
+        sock.sendto(body + mac(body), peer)
+
+    try:
+        while True:
+            data, peer = sock.recvfrom(2048)
+            counts["received"] += 1
+            if len(data) < HEADER.size + MAC_BYTES:
+                counts["malformed"] += 1
+                continue
+            magic, version, kind, req_seq, req_flags, req_host, req_device, t = HEADER.unpack_from(data)
+            if magic != MAGIC or version != VERSION or len(data) != HEADER.size + PAYLOAD.get(kind, -1000) + MAC_BYTES:
+                counts["malformed"] += 1
+                continue
+            # Authenticated (or, without a key, intact), with our choice of key, not the sender's.
+            if (req_flags & FLAG_KEYED) != flags or not hmac.compare_digest(data[-MAC_BYTES:], mac(data[:-MAC_BYTES])):
+                counts["rejected_mac"] += 1
+                continue
+            # Of this session and newer than anything in it: not a replay.
+            if kind == HELLO:
+                if req_host == 0 or req_device != 0:
+                    counts["wrong_nonce"] += 1
+                    continue
+                if req_host == host_nonce and not newer(req_seq, host_seq):
+                    counts["old_sequence"] += 1
+                    continue
+                if req_host != host_nonce:
+                    host_nonce, device_nonce = req_host, secrets.randbits(64) or 1
+            elif req_host != host_nonce or req_device != device_nonce or host_nonce == 0:
+                counts["wrong_nonce"] += 1
+                continue
+            elif not newer(req_seq, host_seq):
+                counts["old_sequence"] += 1
+                continue
+            host_seq = req_seq
+
+            now = time.monotonic() - start
+            if kind == HELLO:
+                active = False
+                name = b"my-device".ljust(32, b"\0")
+                ratings = b"".join(struct.pack("<5d", *r) for r in RATINGS)
+                send(HELLO_REPLY, struct.pack("<II", req_seq, FLAG_CALIBRATED) + name + ratings, peer)
+            elif kind in (CONFIGURE, ACTIVATE, DEACTIVATE):
+                active = kind == ACTIVATE
+                if kind == DEACTIVATE:
+                    apply_forces([[0.0] * 5, [0.0] * 5])
+                send(ACK, struct.pack("<Ii", req_seq, 0), peer)
+            elif kind == POLL:
+                position = [x for instrument in read_encoders() for x in instrument]
+                zeros = [0.0] * 20  # hand and motor force: simulated devices only
+                send(STATE, struct.pack("<Iid", req_seq, 0 if active else 2, now) +
+                     struct.pack("<30d", *position, *zeros), peer)
+            elif kind == COMMAND and active:
+                f = struct.unpack_from("<10d", data, HEADER.size)
+                counts["commands"] += 1
+                peak_force = max([peak_force] + [abs(x) for x in f])
+                apply_forces([list(f[:5]), list(f[5:])])
+    finally:
+        print("stopped: " + ", ".join(f"{k} {v}" for k, v in counts.items()) +
+              f", largest force applied {peak_force:g}", flush=True)
 
 
 if __name__ == "__main__":

@@ -80,5 +80,50 @@ TEST(DeviceFactory, TheUdpDeviceTakesOnlyATimeoutInItsRange) {
   }
 }
 
+TEST(DeviceFactory, AnUnauthenticatedBridgeBeyondLoopbackIsRefusedBeforeAnyDatagram) {
+  // 192.0.2.1 (TEST-NET-1) answers nothing: a refusal here cannot have
+  // come from a handshake that failed.
+  DeviceSpec spec = parse_device_spec("udp:192.0.2.1:5000");
+  for (const auto& check : {+[](const DeviceSpec& s) { (void)open_device(s); }, +[](const DeviceSpec& s) {
+                              check_device_spec(s);
+                            }}) {
+    try {
+      check(spec);
+      ADD_FAILURE() << "an unauthenticated bridge to 192.0.2.1 was accepted";
+    } catch (const std::invalid_argument& e) {
+      const std::string why = e.what();
+      EXPECT_NE(why.find("udp:192.0.2.1:5000: refused"), std::string::npos) << why;
+      EXPECT_NE(why.find("not a loopback address, has no key"), std::string::npos) << why;
+      EXPECT_NE(why.find("hapticlab device keygen --out bridge.key"), std::string::npos) << why;
+      EXPECT_NE(why.find("--device-option key_file=bridge.key"), std::string::npos) << why;
+      EXPECT_NE(why.find("--insecure"), std::string::npos) << why;
+    }
+  }
+  spec.insecure = true;
+  EXPECT_NO_THROW(check_device_spec(spec));
+  // Any 127.x.y.z is loopback, and needs neither.
+  EXPECT_NO_THROW(check_device_spec(parse_device_spec("udp:127.0.0.2:5000")));
+  // --insecure means nothing for another backend, or beside a key: refused, not ignored.
+  DeviceSpec sim = parse_device_spec("sim");
+  sim.insecure = true;
+  EXPECT_THROW(check_device_spec(sim), std::invalid_argument);
+  add_device_options(spec, {"key_file=/nonexistent/bridge.key"});
+  try {
+    check_device_spec(spec);
+    ADD_FAILURE() << "took --insecure with a key file";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--insecure and device-option key_file"), std::string::npos) << e.what();
+  }
+  spec.insecure = false;
+  try {
+    check_device_spec(spec);
+    ADD_FAILURE() << "took a key file that does not exist";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("device-option key_file: /nonexistent/bridge.key: cannot open it"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace hapticlab
