@@ -88,7 +88,7 @@ async function sendStop() {
     return;
   }
   stopState("ok", `STOPPED (${j.stopped}; answered in ${s} s)`);
-  if (j.recorded === false) stopAlarm(`STOP acted, but ${j.record_error}`);
+  stopAlarm(j.recorded === false ? j.record_error : "");
 }
 $("stop").addEventListener("click", sendStop);
 
