@@ -368,7 +368,8 @@ def main():
             driver.execute_script('document.getElementById("message").textContent = ""')
             first = status()["trial_number"]
             click("abort")
-            outcome = wait_for("the abort's outcome", lambda: "aborted" if status().get("last_status") == "aborted"
+            outcome = wait_for("the abort's outcome", lambda: "aborted" if (s := status()).get("last_status") == "aborted"
+                               and s.get("last_abort_reason") == "operator abort: participant sneezed"
                                else "refused" if re.search("nothing was aborted|no trial is running",
                                                            driver.find_element(By.ID, "message").text)
                                else None, 20)
