@@ -16,6 +16,9 @@ sockets against the real binary (issue 33):
   declared size), an oversized Content-Length refused at once, STOP with no
   body at all or an empty one, wrong JSON types, 64-bit ranges, a NUL, and
   lengths in characters;
+- --token-file: a token of spaces, of one repeated character, or readable
+  by others (its mode printed in octal) refused; a CRLF line end not part
+  of the token; a new file made 0600 with 128 random bits;
 - controls with no session: 409; every operator action (before the first
   trial, during one, between trials, and STOP) stored in operator_action
   before its 200, and still there after `kill -9` of the console;
@@ -68,7 +71,8 @@ class Console:
         m = re.search(r"console: http://127\.0\.0\.1:([0-9]+)/(#token=([0-9a-f]+))?", text)
         self.port = int(m.group(1))
         self.token_in_address = m.group(3)
-        self.token = open(db + ".console-token").read().strip()
+        token_file = extra[extra.index("--token-file") + 1] if "--token-file" in extra else db + ".console-token"
+        self.token = open(token_file).read().strip()
         self.participant_port = int(re.search(r"participant screen: http://127\.0\.0\.1:([0-9]+)/participant", text).group(1))
 
     def kill(self):
@@ -284,6 +288,42 @@ def actions(db):
         conn.close()
 
 
+def token_files(cli, db, work, consoles):
+    """--token-file read as every secret file is (core/common/secret_file.h)."""
+    def write(name, content, mode=0o600):
+        path = os.path.join(work, name)
+        with open(path, "wb") as f:
+            f.write(content)
+        os.chmod(path, mode)
+        return path
+
+    for name, content, mode, words in (("spaces", b" " * 20 + b"\n", 0o600, "character 1 is a space"),
+                                       ("a16", b"a" * 16 + b"\n", 0o600, "uses only 1 different characters"),
+                                       ("open", b"0123456789abcdef0123\n", 0o644, "mode 0644")):
+        r = subprocess.run([cli, "console", "--db", db, "--port", "0", "--token-file", write(name, content, mode)],
+                           capture_output=True, text=True, timeout=30)
+        if r.returncode == 0 or words not in r.stdout + r.stderr:
+            fail(f"a token file of {name} was not refused with {words!r}: exit {r.returncode}, {r.stdout}{r.stderr}")
+    # A CRLF line end is not part of the token: the one before it works.
+    crlf = write("crlf", b"0123456789abcdef0123\r\n")
+    c = Console(cli, db, "--token-file", crlf)
+    consoles.append(c)
+    if c.token_in_address != "0123456789abcdef0123":
+        fail(f"the token of a CRLF file: {c.token_in_address!r}")
+    expect("STOP with the token of a CRLF file", request(c.port, "POST", "/api/session/stop", token="0123456789abcdef0123"),
+           200)
+    c.kill()
+    consoles.remove(c)
+    # A missing file is made: mode 600, 128 random bits in hex.
+    made = os.path.join(work, "made-token")
+    c = Console(cli, db, "--token-file", made)
+    consoles.append(c)
+    if oct(os.stat(made).st_mode & 0o777) != "0o600" or not re.fullmatch(r"[0-9a-f]{32}\n", open(made).read()):
+        fail(f"the token file made: mode {oct(os.stat(made).st_mode)}, {open(made).read()!r}")
+    c.kill()
+    consoles.remove(c)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("cli")
@@ -300,6 +340,8 @@ def main():
     subprocess.run([a.cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
     consoles = []
     try:
+        if not a.bench:
+            token_files(a.cli, db, a.work, consoles)
         c = Console(a.cli, db)
         consoles.append(c)
         if not a.bench and c.token_in_address != c.token:
