@@ -347,6 +347,12 @@ void Server::head_done(Connection& c) {
   c.route = route;
   c.body.emplace(framing, route->max_body_bytes);
   c.enter(Connection::State::kBody, Clock::now(), config_.body_timeout);
+  // curl asks before sending a body over 1 kB; without an answer it waits a second.
+  if (const std::string* expect = r.header("expect");
+      expect != nullptr && *expect == "100-continue" && framing.kind != BodyFraming::Kind::kNone && c.in.empty()) {
+    c.queue("HTTP/1.1 100 Continue\r\n\r\n");
+    if (!c.flush()) close(c);
+  }
 }
 
 void Server::dispatch(Connection& c) {

@@ -456,6 +456,17 @@ def main():
         r = read_response(s, 5)
         s.close()
         expect("a chunked body past 16 kB", r, 413, "18000 bytes")
+        # curl's "Expect: 100-continue" (a body over 1 kB) is answered at once.
+        s = connect(c.port)
+        body = json.dumps({"text": "x" * 2000}).encode()
+        s.sendall(f"POST /api/session/note HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\nX-HapticLab-Token: {c.token}\r\n"
+                  f"Expect: 100-continue\r\nContent-Length: {len(body)}\r\n\r\n".encode())
+        s.settimeout(0.5)
+        if not s.recv(4096).startswith(b"HTTP/1.1 100 Continue\r\n\r\n"):
+            fail("Expect: 100-continue was not answered")
+        s.sendall(body)
+        expect("the note after 100 Continue", read_response(s, 5), 409, "no session is running")
+        s.close()
         expect("STOP with no body at all", request(c.port, "POST", "/api/session/stop", token=c.token), 200,
                "nothing was running")
         expect("STOP with Content-Length: 0", request(c.port, "POST", "/api/session/stop", token=c.token,
