@@ -1,11 +1,8 @@
 #include "app/console_command.h"
 
-#include <sys/stat.h>
-
 #include <cstdio>
-#include <fstream>
+#include <filesystem>
 #include <memory>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -13,6 +10,7 @@
 #include "app/insecure_flag.h"
 #include "app/interrupt_flag.h"
 #include "console/console_server.h"
+#include "core/common/secret_file.h"
 #include "core/device/device_factory.h"
 #include "core/device/device_spec.h"
 #include "core/loop/realtime.h"
@@ -25,6 +23,7 @@ struct ConsoleOptions {
   std::string db;
   std::string bind = "127.0.0.1";
   int port = 8080;
+  int participant_port = 0;
   std::string token_file;
   std::string device = "sim";
   std::vector<std::string> device_options;
@@ -35,41 +34,14 @@ struct ConsoleOptions {
   bool realtime = false;
 };
 
-// 128 bits from the system's entropy source, as hex.
-std::string new_token() {
-  std::random_device rd;
-  std::string out;
-  char buf[9];
-  for (int i = 0; i < 4; ++i) {
-    std::snprintf(buf, sizeof buf, "%08x", static_cast<unsigned>(rd()));
-    out += buf;
-  }
-  return out;
-}
-
-// The token in a file only its owner can read (created 0600; an existing
-// one must not be readable by others).
+// The token of `path`, read with the checks every secret file gets
+// (core/common/secret_file.h: mode 600, one line, no spaces or control
+// characters, not one repeated character); a missing file is made with a
+// new token (128 bits from the kernel).
 std::string token_from_file(const std::string& path) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) == 0) {
-    if ((st.st_mode & 077) != 0)
-      throw std::invalid_argument("--token-file: " + path + " is readable by others (mode " +
-                                  std::to_string(st.st_mode & 0777) + " octal-decimal); chmod 600 it");
-    std::ifstream in(path);
-    std::string token;
-    std::getline(in, token);
-    if (token.size() < 16)
-      throw std::invalid_argument("--token-file: " + path + " holds " + std::to_string(token.size()) +
-                                  " characters, must be at least 16");
-    return token;
-  }
-  const std::string token = new_token();
-  const mode_t old = ::umask(077);
-  std::ofstream out(path);
-  ::umask(old);
-  out << token << "\n";
-  if (!out) throw std::runtime_error("--token-file: cannot write " + path);
-  return token;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) create_secret_file(path, random_hex(16));
+  return read_secret_file(path, "--token-file");
 }
 
 int run(const ConsoleOptions& opt) {
@@ -88,6 +60,7 @@ int run(const ConsoleOptions& opt) {
   if (opt.realtime) std::fprintf(stderr, "%s\n", prepare_realtime(config.session.realtime).c_str());
   config.bind_address = opt.bind;
   config.port = opt.port;
+  config.participant_port = opt.participant_port;
   const bool loopback = opt.bind == "127.0.0.1" || opt.bind == "localhost" || opt.bind == "::1";
   if (!loopback) {
     if (opt.token_file.empty())
@@ -97,9 +70,10 @@ int run(const ConsoleOptions& opt) {
                  "controls need the token in %s. HTTP is not encrypted: use a trusted network.\n",
                  opt.bind.c_str(), opt.token_file.c_str());
   }
-  config.token = opt.token_file.empty() ? token_from_file(opt.db + ".console-token") : token_from_file(opt.token_file);
-  std::printf("console token (controls need it): %s  (also in %s, readable only by you)\n", config.token.c_str(),
-              (opt.token_file.empty() ? opt.db + ".console-token" : opt.token_file).c_str());
+  const std::string token_file = opt.token_file.empty() ? opt.db + ".console-token" : opt.token_file;
+  config.token = token_from_file(token_file);
+  std::printf("console token (controls need it): in %s (readable only by you) and in the address below\n",
+              token_file.c_str());
   InterruptFlag interrupt;
   console::serve_console(config, interrupt.flag());
   return 0;
@@ -114,6 +88,11 @@ void add_console_command(CLI::App& app) {
                  "participant screen, in a browser (docs/console.md)");
   cmd->add_option("--db", opt->db, "Study database (hapticlab study create)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--port", opt->port, "TCP port, 0..65535 (0: any free one, printed)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  cmd->add_option("--participant-port", opt->participant_port,
+                  "TCP port of the participant screen, 0..65535 (0: any free one, printed); a port of its own, so "
+                  "the participant's browser cannot read the operator's pages, which name the setting")
       ->check(CLI::Range(0, 65535))
       ->capture_default_str();
   cmd->add_option("--bind", opt->bind, "Address to listen on; anything but 127.0.0.1 needs --token-file")

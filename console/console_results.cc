@@ -1,6 +1,7 @@
 #include "console/console_results.h"
 
 #include <exception>
+#include <fstream>
 #include <stdexcept>
 
 #include "analysis/report/gnuplot.h"
@@ -12,6 +13,41 @@
 #include "db/study_db.h"
 
 namespace hapticlab::console {
+namespace {
+
+// Beside the files a job made: the identity of the database they came from.
+constexpr const char* kReportStamp = "made-from.txt";
+constexpr const char* kExportStamp = "exports/made-from.txt";
+
+void write_stamp(const std::filesystem::path& path, const std::string& identity) {
+  std::ofstream out(path, std::ios::trunc);
+  out << identity;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+}  // namespace
+
+std::string ConsoleResults::database_identity() const {
+  try {
+    db::OpenOptions o;
+    o.read_only = true;
+    o.integrity = db::OpenOptions::Integrity::kSkip;
+    db::StudyDb db(db_, o);
+    const std::vector<db::StudyRow> studies = db.studies();
+    if (studies.empty()) return "";
+    const db::StudyRow& s = studies.front();
+    return "study '" + s.name + "' created " + s.created_utc + ", protocol SHA-256 " + s.protocol_sha256;
+  } catch (const std::exception&) {
+    return "";
+  }
+}
+
+std::string ConsoleResults::stamp_of(const std::string& name) const {
+  std::ifstream in(out_dir_ / (name.starts_with("exports/") ? kExportStamp : kReportStamp));
+  std::string stamp;
+  std::getline(in, stamp);
+  return stamp;
+}
 
 ConsoleResults::ConsoleResults(std::filesystem::path db, std::filesystem::path out_dir)
     : db_(std::move(db)), out_dir_(std::move(out_dir)) {}
@@ -61,6 +97,7 @@ void ConsoleResults::run_export(std::string participant, std::uint64_t every, bo
     db::StudyDb db(db_, options);
     const std::vector<db::StudyRow> studies = db.studies();
     if (studies.empty()) throw std::runtime_error(db_.string() + " holds no study");
+    const std::string identity = database_identity();
     db::ExportSelection selection;
     selection.one_file = true;
     selection.gzip = gzip;
@@ -70,6 +107,7 @@ void ConsoleResults::run_export(std::string participant, std::uint64_t every, bo
     std::filesystem::remove_all(dir);  // an older export's files must not pass for this one's
     std::vector<db::BadChunk> bad;
     const auto files = db::export_study_csv(db, studies.front().id, dir, &bad, selection);
+    write_stamp(out_dir_ / kExportStamp, identity);
     for (const auto& f : files) names.push_back("exports/" + f.filename().string());
     message = std::to_string(files.size()) + " files" + (participant.empty() ? "" : " (" + participant + ")") +
               (every > 1 ? ", every " + std::to_string(every) + "th update" : "");
@@ -100,10 +138,13 @@ void ConsoleResults::run(bool plots) {
     analysis::ReportOptions report;
     report.plots = plots;
     if (plots) analysis::find_gnuplot();
+    const std::string identity = database_identity();
+    std::filesystem::remove(out_dir_ / kReportStamp);  // the old report is not this one's while it is made
     const analysis::StudyAnalysis a = analysis::analyze_study_file(db_, options);
     std::filesystem::create_directories(out_dir_);
     analysis::write_metrics_csv(a, out_dir_ / "metrics.csv");
     const analysis::ReportFiles files = analysis::write_report(a, out_dir_, report);
+    write_stamp(out_dir_ / kReportStamp, identity);
     message = std::to_string(a.trials.size()) + " trials analysed; " + std::to_string(files.figures.size()) +
               " figures (KS bootstrap: run `hapticlab analyze`)";
   } catch (const std::exception& e) {
@@ -114,19 +155,37 @@ void ConsoleResults::run(bool plots) {
 }
 
 nlohmann::json ConsoleResults::status() const {
+  const std::string identity = database_identity();
   std::lock_guard lock(mutex_);
   nlohmann::json files = nlohmann::json::array();
+  std::string stale;
   if (state_ != "running") {
+    const bool report_current = !identity.empty() && stamp_of("report.html") == identity;
     for (const char* name : {"report.html", "report.md", "metrics.csv"})
-      if (std::filesystem::is_regular_file(out_dir_ / name)) files.push_back(name);
+      if (std::filesystem::is_regular_file(out_dir_ / name)) {
+        if (report_current) files.push_back(name);
+        else stale = "the analysis in " + out_dir_.string() + " was made from another database (re-created since); "
+                     "run it again";
+      }
+    const bool export_current = !identity.empty() && stamp_of("exports/x") == identity;
     for (const std::string& name : exported_)
-      if (std::filesystem::is_regular_file(out_dir_ / name)) files.push_back(name);
+      if (export_current && std::filesystem::is_regular_file(out_dir_ / name)) files.push_back(name);
   }
-  return {{"job", job_}, {"state", state_}, {"message", message_}, {"files", files}, {"folder", out_dir_.string()}};
+  nlohmann::json j = {{"job", job_}, {"state", state_}, {"message", message_}, {"files", files},
+                      {"folder", out_dir_.string()}};
+  if (!stale.empty()) j["stale"] = stale;
+  return j;
 }
 
 std::optional<std::filesystem::path> ConsoleResults::file(const std::string& name) const {
-  return served_file(out_dir_, name);
+  std::optional<std::filesystem::path> path = served_file(out_dir_, name);
+  if (path) {
+    const std::string identity = database_identity();
+    if (identity.empty() || stamp_of(name) != identity)
+      throw std::invalid_argument(name + ": made from another database than " + db_.string() +
+                                  " holds now (re-created since); run the analysis or export again");
+  }
+  return path;
 }
 
 }  // namespace hapticlab::console

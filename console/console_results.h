@@ -31,17 +31,29 @@ class ConsoleResults {
   // (every started trial; `participant` empty: all). Throws
   // std::invalid_argument while a job runs.
   void start_export(const std::string& participant, std::uint64_t every, bool gzip);
-  nlohmann::json status() const;  // state, message, the files there are
+  // State, message, the files there are: only those made from the study
+  // the database holds now (a folder left by an earlier database of the
+  // same name, re-created since, offers nothing). Reads the database.
+  nlohmann::json status() const;
   // The file `name` names inside out_dir ("report.html", "figures/x.svg"),
   // or nothing when the name is not one of a plain file in it (no "..", no
-  // absolute path, no link leading out).
+  // absolute path, no link leading out). Throws std::invalid_argument when
+  // the file was made from another database than the one there now.
   std::optional<std::filesystem::path> file(const std::string& name) const;
+
+  // What tells this database's study from an earlier one at the same
+  // path: its name, its creation time (ms) and its protocol's SHA-256; ""
+  // when the database cannot be read.
+  std::string database_identity() const;
 
  private:
   void run(bool plots);
   void run_export(std::string participant, std::uint64_t every, bool gzip);
   void begin(const char* job);  // caller holds mutex_
   void finish(std::string state, std::string message);
+  // The identity stamped on the files of `name` ("report.html" or
+  // "exports/..."), "" when none.
+  std::string stamp_of(const std::string& name) const;
 
   const std::filesystem::path db_, out_dir_;
   mutable std::mutex mutex_;

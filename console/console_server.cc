@@ -1,31 +1,47 @@
 #include "console/console_server.h"
 
-#include <httplib.h>
-
-#include <array>
 #include <algorithm>
+#include <array>
 #include <chrono>
-#include <mutex>
-#include <set>
-#include <fstream>
-#include <memory>
-#include <optional>
 #include <cstdio>
+#include <optional>
+#include <set>
 #include <stdexcept>
-#include <thread>
 
 #include "console/console_results.h"
 #include "console/console_tuning.h"
-#include "protocols/safety_json.h"
+#include "console/control_fields.h"
+#include "console/http/http_server.h"
+#include "console/operator_actions.h"
 #include "core/io/input_file.h"
 #include "db/study_db.h"
+#include "protocols/safety_json.h"
 #include "sessions/study_progress.h"
 
 namespace hapticlab::console {
 namespace {
 
+using http::Request;
+using http::Response;
+using http::Route;
+using http::Runs;
+
 constexpr std::size_t kMaxBodyBytes = 16 * 1024;  // notes and reasons are short
-constexpr auto kLivePeriod = std::chrono::milliseconds(33);  // >= 30 Hz to the plots
+constexpr auto kLivePeriod = std::chrono::milliseconds(33);          // >= 30 Hz to the plots
+constexpr auto kParticipantPeriod = std::chrono::milliseconds(100);  // the participant's cue
+// Bounds on what the console reads into memory to serve.
+constexpr std::size_t kMaxChartJsBytes = 16u << 20;
+
+// The pages: scripts and styles only from files of the console's own
+// origin (none inline), no plugin, no form, never framed by another page.
+constexpr const char* kPageCsp =
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+    "frame-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'";
+// The analysis' report (its own inline style and SVG figures, no script),
+// shown in a frame of the Results page: that page may frame it, no other.
+constexpr const char* kReportCsp =
+    "default-src 'none'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; frame-ancestors 'self'; "
+    "base-uri 'none'; form-action 'none'; sandbox allow-same-origin";
 
 // Compares without an early exit, so the time taken does not tell how much
 // of a guessed token was right.
@@ -36,14 +52,11 @@ bool same_token(const std::string& a, const std::string& b) {
   return diff == 0;
 }
 
-void json_reply(httplib::Response& res, const nlohmann::json& j, int status = 200) {
-  res.status = status;
-  res.set_header("Cache-Control", "no-store");
-  res.set_content(j.dump(), "application/json");
-}
-
-void error_reply(httplib::Response& res, int status, const std::string& message) {
-  json_reply(res, {{"error", message}}, status);
+Response json_reply(const nlohmann::json& j, int status = 200) {
+  Response r;
+  r.status = status;
+  r.body = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  return r;
 }
 
 sessions::StudyProgress read_progress(const std::filesystem::path& db_path) {
@@ -74,54 +87,71 @@ StudySettings read_study_settings(const std::filesystem::path& db_path, const se
   return out;
 }
 
-// Bounds on what the console reads into memory to serve.
-constexpr std::size_t kMaxChartJsBytes = 16u << 20;
-
-// A file of a folder the console writes (served_file.h), streamed in pieces:
-// a study's sample export is hundreds of megabytes.
-void serve_download(const std::optional<std::filesystem::path>& path, const std::string& name,
-                    httplib::Response& res) {
-  std::error_code ec;
-  const auto size = path ? std::filesystem::file_size(*path, ec) : 0;
-  if (!path || ec) {
-    error_reply(res, 404, "no such file: " + name);
-    return;
-  }
+// A file of a folder the console writes (served_file.h), sent by the server
+// from the file in pieces: a study's sample export is hundreds of megabytes.
+Response download(const std::optional<std::filesystem::path>& path, const std::string& name) {
+  if (!path) return Response::error(404, "no such file: " + name);
   const std::string file = path->filename().string();
-  const char* type = file.ends_with(".html")  ? "text/html; charset=utf-8"
-                     : file.ends_with(".svg") ? "image/svg+xml"
-                     : file.ends_with(".csv") ? "text/csv; charset=utf-8"
-                     : file.ends_with(".gz")  ? "application/gzip"
-                     : file.ends_with(".json") ? "application/json"
-                                               : "text/plain; charset=utf-8";
+  Response r;
+  r.content_type = file.ends_with(".html")  ? "text/html; charset=utf-8"
+                   : file.ends_with(".svg") ? "image/svg+xml"
+                   : file.ends_with(".csv") ? "text/csv; charset=utf-8"
+                   : file.ends_with(".gz")  ? "application/gzip"
+                   : file.ends_with(".json") ? "application/json"
+                                             : "text/plain; charset=utf-8";
   if (!file.ends_with(".html") && !file.ends_with(".svg"))
-    res.set_header("Content-Disposition", "attachment; filename=\"" + file + "\"");
-  res.set_header("Cache-Control", "no-store");
-  auto in = std::make_shared<std::ifstream>(*path, std::ios::binary);
-  if (!*in) {
-    error_reply(res, 500, "cannot read " + name);
-    return;
+    r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + file + "\"");
+  r.file = *path;
+  return r;
+}
+
+// The state of a live stream's sender: what it has sent of the present
+// trial (or free-trial repetition), so each event carries only new points.
+struct LiveCursor {
+  std::array<double, 2> last_t_s{-1.0, -1.0};
+  int repetition = -1;
+};
+
+// One event of a live stream: the status and the points after `cursor`.
+template <typename PointsOf>
+nlohmann::json live_event(const nlohmann::json& status, const char* repetition_key, PointsOf points_of,
+                          LiveCursor& cursor) {
+  const int repetition = status.value(repetition_key, 0);
+  if (repetition != cursor.repetition) cursor = LiveCursor{{-1.0, -1.0}, repetition};
+  const auto points = points_of(std::min(cursor.last_t_s[0], cursor.last_t_s[1]));
+  nlohmann::json j = {{"status", status}, {"instruments", nlohmann::json::array()}};
+  for (std::size_t k = 0; k < 2; ++k) {
+    nlohmann::json series = nlohmann::json::array();
+    for (const LivePoint& p : points[k]) {
+      if (p.t_s <= cursor.last_t_s[k]) continue;
+      series.push_back({p.t_s, p.tip_force_N, p.displayed_force_N, p.insertion_m, p.pitch_rad, p.yaw_rad});
+      cursor.last_t_s[k] = p.t_s;
+    }
+    j["instruments"].push_back(series);
   }
-  res.set_content_provider(static_cast<std::size_t>(size), type,
-                           [in](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-                             std::array<char, 1 << 16> buffer;
-                             in->seekg(static_cast<std::streamoff>(offset));
-                             const auto n = std::min(length, buffer.size());
-                             in->read(buffer.data(), static_cast<std::streamsize>(n));
-                             const auto got = static_cast<std::size_t>(in->gcount());
-                             // A file cut short while served: end the response rather than spin.
-                             return got > 0 && sink.write(buffer.data(), got);
-                           });
+  return j;
+}
+
+std::string sse(const char* event, const nlohmann::json& data) {
+  return std::string("event: ") + event + "\ndata: " +
+         data.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n\n";
+}
+
+std::string url_host(const std::string& bind) {
+  return bind.find(':') != std::string::npos ? "[" + bind + "]" : bind;
 }
 
 }  // namespace
 
 void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   if (config.token.size() < 16) throw std::invalid_argument("console token: shorter than 16 characters");
+  // Opened first: it brings an older file to the current schema, which the
+  // read-only connections below need.
+  OperatorActions actions(config.session.db);
   // The participants and settings of the study, read once: codes a request
   // may name, and (for the operator's page) the protocol summary.
   const sessions::StudyProgress at_start = read_progress(config.session.db);
-  ConsoleSession session(config.session);
+  ConsoleSession session(config.session, actions);
   // Next to the database: STUDY.db -> STUDY-console-analysis/.
   ConsoleResults results(config.session.db,
                          config.session.db.parent_path() / (config.session.db.stem().string() + "-console-analysis"));
@@ -138,162 +168,134 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   const std::string chart_js = std::filesystem::exists(config.chart_js)
                                    ? read_text_file(config.chart_js, kMaxChartJsBytes, "Chart.js file")
                                    : std::string();
-
   std::mutex device_mutex;  // starting a session or a free trial
-  httplib::Server server;
-  server.new_task_queue = [] { return new httplib::ThreadPool(16); };  // SSE streams hold a thread each
-  server.set_payload_max_length(kMaxBodyBytes);
 
+  http::ServerConfig server_config;
+  server_config.limits.max_body_bytes = kMaxBodyBytes;
+  server_config.default_headers = {{"Cache-Control", "no-store"},
+                                   {"X-Content-Type-Options", "nosniff"},
+                                   {"X-Frame-Options", "DENY"},
+                                   {"Content-Security-Policy", kPageCsp},
+                                   {"Referrer-Policy", "no-referrer"}};
+  http::Server server(server_config);
+  int participant_port = 0;  // known once its site listens
+
+  // --- the operator's site
+  std::vector<Route> op;
+  const auto get = [&](const std::string& path, Runs runs, auto handle) {
+    Route r;
+    r.method = "GET";
+    r.path = path;
+    r.runs = runs;
+    r.handle = handle;
+    return r;
+  };
   for (std::size_t i = 0; i < kAssetCount; ++i) {
     const Asset& a = kAssets[i];
-    server.Get(a.path, [a](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Cache-Control", "no-store");
-      res.set_content(a.body, std::string(a.content_type) + "; charset=utf-8");
-    });
+    if (std::string(a.site) != "operator") continue;
+    op.push_back(get(a.path, Runs::kLoop, [a](const Request&) {
+      return Response::text(200, a.body, std::string(a.content_type) + "; charset=utf-8");
+    }));
   }
-  server.Get("/vendor/chart.js", [&chart_js](const httplib::Request&, httplib::Response& res) {
-    if (chart_js.empty()) {
-      res.status = 404;
-      res.set_content("// chart.js not installed (Debian: apt install libjs-chart.js)", "text/javascript");
-      return;
-    }
-    res.set_content(chart_js, "text/javascript");
-  });
-
+  op.push_back(get("/vendor/chart.js", Runs::kLoop, [&chart_js](const Request&) {
+    if (chart_js.empty())
+      return Response::text(404, "// chart.js not installed (Debian: apt install libjs-chart.js)", "text/javascript");
+    Response r = Response::text(200, chart_js, "text/javascript; charset=utf-8");
+    r.headers.emplace_back("Cache-Control", "max-age=3600");  // the same file for the console's lifetime
+    return r;
+  }));
   // --- read-only
-  server.Get("/api/study", [&](const httplib::Request&, httplib::Response& res) {
-    try {
-      json_reply(res, sessions::study_progress_json(read_progress(config.session.db)));
-    } catch (const std::exception& e) {
-      error_reply(res, 500, e.what());
-    }
-  });
-  server.Get("/api/status", [&](const httplib::Request&, httplib::Response& res) {
-    json_reply(res, session.operator_status());
-  });
-  server.Get("/api/participant", [&](const httplib::Request&, httplib::Response& res) {
-    json_reply(res, session.participant_status());
-  });
-  server.Get("/api/tuning", [&](const httplib::Request&, httplib::Response& res) {
+  op.push_back(get("/api/study", Runs::kReader, [&](const Request&) {
+    return json_reply(sessions::study_progress_json(read_progress(config.session.db)));
+  }));
+  op.push_back(get("/api/status", Runs::kLoop, [&](const Request&) {
+    nlohmann::json j = session.operator_status();
+    j["participant_port"] = participant_port;
+    return json_reply(j);
+  }));
+  op.push_back(get("/api/tuning", Runs::kLoop, [&](const Request&) {
     nlohmann::json j = tuning.status();
     j["reference"] = ConsoleTuning::reference()["fields"];
     j["study_settings"] = nlohmann::json::array();
     for (const NamedSettings& n : study_settings.settings) j["study_settings"].push_back(n.name);
     j["tasks"] = study_settings.tasks;
-    json_reply(res, j);
+    return json_reply(j);
+  }));
+  Route tuning_files = get("/tuning/", Runs::kReader, [&](const Request& req) {
+    const std::string name = req.path.substr(std::string("/tuning/").size());
+    return download(tuning.file(name), name);
   });
-  server.Get(R"(/tuning/(.+))", [&](const httplib::Request& req, httplib::Response& res) {
-    serve_download(tuning.file(req.matches[1]), req.matches[1], res);
+  tuning_files.prefix = true;
+  op.push_back(tuning_files);
+  op.push_back(get("/api/results", Runs::kReader, [&](const Request&) { return json_reply(results.status()); }));
+  Route result_files = get("/results/", Runs::kReader, [&](const Request& req) {
+    const std::string name = req.path.substr(std::string("/results/").size());
+    std::optional<std::filesystem::path> path;
+    try {
+      path = results.file(name);
+    } catch (const std::invalid_argument& e) {
+      return Response::error(409, e.what());
+    }
+    Response r = download(path, name);
+    r.headers.emplace_back("Content-Security-Policy", kReportCsp);
+    r.headers.emplace_back("X-Frame-Options", "SAMEORIGIN");
+    return r;
   });
-  server.Get("/api/results", [&](const httplib::Request&, httplib::Response& res) {
-    json_reply(res, results.status());
-  });
-  server.Get(R"(/results/(.+))", [&](const httplib::Request& req, httplib::Response& res) {
-    serve_download(results.file(req.matches[1]), req.matches[1], res);
-  });
-  // Server-sent events: the operator's live stream (plots and status) and
-  // the participant's (cue, trial k of N).
-  // Live plots and status, of the session (/events/live) or of the free
-  // trial on the Tuning page (/events/tuning): only points not sent yet.
-  const auto live_stream = [&](const char* path, auto status_of, auto points_of, const char* repetition_key) {
-    server.Get(path, [&, status_of, points_of, repetition_key](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Cache-Control", "no-store");
-      res.set_chunked_content_provider(
-          "text/event-stream", [&, status_of, points_of, repetition_key, last_t = std::array<double, 2>{-1.0, -1.0},
-                                last_repetition = -1](std::size_t, httplib::DataSink& sink) mutable {
-            if (stop.load()) return false;
-            const nlohmann::json status = status_of();
-            const int repetition = status.value(repetition_key, 0);
-            if (repetition != last_repetition) last_t = {-1.0, -1.0}, last_repetition = repetition;
-            const auto points = points_of(std::min(last_t[0], last_t[1]));
-            nlohmann::json j = {{"status", status}, {"instruments", nlohmann::json::array()}};
-            for (std::size_t k = 0; k < 2; ++k) {
-              nlohmann::json series = nlohmann::json::array();
-              for (const LivePoint& p : points[k]) {
-                if (p.t_s <= last_t[k]) continue;
-                series.push_back({p.t_s, p.tip_force_N, p.displayed_force_N, p.insertion_m, p.pitch_rad, p.yaw_rad});
-                last_t[k] = p.t_s;
-              }
-              j["instruments"].push_back(series);
-            }
-            const std::string msg = "data: " + j.dump() + "\n\n";
-            if (!sink.write(msg.data(), msg.size())) return false;
-            std::this_thread::sleep_for(kLivePeriod);
-            return true;
-          });
-    });
-  };
-  live_stream(
-      "/events/live", [&] { return session.operator_status(); },
-      [&](double after_t_s) { return session.live_since(after_t_s); }, "trial_number");
-  live_stream(
-      "/events/tuning",
-      [&] {
-        nlohmann::json j = tuning.status();
-        j.erase("log");  // the page polls /api/tuning for it
-        j.erase("settings");
-        return j;
-      },
-      [&](double after_t_s) { return tuning.live_since(after_t_s); }, "free_trial");
-  server.Get("/events/participant", [&](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-store");
-    res.set_chunked_content_provider("text/event-stream", [&](std::size_t, httplib::DataSink& sink) {
-      if (stop.load()) return false;
-      const std::string msg = "data: " + session.participant_status().dump() + "\n\n";
-      if (!sink.write(msg.data(), msg.size())) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      return true;
-    });
-  });
+  result_files.prefix = true;
+  op.push_back(result_files);
+  // One event stream for the operator's page, whatever it shows (a browser
+  // allows six connections to a host: two streams a tab left the third
+  // tab's STOP none): "live" (the session's status and plots) and, while a
+  // free trial runs, "tuning" (its status and plots).
+  Route stream;
+  stream.method = "GET";
+  stream.path = "/events/operator";
+  stream.stream = "operator";
+  op.push_back(stream);
 
-  // --- controls: token first, then the body
-  const auto control_replying = [&](const std::string& path, auto action, auto reply) {
-    server.Post(path, [&, action, reply](const httplib::Request& req, httplib::Response& res) {
-      if (!same_token(req.get_header_value("X-HapticLab-Token"), config.token)) {
-        error_reply(res, 403, "missing or wrong X-HapticLab-Token header (printed when the console started)");
-        return;
-      }
-      nlohmann::json body = nlohmann::json::object();
-      if (!req.body.empty()) {
-        body = nlohmann::json::parse(req.body, nullptr, false);
-        if (body.is_discarded() || !body.is_object()) {
-          error_reply(res, 400, "request body: not a JSON object");
-          return;
-        }
-      }
+  // --- controls: token first (before any body byte is read), then the body
+  const auto token_check = [&](Request& req) -> std::optional<Response> {
+    const std::string* token = req.header("x-hapticlab-token");
+    if (token == nullptr || !same_token(*token, config.token))
+      return Response::error(403, "missing or wrong X-HapticLab-Token header (the console printed the page's address "
+                                  "with it, and it is in the token file); nothing was done");
+    return std::nullopt;
+  };
+  const auto control_route = [&](const std::string& path, auto action, auto reply) {
+    Route r;
+    r.method = "POST";
+    r.path = path;
+    r.max_body_bytes = kMaxBodyBytes;
+    r.admit = token_check;
+    r.runs = Runs::kControl;
+    r.handle = [action, reply](const Request& req) {
       try {
-        action(body);
-        json_reply(res, reply());
+        action(parse_control_body(req.body));
+        return json_reply(reply());
+      } catch (const ConsoleConflict& e) {
+        return Response::error(409, e.what());
       } catch (const std::invalid_argument& e) {
-        error_reply(res, 400, e.what());
+        return Response::error(400, e.what());
       } catch (const std::exception& e) {
-        error_reply(res, 500, e.what());
+        return Response::error(500, e.what());
       }
-    });
+    };
+    return r;
   };
   const auto control = [&](const std::string& path, auto action) {
-    control_replying(path, action, [&] { return session.operator_status(); });
+    op.push_back(control_route(path, action, [&] { return session.operator_status(); }));
   };
   const auto tuning_control = [&](const std::string& path, auto action) {
-    control_replying(path, action, [&] { return tuning.status(); });
+    op.push_back(control_route(path, action, [&] { return tuning.status(); }));
   };
   const auto known_participant = [&](const std::string& code) {
     for (const auto& p : at_start.participants)
       if (p.code == code) return true;
     return false;
   };
-  const auto text_field = [](const nlohmann::json& body, const char* name, std::size_t max) {
-    if (!body.contains(name) || !body[name].is_string())
-      throw std::invalid_argument(std::string(name) + ": missing (a string of 1.." + std::to_string(max) +
-                                  " characters)");
-    const std::string v = body[name].get<std::string>();
-    if (v.empty() || v.size() > max)
-      throw std::invalid_argument(std::string(name) + ": " + std::to_string(v.size()) + " characters, must be 1.." +
-                                  std::to_string(max));
-    return v;
-  };
   control("/api/session/start", [&](const nlohmann::json& body) {
     const std::string code = text_field(body, "participant", 64);
+    const bool step = bool_field(body, "step", false);
     if (!known_participant(code)) {
       std::string codes;
       for (const auto& p : at_start.participants) codes += (codes.empty() ? "" : ", ") + p.code;
@@ -301,14 +303,55 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
     }
     // One loop drives the device: a free trial and a session never run at once.
     std::lock_guard lock(device_mutex);
-    if (tuning.running()) throw std::invalid_argument("a free trial runs on the Tuning page; stop it first");
-    session.start(code, body.value("step", false));
+    if (tuning.running()) throw ConsoleConflict("start: a free trial runs on the Tuning page; stop it first");
+    session.start(code, step);
   });
-  // STOP stops whatever drives the device.
-  control("/api/session/stop", [&](const nlohmann::json&) {
-    session.stop();
-    tuning.stop();
-  });
+  // STOP stops whatever drives the device, at once: on the server's loop
+  // thread as soon as its head is in and the token checked, before its
+  // body is read and before anything waits. Then, on the control thread,
+  // it is stored, and answered.
+  {
+    Route r;
+    r.method = "POST";
+    r.path = "/api/session/stop";
+    r.max_body_bytes = kMaxBodyBytes;
+    r.admit = [&](Request& req) -> std::optional<Response> {
+      if (auto refusal = token_check(req)) return refusal;
+      const bool free_trial = tuning.running();
+      const StopSnapshot s = session.stop();
+      tuning.stop();
+      nlohmann::json noted = {{"what", s.what}, {"free_trial", free_trial}, {"session_running", s.session_running}};
+      if (s.session_id) noted["session_id"] = *s.session_id;
+      if (s.trial_id) noted["trial_id"] = *s.trial_id;
+      if (s.t_s) noted["t_s"] = *s.t_s;
+      req.admitted = noted.dump();
+      return std::nullopt;
+    };
+    r.runs = Runs::kControl;
+    r.handle = [&](const Request& req) {
+      const nlohmann::json noted = nlohmann::json::parse(req.admitted);
+      StopSnapshot s;
+      s.session_running = noted["session_running"];
+      if (noted.contains("session_id")) s.session_id = noted["session_id"].get<std::int64_t>();
+      if (noted.contains("trial_id")) s.trial_id = noted["trial_id"].get<std::int64_t>();
+      if (noted.contains("t_s")) s.t_s = noted["t_s"].get<double>();
+      std::string stopped = noted["what"].get<std::string>();
+      if (noted["free_trial"].get<bool>()) stopped += (stopped.empty() ? "" : "; ") + std::string("the free trial");
+      if (stopped.empty()) stopped = "nothing was running";
+      nlohmann::json j = session.operator_status();
+      j["stopped"] = stopped;
+      try {
+        session.record_stop(s, stopped);
+        j["recorded"] = true;
+      } catch (const std::exception& e) {
+        // Stopped all the same: the answer says what was not stored.
+        j["recorded"] = false;
+        j["record_error"] = std::string("STOP acted, but could not be stored in the database: ") + e.what();
+      }
+      return json_reply(j);
+    };
+    op.push_back(r);
+  }
   tuning_control("/api/tuning/start", [&](const nlohmann::json& body) {
     const std::string task = text_field(body, "task", 64);
     const std::string from = text_field(body, "from", 200);
@@ -320,7 +363,7 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
     }
     if (start == nullptr) throw std::invalid_argument("from: '" + from + "' is not a setting of the study (" + names + ")");
     std::lock_guard lock(device_mutex);
-    if (session.running()) throw std::invalid_argument("a session is running; the Tuning page is for pilot work outside one");
+    if (session.running()) throw ConsoleConflict("a session is running; the Tuning page is for pilot work outside one");
     tuning.start(task, *start);
   });
   tuning_control("/api/tuning/stop", [&](const nlohmann::json&) { tuning.stop(); });
@@ -330,50 +373,85 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   });
   tuning_control("/api/tuning/save", [&](const nlohmann::json& body) { (void)tuning.save(text_field(body, "name", 64)); });
   control("/api/session/next", [&](const nlohmann::json&) { session.next_trial(); });
-  control("/api/session/pause", [&](const nlohmann::json& body) { session.set_paused(body.value("paused", true)); });
+  control("/api/session/pause", [&](const nlohmann::json& body) { session.set_paused(bool_field(body, "paused", true)); });
   control("/api/session/rest", [&](const nlohmann::json& body) {
-    if (!body.contains("seconds") || !body["seconds"].is_number())
-      throw std::invalid_argument("seconds: missing (a number of seconds, 1..3600)");
-    session.rest(body["seconds"].get<double>());
+    session.rest(number_field(body, "seconds", 1.0, 3600.0));
   });
   control("/api/session/end-training", [&](const nlohmann::json&) { session.end_training(); });
   control("/api/session/abort", [&](const nlohmann::json& body) {
     // The trial the operator saw running (0: none); absent: the one running now.
     std::optional<std::int64_t> trial_id;
-    if (body.contains("trial_id")) {
-      if (!body["trial_id"].is_number_integer())
-        throw std::invalid_argument("trial_id: " + body["trial_id"].dump() + ", must be a trial's id (/api/status)");
-      trial_id = body["trial_id"].get<std::int64_t>();
-    }
+    if (body.contains("trial_id")) trial_id = integer_field(body, "trial_id", 0, INT64_MAX, 0);
     session.abort_trial(text_field(body, "reason", 500), trial_id);
   });
   control("/api/results/export", [&](const nlohmann::json& body) {
-    const std::string participant = body.value("participant", std::string());
+    const std::string participant = optional_text_field(body, "participant", 64, "", true);
     if (!participant.empty() && !known_participant(participant))
       throw std::invalid_argument("participant: '" + participant + "' is not one of the study's");
-    const auto every = body.value("every", 1);
-    if (every < 1) throw std::invalid_argument("every: " + std::to_string(every) + ", must be >= 1");
-    results.start_export(participant, static_cast<std::uint64_t>(every), body.value("gzip", true));
+    const std::int64_t every = integer_field(body, "every", 1, 1000000, 1);
+    results.start_export(participant, static_cast<std::uint64_t>(every), bool_field(body, "gzip", true));
   });
-  control("/api/results/analyze", [&](const nlohmann::json& body) { results.start(body.value("plots", true)); });
+  control("/api/results/analyze", [&](const nlohmann::json& body) { results.start(bool_field(body, "plots", true)); });
   control("/api/session/note", [&](const nlohmann::json& body) { session.note(text_field(body, "text", 2000)); });
 
-  const int port = config.port == 0 ? server.bind_to_any_port(config.bind_address)
-                                    : (server.bind_to_port(config.bind_address, config.port) ? config.port : -1);
-  if (port < 0)
-    throw std::runtime_error("console: cannot listen on " + config.bind_address + ":" + std::to_string(config.port) +
-                             " (in use, or not an address of this machine)");
-  std::printf("console: http://%s:%d/  (participant screen: http://%s:%d/participant)\n", config.bind_address.c_str(),
-              port, config.bind_address.c_str(), port);
-  std::fflush(stdout);
-  std::thread watcher([&] {
-    while (!stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    session.stop();
-    tuning.stop();
-    server.stop();
+  // --- the participant's site: its page and its stream, nothing else
+  std::vector<Route> pp;
+  for (std::size_t i = 0; i < kAssetCount; ++i) {
+    const Asset& a = kAssets[i];
+    if (std::string(a.site) != "participant") continue;
+    pp.push_back(get(a.path, Runs::kLoop, [a](const Request&) {
+      return Response::text(200, a.body, std::string(a.content_type) + "; charset=utf-8");
+    }));
+  }
+  Route participant_stream;
+  participant_stream.method = "GET";
+  participant_stream.path = "/events/participant";
+  participant_stream.stream = "participant";
+  pp.push_back(participant_stream);
+
+  // --- the streams, fanned out from the loop thread
+  LiveCursor session_cursor, tuning_cursor;
+  const auto session_points = [&](double after_t_s) { return session.live_since(after_t_s); };
+  const auto tuning_points = [&](double after_t_s) { return tuning.live_since(after_t_s); };
+  const auto tuning_view = [&] {
+    nlohmann::json j = tuning.status();
+    j.erase("log");  // the page polls /api/tuning for it
+    j.erase("settings");
+    return j;
+  };
+  server.add_channel("operator", [&] {
+    // A new page: everything of the window so far, from cursors of its own.
+    LiveCursor fresh_session, fresh_tuning;
+    return sse("live", live_event(session.operator_status(), "trial_number", session_points, fresh_session)) +
+           sse("tuning", live_event(tuning_view(), "free_trial", tuning_points, fresh_tuning));
   });
-  server.listen_after_bind();
-  watcher.join();
+  server.add_channel("participant", [&] { return sse("participant", session.participant_status()); });
+  bool tuning_was_running = false;
+  server.every(kLivePeriod, [&] {
+    if (!server.has_subscribers("operator")) return;
+    std::string events = sse("live", live_event(session.operator_status(), "trial_number", session_points, session_cursor));
+    const bool tuning_running = tuning.running();
+    if (tuning_running || tuning_was_running)
+      events += sse("tuning", live_event(tuning_view(), "free_trial", tuning_points, tuning_cursor));
+    tuning_was_running = tuning_running;
+    server.publish("operator", events);
+  });
+  server.every(kParticipantPeriod, [&] {
+    if (server.has_subscribers("participant"))
+      server.publish("participant", sse("participant", session.participant_status()));
+  });
+
+  const int port = server.add_site({"operator", config.bind_address, config.port, std::move(op)});
+  participant_port = server.add_site({"participant", config.bind_address, config.participant_port, std::move(pp)});
+  const std::string host = url_host(config.bind_address);
+  std::printf("console: http://%s:%d/#token=%s  (the operator's page; the token stays in the page)\n", host.c_str(),
+              port, config.token.c_str());
+  std::printf("participant screen: http://%s:%d/participant  (open it on the participant's display)\n", host.c_str(),
+              participant_port);
+  std::fflush(stdout);
+  server.run(stop);
+  session.stop();
+  tuning.stop();
 }
 
 }  // namespace hapticlab::console

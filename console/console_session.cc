@@ -25,8 +25,8 @@ const char* phase_name(sessions::SessionProgress::Phase p) {
 
 }  // namespace
 
-ConsoleSession::ConsoleSession(ConsoleSessionConfig config)
-    : config_(std::move(config)), live_(config_.live_rate_Hz, config_.live_window_s) {}
+ConsoleSession::ConsoleSession(ConsoleSessionConfig config, OperatorActions& actions)
+    : config_(std::move(config)), actions_(actions), live_(config_.live_rate_Hz, config_.live_window_s) {}
 
 bool ConsoleSession::running() const {
   std::lock_guard lock(mutex_);
@@ -40,7 +40,7 @@ ConsoleSession::~ConsoleSession() {
 
 void ConsoleSession::start(const std::string& participant, bool step) {
   std::lock_guard lock(mutex_);
-  if (running_) throw std::invalid_argument("a session is running (" + participant_ + "); stop it first");
+  if (running_) throw ConsoleConflict("start: a session is running (" + participant_ + "); stop it first");
   if (thread_.joinable()) thread_.join();  // the previous, finished one
   stop_.store(false);
   paused_.store(false);
@@ -54,53 +54,98 @@ void ConsoleSession::start(const std::string& participant, bool step) {
   error_.clear();
   live_.clear();
   running_ = true;
+  session_id_.reset();
+  waiting_for_next_ = false;
   rest_until_wall_s_.reset();
   rest_after_trial_s_.reset();
   participant_ = participant;
   thread_ = std::thread(&ConsoleSession::run, this, participant);
 }
 
-void ConsoleSession::log_action(std::string type, std::string detail, bool abort) {
-  std::lock_guard lock(mutex_);
-  pending_actions_.push_back({std::move(type), std::move(detail), abort});
+db::OperatorActionRow ConsoleSession::action_row(const char* action, std::string type, std::string detail) {
+  std::unique_lock lock(mutex_);
+  const auto no_session = [&] {
+    return ConsoleConflict(std::string(action) + ": no session is running" +
+                           (error_.empty() ? "" : " (the last one ended: " + error_ + ")") + "; nothing was done");
+  };
+  if (!running_) throw no_session();
+  // Between "start" and the session's row (the device probed, the
+  // database opened and recovered): a moment, normally.
+  if (!opened_.wait_for(lock, std::chrono::seconds(5), [&] { return session_id_ || !running_; }))
+    throw ConsoleConflict(std::string(action) + ": the session is still starting (opening the device and the "
+                                                "database); nothing was done, try again");
+  if (!running_) throw no_session();
+  db::OperatorActionRow row;
+  row.session_id = session_id_;
+  if (progress_ && progress_->phase == sessions::SessionProgress::Phase::kTrialStarted) {
+    row.trial_id = progress_->trial_id;
+    row.t_s = live_.newest_t_s();
+  }
+  row.type = std::move(type);
+  row.detail = std::move(detail);
+  return row;
 }
 
-void ConsoleSession::stop() {
+StopSnapshot ConsoleSession::stop() {
   // The runner polls this flag every 2 ms and asks the loop to stop; the
   // loop commands zero force in the update that sees the request.
   stop_.store(true);
+  std::lock_guard lock(mutex_);
+  StopSnapshot s;
+  s.session_running = running_;
+  if (!running_) return s;
+  s.session_id = session_id_;
+  s.what = "session " + participant_;
+  if (progress_ && progress_->phase == sessions::SessionProgress::Phase::kTrialStarted) {
+    s.trial_id = progress_->trial_id;
+    s.t_s = live_.newest_t_s();
+    s.what += ", trial " + std::to_string(progress_->trial_number) + " (id " + std::to_string(progress_->trial_id) + ")";
+  } else {
+    s.what += progress_ && progress_->phase == sessions::SessionProgress::Phase::kTraining ? ", in training"
+                                                                                          : ", between trials";
+  }
+  return s;
+}
+
+void ConsoleSession::record_stop(const StopSnapshot& snapshot, const std::string& detail) {
+  db::OperatorActionRow row;
+  row.session_id = snapshot.session_id;
+  row.trial_id = snapshot.trial_id;
+  row.t_s = snapshot.t_s;
+  row.type = "operator_stop";
+  row.detail = detail;
+  actions_.record(row);
 }
 
 void ConsoleSession::next_trial() {
+  actions_.record(action_row("next", "operator_next_trial", ""));
   allowed_trials_.fetch_add(1);
-  log_action("operator_next_trial", "");
 }
 
 void ConsoleSession::set_paused(bool paused) {
+  actions_.record(action_row(paused ? "pause" : "resume", paused ? "operator_pause" : "operator_resume", ""));
   {
     std::lock_guard lock(mutex_);
     rest_until_wall_s_.reset();
     rest_after_trial_s_.reset();
   }
   paused_.store(paused);
-  log_action(paused ? "operator_pause" : "operator_resume", "");
 }
 
 void ConsoleSession::rest(double seconds) {
   if (!std::isfinite(seconds) || seconds < 1.0 || seconds > 3600.0)
-    throw std::invalid_argument("rest: seconds is " + std::to_string(seconds) + ", must be 1..3600");
+    throw std::invalid_argument("seconds: " + std::to_string(seconds) + ", must be 1..3600");
+  char detail[32];
+  std::snprintf(detail, sizeof detail, "%.0f s", seconds);
+  actions_.record(action_row("rest", "operator_rest", detail));
   {
     std::lock_guard lock(mutex_);
-    if (!running_) throw std::invalid_argument("rest: no session is running");
     if (progress_ && progress_->phase != sessions::SessionProgress::Phase::kTrialFinished)
       rest_after_trial_s_ = seconds;  // the countdown starts when the trial (or training) ends
     else
       rest_until_wall_s_ = wall_now_s() + seconds;
   }
   paused_.store(true);
-  char detail[32];
-  std::snprintf(detail, sizeof detail, "%.0f s", seconds);
-  log_action("operator_rest", detail);
 }
 
 std::optional<double> ConsoleSession::rest_left_s() const {
@@ -109,36 +154,42 @@ std::optional<double> ConsoleSession::rest_left_s() const {
 }
 
 void ConsoleSession::end_training() {
+  actions_.record(action_row("end-training", "operator_end_training", ""));
   training_ends_.fetch_add(1);
-  log_action("operator_end_training", "");
 }
 
 void ConsoleSession::abort_trial(const std::string& reason, std::optional<std::int64_t> trial_id) {
-  // Checked and queued under one lock, for the trial running now: between
-  // trials, or once it has ended, the runner would otherwise abort the next
-  // one, which the operator never saw (the page sends the trial it shows;
+  // Checked, stored and queued for the trial running now: between trials,
+  // or once it has ended, the runner would otherwise abort the next one,
+  // which the operator never saw (the page sends the trial it shows;
   // typing a reason can outlast a trial).
-  std::lock_guard lock(mutex_);
-  if (!running_ || !progress_ || progress_->phase != sessions::SessionProgress::Phase::kTrialStarted)
-    throw std::invalid_argument("abort: no trial is running");
-  const std::string running = "trial " + std::to_string(progress_->trial_number) + ", id " +
-                              std::to_string(progress_->trial_id) + ", is running";
-  if (trial_id == 0)  // the page showed none running when the operator clicked
-    throw std::invalid_argument("abort: no trial was running when it was sent (" + running + "); nothing was aborted");
-  if (trial_id && *trial_id != progress_->trial_id)
-    throw std::invalid_argument("abort: trial id " + std::to_string(*trial_id) + " has ended (" + running +
-                                "); nothing was aborted");
-  pending_actions_.push_back({"operator_abort", reason, true, progress_->trial_id});
+  db::OperatorActionRow row = action_row("abort", "operator_abort", reason);
+  {
+    std::lock_guard lock(mutex_);
+    if (!running_ || !progress_ || progress_->phase != sessions::SessionProgress::Phase::kTrialStarted)
+      throw ConsoleConflict("abort: no trial is running; nothing was aborted");
+    const std::string running = "trial " + std::to_string(progress_->trial_number) + ", id " +
+                                std::to_string(progress_->trial_id) + ", is running";
+    if (trial_id == 0)  // the page showed none running when the operator clicked
+      throw ConsoleConflict("abort: no trial was running when it was sent (" + running + "); nothing was aborted");
+    if (trial_id && *trial_id != progress_->trial_id)
+      throw ConsoleConflict("abort: trial id " + std::to_string(*trial_id) + " has ended (" + running +
+                            "); nothing was aborted");
+    row.trial_id = progress_->trial_id;
+    row.t_s = live_.newest_t_s();
+    pending_actions_.push_back({"operator_abort", reason, true, progress_->trial_id});
+  }
+  // Stored outside the lock (the pages' status waits on it): the runner
+  // may take the abort first, but the answer waits for the record.
+  try {
+    actions_.record(row);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("abort: the trial is aborted, but the action could not be stored: ") +
+                             e.what());
+  }
 }
 
-void ConsoleSession::note(const std::string& text) {
-  {
-    // A note is an event of a trial: the running one, or the next.
-    std::lock_guard lock(mutex_);
-    if (!running_) throw std::invalid_argument("note: no session is running (a note is logged with a trial)");
-  }
-  log_action("operator_note", text);
-}
+void ConsoleSession::note(const std::string& text) { actions_.record(action_row("note", "operator_note", text)); }
 
 void ConsoleSession::run(std::string participant) {
   sessions::SessionOptions options;
@@ -150,9 +201,16 @@ void ConsoleSession::run(std::string participant) {
   options.realtime = config_.realtime;
   options.stop = &stop_;
   options.training_ends = &training_ends_;
+  options.on_session_opened = [this](std::int64_t session_id) {
+    {
+      std::lock_guard lock(mutex_);
+      session_id_ = session_id;
+    }
+    opened_.notify_all();
+  };
   options.hold_before_trial = [this] {
     if (paused_.load()) {
-      std::lock_guard lock(mutex_);
+      std::unique_lock lock(mutex_);
       // A rest asked for during training (no trial ended since) starts now.
       if (rest_after_trial_s_) {
         rest_until_wall_s_ = wall_now_s() + *rest_after_trial_s_;
@@ -160,13 +218,29 @@ void ConsoleSession::run(std::string participant) {
       }
       const std::optional<double> left = rest_left_s();
       if (!left || *left > 0.0) return true;
-      // The rest is over: the session goes on by itself, logged as a resume.
+      // The rest is over: the session goes on by itself (in step mode too,
+      // as docs/console.md says: the next trial needs no "next"), stored as
+      // a resume.
       rest_until_wall_s_.reset();
       paused_.store(false);
-      pending_actions_.push_back({"operator_resume", "rest over", false});
+      if (step_.load() && allowed_trials_.load() <= started_trials_.load())
+        allowed_trials_.store(started_trials_.load() + 1);
+      db::OperatorActionRow row;
+      row.session_id = session_id_;
+      row.type = "operator_resume";
+      row.detail = "rest over";
+      lock.unlock();
+      try {
+        actions_.record(row);
+      } catch (const std::exception& e) {
+        std::lock_guard again(mutex_);
+        error_ = std::string("the end of a rest could not be stored: ") + e.what();
+      }
     }
-    if (step_.load() && allowed_trials_.load() <= started_trials_.load()) return true;
-    return false;
+    const bool wait = step_.load() && allowed_trials_.load() <= started_trials_.load();
+    std::lock_guard lock(mutex_);
+    waiting_for_next_ = wait;
+    return wait;
   };
   options.take_operator_events = [this](std::vector<sessions::OperatorEvent>& out) {
     std::lock_guard lock(mutex_);
@@ -175,6 +249,7 @@ void ConsoleSession::run(std::string participant) {
   };
   options.on_progress = [this](const sessions::SessionProgress& p) {
     std::lock_guard lock(mutex_);
+    waiting_for_next_ = false;
     if (p.phase == sessions::SessionProgress::Phase::kTrialStarted) {
       started_trials_.fetch_add(1);
       trial_started_wall_s_ = wall_now_s();
@@ -204,16 +279,23 @@ void ConsoleSession::run(std::string participant) {
   } catch (const std::exception& e) {
     error = e.what();
   }
-  std::lock_guard lock(mutex_);
-  result_ = result;
-  error_ = error;
-  running_ = false;
+  {
+    std::lock_guard lock(mutex_);
+    result_ = result;
+    if (!error.empty()) error_ = error;
+    running_ = false;
+    waiting_for_next_ = false;
+  }
+  opened_.notify_all();
 }
 
 nlohmann::json ConsoleSession::operator_status() const {
   std::lock_guard lock(mutex_);
   nlohmann::json j = {{"running", running_}, {"participant", participant_}, {"paused", paused_.load()},
                       {"step", step_.load()}, {"error", error_}};
+  if (session_id_) j["session_id"] = *session_id_;
+  // Step mode, held before a trial: the page tells the operator to press Next.
+  if (running_ && waiting_for_next_ && !paused_.load()) j["waiting_for_next"] = true;
   if (const auto left = rest_left_s(); left && running_) j["rest_left_s"] = std::ceil(*left);
   if (rest_after_trial_s_ && running_) j["rest_after_trial_s"] = *rest_after_trial_s_;
   if (progress_) {
@@ -243,8 +325,15 @@ nlohmann::json ConsoleSession::operator_status() const {
   }
   if (last_finished_) {
     j["last_trial_number"] = last_finished_->trial_number;
+    j["last_trial_id"] = last_finished_->trial_id;
     j["last_status"] = db::to_string(last_finished_->status);
     j["last_abort_reason"] = last_finished_->abort_reason;
+    // A fault of that trial (the loop's watchdog, a safety limit, the
+    // device): the page shows it as the trial's fault, not as a pause.
+    const std::string& r = last_finished_->abort_reason;
+    if (r.starts_with("watchdog") || r.starts_with("safety limit") || r.starts_with("device") ||
+        r.starts_with("rate_violation"))
+      j["last_fault"] = r;
   }
   if (result_) {
     j["result"] = {{"trials_run", result_->trials_run},
@@ -262,17 +351,30 @@ nlohmann::json ConsoleSession::participant_status() const {
   // Built from scratch, field by field: nothing of the operator's view
   // (setting, parameters, abort reasons naming one) can leak by accident.
   nlohmann::json j = {{"cue", "ready"}};
+  if (!running_) {
+    // Ended: "done" only when no trial is left; a session stopped (or ended
+    // by a fault) with trials left says so, and how many wait for later.
+    if (result_ || !error_.empty()) {
+      const int left = result_ ? result_->trials_left : -1;
+      j["cue"] = left == 0 ? "done" : "stopped";
+      if (left > 0) j["trials_left"] = left;
+    }
+    return j;
+  }
   if (!progress_) return j;
   const auto& p = *progress_;
-  j["trial_number"] = p.trial_number;
   j["trial_count"] = p.trial_count;
   j["task"] = p.task;
   using Phase = sessions::SessionProgress::Phase;
-  if (!running_) j["cue"] = "done";
-  else if (p.phase == Phase::kTrialStarted) j["cue"] = "go";
-  else if (p.phase == Phase::kTraining) j["cue"] = "practice";
-  else j["cue"] = paused_.load() ? "rest" : "ready";
-  if (const auto left = rest_left_s(); left && running_ && j["cue"] == "rest") j["rest_left_s"] = std::ceil(*left);
+  if (p.phase == Phase::kTrialStarted) {
+    j["cue"] = "go";
+    j["trial_number"] = p.trial_number;  // only while it runs: between trials the last one's number is stale
+  } else if (p.phase == Phase::kTraining) {
+    j["cue"] = "practice";
+  } else {
+    j["cue"] = paused_.load() ? "rest" : "ready";
+  }
+  if (const auto left = rest_left_s(); left && j["cue"] == "rest") j["rest_left_s"] = std::ceil(*left);
   return j;
 }
 

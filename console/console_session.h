@@ -8,7 +8,9 @@
 
 #include <array>
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <stdexcept>
 #include <filesystem>
 #include <mutex>
 #include <optional>
@@ -19,10 +21,27 @@
 #include <nlohmann/json.hpp>
 
 #include "console/live_buffer.h"
+#include "console/operator_actions.h"
 #include "core/device/device_spec.h"
 #include "sessions/session_runner.h"
 
 namespace hapticlab::console {
+
+// A control that cannot act in the session's present state (no session
+// runs, no trial runs, one runs already): the console answers 409.
+class ConsoleConflict : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// What STOP found running when it was pressed, for its record.
+struct StopSnapshot {
+  bool session_running = false;
+  std::optional<std::int64_t> session_id;
+  std::optional<std::int64_t> trial_id;
+  std::optional<double> t_s;
+  std::string what;  // "session S1, trial 4 (id 17)", "session S1, between trials", ""
+};
 
 struct ConsoleSessionConfig {
   std::filesystem::path db;
@@ -35,32 +54,40 @@ struct ConsoleSessionConfig {
   double live_window_s = 10.0;      // how much the live view keeps
 };
 
+// Every control is stored (OperatorActions) before it acts and before the
+// console answers; a control that cannot act throws ConsoleConflict (no
+// session, no trial) or std::invalid_argument (a bad value), and then
+// nothing is stored or done.
 class ConsoleSession {
  public:
-  explicit ConsoleSession(ConsoleSessionConfig config);
+  // `actions` outlives the session.
+  ConsoleSession(ConsoleSessionConfig config, OperatorActions& actions);
   ~ConsoleSession();  // stops a running session and waits for it
   ConsoleSession(const ConsoleSession&) = delete;
   ConsoleSession& operator=(const ConsoleSession&) = delete;
 
-  // Starts `participant`'s session; throws std::invalid_argument when one is
+  // Starts `participant`'s session; throws ConsoleConflict when one is
   // running. `step`: wait for next_trial() before each trial.
   void start(const std::string& participant, bool step);
-  void stop();                      // STOP: aborts the trial (re-queued), ends the session
+  // STOP: aborts the trial (re-queued), ends the session. Only sets a flag
+  // (the loop thread of the server calls it); returns what ran, which
+  // record_stop() then stores.
+  StopSnapshot stop();
+  void record_stop(const StopSnapshot& snapshot, const std::string& detail);
   void next_trial();                // lets the next trial start (step mode)
   void set_paused(bool paused);     // holds the session before its next trial (resume also ends a rest)
   // A timed pause: holds the session before its next trial for `seconds`
   // (1..3600, else std::invalid_argument), counted down on the participant
-  // screen; the session goes on by itself when it is over. Asked for during
-  // a trial, the rest starts when that trial ends.
+  // screen; the session goes on by itself when it is over, also in step
+  // mode (the trial after it starts without "next"). Asked for during a
+  // trial, the rest starts when that trial ends.
   void rest(double seconds);
   void end_training();
-  // Re-queued; the session goes on. Throws std::invalid_argument when no
-  // trial is running, or when `trial_id` (the trial the operator saw; 0:
-  // none) is not the one running: it has ended, and the next one is not
-  // aborted for it.
+  // Re-queued; the session goes on. Throws ConsoleConflict when no trial
+  // is running, or when `trial_id` (the trial the operator saw; 0: none) is
+  // not the one running: it has ended, and the next one is not aborted for it.
   void abort_trial(const std::string& reason, std::optional<std::int64_t> trial_id = std::nullopt);
-  // Logged with the running trial, or the next one; throws
-  // std::invalid_argument when no session is running.
+  // Stored with the running trial, or with the session between trials.
   void note(const std::string& text);
 
   // The operator's view (includes the setting) and the participant's (no
@@ -73,12 +100,18 @@ class ConsoleSession {
 
  private:
   void run(std::string participant);
-  void log_action(std::string type, std::string detail, bool abort = false);
+  // The record of an action now: the session, the running trial and its
+  // loop time. Throws ConsoleConflict when no session runs (naming
+  // `action`); waits (a few seconds at most) for a session that is starting
+  // to have its row. Caller does not hold mutex_.
+  db::OperatorActionRow action_row(const char* action, std::string type, std::string detail);
   // Seconds left of a timed rest, nullopt when none runs. Caller holds mutex_.
   std::optional<double> rest_left_s() const;
 
   const ConsoleSessionConfig config_;
+  OperatorActions& actions_;
   mutable std::mutex mutex_;  // guards everything below except the atomics
+  std::condition_variable opened_;  // session_id_ set, or the session ended
   std::thread thread_;
   std::atomic<bool> stop_{false};
   std::atomic<bool> paused_{false};
@@ -88,8 +121,10 @@ class ConsoleSession {
   std::atomic<int> training_ends_{0};
   std::optional<double> rest_until_wall_s_;  // a timed rest runs until then (steady clock)
   std::optional<double> rest_after_trial_s_;  // asked for during a trial: starts when it ends
-  std::vector<sessions::OperatorEvent> pending_actions_;
+  std::vector<sessions::OperatorEvent> pending_actions_;  // aborts, for the runner
   bool running_ = false;
+  std::optional<std::int64_t> session_id_;  // once the runner has the session's row
+  bool waiting_for_next_ = false;  // step mode: held before a trial until "next"
   std::string participant_;
   std::optional<sessions::SessionProgress> progress_;
   std::optional<sessions::SessionProgress> last_finished_;  // the last trial that ended

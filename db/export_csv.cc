@@ -293,6 +293,34 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
   }
   index.commit();
   written.push_back(index.path());
+  // The operator's actions (the console's notes, pauses, STOPs, ...): those
+  // of the selected participants' sessions; with no participant selected,
+  // also those of no session (a STOP while none ran).
+  CsvFile actions(out_dir / "operator_actions.csv", selection.gzip);
+  line = "id,session_id,participant,trial_id,unix_s,t_s,type,detail";
+  actions.line(line);
+  for (const OperatorActionRow& a : db.operator_actions()) {
+    if (!selection.participants.empty() && !selection.participants.count(a.participant_code)) continue;
+    line.clear();
+    append_number(line, a.id);
+    line += ',';
+    if (a.session_id) append_number(line, *a.session_id);
+    line += ',';
+    append_csv_text(line, a.participant_code);
+    line += ',';
+    if (a.trial_id) append_number(line, *a.trial_id);
+    line += ',';
+    append_number(line, a.unix_s);
+    line += ',';
+    if (a.t_s) append_number(line, *a.t_s);
+    line += ',';
+    append_csv_text(line, a.type);
+    line += ',';
+    append_csv_text(line, a.detail);
+    actions.line(line);
+  }
+  actions.commit();
+  written.push_back(actions.path());
   return written;
 }
 

@@ -31,7 +31,11 @@
 //
 // Study export adds trials.csv: one row per trial with its plan, status,
 // times, abort reason, loop timing, drop counts and the device's own counts
-// (device_counters: name=value;..., empty for most devices).
+// (device_counters: name=value;..., empty for most devices), and
+// operator_actions.csv: the console operator's actions (table
+// operator_action; id,session_id,participant,trial_id,unix_s,t_s,type,detail),
+// of the selected participants (and, with none selected, those of no
+// session).
 
 #include <cstdint>
 #include <filesystem>

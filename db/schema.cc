@@ -185,6 +185,26 @@ CREATE TABLE device_counter (
 );
 )sql";
 
+// Version 6: the operator's actions (the console's note, pause, rest,
+// next, end-training, abort and STOP), each stored when it is accepted,
+// before the console answers: with its session (none for a STOP while no
+// session runs) and the trial running then (none between trials), so an
+// action survives a session stopped before its next trial and a killed
+// console. The runner's own effect events (operator_abort at loop time)
+// stay in event.
+constexpr const char* kV6 = R"sql(
+CREATE TABLE operator_action (
+  id         INTEGER PRIMARY KEY,
+  session_id INTEGER REFERENCES session (id),
+  trial_id   INTEGER REFERENCES trial (id),
+  unix_s     REAL NOT NULL,
+  t_s        REAL,
+  type       TEXT NOT NULL,
+  detail     TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX operator_action_by_session ON operator_action (session_id, id);
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
@@ -193,6 +213,7 @@ constexpr Migration kMigrations[] = {
     {4, "sample_chunk.data: a CRC-32C in every chunk; chunks written before get theirs now (format 0)", kV4,
      checksum_old_chunks},
     {5, "device_counter table: a device's own counts per trial (UDP bridge packet losses, ...)", kV5},
+    {6, "operator_action table: the console operator's actions, stored when accepted", kV6},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 

@@ -499,6 +499,42 @@ std::vector<std::pair<std::string, std::uint64_t>> StudyDb::device_counters(std:
   return out;
 }
 
+std::int64_t StudyDb::add_operator_action(const OperatorActionRow& a) {
+  Statement s = db_.prepare(
+      "INSERT INTO operator_action (session_id, trial_id, unix_s, t_s, type, detail) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  if (a.session_id) s.bind(1, *a.session_id);
+  else s.bind_null(1);
+  if (a.trial_id) s.bind(2, *a.trial_id);
+  else s.bind_null(2);
+  s.bind(3, a.unix_s);
+  if (a.t_s) s.bind(4, *a.t_s);
+  else s.bind_null(4);
+  s.bind(5, a.type).bind(6, a.detail);
+  s.run();
+  return db_.last_insert_rowid();
+}
+
+std::vector<OperatorActionRow> StudyDb::operator_actions() {
+  Statement s = db_.prepare(
+      "SELECT a.id, a.session_id, a.trial_id, a.unix_s, a.t_s, a.type, a.detail, p.code FROM operator_action a "
+      "LEFT JOIN session se ON se.id = a.session_id LEFT JOIN participant p ON p.id = se.participant_id "
+      "ORDER BY a.id");
+  std::vector<OperatorActionRow> out;
+  while (s.step()) {
+    OperatorActionRow a;
+    a.id = s.column_int64(0);
+    if (!s.is_null(1)) a.session_id = s.column_int64(1);
+    if (!s.is_null(2)) a.trial_id = s.column_int64(2);
+    a.unix_s = s.column_double(3);
+    if (!s.is_null(4)) a.t_s = s.column_double(4);
+    a.type = s.column_text(5);
+    a.detail = s.column_text(6);
+    if (!s.is_null(7)) a.participant_code = s.column_text(7);
+    out.push_back(std::move(a));
+  }
+  return out;
+}
+
 std::optional<LoopTimingRow> StudyDb::loop_timing(std::int64_t trial_id) {
   Statement s = db_.prepare(
       "SELECT count, p50_period_s, p99_period_s, max_period_s, mean_period_s, overruns, rejected_periods, "

@@ -116,6 +116,19 @@ struct EventRow {
   std::string detail;   // free text, may be empty
 };
 
+// An operator's action as the console accepted it (table operator_action),
+// stored before the console answered.
+struct OperatorActionRow {
+  std::int64_t id = 0;                     // ignored by add_operator_action
+  std::optional<std::int64_t> session_id;  // none: no session ran (a STOP with nothing running)
+  std::optional<std::int64_t> trial_id;    // the trial running when it was accepted; none between trials
+  double unix_s = 0.0;                     // when it was accepted
+  std::optional<double> t_s;  // loop time [s] of that trial's newest sample drained then (with trial_id)
+  std::string type;           // "operator_note", "operator_pause", ... "operator_stop" (db/README.md)
+  std::string detail;         // the note, the reason, "120 s"; may be empty
+  std::string participant_code;  // joined in by operator_actions(); empty without a session
+};
+
 struct LoopTimingRow {
   std::optional<LoopTimingSummary> timing;  // empty for trials migrated from schema 1
   std::uint64_t dropped_samples = 0;
@@ -204,6 +217,11 @@ class StudyDb {
   void set_device_counters(std::int64_t trial_id,
                            const std::vector<std::pair<std::string, std::uint64_t>>& counters);
   std::vector<std::pair<std::string, std::uint64_t>> device_counters(std::int64_t trial_id);
+
+  // --- the operator's actions
+  std::int64_t add_operator_action(const OperatorActionRow& action);
+  // Every stored action, in the order stored.
+  std::vector<OperatorActionRow> operator_actions();
 
   // --- samples (sample_codec.h)
   // Inserts a chunk; returns its row id. `samples` as for encode_chunk.

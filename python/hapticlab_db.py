@@ -42,9 +42,9 @@ __all__ = [
 
 # The schemas whose chunks this module reads: the 5-byte chunk header exists
 # from version 4 on, unchanged up to db/schema.h's kSchemaVersion (version 5
-# added the device_counter table).
+# added the device_counter table, 6 the operator_action table).
 OLDEST_SCHEMA_VERSION = 4
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 APPLICATION_ID = 0x484C4142  # "HLAB"
 
 # Chunk formats (byte 0 of the blob).
@@ -537,6 +537,23 @@ class StudyDatabase:
         time order."""
         return self._rows("SELECT t_s, type, instrument, item_index, detail FROM event WHERE trial_id = ?1 "
                           "ORDER BY t_s, id", (trial_id,))
+
+    def operator_actions(self, participant=None):
+        """The console operator's actions (id, session_id, participant,
+        trial_id, unix_s, t_s, type, detail) in the order they were
+        accepted: notes, pauses, rests, next, end-training, aborts and STOPs,
+        each stored before the console answered. trial_id and t_s are None
+        for an action between trials; session_id and participant are None
+        for a STOP while no session ran. [] for a file older than schema 6."""
+        version = self._conn.execute("PRAGMA user_version").fetchone()[0]
+        if version < 6:
+            return []
+        sql = ("SELECT a.id, a.session_id, p.code AS participant, a.trial_id, a.unix_s, a.t_s, a.type, a.detail "
+               "FROM operator_action a LEFT JOIN session se ON se.id = a.session_id "
+               "LEFT JOIN participant p ON p.id = se.participant_id")
+        if participant is not None:
+            return self._rows(sql + " WHERE p.code = ?1 ORDER BY a.id", (participant,))
+        return self._rows(sql + " ORDER BY a.id")
 
 
 def open_study(path):

@@ -13,7 +13,7 @@ shift || true
 packages=(g++ make cmake ninja-build pkg-config libeigen3-dev nlohmann-json3-dev libcli11-dev
           libgtest-dev libgmock-dev libsqlite3-dev sqlite3 libboost-math-dev
           libbenchmark-dev gnuplot-nox python3 python3-numpy zlib1g-dev libzstd-dev
-          libcpp-httplib-dev libjs-chart.js)
+          libjs-chart.js)
 # Only the test suite needs these (a browser for the report check, scipy for
 # the numpy comparator, zstandard for the Python reader of format-2 chunks).
 if [[ -z ${HAPTICLAB_TARGETS:-} ]]; then

@@ -141,6 +141,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       protocols::staircase_from_protocol_text(study.protocol_json, db.path());
   const int scheduled = session.scheduled() + (staircase_spec ? staircase_spec->max_trials : 0);
   result.session_id = session.session_id();
+  if (options.on_session_opened) options.on_session_opened(result.session_id);
   const OperatorForceLimits force_limits = protocols::safety_from_protocol_text(study.protocol_json, db.path());
   const double rate_tolerance = protocols::rate_tolerance_from_protocol_text(study.protocol_json, db.path());
   int watchdog_trips_in_a_row = 0;

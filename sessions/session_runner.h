@@ -104,6 +104,9 @@ struct SessionOptions {
   // and re-queued, and the session closes. May be null.
   const std::atomic<bool>* stop = nullptr;
   std::function<void(const SessionProgress&)> on_progress;
+  // Called once the session's row exists (before training and the first
+  // trial), with its id: a monitor stores its records under it. May be null.
+  std::function<void(std::int64_t session_id)> on_session_opened;
   // Operator controls, both called on the session's thread and may be null.
   // hold_before_trial: polled every 20 ms before each scheduled trial while
   // it returns true (a paused session, or one that waits for "next trial");

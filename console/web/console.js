@@ -1,9 +1,25 @@
 // The operator's page: study progress (polled), session controls (POST with
-// the token), live plots (server-sent events, drawn with Debian's Chart.js).
+// the token), STOP (always visible, and loud when it is not answered), live
+// plots (one server-sent event stream for the whole page, drawn with
+// Debian's Chart.js).
 "use strict";
 const $ = (id) => document.getElementById(id);
-let token = sessionStorage.getItem("hapticlab-token") || "";
-window.hapticlab = { livePoints: 0, liveMessages: 0 };  // for the browser tests
+window.hapticlab = { livePoints: 0, liveMessages: 0, stopAnswers: 0 };  // for the browser tests
+
+// --- the token: the console prints this page's address with it in the
+// fragment (#token=...), which the browser never sends to a server. The
+// page keeps it for its origin (every tab of this console, this browser)
+// and takes it out of the address bar, so it is not shown, bookmarked or
+// shared with the address.
+const TOKEN_KEY = "hapticlab-token";
+(function keepTokenFromAddress() {
+  const m = location.hash.match(/(?:^#|&)token=([^&]*)/);
+  if (!m) return;
+  localStorage.setItem(TOKEN_KEY, decodeURIComponent(m[1]));
+  history.replaceState(null, "", location.pathname + location.search);
+})();
+const token = () => localStorage.getItem(TOKEN_KEY) || "";
+const NO_TOKEN = "this page has no valid token: open the address the console printed (it ends in #token=…)";
 
 function show(page) {
   document.querySelectorAll("section").forEach((s) => s.classList.toggle("on", s.id === page));
@@ -11,22 +27,72 @@ function show(page) {
 }
 document.querySelectorAll("nav button").forEach((b) => b.addEventListener("click", () => show(b.dataset.page)));
 
+// A control: true when the console did it. A refusal is shown in #message,
+// with what the console said (it names the field and the rule).
 async function post(url, body) {
-  if (!token) {
-    token = prompt("Console token (printed when `hapticlab console` started, and in its token file):") || "";
-    sessionStorage.setItem("hapticlab-token", token);
+  let res, j = {};
+  try {
+    res = await fetch(url, {
+      method: "POST", headers: { "Content-Type": "application/json", "X-HapticLab-Token": token() },
+      body: JSON.stringify(body || {}), signal: AbortSignal.timeout(10000),
+    });
+    j = await res.json().catch(() => ({}));
+  } catch (e) {
+    $("message").textContent = `${url}: no answer from the console (${e.message})`;
+    return false;
   }
-  const res = await fetch(url, {
-    method: "POST", headers: { "Content-Type": "application/json", "X-HapticLab-Token": token },
-    body: JSON.stringify(body || {}),
-  });
-  const j = await res.json();
-  $("message").textContent = res.ok ? "" : (j.error || res.statusText);
-  if (res.status === 403) { token = ""; sessionStorage.removeItem("hapticlab-token"); }
+  $("message").textContent = res.ok ? "" : (res.status === 403 ? NO_TOKEN : (j.error || res.statusText));
   return res.ok;
 }
+
+// --- STOP. Its answer is awaited on its own: after 1 s without one the
+// page says so, loudly, and a refusal or an error is shown the same way; a
+// STOP that did not reach the console must not look like one that did.
+let stopSeq = 0;
+function stopState(kind, text) {
+  $("stop-state").className = kind;
+  $("stop-state").textContent = text;
+}
+function stopAlarm(text) {
+  $("stop-alarm").textContent = text;
+  $("stop-alarm").classList.toggle("on", Boolean(text));
+}
+async function sendStop() {
+  const seq = ++stopSeq;
+  const sent = performance.now();
+  stopState("pending", "STOP sent…");
+  stopAlarm("");
+  const unanswered = setTimeout(() => {
+    if (seq !== stopSeq) return;
+    stopState("pending", "STOP NOT ANSWERED");
+    stopAlarm("STOP NOT ANSWERED after 1 s: the session may still be running. Press STOP again; if it stays " +
+              "unanswered, stop the console (Ctrl-C in its terminal) or switch the device off.");
+  }, 1000);
+  let res, j = {};
+  try {
+    res = await fetch("/api/session/stop", { method: "POST", headers: { "X-HapticLab-Token": token() },
+                                               signal: AbortSignal.timeout(15000) });
+    j = await res.json().catch(() => ({}));
+  } catch (e) {
+    res = null;
+    j = { error: e.message };
+  }
+  clearTimeout(unanswered);
+  if (seq !== stopSeq) return;
+  window.hapticlab.stopAnswers++;
+  const s = ((performance.now() - sent) / 1000).toFixed(1);
+  if (!res || !res.ok) {
+    const why = !res ? `no answer from the console (${j.error})` : res.status === 403 ? NO_TOKEN : (j.error || res.statusText);
+    stopState("", "");
+    stopAlarm(`STOP FAILED${res ? ` (HTTP ${res.status})` : ""}: ${why}. The session may still be running.`);
+    return;
+  }
+  stopState("ok", `STOPPED (${j.stopped}; answered in ${s} s)`);
+  stopAlarm(j.recorded === false ? j.record_error : "");
+}
+$("stop").addEventListener("click", sendStop);
+
 const control = (path, body) => post("/api/session/" + path, body);
-$("stop").addEventListener("click", () => control("stop"));
 $("start").addEventListener("click", () => control("start", { participant: $("participant").value, step: $("step").checked }));
 $("next").addEventListener("click", () => control("next"));
 $("pause").addEventListener("click", () => control("pause", { paused: true }));
@@ -35,9 +101,12 @@ $("rest").addEventListener("click", () => control("rest", { seconds: Number($("r
 $("end-training").addEventListener("click", () => control("end-training"));
 // The trial shown when the button is pressed (0: none shown running): one
 // that ended meanwhile is not aborted, nor the next in its place (the server
-// refuses, and says so).
+// refuses, and says so). Once aborted, the reason is cleared, so the next
+// click cannot abort another trial with it.
 let shownTrialId = 0;
-$("abort").addEventListener("click", () => control("abort", { reason: $("reason").value, trial_id: shownTrialId }));
+$("abort").addEventListener("click", async () => {
+  if (await control("abort", { reason: $("reason").value, trial_id: shownTrialId })) $("reason").value = "";
+});
 $("add-note").addEventListener("click", async () => { if (await control("note", { text: $("note").value })) $("note").value = ""; });
 
 const text = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
@@ -63,6 +132,13 @@ async function refreshStudy() {
 refreshStudy();
 setInterval(refreshStudy, 2000);
 
+// The participant screen is served from a port of its own (another origin).
+fetch("/api/status").then((r) => r.json()).then((s) => {
+  const url = `${location.protocol}//${location.hostname}:${s.participant_port}/participant`;
+  $("participant-link").href = url;
+  $("participant-link").textContent = url;
+});
+
 function describe(s) {
   if (!s.running && !s.result) return "No session running." + (s.error ? ` Last error: ${text(s.error)}` : "");
   let h = `<b>${text(s.participant)}</b> — ${s.running ? text(s.phase || "starting") : "session ended"}`;
@@ -70,8 +146,11 @@ function describe(s) {
   if (s.trial_elapsed_wall_s !== undefined) h += ` — ${s.trial_elapsed_wall_s.toFixed(1)} s`;
   if (s.paused) h += s.rest_left_s !== undefined ? ` — <b>rest</b>, ${s.rest_left_s} s left` : " — <b>paused</b>";
   if (s.rest_after_trial_s !== undefined) h += ` — rest of ${s.rest_after_trial_s} s after this trial`;
+  if (s.waiting_for_next) h += ` — <span class="ask">waiting for you: press “Next trial” to start the next trial</span>`;
+  if (s.running && s.phase === "training") h += " — press “End training” when the participant is ready";
   if (s.time_left_s !== undefined) h += ` — about ${Math.round(s.time_left_s / 60)} min left`;
-  if (s.last_status) h += `<br>last trial: ${text(s.last_status)} ${text(s.last_abort_reason || "")}`;
+  if (s.last_fault) h += `<br><span class="fault">FAULT in trial ${s.last_trial_number} (id ${s.last_trial_id}): ${text(s.last_fault)}</span> — aborted, re-queued`;
+  else if (s.last_status) h += `<br>last trial: ${text(s.last_status)} ${text(s.last_abort_reason || "")}`;
   if (s.result) h += `<br>result: ${s.result.trials_complete} complete, ${s.result.trials_aborted} aborted, ${s.result.trials_left} left` + (s.result.stopped_by_operator ? " (stopped by the operator)" : "");
   if (s.loop) h += `<br>loop: ${s.loop.rate_Hz.toFixed(0)} Hz, period p99 ${s.loop.p99_period_ms.toFixed(3)} ms (max ${s.loop.max_period_ms.toFixed(3)} ms, ${s.loop.overruns} overruns), ${s.loop.dropped_samples} samples dropped; writer ${(1e3 * s.loop.writer_lag_s).toFixed(0)} ms behind`;
   if (s.error) h += `<br><span class="err">${text(s.error)}</span>`;
@@ -93,12 +172,22 @@ function makeChart(canvasId, title) {
                 y1: { position: "right", grid: { drawOnChartArea: false } } } },
   });
 }
-// Appends [t, tip, displayed, insertion, pitch, yaw] points; keeps the last 10 s.
+// Appends [t, tip, displayed, insertion, pitch, yaw] points newer than the
+// chart's newest (a page that joins gets the window so far, then the
+// stream's next points, which may repeat a few); keeps the last 10 s.
 function addPoints(chart, points) {
   if (!chart || !points.length) return;
-  for (const p of points) chart.data.datasets.forEach((d, i) => d.data.push({ x: p[0], y: p[i + 1] }));
+  const sets = chart.data.datasets;
+  const newestShown = sets[0].data.length ? sets[0].data[sets[0].data.length - 1].x : -Infinity;
+  let added = 0;
+  for (const p of points) {
+    if (p[0] <= newestShown) continue;
+    sets.forEach((d, i) => d.data.push({ x: p[0], y: p[i + 1] }));
+    ++added;
+  }
+  if (!added) return;
   const newest = points[points.length - 1][0];
-  chart.data.datasets.forEach((d) => { while (d.data.length && d.data[0].x < newest - 10) d.data.shift(); });
+  sets.forEach((d) => { while (d.data.length && d.data[0].x < newest - 10) d.data.shift(); });
   chart.update("none");
 }
 const clearChart = (chart) => chart && chart.data.datasets.forEach((d) => (d.data = []));
@@ -114,24 +203,35 @@ $("export").addEventListener("click", async () => {
 let shownReport = "";
 async function refreshResults() {
   const r = await (await fetch("/api/results")).json();
-  $("results-state").textContent = `${r.job || ""} ${r.state}${r.message ? ": " + r.message : ""}`;
-  $("downloads").innerHTML = r.files.map((f) => ` <a href="/results/${f}" download>${f}</a>`).join("");
-  if (r.state === "done" && r.job === "analysis" && r.files.includes("report.html") && shownReport !== r.message) {
+  $("results-state").textContent = `${r.job || ""} ${r.state}${r.message ? ": " + r.message : ""}${r.stale ? " — " + r.stale : ""}`;
+  $("downloads").innerHTML = r.files.map((f) => ` <a href="/results/${text(f)}" download>${text(f)}</a>`).join("");
+  const current = r.files.includes("report.html");
+  if (!current && shownReport) { shownReport = ""; $("report").classList.remove("on"); $("report").src = "about:blank"; }
+  if (r.state === "done" && r.job === "analysis" && current && shownReport !== r.message) {
     shownReport = r.message;
     $("report").src = "/results/report.html?" + Date.now();
-    $("report").style.display = "block";
+    $("report").classList.add("on");
   }
 }
 refreshResults();
 setInterval(refreshResults, 1000);
 
-// Follows a live stream (/events/live, /events/tuning) into two charts: they
-// are cleared when `repetitionKey` of the status changes (a new trial, or a
-// new repetition of the free trial); `counter` in window.hapticlab counts
-// the points received; onStatus(status) runs for every message.
-function followLive(url, repetitionKey, twoCharts, counter, onStatus) {
+// The page's one event stream: "live" (the session) and "tuning" (a free
+// trial). A browser opens at most six connections to a host, so each tab
+// holds one stream, and its STOP always has a connection left.
+const stream = new EventSource("/events/operator");
+stream.onerror = () => {
+  $("live-status").textContent = stream.readyState === EventSource.CLOSED
+    ? "The live stream was refused (the console serves a limited number; close other console tabs) — reload the page."
+    : "The live stream was lost; reconnecting…";
+};
+// Follows one event of the stream into two charts: they are cleared when
+// `repetitionKey` of the status changes (a new trial, or a new repetition
+// of the free trial); `counter` in window.hapticlab counts the points
+// received; onStatus(status) runs for every message.
+function followLive(eventName, repetitionKey, twoCharts, counter, onStatus) {
   let last = -1;
-  new EventSource(url).onmessage = (ev) => {
+  stream.addEventListener(eventName, (ev) => {
     const j = JSON.parse(ev.data);
     if (j.status[repetitionKey] !== last) {
       last = j.status[repetitionKey];
@@ -142,9 +242,9 @@ function followLive(url, repetitionKey, twoCharts, counter, onStatus) {
       addPoints(twoCharts[k], points);
     });
     onStatus(j.status);
-  };
+  });
 }
-followLive("/events/live", "trial_number", charts, "livePoints", (s) => {
+followLive("live", "trial_number", charts, "livePoints", (s) => {
   window.hapticlab.liveMessages++;
   shownTrialId = s.running && s.phase === "trial" ? s.trial_id : 0;
   $("status").innerHTML = describe(s);

@@ -116,5 +116,6 @@ $("tuning-save").addEventListener("click", async () => { await post("/api/tuning
 refreshTuning();
 setInterval(refreshTuning, 1000);
 
-followLive("/events/tuning", "free_trial", [makeChart("tplot0", "Left instrument"), makeChart("tplot1", "Right instrument")],
+// The "tuning" events of the page's one stream (console.js).
+followLive("tuning", "free_trial", [makeChart("tplot0", "Left instrument"), makeChart("tplot1", "Right instrument")],
            "tuningPoints", () => {});

@@ -37,9 +37,10 @@ using hapticlab::db::StoredSample;
 
 // The schemas this module reads: chunks with the 5-byte header (format 0 or
 // 1) exist from version 4 on, unchanged up to this build's kSchemaVersion
-// (db/schema.h; version 5 added the device_counter table).
+// (db/schema.h; version 5 added the device_counter table, 6 the
+// operator_action table).
 constexpr int kOldestSchemaVersion = 4;
-constexpr int kSchemaVersion = 5;
+constexpr int kSchemaVersion = 6;
 constexpr std::int64_t kApplicationId = 0x484C4142;  // "HLAB"
 
 // Columns: trial_id, instrument, tick, the channels, then the two hidden

@@ -14,18 +14,29 @@ binary and a real study database:
 - the Tuning page: a free trial with live plots, slider changes checked
   against the documented ranges and logged, a refused value, a saved
   settings file that `hapticlab settings check` accepts, and a session that
-  cannot start while the free trial drives the device.
+  cannot start while the free trial drives the device;
+- issue 33: the page opened from the printed address (#token=...) keeps
+  the token and takes it out of the address bar, so STOP works in a fresh
+  tab without typing; four console tabs in one browser, and STOP in the
+  fourth ends the session; a STOP not answered within 1 s, or refused, is
+  shown loudly; no Content-Security-Policy violation; in step mode the page
+  asks for Next after training, the participant screen shows no stale
+  trial number and, after STOP with trials left, STOPPED with the count,
+  not DONE; the abort reason is cleared after an abort; a 390 px wide page
+  has a viewport and a large STOP; a loop watchdog trip shows as the
+  trial's fault; a re-created database gets no old report.
 
 Screenshots of each page go to WORK_DIR/shots (docs/console.md shows them).
 Exit 77 (ctest: skipped) when Chromium or Selenium is missing.
 
-usage: console_in_chromium_test.py HAPTICLAB_CLI SOURCE_DIR WORK_DIR
+usage: console_in_chromium_test.py HAPTICLAB_CLI SOURCE_DIR WORK_DIR [FAKE_DEVICE_PLUGIN]
 """
 import gzip
 import json
 import os
 import re
 import shutil
+import signal
 import sqlite3
 import subprocess
 import sys
@@ -60,20 +71,26 @@ def wait_for(what, predicate, timeout_s):
 
 
 class Console:
-    """A `hapticlab console` process on a free port."""
+    """A `hapticlab console` process on free ports."""
 
     def __init__(self, cli, db, *extra):
         self.proc = subprocess.Popen([cli, "console", "--db", db, "--port", "0", *extra],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.lines = []
-        line = ""
-        while "console: http://" not in line:
+        while not any("participant screen: http://" in l for l in self.lines):
             line = self.proc.stdout.readline()
             if not line:
                 fail("the console exited before listening:\n" + "".join(self.lines))
             self.lines.append(line)
-        self.url = re.search(r"http://[0-9.]+:[0-9]+/", line).group(0)
-        self.token = open(db + ".console-token").read().strip()
+        text = "".join(self.lines)
+        m = re.search(r"console: (http://[0-9.]+:[0-9]+/)#token=([0-9a-f]+)", text)
+        if not m:
+            fail("the console did not print the operator's address with the token:\n" + text)
+        self.url, self.token = m.group(1), m.group(2)
+        self.operator_url = self.url + "#token=" + self.token  # as printed: what the operator opens
+        self.participant_url = re.search(r"participant screen: (http://[0-9.]+:[0-9]+/)participant", text).group(1)
+        if self.token != open(db + ".console-token").read().strip():
+            fail("the printed token is not the token file's")
 
     def post(self, path, body=None, token=None):
         req = urllib.request.Request(self.url + path.lstrip("/"), data=json.dumps(body or {}).encode(), method="POST")
@@ -85,19 +102,23 @@ class Console:
         except urllib.error.HTTPError as e:
             return e.code, json.loads(e.read())
 
-    def get(self, path):
-        with urllib.request.urlopen(self.url + path.lstrip("/"), timeout=10) as r:
+    def get(self, path, base=None):
+        with urllib.request.urlopen((base or self.url) + path.lstrip("/"), timeout=10) as r:
             return r.read().decode()
 
-    def events(self, path, count):
+    def events(self, path, count, base=None):
         """The first `count` server-sent events of a stream, as text."""
         out = []
-        with urllib.request.urlopen(self.url + path.lstrip("/"), timeout=10) as r:
+        with urllib.request.urlopen((base or self.url) + path.lstrip("/"), timeout=10) as r:
             while len(out) < count:
                 line = r.readline().decode()
                 if line.startswith("data: "):
                     out.append(line[6:])
         return out
+
+    def participant_view(self):
+        """What the participant's stream says now (its port's only data)."""
+        return json.loads(self.events("/events/participant", 1, base=self.participant_url)[0])
 
     def close(self):
         self.proc.terminate()
@@ -117,16 +138,18 @@ def trials(db):
         conn.close()
 
 
-def events_of(db, kind):
+def actions_of(db, kind):
+    """The operator's actions of one type (operator_action: stored when the console accepted them)."""
     conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
     try:
-        return conn.execute("SELECT trial_id, t_s, detail FROM event WHERE type = ?", (kind,)).fetchall()
+        return conn.execute("SELECT trial_id, t_s, detail FROM operator_action WHERE type = ?", (kind,)).fetchall()
     finally:
         conn.close()
 
 
 def main():
     cli, source, work = sys.argv[1:4]
+    fake_plugin = sys.argv[4] if len(sys.argv) > 4 else None
     driver = headless_chromium.start()
     if driver is None:
         return 77
@@ -141,10 +164,18 @@ def main():
     consoles = []
     try:
         def open_console(console):
-            driver.get(console.url)
-            driver.execute_script("sessionStorage.setItem('hapticlab-token', arguments[0]);", console.token)
-            driver.get(console.url)
+            # As the operator does: the printed address, token in its fragment.
+            driver.get(console.operator_url)
             wait_for("the participant list", lambda: driver.find_elements(By.CSS_SELECTOR, "#participant option"), 10)
+            if "token" in driver.current_url:
+                fail(f"the token is still in the address bar: {driver.current_url}")
+            if driver.execute_script("return localStorage.getItem('hapticlab-token')") != console.token:
+                fail("the page did not keep the token of its address")
+
+        def no_csp_violation(where):
+            refused = [e["message"] for e in driver.get_log("browser") if "Content Security Policy" in e["message"]]
+            if refused:
+                fail(f"{where}: the browser refused by Content-Security-Policy: {refused[:3]}")
 
         def status():
             return json.loads(consoles[-1].get("/api/status"))
@@ -152,24 +183,56 @@ def main():
         def click(element_id):
             driver.find_element(By.ID, element_id).click()
 
-        # --- 1. a whole quick session through the buttons, virtual clock
+        # --- 1. step mode, then a whole quick session through the buttons,
+        # virtual clock (one training trial per task)
         db = os.path.join(work, "virtual.db")
         subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
-        consoles.append(Console(cli, db, "--training-trials", "0"))
+        consoles.append(Console(cli, db, "--training-trials", "1"))
         c = consoles[-1]
         open_console(c)
         driver.save_screenshot(os.path.join(shots, "console_study.png"))
         driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
         Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
+        # A control with no session is refused, and the page says why.
+        click("next")
+        wait_for("Next refused with no session", lambda: "no session is running" in driver.find_element(By.ID, "message").text, 10)
+        # Step mode: after the training the page asks for Next; the
+        # participant screen shows no trial number but while a trial runs.
+        click("step")
         click("start")
+        wait_for("the page asking for Next after the training",
+                 lambda: "press “Next trial”" in driver.find_element(By.ID, "status").text, 30)
+        if "trial_number" in c.participant_view():
+            fail(f"the participant screen shows a trial number before the first trial: {c.participant_view()}")
+        click("next")
+        wait_for("the first trial's end, waiting for Next", lambda: (s := status()).get("waiting_for_next") and
+                 s.get("last_status"), 30)
+        view = c.participant_view()
+        if "trial_number" in view or view["cue"] != "ready":
+            fail(f"between trials the participant screen shows the last trial's number: {view}")
+        click("stop")
+        wait_for("the session's end after STOP", lambda: (s := status()).get("result") and not s["running"], 20)
+        left = status()["result"]["trials_left"]
+        view = c.participant_view()
+        if view != {"cue": "stopped", "trials_left": left} or left < 19:
+            fail(f"after STOP with {left} trials left the participant's view is {view}")
+        driver.get(c.participant_url + "participant")
+        wait_for("STOPPED on the participant screen", lambda: driver.find_element(By.ID, "cue").text == "STOPPED", 10)
+        said = driver.find_element(By.ID, "trial").text
+        if f"{left} trials are left for later" not in said or "DONE" in driver.page_source:
+            fail(f"the participant screen after STOP says: {said}")
+        driver.save_screenshot(os.path.join(shots, "console_participant_stopped.png"))
+        driver.get(c.url)
+        driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
+        Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
+        click("start")  # the rest of the schedule, not in step mode
         wait_for("the session's end", lambda: (s := status()).get("result") and not s["running"], 120)
         s = status()
-        if s["result"]["trials_complete"] != 20 or s["result"]["trials_left"] != 0:
-            fail(f"the quick session did not complete its 20 trials: {s}")
-        if [r[2] for r in trials(db)].count("complete") != 20:
-            fail(f"the database does not show 20 complete trials: {trials(db)}")
-        wait_for("the result on the page", lambda: "20 complete" in driver.find_element(By.ID, "status").text, 10)
+        if s["result"]["trials_left"] != 0 or [r[2] for r in trials(db)].count("complete") != 20:
+            fail(f"the quick session did not complete its 20 trials: {s}, {trials(db)}")
+        wait_for("the result on the page", lambda: "0 left" in driver.find_element(By.ID, "status").text, 10)
         driver.save_screenshot(os.path.join(shots, "console_session.png"))
+        no_csp_violation("the Study and Session pages")
 
         # --- 2. controls without the token, or with a wrong one
         for token in (None, "0" * 32):
@@ -177,8 +240,8 @@ def main():
             if code != 403 or "X-HapticLab-Token" not in body.get("error", ""):
                 fail(f"a control with token {token!r} was not refused: {code} {body}")
         code, body = c.post("/api/session/abort", {"reason": "x"}, token=c.token)
-        if code != 400 or "no trial is running" not in body["error"]:
-            fail(f"an abort with no trial running was not refused: {code} {body}")
+        if code != 409 or "no session is running" not in body["error"]:
+            fail(f"an abort with no session running was not refused: {code} {body}")
         code, body = c.post("/api/session/start", {"participant": "../../etc"}, token=c.token)
         if code != 400 or "is not one of the study's" not in body["error"]:
             fail(f"a bad participant code was not refused by name: {code} {body}")
@@ -189,14 +252,25 @@ def main():
         conn.close()
         if len(settings) < 5:
             fail(f"expected at least the quick protocol's 5 settings, found {settings}")
-        driver.get(c.url + "participant")
-        wait_for("the participant's cue", lambda: driver.find_element(By.ID, "cue").text in ("DONE", "READY"), 10)
+        driver.get(c.participant_url + "participant")
+        wait_for("the participant's cue", lambda: driver.find_element(By.ID, "cue").text == "DONE", 10)
         driver.save_screenshot(os.path.join(shots, "console_participant.png"))
-        seen = [c.get("/participant"), driver.page_source, c.get("/api/participant")] + c.events("/events/participant", 3)
+        pu = c.participant_url
+        seen = [c.get("/participant", base=pu), c.get("/participant.js", base=pu), driver.page_source] + \
+            c.events("/events/participant", 3, base=pu)
         for text in seen:
             for name in settings:
                 if name.lower() in text.lower():
                     fail(f"the participant's screen names the setting {name!r}: {text[:300]}")
+        # Its origin serves nothing else: a participant who browses from the
+        # screen cannot read the operator's routes (another port, another origin).
+        for path in ("/", "/api/status", "/api/study", "/events/operator", "/console.js"):
+            try:
+                c.get(path, base=pu)
+                fail(f"the participant's port serves {path}")
+            except urllib.error.HTTPError as e:
+                if e.code != 404:
+                    fail(f"{path} on the participant's port: HTTP {e.code}")
 
         # --- 4. results: the analysis run from the page, its report shown,
         # its files downloadable, nothing outside its folder
@@ -243,6 +317,25 @@ def main():
 
         c.close()
         consoles.pop()
+        # The database re-created at the same path: the console offers no
+        # report of the old one.
+        for suffix in ("", "-wal", "-shm"):
+            if os.path.exists(db + suffix):
+                os.remove(db + suffix)
+        subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+        consoles.append(Console(cli, db))
+        c = consoles[-1]
+        r = json.loads(c.get("/api/results"))
+        if r["files"] or "another database" not in r.get("stale", ""):
+            fail(f"after the database was re-created, the Results page offers the old files: {r}")
+        try:
+            c.get("/results/report.html")
+            fail("the old database's report was served for the re-created one")
+        except urllib.error.HTTPError as e:
+            if e.code != 409 or b"another database" not in e.read():
+                fail(f"/results/report.html of the old database: HTTP {e.code}")
+        c.close()
+        consoles.pop()
 
         # --- 5. wall clock: live data, a note, an abort with a reason, STOP
         db = os.path.join(work, "wall.db")
@@ -275,11 +368,14 @@ def main():
             driver.execute_script('document.getElementById("message").textContent = ""')
             first = status()["trial_number"]
             click("abort")
-            outcome = wait_for("the abort's outcome", lambda: "aborted" if status().get("last_status") == "aborted"
+            outcome = wait_for("the abort's outcome", lambda: "aborted" if (s := status()).get("last_status") == "aborted"
+                               and s.get("last_abort_reason") == "operator abort: participant sneezed"
                                else "refused" if re.search("nothing was aborted|no trial is running",
                                                            driver.find_element(By.ID, "message").text)
                                else None, 20)
             if outcome == "aborted":
+                # Cleared, so the next click cannot abort another trial with it.
+                wait_for("the abort reason cleared", lambda: driver.find_element(By.ID, "reason").get_attribute("value") == "", 10)
                 break
             wait_for("a trial shown again", lambda: status().get("phase") == "trial", 30)
         else:
@@ -289,7 +385,7 @@ def main():
         wait_for("the next trial", lambda: status().get("phase") == "trial", 30)
         code, body = c.post("/api/session/abort", {"reason": "late", "trial_id": ended_id}, token=c.token)
         error = body.get("error", "")
-        if code != 400 or not ("nothing was aborted" in error or "no trial is running" in error):
+        if code != 409 or not ("nothing was aborted" in error or "no trial is running" in error):
             fail(f"an abort for the ended trial {ended_id}: {code} {body}")
         wait_for("the next trial", lambda: status().get("phase") == "trial", 30)
         # A rest of 3 s asked for during a trial starts when the trial ends
@@ -304,35 +400,100 @@ def main():
         code, body = c.post("/api/session/abort", {"reason": "rest test"}, token=c.token)
         if code != 200:
             fail(f"abort for the rest test: {code} {body}")
-        wait_for("the rest's countdown", lambda: "rest_left_s" in json.loads(c.get("/api/participant")), 20)
-        seen_rest = json.loads(c.get("/api/participant"))
+        wait_for("the rest's countdown", lambda: "rest_left_s" in c.participant_view(), 20)
+        seen_rest = c.participant_view()
         if seen_rest["cue"] != "rest" or not 1 <= seen_rest["rest_left_s"] <= 3:
             fail(f"the participant's view during the rest: {seen_rest}")
-        driver.get(c.url + "participant")
+        driver.get(c.participant_url + "participant")
         wait_for("the countdown on the participant screen",
                  lambda: re.fullmatch(r"REST 0:0[1-3]", driver.find_element(By.ID, "cue").text), 10)
         driver.save_screenshot(os.path.join(shots, "console_participant_rest.png"))
         wait_for("the session going on after the rest", lambda: status().get("phase") == "trial" and
                  status()["trial_number"] >= resting_trial and "rest_left_s" not in status(), 20)
-        driver.get(c.url)
+        # Four console tabs in one browser, each opened from the printed
+        # address (a browser allows six connections to a host; each tab
+        # holds one stream): STOP in the fourth, fresh, without typing a
+        # token, ends the session.
+        first_tab = driver.current_window_handle
+        driver.get(c.operator_url)
+        for _ in range(3):
+            driver.switch_to.new_window("tab")
+            driver.get(c.operator_url)
+            wait_for("a tab's live stream", lambda: driver.execute_script("return window.hapticlab.liveMessages") > 3, 20)
         driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
+        for attempt in range(3):
+            # On a busy machine the loop's 20 ms watchdog may end the
+            # session before STOP (issue 33: the runner is to end only the
+            # trial); then it is started again, and STOP tried again.
+            if status().get("running"):
+                click("stop")
+                wait_for("STOP answered in the fourth tab",
+                         lambda: "STOPPED (session S1" in driver.find_element(By.ID, "stop-state").text, 5)
+                wait_for("the session's end after STOP", lambda: (s := status()).get("result") and not s["running"], 20)
+                if status()["result"]["stopped_by_operator"]:
+                    break
+            if attempt == 2:
+                fail(f"three sessions ended by a fault before STOP: {status()}")
+            Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
+            click("start")
+            wait_for("a running trial", lambda: status().get("phase") == "trial", 30)
+        for handle in driver.window_handles:
+            if handle != first_tab:
+                driver.switch_to.window(handle)
+                driver.close()
+        driver.switch_to.window(first_tab)
+        # A STOP not answered within 1 s says so, loudly (the console is
+        # frozen here by SIGSTOP); its answer, once it comes, clears that.
+        driver.get(c.url)
+        wait_for("the page", lambda: driver.execute_script("return window.hapticlab.liveMessages") > 0, 10)
+        os.kill(c.proc.pid, signal.SIGSTOP)
+        try:
+            click("stop")
+            wait_for("the unanswered STOP's alarm", lambda: "STOP NOT ANSWERED" in driver.find_element(By.ID, "stop-alarm").text
+                     and driver.find_element(By.ID, "stop-alarm").is_displayed(), 5)
+            driver.save_screenshot(os.path.join(shots, "console_stop_unanswered.png"))
+        finally:
+            os.kill(c.proc.pid, signal.SIGCONT)
+        wait_for("the late answer", lambda: "STOPPED" in driver.find_element(By.ID, "stop-state").text and
+                 not driver.find_element(By.ID, "stop-alarm").is_displayed(), 10)
+        # A refused STOP (a wrong token) is as loud.
+        driver.execute_script("localStorage.setItem('hapticlab-token', '0'.repeat(32))")
         click("stop")
-        wait_for("the session's end after STOP", lambda: (s := status()).get("result") and not s["running"], 20)
+        wait_for("the refused STOP's alarm", lambda: "STOP FAILED (HTTP 403)" in driver.find_element(By.ID, "stop-alarm").text, 5)
+        driver.execute_script("localStorage.setItem('hapticlab-token', arguments[0])", c.token)
+        # 390 px wide (a phone): a viewport, and STOP large.
+        driver.set_window_size(390, 844)
+        driver.get(c.url)
+        wait_for("the narrow page", lambda: driver.find_elements(By.CSS_SELECTOR, "#participant option"), 10)
+        if not driver.find_elements(By.CSS_SELECTOR, 'meta[name=viewport][content*="width=device-width"]'):
+            fail("the page has no viewport meta tag")
+        size = driver.find_element(By.ID, "stop").size
+        if size["width"] < 300 or size["height"] < 60:
+            fail(f"STOP at 390 px is {size}: not large")
+        driver.save_screenshot(os.path.join(shots, "console_narrow.png"))
+        driver.set_window_size(1200, 900)
+        driver.get(c.url)
+        wait_for("the page", lambda: driver.find_elements(By.CSS_SELECTOR, "#participant option"), 10)
         if not status()["result"]["stopped_by_operator"]:
             fail(f"STOP did not end the session as the operator's stop: {status()}")
         rows = trials(db)
-        aborted = [r for r in rows if r[2] == "aborted"]
+        aborted = [r for r in rows if r[2] == "aborted" and not r[3].startswith("watchdog")]  # see the four tabs
         if len(aborted) != 3 or aborted[0][3] != "operator abort: participant sneezed":
             fail(f"expected the typed abort, the rest test's abort and the STOP as the three aborted trials: {rows}")
         for trial_id, position, _, reason in aborted:
             if not any(r[1] == position and r[2] == "planned" and r[0] > trial_id for r in rows):
                 fail(f"aborted trial {trial_id} ({reason}) was not re-queued at position {position}: {rows}")
-        if not any(d == "participant adjusts the chair" for _, _, d in events_of(db, "operator_note")):
-            fail(f"the note is not in the event table: {events_of(db, 'operator_note')}")
-        if [d for _, _, d in events_of(db, "operator_rest")] != ["3 s"] or \
-                "rest over" not in [d for _, _, d in events_of(db, "operator_resume")]:
-            fail(f"the rest and its end are not in the event table: {events_of(db, 'operator_rest')}, "
-                 f"{events_of(db, 'operator_resume')}")
+        if not any(d == "participant adjusts the chair" for _, _, d in actions_of(db, "operator_note")):
+            fail(f"the note is not in the database: {actions_of(db, 'operator_note')}")
+        if [d for _, _, d in actions_of(db, "operator_rest")] != ["3 s"] or \
+                "rest over" not in [d for _, _, d in actions_of(db, "operator_resume")]:
+            fail(f"the rest and its end are not in the database: {actions_of(db, 'operator_rest')}, "
+                 f"{actions_of(db, 'operator_resume')}")
+        # STOP leaves its record: the fourth tab's (a trial ran), the late
+        # one's (nothing ran); the refused one did nothing and left none.
+        stops = [d for _, _, d in actions_of(db, "operator_stop")]
+        if not stops[0].startswith("session S1, trial") or stops[-1] != "nothing was running":
+            fail(f"the STOPs as stored: {stops}")
         # The abort hit the trial the operator saw running. (Not necessarily
         # trial 1: on a loaded machine the simulated participant can finish
         # it before the page steps above are done.)
@@ -355,7 +516,7 @@ def main():
         click("tuning-start")
         wait_for("the free trial's live plots", lambda: driver.execute_script("return window.hapticlab.tuningPoints") > 200, 20)
         code, body = c.post("/api/session/start", {"participant": "S1"}, token=c.token)
-        if code != 400 or "free trial" not in body["error"]:
+        if code != 409 or "free trial" not in body["error"]:
             fail(f"a session started while the free trial drives the device: {code} {body}")
         driver.find_element(By.CSS_SELECTOR, '[data-enable="translation.friction"]').click()
         level = driver.find_element(By.CSS_SELECTOR, '[data-number="translation.friction.dynamic_level_N"]')
@@ -391,8 +552,34 @@ def main():
         wait_for("the free trial's end", lambda: not json.loads(c.get("/api/tuning"))["running"], 10)
         if trials(db) != trials_before:
             fail("the free trial changed the study's trials")
+        no_csp_violation("the Live, Session, Tuning and Results pages")
         c.close()
         consoles.pop()
+
+        # --- 7. a loop watchdog trip (the device's read hangs 100 ms, past
+        # the 20 ms watchdog) shows as the fault of its trial, not as a pause
+        if fake_plugin:
+            db = os.path.join(work, "watchdog.db")
+            subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+            consoles.append(Console(cli, db, "--clock", "wall", "--training-trials", "0", "--device",
+                                    "plugin:" + fake_plugin, "--device-option", "fault=hang_in_read",
+                                    "--device-option", "hang_ms=100", "--device-option", "after=300"))
+            c = consoles[-1]
+            open_console(c)
+            driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
+            Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
+            click("start")
+            fault = wait_for("the watchdog's trip in the status", lambda: status().get("last_fault"), 30)
+            if not fault.startswith("watchdog"):
+                fail(f"the trial's fault is not the watchdog's: {fault}")
+            wait_for("the fault on the page", lambda: "FAULT in trial" in driver.find_element(By.ID, "status").text, 10)
+            shown = driver.find_element(By.ID, "status").text
+            if "watchdog" not in shown or "paused" in shown:
+                fail(f"the page shows the watchdog's trip as: {shown}")
+            driver.save_screenshot(os.path.join(shots, "console_fault.png"))
+            c.post("/api/session/stop", token=c.token)
+            c.close()
+            consoles.pop()
     finally:
         for c in consoles:
             c.proc.kill()

@@ -181,9 +181,31 @@ TEST(ExportCsv, OneTrialWritesEverySampleAndEventReadingBackToTheStoredValues) {
 TEST(ExportCsv, WholeStudyWritesTheTrialIndexAndEveryStartedTrial) {
   Study s;
   const fs::path out = s.dir.file("study_out");
+  // The console's operator actions: one during a trial, one of no session (a STOP while none ran).
+  OperatorActionRow note;
+  note.session_id = 1;
+  note.trial_id = s.complete;
+  note.unix_s = 1.5e9;
+  note.t_s = 0.25;
+  note.type = "operator_note";
+  note.detail = "chair, \"lower\"";
+  s.db.add_operator_action(note);
+  OperatorActionRow stop;
+  stop.unix_s = 1.5e9 + 1;
+  stop.type = "operator_stop";
+  stop.detail = "nothing was running";
+  s.db.add_operator_action(stop);
   const std::vector<fs::path> files = export_study_csv(s.db, s.study, out);
-  ASSERT_EQ(files.size(), 5u);  // 2 started trials x (samples, events) + trials.csv
-  EXPECT_EQ(files.back(), out / "trials.csv");
+  // 2 started trials x (samples, events) + trials.csv + operator_actions.csv
+  ASSERT_EQ(files.size(), 6u);
+  EXPECT_EQ(files[4], out / "trials.csv");
+  EXPECT_EQ(files.back(), out / "operator_actions.csv");
+  const std::vector<Row> actions = read_csv(out / "operator_actions.csv");
+  ASSERT_EQ(actions.size(), 3u);
+  EXPECT_EQ(actions[0], (Row{"id", "session_id", "participant", "trial_id", "unix_s", "t_s", "type", "detail"}));
+  EXPECT_EQ(actions[1], (Row{"1", "1", "P01", std::to_string(s.complete), "1.5e+09", "0.25", "operator_note",
+                             "chair, \"lower\""}));
+  EXPECT_EQ(actions[2], (Row{"2", "", "", "", "1500000001", "", "operator_stop", "nothing was running"}));
   std::size_t csv_files = 0;
   for (const auto& entry : fs::directory_iterator(out)) {
     ++csv_files;
@@ -191,7 +213,7 @@ TEST(ExportCsv, WholeStudyWritesTheTrialIndexAndEveryStartedTrial) {
                                                       "trial" + std::to_string(s.planned) + "_")))
         << "a planned trial has no data to export";
   }
-  EXPECT_EQ(csv_files, 5u);
+  EXPECT_EQ(csv_files, 6u);
 
   const std::vector<Row> rows = read_csv(out / "trials.csv");
   ASSERT_EQ(rows.size(), 4u);

@@ -57,7 +57,7 @@ TEST(Schema, FreshDatabaseIsAtTheCurrentVersionWithEveryTable) {
   EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
   EXPECT_EQ(db.connection().pragma_int("application_id"), kApplicationId);
   EXPECT_EQ(tables(db.connection()),
-            (std::vector<std::string>{"device_counter", "event", "loop_timing", "participant", "sample_chunk",
+            (std::vector<std::string>{"device_counter", "event", "loop_timing", "operator_action", "participant", "sample_chunk",
                                       "session", "setting", "study", "training", "trial"}));
   Statement s = db.connection().prepare("PRAGMA journal_mode");
   ASSERT_TRUE(s.step());

@@ -73,6 +73,26 @@ class StudyListingTest(unittest.TestCase):
                 db.connection.execute("DELETE FROM event")
 
 
+class OperatorActionsTest(unittest.TestCase):
+    def test_the_consoles_actions_with_participant_and_trial(self):
+        path = os.path.join(STUDY.dir, "actions.db")
+        import shutil
+        shutil.copyfile(STUDY.db, path)
+        conn = sqlite3.connect(path)
+        session = conn.execute("SELECT id FROM session LIMIT 1").fetchone()[0]
+        conn.execute("INSERT INTO operator_action (session_id, trial_id, unix_s, t_s, type, detail) "
+                     "VALUES (?, 1, 1.5e9, 0.25, 'operator_note', 'chair')", (session,))
+        conn.execute("INSERT INTO operator_action (unix_s, type, detail) VALUES (1.6e9, 'operator_stop', 'nothing')")
+        conn.commit()
+        conn.close()
+        with h.open_study(path) as db:
+            note, stop = db.operator_actions()
+            self.assertEqual((note["participant"], note["trial_id"], note["t_s"], note["type"], note["detail"]),
+                             ("S1", 1, 0.25, "operator_note", "chair"))
+            self.assertEqual((stop["session_id"], stop["participant"], stop["trial_id"]), (None, None, None))
+            self.assertEqual([a["type"] for a in db.operator_actions(participant="S1")], ["operator_note"])
+
+
 class SamplesEqualExportTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -231,7 +251,7 @@ class DamageTest(unittest.TestCase):
         conn = sqlite3.connect(path)
         conn.execute("PRAGMA user_version = 3")
         conn.close()
-        with self.assertRaisesRegex(ValueError, "schema version 3; this reader reads 4..5.*hapticlab analyze"):
+        with self.assertRaisesRegex(ValueError, "schema version 3; this reader reads 4..6.*hapticlab analyze"):
             h.open_study(path)
 
 

@@ -24,4 +24,7 @@ def start(window="1200,900", extra=()):
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
                 f"--window-size={window}", *extra):
         options.add_argument(arg)
+    # The page's console messages (driver.get_log("browser")): a test can
+    # see what the browser refused, such as a Content-Security-Policy violation.
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     return webdriver.Chrome(service=Service(driver_path), options=options)

@@ -1,0 +1,561 @@
+"""`hapticlab console`'s server under attack and under load, through raw
+sockets against the real binary (issue 33):
+
+- STOP (POST /api/session/stop) and GET /api/status answered, and the
+  running trial aborted, within a bound under each load: none; 50 live
+  streams; 200 idle connections; 200 slowloris connections (a head trickled
+  a byte at a time); a flood of stream requests past the cap (refused 503,
+  naming it); more connections than the table holds (the oldest idle ones
+  dropped, STOP still served); slowloris heads cut at the head deadline
+  (408);
+- a Host other than the bound address refused (421, naming it), on both
+  ports; the participant's port serves its page, script and stream only;
+  security headers on every answer;
+- bodies: the token before the body (a chunked body without it: 403 before
+  its first byte is read), 16 kB for chunked bodies too (413 on the
+  declared size), an oversized Content-Length refused at once, STOP with no
+  body at all or an empty one, wrong JSON types, 64-bit ranges, a NUL, and
+  lengths in characters;
+- --token-file: a token of spaces, of one repeated character, or readable
+  by others (its mode printed in octal) refused; a CRLF line end not part
+  of the token; a new file made 0600 with 128 random bits;
+- controls with no session: 409; every operator action (before the first
+  trial, during one, between trials, and STOP) stored in operator_action
+  before its 200, and still there after `kill -9` of the console;
+  `study check` passes, the export has them.
+
+Also the benchmark of STOP under load (BENCHMARKS.md):
+    console_server_test.py HAPTICLAB_CLI SOURCE_DIR WORK_DIR --bench 20
+prints p50/p99/max of STOP's answer and of the trial's end per load.
+
+usage: console_server_test.py HAPTICLAB_CLI SOURCE_DIR WORK_DIR [--bench N]
+"""
+import argparse
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import sqlite3
+import subprocess
+import sys
+import time
+
+
+def fail(message):
+    sys.exit("FAIL: " + message)
+
+
+# CI runs this beside a compile or under the sanitizers on two cores: the
+# bound a check asserts is what a loaded machine meets with room; the
+# figures printed (and the --bench run) are the real ones.
+LOADED_BOUND_S = 1.0
+BENCH = False  # --bench: measure, check nothing
+
+
+class Console:
+    """A `hapticlab console` process on free ports (wall clock)."""
+
+    def __init__(self, cli, db, *extra):
+        self.proc = subprocess.Popen([cli, "console", "--db", db, "--port", "0", "--clock", "wall",
+                                      "--training-trials", "0", *extra],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        lines = []
+        while not any("participant screen: http://" in l for l in lines):
+            line = self.proc.stdout.readline()
+            if not line:
+                fail("the console exited before listening:\n" + "".join(lines))
+            lines.append(line)
+        text = "".join(lines)
+        m = re.search(r"console: http://127\.0\.0\.1:([0-9]+)/(#token=([0-9a-f]+))?", text)
+        self.port = int(m.group(1))
+        self.token_in_address = m.group(3)
+        token_file = extra[extra.index("--token-file") + 1] if "--token-file" in extra else db + ".console-token"
+        self.token = open(token_file).read().strip()
+        self.participant_port = int(re.search(r"participant screen: http://127\.0\.0\.1:([0-9]+)/participant", text).group(1))
+
+    def kill(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+
+def connect(port, timeout=5.0):
+    s = socket.create_connection(("127.0.0.1", port), timeout=timeout)
+    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    return s
+
+
+def read_response(s, timeout=10.0):
+    """(status, headers dict lower-case, body bytes) of one answer with a
+    Content-Length; None when the server closed before answering."""
+    s.settimeout(timeout)
+    data = b""
+    while b"\r\n\r\n" not in data:
+        chunk = s.recv(65536)
+        if not chunk:
+            return None
+        data += chunk
+    head, _, body = data.partition(b"\r\n\r\n")
+    lines = head.decode("latin-1").split("\r\n")
+    status = int(lines[0].split()[1])
+    headers = {k.lower(): v.strip() for k, _, v in (l.partition(":") for l in lines[1:])}
+    length = int(headers.get("content-length", "-1"))
+    if length < 0:
+        return status, headers, body
+    while len(body) < length:
+        chunk = s.recv(65536)
+        if not chunk:
+            break
+        body += chunk
+    return status, headers, body[:length]
+
+
+def request(port, method, path, body=None, token=None, host=None, extra=b"", raw_body=None, timeout=10.0, sock=None):
+    """One request; returns (status, headers, parsed JSON or text)."""
+    own = sock is None
+    s = sock or connect(port)
+    try:
+        payload = raw_body if raw_body is not None else (json.dumps(body).encode() if body is not None else None)
+        head = f"{method} {path} HTTP/1.1\r\nHost: {host or f'127.0.0.1:{port}'}\r\n"
+        if token:
+            head += f"X-HapticLab-Token: {token}\r\n"
+        if payload is not None and raw_body is None:
+            head += f"Content-Length: {len(payload)}\r\nContent-Type: application/json\r\n"
+        s.sendall(head.encode() + extra + b"\r\n" + (payload or b""))
+        r = read_response(s, timeout)
+        if r is None:
+            return None
+        status, headers, data = r
+        try:
+            return status, headers, json.loads(data)
+        except ValueError:
+            return status, headers, data.decode("utf-8", "replace")
+    finally:
+        if own:
+            s.close()
+
+
+def expect(what, result, status, contains=""):
+    if result is None:
+        fail(f"{what}: the connection closed without an answer")
+    got, _, body = result
+    if isinstance(body, bytes):
+        try:
+            body = json.loads(body)
+        except ValueError:
+            body = body.decode("utf-8", "replace")
+    text = json.dumps(body) if not isinstance(body, str) else body
+    if got != status or contains not in text:
+        fail(f"{what}: expected {status} mentioning {contains!r}, got {got}: {text[:400]}")
+    return body
+
+
+def status_of(c, sock=None):
+    r = request(c.port, "GET", "/api/status", sock=sock)
+    return r[2] if r else {}
+
+
+def wait_for(what, predicate, timeout_s):
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        v = predicate()
+        if v:
+            return v
+        time.sleep(0.02)
+    fail(f"timed out after {timeout_s} s waiting for {what}")
+
+
+def percentile(values, q):
+    v = sorted(values)
+    return v[min(len(v) - 1, int(round(q / 100 * (len(v) - 1))))]
+
+
+# --- loads
+
+class Load:
+    def __init__(self, name):
+        self.name = name
+        self.socks = []
+
+    def close(self):
+        for s in self.socks:
+            try:
+                s.close()
+            except OSError:
+                pass
+        self.socks = []
+
+
+def streams(c, n, path=None, port=None):
+    # (/events/live: the page's stream before issue 33, for the --bench of an older binary)
+    if path is None:
+        probe = request(c.port, "GET", "/events/operator", timeout=5)
+        path = "/events/operator" if probe and probe[0] == 200 else "/events/live"
+    load = Load(f"{n} live streams")
+    for _ in range(n):
+        s = connect(port or c.port)
+        s.sendall(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port or c.port}\r\n\r\n".encode())
+        load.socks.append(s)
+    for s in load.socks:  # each answered as a stream (they keep reading nothing more: the server buffers)
+        if BENCH:
+            break  # an older binary may answer only some (the --bench of the figures before)
+        s.settimeout(5)
+        head = s.recv(4096)
+        if not head.startswith(b"HTTP/1.1 200") or b"text/event-stream" not in head:
+            fail(f"a live stream was not served: {head[:200]!r}")
+    return load
+
+
+def idle(c, n):
+    load = Load(f"{n} idle connections")
+    for _ in range(n):
+        load.socks.append(connect(c.port))
+    return load
+
+
+def slowloris(c, n):
+    """n connections that each send the first bytes of a head, then a byte
+    now and then (trickle() sends the next one)."""
+    load = Load(f"{n} slowloris connections")
+    load.started = time.monotonic()
+    for _ in range(n):
+        s = connect(c.port)
+        s.sendall(b"GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\nX-A: ")
+        load.socks.append(s)
+    return load
+
+
+def trickle(load):
+    for s in load.socks:
+        try:
+            s.send(b"a")
+        except OSError:
+            pass
+
+
+def measure_stop(c, samples, load=None, poll=None):
+    """Starts a session, waits for its trial, sends STOP on a new
+    connection; returns (answer_s, abort_s, status_s) per sample."""
+    out = []
+    for _ in range(samples):
+        expect("start", request(c.port, "POST", "/api/session/start", {"participant": "S1"}, token=c.token), 200)
+        wait_for("a running trial", lambda: status_of(c, poll).get("phase") == "trial", 30)
+        if load is not None and load.name.endswith("slowloris connections"):
+            trickle(load)
+        t0 = time.monotonic()
+        s = connect(c.port)
+        s.sendall(f"POST /api/session/stop HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\nX-HapticLab-Token: {c.token}\r\n"
+                  "Content-Length: 2\r\n\r\n{}".encode())
+        r = read_response(s, 60)
+        answered = time.monotonic() - t0
+        s.close()
+        if r is None or r[0] != 200:
+            fail(f"STOP under {load.name if load else 'no load'}: {r}")
+        while status_of(c, poll).get("phase") == "trial":
+            time.sleep(0.002)
+        aborted = time.monotonic() - t0
+        t1 = time.monotonic()
+        status_of(c)  # on a new connection, as a page's poll
+        status_s = time.monotonic() - t1
+        out.append((answered, aborted, status_s))
+        wait_for("the session's end", lambda: not status_of(c, poll).get("running"), 30)
+    return out
+
+
+def report(name, results):
+    row = [name]
+    for k in range(3):
+        v = [1e3 * r[k] for r in results]
+        row.append(f"{percentile(v, 50):.1f}/{percentile(v, 99):.1f}/{max(v):.1f}")
+    print(f"  {row[0]:<28} STOP answered {row[1]:>18} ms   trial ended {row[2]:>18} ms   status {row[3]:>16} ms"
+          " (p50/p99/max)")
+    return results
+
+
+def check_bound(name, results):
+    worst = max(max(r[0], r[1], r[2]) for r in results)
+    if worst > LOADED_BOUND_S:
+        fail(f"under {name}, STOP or status took {worst:.3f} s (bound {LOADED_BOUND_S} s)")
+
+
+def actions(db):
+    conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    try:
+        return conn.execute("SELECT session_id, trial_id, t_s, type, detail FROM operator_action ORDER BY id").fetchall()
+    finally:
+        conn.close()
+
+
+def token_files(cli, db, work, consoles):
+    """--token-file read as every secret file is (core/common/secret_file.h)."""
+    def write(name, content, mode=0o600):
+        path = os.path.join(work, name)
+        with open(path, "wb") as f:
+            f.write(content)
+        os.chmod(path, mode)
+        return path
+
+    for name, content, mode, words in (("spaces", b" " * 20 + b"\n", 0o600, "character 1 is a space"),
+                                       ("a16", b"a" * 16 + b"\n", 0o600, "uses only 1 different characters"),
+                                       ("open", b"0123456789abcdef0123\n", 0o644, "mode 0644")):
+        r = subprocess.run([cli, "console", "--db", db, "--port", "0", "--token-file", write(name, content, mode)],
+                           capture_output=True, text=True, timeout=30)
+        if r.returncode == 0 or words not in r.stdout + r.stderr:
+            fail(f"a token file of {name} was not refused with {words!r}: exit {r.returncode}, {r.stdout}{r.stderr}")
+    # A CRLF line end is not part of the token: the one before it works.
+    crlf = write("crlf", b"0123456789abcdef0123\r\n")
+    c = Console(cli, db, "--token-file", crlf)
+    consoles.append(c)
+    if c.token_in_address != "0123456789abcdef0123":
+        fail(f"the token of a CRLF file: {c.token_in_address!r}")
+    expect("STOP with the token of a CRLF file", request(c.port, "POST", "/api/session/stop", token="0123456789abcdef0123"),
+           200)
+    c.kill()
+    consoles.remove(c)
+    # A missing file is made: mode 600, 128 random bits in hex.
+    made = os.path.join(work, "made-token")
+    c = Console(cli, db, "--token-file", made)
+    consoles.append(c)
+    if oct(os.stat(made).st_mode & 0o777) != "0o600" or not re.fullmatch(r"[0-9a-f]{32}\n", open(made).read()):
+        fail(f"the token file made: mode {oct(os.stat(made).st_mode)}, {open(made).read()!r}")
+    c.kill()
+    consoles.remove(c)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("cli")
+    ap.add_argument("source")
+    ap.add_argument("work")
+    ap.add_argument("--bench", type=int, default=0, help="STOPs per load, and print only the figures")
+    a = ap.parse_args()
+    global BENCH
+    BENCH = a.bench > 0
+    shutil.rmtree(a.work, ignore_errors=True)
+    os.makedirs(a.work)
+    protocol = os.path.join(a.source, "examples/protocols/thesis_quick.json")
+    db = os.path.join(a.work, "study.db")
+    subprocess.run([a.cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+    consoles = []
+    try:
+        if not a.bench:
+            token_files(a.cli, db, a.work, consoles)
+        c = Console(a.cli, db)
+        consoles.append(c)
+        if not a.bench and c.token_in_address != c.token:
+            fail(f"the operator's address does not hold the token file's token: {c.token_in_address}")
+        samples = a.bench or 2
+        poll = connect(c.port)  # one keep-alive connection for the polls
+
+        # --- STOP under load
+        print("STOP under load (ms):")
+        results = {}
+        results["none"] = report("no other connection", measure_stop(c, samples, poll=poll))
+        for make in (lambda: streams(c, 50), lambda: idle(c, 200), lambda: slowloris(c, 200)):
+            load = make()
+            try:
+                results[load.name] = report(load.name, measure_stop(c, samples, load, poll))
+                if load.name.endswith("slowloris connections") and not a.bench:
+                    # The head deadline (5 s from a request's first byte): each
+                    # is answered 408 and closed, however it trickles.
+                    wait_for("the head deadline", lambda: time.monotonic() - load.started > 4.5, 10)
+                    trickle(load)
+                    time.sleep(max(0.0, load.started + 6.5 - time.monotonic()))  # the deadline and 1.5 s
+                    closed = 0
+                    for s in load.socks:
+                        s.settimeout(0.05)
+                        try:
+                            data = s.recv(4096)
+                        except OSError:
+                            data = b""
+                        if data.startswith(b"HTTP/1.1 408") and b"not complete within 5000 ms" in data:
+                            closed += 1
+                    if closed != len(load.socks):
+                        fail(f"{len(load.socks) - closed} slowloris connections were not cut at the head deadline (408)")
+            finally:
+                load.close()
+        if a.bench:
+            return 0
+        for name, r in results.items():
+            check_bound(name, r)
+
+        # A flood of stream requests: the cap (64) refuses the rest by name,
+        # STOP and status still answered.
+        load = Load("stream flood")
+        refused = 0
+        for _ in range(100):
+            s = connect(c.port)
+            s.sendall(f"GET /events/operator HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\n\r\n".encode())
+            load.socks.append(s)
+        for s in load.socks:
+            s.settimeout(5)
+            head = s.recv(4096)
+            if head.startswith(b"HTTP/1.1 503"):
+                refused += 1
+                if b"64 streams are open" not in head + s.recv(4096):
+                    fail(f"a refused stream does not name the cap: {head[:300]!r}")
+        if refused != 100 - 64:
+            fail(f"100 stream requests: {refused} refused, expected 36 past the cap of 64")
+        check_bound("a stream flood", report("100 stream requests", measure_stop(c, 1, load, poll)))
+        load.close()
+        # More connections than the table holds (512): the oldest idle ones
+        # (the poll's among them) are dropped, STOP is served.
+        load = idle(c, 560)
+        check_bound("a full connection table", report("560 idle connections", measure_stop(c, 1, load)))
+        load.socks[0].settimeout(2)
+        try:
+            dropped = load.socks[0].recv(1) == b""
+        except OSError:
+            dropped = True
+        if not dropped:
+            fail("with the connection table full, the oldest idle connection was not dropped")
+        load.close()
+        poll.close()
+        poll = connect(c.port)
+
+        # --- Host, origins, headers
+        for port in (c.port, c.participant_port):
+            expect("Host evil.example", request(port, "GET", "/participant" if port != c.port else "/api/status",
+                                                host=f"evil.example:{port}"), 421, "evil.example")
+        expect("Host without the port", request(c.port, "GET", "/api/study", host="127.0.0.1"), 421)
+        expect("Host localhost", request(c.port, "GET", "/api/status", host=f"localhost:{c.port}"), 200)
+        for path in ("/api/status", "/api/study", "/events/operator", "/", "/api/tuning", "/results/report.html"):
+            expect(f"{path} on the participant's port", request(c.participant_port, "GET", path), 404)
+        for path in ("/participant", "/events/participant"):
+            expect(f"{path} on the operator's port", request(c.port, "GET", path), 404)
+        status, headers, page = request(c.participant_port, "GET", "/participant")
+        if status != 200 or "/participant.js" not in page:
+            fail(f"the participant's page on its port: {status} {page[:200]}")
+        status, headers, _ = request(c.port, "GET", "/")
+        for name, value in (("x-frame-options", "DENY"), ("x-content-type-options", "nosniff"),
+                            ("content-security-policy", "script-src 'self'")):
+            if value not in headers.get(name, ""):
+                fail(f"the operator's page lacks {name}: {value}: {headers}")
+        if "'unsafe-inline'" in headers["content-security-policy"]:
+            fail("the page's CSP allows inline script or style")
+
+        # --- bodies
+        t0 = time.monotonic()
+        expect("Content-Length 100 MB", request(c.port, "POST", "/api/session/note", token=c.token, raw_body=b"",
+                                                extra=b"Content-Length: 100000000\r\n"), 413, "100000000 bytes")
+        if time.monotonic() - t0 > LOADED_BOUND_S:
+            fail(f"an oversized Content-Length was refused after {time.monotonic() - t0:.1f} s, not at once")
+        chunk = b"%x\r\n" % 65536 + b"a" * 65536 + b"\r\n"
+        s = connect(c.port)
+        s.sendall(f"POST /api/session/stop HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\nTransfer-Encoding: chunked\r\n\r\n"
+                  .encode() + chunk)
+        r = read_response(s, 5)
+        s.close()
+        expect("a chunked body without the token", r, 403, "X-HapticLab-Token")
+        s = connect(c.port)
+        s.sendall(f"POST /api/session/note HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\nX-HapticLab-Token: {c.token}\r\n"
+                  "Transfer-Encoding: chunked\r\n\r\n".encode() + (b"%x\r\n" % 9000) + b"a" * 9000 + b"\r\n"
+                  + (b"%x\r\n" % 9000))
+        r = read_response(s, 5)
+        s.close()
+        expect("a chunked body past 16 kB", r, 413, "18000 bytes")
+        # curl's "Expect: 100-continue" (a body over 1 kB) is answered at once.
+        s = connect(c.port)
+        body = json.dumps({"text": "x" * 2000}).encode()
+        s.sendall(f"POST /api/session/note HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\nX-HapticLab-Token: {c.token}\r\n"
+                  f"Expect: 100-continue\r\nContent-Length: {len(body)}\r\n\r\n".encode())
+        s.settimeout(0.5)
+        if not s.recv(4096).startswith(b"HTTP/1.1 100 Continue\r\n\r\n"):
+            fail("Expect: 100-continue was not answered")
+        s.sendall(body)
+        expect("the note after 100 Continue", read_response(s, 5), 409, "no session is running")
+        s.close()
+        expect("STOP with no body at all", request(c.port, "POST", "/api/session/stop", token=c.token), 200,
+               "nothing was running")
+        expect("STOP with Content-Length: 0", request(c.port, "POST", "/api/session/stop", token=c.token,
+                                                      raw_body=b"", extra=b"Content-Length: 0\r\n"), 200)
+        chunked_stop = b"2\r\n{}\r\n0\r\n\r\n"
+        expect("STOP with a chunked {}", request(c.port, "POST", "/api/session/stop", token=c.token, raw_body=chunked_stop,
+                                                 extra=b"Transfer-Encoding: chunked\r\n"), 200)
+        for path, body, words in (
+                ("/api/session/pause", {"paused": "yes"}, "paused: a string (\\\"yes\\\"), must be true or false"),
+                ("/api/results/export", {"every": 4294967297}, "every: 4294967297, must be a whole number, 1..1000000"),
+                ("/api/results/export", {"every": 18446744073709551617}, "every:"),
+                ("/api/results/export", {"every": "10"}, "every: a string"),
+                ("/api/results/export", {"gzip": 1}, "gzip: a number (1), must be true or false"),
+                ("/api/session/rest", {"seconds": "120"}, "seconds: a string"),
+                ("/api/session/note", {"text": "ab\u0000cd"}, "NUL character (U+0000) at character 3"),
+                ("/api/session/note", {"text": "\u00e9" * 2001}, "2001 characters (4002 bytes), must be 1..2000"),
+                ("/api/session/abort", {"reason": "x", "trial_id": 1.5}, "trial_id: a number with a fraction"),
+                ("/api/session/start", {"participant": "S1", "step": "no"}, "step: a string")):
+            expect(f"{path} {json.dumps(body)[:60]}", request(c.port, "POST", path, body, token=c.token), 400, words)
+        for path, body in (("/api/session/next", None), ("/api/session/pause", {"paused": True}),
+                           ("/api/session/rest", {"seconds": 10}), ("/api/session/end-training", None),
+                           ("/api/session/note", {"text": "x"}), ("/api/session/abort", {"reason": "x"})):
+            expect(f"{path} with no session", request(c.port, "POST", path, body, token=c.token), 409, "no session")
+
+        # --- every action stored before its 200, in step mode: before the
+        # first trial, during it, between trials, then STOP
+        expect("start in step mode", request(c.port, "POST", "/api/session/start", {"participant": "S1", "step": True},
+                                             token=c.token), 200)
+        wait_for("the wait for Next", lambda: status_of(c, poll).get("waiting_for_next"), 30)
+        before = len(actions(db))
+        for path, body in (("note", {"text": "before the first trial"}), ("pause", {"paused": True}),
+                           ("pause", {"paused": False}), ("end-training", None),
+                           ("note", {"text": "a second note, \u00e9" * 1})):
+            expect(path, request(c.port, "POST", "/api/session/" + path, body, token=c.token), 200)
+        # Each is in the file when its answer came (read right after).
+        got = actions(db)[before:]
+        if [r[3] for r in got] != ["operator_note", "operator_pause", "operator_resume", "operator_end_training",
+                                   "operator_note"] or any(r[0] is None or r[1] is not None for r in got):
+            fail(f"the actions before the first trial, as stored: {got}")
+        # A 1 s rest in step mode goes on by itself (docs/console.md).
+        expect("rest", request(c.port, "POST", "/api/session/rest", {"seconds": 1}, token=c.token), 200)
+        wait_for("the trial after the rest, without Next", lambda: status_of(c, poll).get("phase") == "trial", 20)
+        trial_id = status_of(c, poll)["trial_id"]
+        expect("a note during the trial", request(c.port, "POST", "/api/session/note", {"text": "\u00e9" * 2000},
+                                                  token=c.token), 200)
+        expect("an abort", request(c.port, "POST", "/api/session/abort", {"reason": "test", "trial_id": trial_id},
+                                   token=c.token), 200)
+        wait_for("between trials, waiting for Next", lambda: status_of(c, poll).get("waiting_for_next"), 20)
+        expect("a note between trials", request(c.port, "POST", "/api/session/note", {"text": "between"},
+                                                token=c.token), 200)
+        stopped = expect("STOP between trials", request(c.port, "POST", "/api/session/stop", token=c.token), 200)
+        if "between trials" not in stopped["stopped"]:
+            fail(f"STOP's answer does not say what it stopped: {stopped}")
+        got = actions(db)[before + 5:]
+        kinds = [(r[3], r[1] == trial_id, r[4][:12]) for r in got]
+        if kinds != [("operator_rest", False, "1 s"), ("operator_resume", False, "rest over"),
+                     ("operator_note", True, "\u00e9" * 12), ("operator_abort", True, "test"),
+                     ("operator_note", False, "between"), ("operator_stop", False, "session S1, ")] \
+                or got[2][2] is None or len(got[2][4]) != 2000:
+            fail(f"the actions of the step session, as stored: {kinds}")
+        wait_for("the session's end", lambda: not status_of(c, poll).get("running"), 20)
+        poll.close()
+
+        # --- kill -9: a note and a pause during a trial are in the file
+        expect("start", request(c.port, "POST", "/api/session/start", {"participant": "S1"}, token=c.token), 200)
+        wait_for("a running trial", lambda: status_of(c).get("phase") == "trial", 30)
+        running = status_of(c)["trial_id"]
+        expect("note", request(c.port, "POST", "/api/session/note", {"text": "before the kill"}, token=c.token), 200)
+        expect("pause", request(c.port, "POST", "/api/session/pause", {"paused": True}, token=c.token), 200)
+        c.proc.send_signal(signal.SIGKILL)
+        c.proc.wait()
+        last = actions(db)[-2:]
+        if [(r[1], r[3], r[4]) for r in last] != [(running, "operator_note", "before the kill"),
+                                                    (running, "operator_pause", "")]:
+            fail(f"after kill -9 the running trial's note and pause are not in the database: {last}")
+        check = subprocess.run([a.cli, "study", "check", "--db", db], capture_output=True, text=True)
+        if check.returncode != 0:
+            fail(f"study check after the console's kill: {check.stdout}{check.stderr}")
+        out = os.path.join(a.work, "export")
+        subprocess.run([a.cli, "export", "--db", db, "--format", "csv", "--one-file", "--out", out], check=True, capture_output=True)
+        exported = open(os.path.join(out, "operator_actions.csv")).read()
+        if "before the kill" not in exported or "operator_stop" not in exported:
+            fail(f"the export's operator_actions.csv: {exported[:500]}")
+    finally:
+        for c in consoles:
+            c.kill()
+    print("console server: all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
