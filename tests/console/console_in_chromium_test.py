@@ -23,8 +23,9 @@ binary and a real study database:
   asks for Next after training, the participant screen shows no stale
   trial number and, after STOP with trials left, STOPPED with the count,
   not DONE; the abort reason is cleared after an abort; a 390 px wide page
-  has a viewport and a large STOP; a loop watchdog trip shows as the
-  trial's fault; a re-created database gets no old report.
+  has a viewport and a large STOP; a device read that hangs past the loop
+  watchdog shows as the trial's fault; a re-created database gets no old
+  report.
 
 Screenshots of each page go to WORK_DIR/shots (docs/console.md shows them).
 Exit 77 (ctest: skipped) when Chromium or Selenium is missing.
@@ -421,22 +422,16 @@ def main():
             driver.get(c.operator_url)
             wait_for("a tab's live stream", lambda: driver.execute_script("return window.hapticlab.liveMessages") > 3, 20)
         driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
-        for attempt in range(3):
-            # On a busy machine the loop's 20 ms watchdog may end the
-            # session before STOP (issue 33: the runner is to end only the
-            # trial); then it is started again, and STOP tried again.
-            if status().get("running"):
-                click("stop")
-                wait_for("STOP answered in the fourth tab",
-                         lambda: "STOPPED (session S1" in driver.find_element(By.ID, "stop-state").text, 5)
-                wait_for("the session's end after STOP", lambda: (s := status()).get("result") and not s["running"], 20)
-                if status()["result"]["stopped_by_operator"]:
-                    break
-            if attempt == 2:
-                fail(f"three sessions ended by a fault before STOP: {status()}")
-            Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
-            click("start")
-            wait_for("a running trial", lambda: status().get("phase") == "trial", 30)
+        # A loop watchdog trip on a busy machine ends only its trial (the
+        # session goes on), so the session is still running here.
+        if not status().get("running"):
+            fail(f"the session ended before STOP: {status()}")
+        click("stop")
+        wait_for("STOP answered in the fourth tab",
+                 lambda: "STOPPED (session S1" in driver.find_element(By.ID, "stop-state").text, 5)
+        wait_for("the session's end after STOP", lambda: (s := status()).get("result") and not s["running"], 20)
+        if not status()["result"]["stopped_by_operator"]:
+            fail(f"the session was not ended by STOP: {status()}")
         for handle in driver.window_handles:
             if handle != first_tab:
                 driver.switch_to.window(handle)
@@ -477,7 +472,8 @@ def main():
         if not status()["result"]["stopped_by_operator"]:
             fail(f"STOP did not end the session as the operator's stop: {status()}")
         rows = trials(db)
-        aborted = [r for r in rows if r[2] == "aborted" and not r[3].startswith("watchdog")]  # see the four tabs
+        # A loop watchdog trip on a busy machine aborts (and re-queues) a trial too.
+        aborted = [r for r in rows if r[2] == "aborted" and not r[3].startswith("watchdog")]
         if len(aborted) != 3 or aborted[0][3] != "operator abort: participant sneezed":
             fail(f"expected the typed abort, the rest test's abort and the STOP as the three aborted trials: {rows}")
         for trial_id, position, _, reason in aborted:
@@ -556,8 +552,8 @@ def main():
         c.close()
         consoles.pop()
 
-        # --- 7. a loop watchdog trip (the device's read hangs 100 ms, past
-        # the 20 ms watchdog) shows as the fault of its trial, not as a pause
+        # --- 7. a device read that hangs 100 ms, past the 20 ms watchdog,
+        # shows as the fault of its trial, not as a pause
         if fake_plugin:
             db = os.path.join(work, "watchdog.db")
             subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
@@ -570,12 +566,12 @@ def main():
             Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
             click("start")
             fault = wait_for("the watchdog's trip in the status", lambda: status().get("last_fault"), 30)
-            if not fault.startswith("watchdog"):
-                fail(f"the trial's fault is not the watchdog's: {fault}")
+            if not fault.startswith("device read hung for "):
+                fail(f"the trial's fault is not the hung read: {fault}")
             wait_for("the fault on the page", lambda: "FAULT in trial" in driver.find_element(By.ID, "status").text, 10)
             shown = driver.find_element(By.ID, "status").text
-            if "watchdog" not in shown or "paused" in shown:
-                fail(f"the page shows the watchdog's trip as: {shown}")
+            if "device read hung" not in shown or "paused" in shown:
+                fail(f"the page shows the hung read as: {shown}")
             driver.save_screenshot(os.path.join(shots, "console_fault.png"))
             c.post("/api/session/stop", token=c.token)
             c.close()
