@@ -13,6 +13,7 @@
 
 #include "core/device/device_factory.h"
 #include "core/device/hand_attachment.h"
+#include "core/device/isolated_plugin_device.h"
 #include "core/device/plugin_device.h"
 #include "core/loop/clock.h"
 #include "core/sim/participant.h"
@@ -50,6 +51,9 @@ struct CheckResult {
   std::array<std::uint64_t, kNumDeviceStatuses> write_faults{};
   std::uint64_t outside_rating = 0;  // ok readings outside [min_position, max_position]
   std::uint64_t over_velocity = 0;   // ok readings implying a speed above max_velocity
+  // An isolated plugin's process crashed or hung: the check ends there
+  // ("device_crashed: SIGSEGV in read"). Empty otherwise.
+  std::string process_fault;
 
   std::uint64_t faults() const {
     std::uint64_t n = outside_rating + over_velocity;
@@ -105,10 +109,17 @@ CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& 
       ++r.read_faults[static_cast<std::size_t>(status)];
       have_previous = false;
     }
-    const DeviceStatus written = device.write(zero);
-    if (written != DeviceStatus::kOk) ++r.write_faults[static_cast<std::size_t>(written)];
+    const DeviceStatus written = status == DeviceStatus::kDeviceCrashed || status == DeviceStatus::kDeviceHung
+                                     ? status  // nothing more is sent to a dead process
+                                     : device.write(zero);
+    if (written != DeviceStatus::kOk && written != status)
+      ++r.write_faults[static_cast<std::size_t>(written)];
     previous_s = now_s;
     ++r.updates;
+    if (written == DeviceStatus::kDeviceCrashed || written == DeviceStatus::kDeviceHung) {
+      r.process_fault = device.fault_detail();
+      break;
+    }
   }
   r.elapsed_s = previous_s - first_s;
   std::sort(r.dt_s.begin(), r.dt_s.end());
@@ -161,6 +172,8 @@ void print_text(const DeviceSpec& spec, const Device& device, const DeviceRating
                     position_unit(j), s.max - s.min);
     }
   std::printf("faults: %s\n", fault_list(r).c_str());
+  if (!r.process_fault.empty()) std::printf("stopped after %llu updates: %s\n",
+                                            static_cast<unsigned long long>(r.updates), r.process_fault.c_str());
 }
 
 void print_json(const DeviceSpec& spec, const Device& device, const DeviceRatings& ratings, const CheckResult& r,
@@ -205,7 +218,8 @@ void print_json(const DeviceSpec& spec, const Device& device, const DeviceRating
         {"write", write_faults},
         {"outside_rating", r.outside_rating},
         {"over_velocity", r.over_velocity},
-        {"total", r.faults()}}}};
+        {"total", r.faults()}}},
+      {"process_fault", r.process_fault.empty() ? nlohmann::json() : nlohmann::json(r.process_fault)}};
   std::printf("%s\n", j.dump(2).c_str());
 }
 
@@ -218,10 +232,13 @@ int run_check(const CheckOptions& opt) {
   const std::unique_ptr<Device> device = open_device(spec);
 
   if (const DeviceStatus status = device->configure(config); status != DeviceStatus::kOk) {
-    const auto* plugin = dynamic_cast<const PluginDevice*>(device.get());
+    std::string plugin_error;
+    if (const auto* plugin = dynamic_cast<const PluginDevice*>(device.get())) plugin_error = plugin->configure_error();
+    if (const auto* plugin = dynamic_cast<const IsolatedPluginDevice*>(device.get()))
+      plugin_error = plugin->configure_error();
     std::fprintf(stderr, "hapticlab device check: %s\n",
-                 plugin != nullptr && !plugin->configure_error().empty()
-                     ? plugin->configure_error().c_str()
+                 !plugin_error.empty()
+                     ? plugin_error.c_str()
                      : ("the " + spec.describe() + " device refused its configuration (" + to_string(status) +
                         ") at " + std::to_string(opt.rate_Hz) + " Hz")
                            .c_str());
@@ -250,6 +267,12 @@ int run_check(const CheckOptions& opt) {
 
   if (opt.json) print_json(spec, *device, ratings, r, opt);
   else print_text(spec, *device, ratings, r, opt);
+  if (!r.process_fault.empty()) {
+    std::fprintf(stderr, "hapticlab device check: %s after %llu updates; the check stopped there (it "
+                         "commanded zero force throughout)\n",
+                 r.process_fault.c_str(), static_cast<unsigned long long>(r.updates));
+    return kExitDeviceFault;
+  }
   if (r.faults() > 0) {
     std::fprintf(stderr, "hapticlab device check: %llu faults in %llu updates (%s); fix them before running a "
                          "session on this device\n",

@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "core/device/isolated_plugin_device.h"
 #include "core/device/plugin_device.h"
 #include "core/device/sim_device.h"
 #include "core/device/udp_device.h"
@@ -46,7 +47,9 @@ std::unique_ptr<Device> open_device(const DeviceSpec& spec) {
       reject_options(spec);
       return std::make_unique<SimDevice>(sim_backend_params());
     }
-    case DeviceSpec::Kind::kPlugin: return std::make_unique<PluginDevice>(spec.path, spec.options);
+    case DeviceSpec::Kind::kPlugin:
+      if (!spec.isolated()) return std::make_unique<PluginDevice>(spec.path, spec.options);
+      return std::make_unique<IsolatedPluginDevice>(plugin_host_executable(), spec.path, spec.options);
     case DeviceSpec::Kind::kUdp: return open_udp(spec);
   }
   throw std::runtime_error("device: " + spec.describe() + " cannot be opened by this build");

@@ -84,6 +84,10 @@ typedef int32_t hl_device_status;
 #define HL_DEVICE_END_OF_DATA 8        /* a recording is exhausted (replay devices) */
 #define HL_DEVICE_NOT_CALIBRATED 9     /* activate(): not calibrated or homed; must not be driven */
 #define HL_DEVICE_TIMEOUT 10           /* read(): no answer within the device's timeout */
+/* HapticLab's own, for a plugin run isolated (see above); a plugin never
+ * returns them (one that does gets the call's failure status instead). */
+#define HL_DEVICE_CRASHED 11 /* the plugin's process died during the call */
+#define HL_DEVICE_HUNG 12    /* the call did not return in time; the plugin's process was killed */
 
 /* The plugin's own device object; HapticLab only passes the pointer back. */
 typedef struct hl_device hl_device;
