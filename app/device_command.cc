@@ -293,7 +293,8 @@ void add_device_check_command(CLI::App& device) {
       "name, ratings, the rate achieved, dt jitter, the joint ranges seen and the faults. Run this first on a "
       "new device. Exit status 0 if it worked throughout, 3 if it refused to start or had a fault.");
   cmd->add_option("--device", opt->device,
-                  "Device: sim, plugin:PATH.so (docs/devices.md), udp:[HOST:]PORT (docs/udp_bridge.md)")
+                  "Device: sim, plugin:PATH.so (docs/devices.md), plugin-isolated:PATH.so (in a process of its "
+                  "own: a crash or hang is reported, exit status 3), udp:[HOST:]PORT (docs/udp_bridge.md)")
       ->required();
   cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
   cmd->add_option("--seconds", opt->seconds, "How long to read [s], 0.05..3600")

@@ -37,7 +37,8 @@ TEST(DeviceSpec, ParsesEveryBackend) {
 }
 
 TEST(DeviceSpec, RefusesMalformedSpecsNamingTheText) {
-  for (const char* bad : {"lsw", "", "plugin:", "plugin-isolated:", "plugin-inprocess:", "udp:", "udp:0", "udp:65536", "udp:host:", "udp::5000", "udp:12ab"}) {
+  for (const char* bad : {"lsw", "", "plugin:", "plugin-isolated:", "plugin-inprocess:", "udp:", "udp:0", "udp:65536",
+                          "udp:host:", "udp::5000", "udp:12ab"}) {
     try {
       parse_device_spec(bad);
       ADD_FAILURE() << "accepted '" << bad << "'";
