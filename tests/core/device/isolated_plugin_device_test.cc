@@ -52,6 +52,19 @@ double seconds_since(Steady::time_point start) {
 // Whether a process of that id still exists (reaped ones do not).
 bool process_exists(pid_t pid) { return ::kill(pid, 0) == 0 || errno != ESRCH; }
 
+// Whether a process has ended and waits to be reaped (a zombie), within
+// `patience_s`: the kernel takes a moment to finish a killed process.
+bool ended_within(pid_t pid, double patience_s) {
+  const Steady::time_point start = Steady::now();
+  do {
+    const std::string stat = testing::slurp("/proc/" + std::to_string(pid) + "/stat");
+    const std::size_t paren = stat.rfind(')');
+    if (paren == std::string::npos || (paren + 2 < stat.size() && stat[paren + 2] == 'Z')) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  } while (seconds_since(start) < patience_s);
+  return false;
+}
+
 // A fake plugin, configured and active on `clock`.
 std::unique_ptr<IsolatedPluginDevice> active_fake(const std::map<std::string, std::string>& options, Clock& clock,
                                                   const IsolatedPluginDevice::Bounds& bounds = {}) {
@@ -161,6 +174,7 @@ TEST(IsolatedPluginDeviceTest, AHungReadIsCutOffAtItsBoundAndTheHostKilled) {
   EXPECT_GE(waited_s, 0.2);
   EXPECT_LT(waited_s, 1.0);
   EXPECT_EQ(device->fault_detail(), "device read hung for 200 ms");
+  EXPECT_TRUE(ended_within(host, 0.5)) << "the hung host was not killed";
   EXPECT_EQ(device->write(DeviceCommand{}), DeviceStatus::kDeviceHung);
   device.reset();
   EXPECT_FALSE(process_exists(host));
