@@ -65,9 +65,9 @@ void put_stage(void* context, const char* stage) {
   std::snprintf(out, sizeof PluginChannel::stage, "%s", stage);
 }
 
-// Passes each halt the parent asks for to the plugin, until the quit bit.
-void serve_halts(PluginChannel& ch, PluginDevice& device) {
-  std::uint32_t seen = word(ch.halt).load();
+// Passes each halt the parent asks for after `seen` to the plugin, until
+// the quit bit.
+void serve_halts(PluginChannel& ch, PluginDevice& device, std::uint32_t seen) {
   for (;;) {
     const std::uint32_t now = word(ch.halt).load();
     if ((now & kPluginHaltQuitBit) != 0) {
@@ -226,7 +226,10 @@ class Host {
       device_ = std::make_unique<PluginDevice>(path, options, &put_stage, ch_.stage);
       call.status = kPluginCreated;
       call.result = device_->hand_attachment() != nullptr ? 1 : 0;
-      halts_ = std::thread([this] { serve_halts(ch_, *device_); });
+      // Every halt from the answer on counts, also one that comes before
+      // the thread gets to run.
+      const std::uint32_t before = word(ch_.halt).load();
+      halts_ = std::thread([this, before] { serve_halts(ch_, *device_, before); });
     } catch (const std::invalid_argument& e) {
       call.status = kPluginRejectedOptions;
       put_text(call, e.what());
