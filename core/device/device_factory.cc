@@ -64,8 +64,32 @@ SimDeviceParams sim_backend_params() {
   return params;
 }
 
+namespace {
+
+// The probe of an isolated plugin runs in its host, not in a fork of this
+// process (whose other threads, the console's say, may hold a lock the
+// child would inherit), and says what the fork's probe says.
+void probe_isolated_plugin(const DeviceSpec& spec, const DeviceConfig& config) {
+  const std::string nothing_started = "; nothing was started";
+  try {
+    IsolatedPluginDevice device(plugin_host_executable(), spec.path, spec.options);
+    if (device.configure(config) == DeviceStatus::kOk) return;
+    const std::string end = device.process_end();
+    throw std::runtime_error(end.empty() ? device.configure_error()
+                                         : "plugin " + spec.path + " " + end + nothing_started);
+  } catch (const PluginProcessError& e) {
+    throw std::runtime_error(e.what() + nothing_started);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(e.what());
+  }
+}
+
+}  // namespace
+
 void probe_device(const DeviceSpec& spec, const DeviceConfig& config) {
-  if (spec.kind == DeviceSpec::Kind::kPlugin) probe_plugin(spec.path, spec.options, config);
+  if (spec.kind != DeviceSpec::Kind::kPlugin) return;
+  if (spec.isolated()) probe_isolated_plugin(spec, config);
+  else probe_plugin(spec.path, spec.options, config);
 }
 
 }  // namespace hapticlab

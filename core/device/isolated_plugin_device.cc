@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -89,20 +90,22 @@ IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, c
     ::close(memfd_);
     memfd_ = moved;
   }
-  if (memfd_ < 0) fail_create(std::string("memfd_create: ") + std::strerror(errno));
-  if (::ftruncate(memfd_, sizeof(PluginChannel)) != 0) fail_create(std::string("ftruncate: ") + std::strerror(errno));
+  if (memfd_ < 0) fail_create(std::string("could not be isolated (memfd_create: ") + std::strerror(errno) + ")");
+  if (::ftruncate(memfd_, sizeof(PluginChannel)) != 0)
+    fail_create(std::string("could not be isolated (ftruncate: ") + std::strerror(errno) + ")");
   void* map = ::mmap(nullptr, sizeof(PluginChannel), PROT_READ | PROT_WRITE, MAP_SHARED, memfd_, 0);
-  if (map == MAP_FAILED) fail_create(std::string("mmap: ") + std::strerror(errno));
+  if (map == MAP_FAILED) fail_create(std::string("could not be isolated (mmap: ") + std::strerror(errno) + ")");
   channel_ = static_cast<PluginChannel*>(map);
   channel_->magic = kPluginChannelMagic;
   channel_->size = sizeof(PluginChannel);
 
   // The host: exec'd, not forked from this process (see the header).
   if (host_executable.empty())
-    fail_create("no host executable to run it in (only the hapticlab command has one; plugin-inprocess:PATH runs "
-                "the plugin in this process)");
+    fail_create("could not be isolated: no host executable to run it in (only the hapticlab command has one; "
+                "plugin-inprocess:PATH runs the plugin in this process)");
   const std::string fd_text = std::to_string(kPluginHostChannelFd), parent_text = std::to_string(::getpid());
-  const char* argv[] = {host_executable.c_str(), "device", "plugin-host", "--channel-fd", fd_text.c_str(),
+  // argv[0] "hapticlab": `ps` shows what it is, not /proc/self/exe.
+  const char* argv[] = {"hapticlab", "device", "plugin-host", "--channel-fd", fd_text.c_str(),
                         "--parent-pid", parent_text.c_str(), nullptr};
   posix_spawn_file_actions_t files;
   posix_spawnattr_t attr;
@@ -129,7 +132,8 @@ IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, c
   ::posix_spawnattr_destroy(&attr);
   if (spawned != 0) {
     pid_ = 0;
-    fail_create("cannot start its host " + host_executable + ": " + std::strerror(spawned));
+    fail_create("could not be isolated: its host " + host_executable + " did not start (" + std::strerror(spawned) +
+                ")");
   }
 
   // Load and create in the host.
@@ -138,14 +142,11 @@ IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, c
   c.text_bytes = static_cast<std::uint32_t>(request.size());
   c.instrument = static_cast<std::int32_t>(options.size());
   if (call(PluginCallOp::kCreate, bounds_.control_s) != DeviceStatus::kOk) {
+    // Named by the loading step the host had reached.
     char stage[sizeof channel_->stage];
     std::memcpy(stage, channel_->stage, sizeof stage);
     stage[sizeof stage - 1] = '\0';
-    const std::string where = stage[0] != '\0' ? stage : "load";
-    if (fault_.kind == FaultKind::kHung)
-      fail_create("did not return from " + where + " within " + format_ms(fault_.waited_ms) + " ms");
-    if (fault_.kind == FaultKind::kSignal) fail_create("crashed (" + signal_name(fault_.code) + ") in " + where);
-    fail_create("ended its process (exit status " + std::to_string(fault_.code) + ") in " + where);
+    fail_create<PluginProcessError>(process_end(stage[0] != '\0' ? stage : "load"));
   }
   const std::int32_t created = c.status;
   if (created != kPluginCreated) {
@@ -164,12 +165,29 @@ IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, c
   }
 }
 
+template <typename E>
 void IsolatedPluginDevice::fail_create(const std::string& what) {
   if (pid_ > 0) reap(0.0);
   if (channel_ != nullptr) ::munmap(channel_, sizeof(PluginChannel));
   if (memfd_ >= 0) ::close(memfd_);
-  throw std::runtime_error("plugin " + path_ + " " + what);
+  throw E("plugin " + path_ + " " + what);
 }
+
+std::string IsolatedPluginDevice::process_end(const std::string& where) const {
+  switch (fault_.kind) {
+    case FaultKind::kNone: return "";
+    case FaultKind::kHung: {
+      std::ostringstream bound;
+      bound << fault_.bound_s;
+      return "did not return from " + where + " within " + bound.str() + " s";
+    }
+    case FaultKind::kSignal: return "crashed (" + signal_name(fault_.code) + ") in " + where;
+    case FaultKind::kExit: return "ended the process (exit status " + std::to_string(fault_.code) + ") in " + where;
+  }
+  return "";
+}
+
+std::string IsolatedPluginDevice::process_end() const { return process_end(to_string(fault_.op)); }
 
 IsolatedPluginDevice::~IsolatedPluginDevice() {
   // The loop's clock may be gone already; nothing after the loop needs it.
@@ -223,7 +241,7 @@ bool IsolatedPluginDevice::child_ended(PluginCallOp op, std::uint32_t seq) const
   return true;
 }
 
-void IsolatedPluginDevice::kill_hung(PluginCallOp op, double waited_ms) const noexcept {
+void IsolatedPluginDevice::kill_hung(PluginCallOp op, double waited_ms, double bound_s) const noexcept {
   // Force off first, as the watchdog would: the host's halt thread still
   // runs while its main thread hangs in the plugin.
   PluginChannel& ch = *channel_;
@@ -234,7 +252,7 @@ void IsolatedPluginDevice::kill_hung(PluginCallOp op, double waited_ms) const no
   while (static_cast<std::int32_t>(word(ch.halts_done).load() - asked) < 0 && Steady::now() < grace_until)
     cpu_relax();
   ::kill(pid_, SIGKILL);
-  fault_ = Fault{FaultKind::kHung, op, 0, true, waited_ms};
+  fault_ = Fault{FaultKind::kHung, op, 0, true, waited_ms, bound_s};
   dead_ = true;
 }
 
@@ -276,7 +294,7 @@ DeviceStatus IsolatedPluginDevice::call(PluginCallOp op, double bound_s) const n
     if (child_ended(op, seq)) return fault_status();
     const Steady::time_point after = Steady::now();
     if (after >= deadline) {
-      kill_hung(op, std::chrono::duration<double, std::milli>(after - start).count());
+      kill_hung(op, std::chrono::duration<double, std::milli>(after - start).count(), bound_s);
       return fault_status();
     }
   }

@@ -36,6 +36,7 @@
 #include <chrono>
 #include <cstdint>
 #include <map>
+#include <stdexcept>
 #include <string>
 
 #include "core/device/device.h"
@@ -45,6 +46,14 @@
 namespace hapticlab {
 
 class Clock;
+
+// The constructor's error when the host process crashed, exited or hung
+// while loading or creating the plugin ("plugin PATH crashed (SIGSEGV) in
+// create"), as opposed to a refusal by the loader or the plugin.
+class PluginProcessError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 class IsolatedPluginDevice final : public Device, public HandAttachment {
  public:
@@ -101,6 +110,12 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   DeviceJoints hand_force(int instrument) const noexcept override;
   DeviceJoints motor_force(int instrument) const noexcept override;
 
+  // How the host process ended, in the words of the probe before a session
+  // ("crashed (SIGSEGV) in configure", "ended the process (exit status 7)
+  // in configure", "did not return from configure within 10 s"); "" while
+  // it is well.
+  std::string process_end() const;
+
   // Why the last configure() failed, for the operator ("" after a success).
   const std::string& configure_error() const noexcept { return configure_error_; }
   const std::string& path() const noexcept { return path_; }
@@ -115,6 +130,7 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
     int code = 0;            // the signal or the exit status
     bool in_call = true;     // the child had begun the call
     double waited_ms = 0.0;  // kHung: how long the call was waited for
+    double bound_s = 0.0;    // kHung: the call's bound
   };
 
   // Sends the call in channel_->call (its inputs filled in) and waits for
@@ -124,12 +140,15 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   DeviceStatus call(PluginCallOp op, double bound_s) const noexcept;
   // True, with fault_ filled in, if the child has ended (not reaped).
   bool child_ended(PluginCallOp op, std::uint32_t seq) const noexcept;
-  void kill_hung(PluginCallOp op, double waited_ms) const noexcept;
+  void kill_hung(PluginCallOp op, double waited_ms, double bound_s) const noexcept;
   DeviceStatus fault_status() const noexcept;
+  std::string process_end(const std::string& where) const;
   double loop_bound_s() const noexcept;
   // Control thread: waits for the child to end (killing it after
   // `patience_s`) and reaps it.
   void reap(double patience_s) noexcept;
+  // Cleans up and throws E("plugin PATH " + what).
+  template <typename E = std::runtime_error>
   [[noreturn]] void fail_create(const std::string& what);
 
   std::string path_;

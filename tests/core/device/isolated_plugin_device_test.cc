@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -219,8 +220,29 @@ TEST(IsolatedPluginDeviceTest, TheLoadersRefusalsComeBackWithTheirTextAndType) {
   EXPECT_EQ(crashing.configure({}), DeviceStatus::kDeviceCrashed);
   EXPECT_EQ(crashing.configure_error(), "plugin " + kFake + ": device_crashed: SIGSEGV in configure");
   // A host that is not one: it exits before it answers.
-  EXPECT_EQ(message_of<std::runtime_error>([] { IsolatedPluginDevice("/bin/false", kSimPlugin, {}); }),
-            "plugin " + kSimPlugin + " ended its process (exit status 1) in load");
+  EXPECT_EQ(message_of<PluginProcessError>([] { IsolatedPluginDevice("/bin/false", kSimPlugin, {}); }),
+            "plugin " + kSimPlugin + " ended the process (exit status 1) in load");
+}
+
+// Before a session, an isolated plugin is probed in its host (not in a fork
+// of the session's process), with the words of the in-process probe.
+TEST(IsolatedPluginDeviceTest, TheProbeOfAnIsolatedPluginRunsInItsHostAndSpeaksAsTheForkedOne) {
+  set_plugin_host_executable(kBinary);
+  const auto probe = [](const std::string& spec_text, const std::map<std::string, std::string>& options) {
+    DeviceSpec spec = parse_device_spec(spec_text);
+    spec.options = options;
+    return message_of<std::runtime_error>([&] { probe_device(spec, DeviceConfig{}); });
+  };
+  for (const auto& options : std::vector<std::map<std::string, std::string>>{
+           {{"fault", "crash_in_configure"}}, {{"fault", "exit_in_create"}}, {{"fault", "invalid_ratings"}},
+           {{"colour", "red"}}}) {
+    const std::string isolated = probe("plugin-isolated:" + kFake, options);
+    EXPECT_NE(isolated, "") << options.begin()->second;
+    EXPECT_EQ(isolated, probe("plugin-inprocess:" + kFake, options));
+  }
+  EXPECT_EQ(probe("plugin-isolated:" + kFake, {{"fault", "crash_in_configure"}}),
+            "plugin " + kFake + " crashed (SIGSEGV) in configure; nothing was started");
+  EXPECT_EQ(probe("plugin-isolated:" + kSimPlugin, {}), "");
 }
 
 TEST(IsolatedPluginDeviceTest, OpenDeviceRunsAnIsolatedSpecInTheRegisteredHost) {
