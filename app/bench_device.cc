@@ -236,7 +236,8 @@ void add_bench_device_command(CLI::App& bench) {
   auto o = std::make_shared<Opts>();
   CLI::App* cmd = bench.add_subcommand(
       "device", "Device plugin call overhead: read + write per update through the built-in sim and through "
-                "the sim plugin (hapticlab_sim_device.so), ns per update and their difference");
+                "the sim plugin (hapticlab_sim_device.so), ns per update and their difference; with --isolation, "
+                "the sim plugin in-process against isolated in its own process");
   cmd->add_option("--plugin", o->plugin,
                   "The sim plugin to load (default: hapticlab_sim_device.so next to this binary)");
   cmd->add_option("--updates", o->updates, "Updates per round, 1000..100000000")
