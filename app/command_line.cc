@@ -25,6 +25,7 @@
 #include "app/export_command.h"
 #include "app/bench_db.h"
 #include "app/device_command.h"
+#include "app/device_plugin_host.h"
 #include "app/bench_device.h"
 #include "app/device_keygen.h"
 #include "app/device_serve_sim.h"
@@ -83,6 +84,8 @@ int hapticlab_main(int argc, char** argv) {
   add_device_check_command(device);
   add_device_serve_sim_command(device);
   add_device_keygen_command(device);
+  add_device_plugin_host_command(device);
+  register_plugin_host();
 
   CLI::App& bench = command_group(app, "bench", "Measure performance");
   add_bench_engine_command(bench);

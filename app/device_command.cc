@@ -15,6 +15,7 @@
 #include "app/insecure_flag.h"
 #include "core/device/device_factory.h"
 #include "core/device/hand_attachment.h"
+#include "core/device/isolated_plugin_device.h"
 #include "core/device/plugin_device.h"
 #include "core/loop/clock.h"
 #include "core/loop/rate_monitor.h"
@@ -58,6 +59,9 @@ struct CheckResult {
   // The first window (up to 1 s, as in a session) whose achieved rate left
   // the tolerance: a device too slow for the rate asked of it.
   std::optional<RateViolation> rate_violation;
+  // An isolated plugin's process crashed or hung: the check ends there
+  // ("device_crashed: SIGSEGV in read"). Empty otherwise.
+  std::string process_fault;
 
   double achieved_Hz() const { return elapsed_s > 0.0 ? static_cast<double>(updates - 1) / elapsed_s : 0.0; }
   std::uint64_t faults() const {
@@ -122,10 +126,17 @@ CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& 
       ++r.read_faults[static_cast<std::size_t>(status)];
       have_previous = false;
     }
-    const DeviceStatus written = device.write(zero);
-    if (written != DeviceStatus::kOk) ++r.write_faults[static_cast<std::size_t>(written)];
+    const DeviceStatus written = status == DeviceStatus::kDeviceCrashed || status == DeviceStatus::kDeviceHung
+                                     ? status  // nothing more is sent to a dead process
+                                     : device.write(zero);
+    if (written != DeviceStatus::kOk && written != status)
+      ++r.write_faults[static_cast<std::size_t>(written)];
     previous_s = now_s;
     ++r.updates;
+    if (written == DeviceStatus::kDeviceCrashed || written == DeviceStatus::kDeviceHung) {
+      r.process_fault = device.fault_detail();
+      break;
+    }
   }
   r.elapsed_s = previous_s - first_s;
   // The whole run, for one shorter than a window (or the part after the last).
@@ -191,6 +202,8 @@ void print_text(const DeviceSpec& spec, const Device& device, const DeviceRating
                     position_unit(j), s.max - s.min);
     }
   std::printf("faults: %s\n", fault_list(r).c_str());
+  if (!r.process_fault.empty()) std::printf("stopped after %llu updates: %s\n",
+                                            static_cast<unsigned long long>(r.updates), r.process_fault.c_str());
 }
 
 void print_json(const DeviceSpec& spec, const Device& device, const DeviceRatings& ratings, const CheckResult& r,
@@ -241,7 +254,8 @@ void print_json(const DeviceSpec& spec, const Device& device, const DeviceRating
                                                               {"tolerance_fraction",
                                                                r.rate_violation->tolerance_fraction}}
                                             : nlohmann::json()},
-        {"total", r.faults()}}}};
+        {"total", r.faults()}}},
+      {"process_fault", r.process_fault.empty() ? nlohmann::json() : nlohmann::json(r.process_fault)}};
   std::printf("%s\n", j.dump(2).c_str());
 }
 
@@ -255,10 +269,13 @@ int run_check(const CheckOptions& opt) {
   const std::unique_ptr<Device> device = open_device(spec);
 
   if (const DeviceStatus status = device->configure(config); status != DeviceStatus::kOk) {
-    const auto* plugin = dynamic_cast<const PluginDevice*>(device.get());
+    std::string plugin_error;
+    if (const auto* plugin = dynamic_cast<const PluginDevice*>(device.get())) plugin_error = plugin->configure_error();
+    if (const auto* plugin = dynamic_cast<const IsolatedPluginDevice*>(device.get()))
+      plugin_error = plugin->configure_error();
     std::fprintf(stderr, "hapticlab device check: %s\n",
-                 plugin != nullptr && !plugin->configure_error().empty()
-                     ? plugin->configure_error().c_str()
+                 !plugin_error.empty()
+                     ? plugin_error.c_str()
                      : ("the " + spec.describe() + " device refused its configuration (" + to_string(status) +
                         ") at " + std::to_string(opt.rate_Hz) + " Hz")
                            .c_str());
@@ -287,6 +304,12 @@ int run_check(const CheckOptions& opt) {
 
   if (opt.json) print_json(spec, *device, ratings, r, opt);
   else print_text(spec, *device, ratings, r, opt);
+  if (!r.process_fault.empty()) {
+    std::fprintf(stderr, "hapticlab device check: %s after %llu updates; the check stopped there (it "
+                         "commanded zero force throughout)\n",
+                 r.process_fault.c_str(), static_cast<unsigned long long>(r.updates));
+    return kExitDeviceFault;
+  }
   if (r.faults() > 0) {
     std::fprintf(stderr, "hapticlab device check: %llu faults in %llu updates (%s); fix them before running a "
                          "session on this device\n",
@@ -307,7 +330,8 @@ void add_device_check_command(CLI::App& device) {
       "name, ratings, the rate achieved, dt jitter, the joint ranges seen and the faults. Run this first on a "
       "new device. Exit status 0 if it worked throughout, 3 if it refused to start or had a fault.");
   cmd->add_option("--device", opt->device,
-                  "Device: sim, plugin:PATH.so (docs/devices.md), udp:[HOST:]PORT (docs/udp_bridge.md)")
+                  "Device: sim, plugin:PATH.so (docs/devices.md), plugin-isolated:PATH.so (in a process of its "
+                  "own: a crash or hang is reported, exit status 3), udp:[HOST:]PORT (docs/udp_bridge.md)")
       ->required();
   cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
   add_insecure_flag(cmd, opt->insecure);

@@ -203,7 +203,9 @@ void add_session_command(CLI::App& app) {
   cmd->add_option("--participant", opt->participant, "Participant code, as in the protocol")->required();
   cmd->add_option("--device", opt->device,
                   "Device: sim (the simulated workstation and participant), plugin:PATH.so (a device plugin, "
-                  "docs/devices.md), udp:[HOST:]PORT (a driver behind the UDP bridge, docs/udp_bridge.md)")
+                  "docs/devices.md), plugin-isolated:PATH.so (the plugin in a process of its own: a crash or hang "
+                  "ends the trial, not the session), udp:[HOST:]PORT (a driver behind the UDP bridge, "
+                  "docs/udp_bridge.md)")
       ->check([](const std::string& text) {
         try {
           parse_device_spec(text);

@@ -455,6 +455,12 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           // "device_timeout" first, so a query can match the reason's start.
           const std::string detail = rig.device().fault_detail();
           outcome.abort_reason = std::string(to_string(DeviceStatus::kTimeout)) + (detail.empty() ? "" : ": " + detail);
+        } else if (const std::string detail = rig.device().fault_detail();
+                   !detail.empty() && (loop.device_status() == DeviceStatus::kDeviceCrashed ||
+                                       loop.device_status() == DeviceStatus::kDeviceHung)) {
+          // An isolated plugin's process: the device names it in full
+          // ("device_crashed: SIGSEGV in read", "device read hung for 15 ms").
+          outcome.abort_reason = detail;
         } else {
           outcome.abort_reason = std::string("device fault: ") + to_string(loop.device_status());
         }

@@ -17,6 +17,8 @@ const char* to_string(DeviceStatus status) noexcept {
     case DeviceStatus::kEndOfData: return "end_of_data";
     case DeviceStatus::kNotCalibrated: return "not_calibrated";
     case DeviceStatus::kTimeout: return "device_timeout";
+    case DeviceStatus::kDeviceCrashed: return "device_crashed";
+    case DeviceStatus::kDeviceHung: return "device_hung";
   }
   // A value cast from an integer that names no status (e.g. from the C API).
   return "unknown";

@@ -37,8 +37,14 @@ enum class DeviceStatus : std::int32_t {
   kEndOfData,          // replay: the recording is exhausted
   kNotCalibrated,      // activate(): the device is not calibrated or homed; it must not be driven
   kTimeout,            // read(): no answer within the device's timeout (network bridge)
+  // An isolated plugin (IsolatedPluginDevice): the process serving it died
+  // during the call (a crash, an exit), or did not answer within the call's
+  // bound and was killed. fault_detail() gives the reason in full
+  // ("device_crashed: SIGSEGV in read", "device read hung for 20 ms").
+  kDeviceCrashed,
+  kDeviceHung,
 };
-inline constexpr int kNumDeviceStatuses = 11;
+inline constexpr int kNumDeviceStatuses = 13;
 
 // A short, stable name for logs and error messages ("read_failed", ...).
 const char* to_string(DeviceStatus status) noexcept;

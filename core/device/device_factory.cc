@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "core/device/isolated_plugin_device.h"
 #include "core/device/plugin_device.h"
 #include "core/device/sim_device.h"
 #include "core/device/udp_device.h"
@@ -60,7 +61,9 @@ std::unique_ptr<Device> open_device(const DeviceSpec& spec) {
       reject_options(spec);
       return std::make_unique<SimDevice>(sim_backend_params());
     }
-    case DeviceSpec::Kind::kPlugin: return std::make_unique<PluginDevice>(spec.path, spec.options);
+    case DeviceSpec::Kind::kPlugin:
+      if (!spec.isolated()) return std::make_unique<PluginDevice>(spec.path, spec.options);
+      return std::make_unique<IsolatedPluginDevice>(plugin_host_executable(), spec.path, spec.options);
     case DeviceSpec::Kind::kUdp: return std::make_unique<UdpDevice>(udp_options(spec));
   }
   throw std::runtime_error("device: " + spec.describe() + " cannot be opened by this build");
@@ -81,8 +84,32 @@ SimDeviceParams sim_backend_params() {
   return params;
 }
 
+namespace {
+
+// The probe of an isolated plugin runs in its host, not in a fork of this
+// process (whose other threads, the console's say, may hold a lock the
+// child would inherit), and says what the fork's probe says.
+void probe_isolated_plugin(const DeviceSpec& spec, const DeviceConfig& config) {
+  const std::string nothing_started = "; nothing was started";
+  try {
+    IsolatedPluginDevice device(plugin_host_executable(), spec.path, spec.options);
+    if (device.configure(config) == DeviceStatus::kOk) return;
+    const std::string end = device.process_end();
+    throw std::runtime_error(end.empty() ? device.configure_error()
+                                         : "plugin " + spec.path + " " + end + nothing_started);
+  } catch (const PluginProcessError& e) {
+    throw std::runtime_error(e.what() + nothing_started);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(e.what());
+  }
+}
+
+}  // namespace
+
 void probe_device(const DeviceSpec& spec, const DeviceConfig& config) {
-  if (spec.kind == DeviceSpec::Kind::kPlugin) probe_plugin(spec.path, spec.options, config);
+  if (spec.kind != DeviceSpec::Kind::kPlugin) return;
+  if (spec.isolated()) probe_isolated_plugin(spec, config);
+  else probe_plugin(spec.path, spec.options, config);
 }
 
 }  // namespace hapticlab

@@ -25,8 +25,9 @@ void check_device_spec(const DeviceSpec& spec);
 // Before a session or a check: a device plugin is loaded, created and
 // configured (with `config`) in a child process, so one that crashes is
 // reported ("plugin PATH crashed (SIGSEGV) in configure; nothing was
-// started") instead of taking the session down. Other backends: nothing.
-// Throws std::runtime_error with the message.
+// started") instead of taking the session down: a fork of this process for
+// an in-process plugin, its host process for an isolated one. Other
+// backends: nothing. Throws std::runtime_error with the message.
 void probe_device(const DeviceSpec& spec, const DeviceConfig& config);
 
 // The simulated workstation as the "sim" backend (and the sim plugin) runs it.

@@ -2,11 +2,13 @@
 
 #include <charconv>
 #include <stdexcept>
+#include <utility>
 
 namespace hapticlab {
 namespace {
 
-constexpr const char* kAllowed = "allowed: sim, plugin:PATH.so, udp:PORT or udp:HOST:PORT";
+constexpr const char* kAllowed =
+    "allowed: sim, plugin:PATH.so, plugin-isolated:PATH.so, plugin-inprocess:PATH.so, udp:PORT or udp:HOST:PORT";
 
 [[noreturn]] void fail(std::string_view text, const std::string& why) {
   throw std::invalid_argument("device: '" + std::string(text) + "' " + why + " (" + kAllowed + ")");
@@ -25,18 +27,33 @@ int parse_port(std::string_view whole, std::string_view port) {
 std::string DeviceSpec::describe() const {
   switch (kind) {
     case Kind::kSim: return "sim";
-    case Kind::kPlugin: return "plugin:" + path;
+    case Kind::kPlugin:
+      switch (plugin_mode) {
+        case PluginMode::kDefault: return "plugin:" + path;
+        case PluginMode::kInProcess: return "plugin-inprocess:" + path;
+        case PluginMode::kIsolated: return "plugin-isolated:" + path;
+      }
+      break;
     case Kind::kUdp: return "udp:" + host + ":" + std::to_string(port);
   }
   return "unknown";
 }
 
+bool DeviceSpec::isolated() const noexcept {
+  return plugin_mode == PluginMode::kIsolated || (plugin_mode == PluginMode::kDefault && kPluginIsolatedByDefault);
+}
+
 DeviceSpec parse_device_spec(std::string_view text) {
   DeviceSpec spec;
   if (text == "sim") return spec;
-  if (text.starts_with("plugin:")) {
+  using Mode = DeviceSpec::PluginMode;
+  for (const auto& [prefix, mode] : {std::pair{std::string_view("plugin:"), Mode::kDefault},
+                                     std::pair{std::string_view("plugin-inprocess:"), Mode::kInProcess},
+                                     std::pair{std::string_view("plugin-isolated:"), Mode::kIsolated}}) {
+    if (!text.starts_with(prefix)) continue;
     spec.kind = DeviceSpec::Kind::kPlugin;
-    spec.path = std::string(text.substr(7));
+    spec.plugin_mode = mode;
+    spec.path = std::string(text.substr(prefix.size()));
     if (spec.path.empty()) fail(text, "names no plugin file");
     return spec;
   }

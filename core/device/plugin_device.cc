@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/common/signal_name.h"
 #include "core/loop/clock.h"
 
 namespace hapticlab {
@@ -32,7 +33,9 @@ static_assert(HL_DEVICE_WRITE_FAILED == static_cast<int>(DeviceStatus::kWriteFai
 static_assert(HL_DEVICE_END_OF_DATA == static_cast<int>(DeviceStatus::kEndOfData));
 static_assert(HL_DEVICE_NOT_CALIBRATED == static_cast<int>(DeviceStatus::kNotCalibrated));
 static_assert(HL_DEVICE_TIMEOUT == static_cast<int>(DeviceStatus::kTimeout));
-static_assert(kNumDeviceStatuses == HL_DEVICE_TIMEOUT + 1, "a DeviceStatus without an HL_DEVICE_ code");
+static_assert(HL_DEVICE_CRASHED == static_cast<int>(DeviceStatus::kDeviceCrashed));
+static_assert(HL_DEVICE_HUNG == static_cast<int>(DeviceStatus::kDeviceHung));
+static_assert(kNumDeviceStatuses == HL_DEVICE_HUNG + 1, "a DeviceStatus without an HL_DEVICE_ code");
 static_assert(HL_DEVICE_NUM_JOINTS == kNumDeviceJoints && HL_DEVICE_NUM_INSTRUMENTS == 2);
 
 namespace {
@@ -40,8 +43,10 @@ namespace {
 constexpr const char* kJointNames[kNumDeviceJoints] = {"insertion", "pitch", "yaw", "twist", "grip"};
 constexpr const char* kInstrumentNames[2] = {"left", "right"};
 
+// HL_DEVICE_CRASHED and HL_DEVICE_HUNG are HapticLab's word about a plugin's
+// process, not the plugin's own: from a plugin they count as unknown.
 DeviceStatus to_status(hl_device_status status, DeviceStatus unknown) noexcept {
-  if (status < 0 || status >= kNumDeviceStatuses) return unknown;
+  if (status < 0 || status > HL_DEVICE_TIMEOUT) return unknown;
   return static_cast<DeviceStatus>(status);
 }
 
@@ -320,19 +325,6 @@ void report_stage(void* context, const char* stage) {
   }
   write_all(fd, "K");
   ::_exit(0);
-}
-
-std::string signal_name(int sig) {
-  switch (sig) {
-    case SIGSEGV: return "SIGSEGV";
-    case SIGBUS: return "SIGBUS";
-    case SIGFPE: return "SIGFPE";
-    case SIGILL: return "SIGILL";
-    case SIGABRT: return "SIGABRT";
-    case SIGKILL: return "SIGKILL";
-    case SIGTERM: return "SIGTERM";
-    default: return "signal " + std::to_string(sig);
-  }
 }
 
 }  // namespace

@@ -253,8 +253,12 @@ void decode(const std::byte* data, Configure& p) noexcept {
 
 namespace {
 DeviceStatus to_status(std::int32_t v) noexcept {
-  // An unknown code from a newer driver is a failed read, never "ok".
-  return v >= 0 && v < kNumDeviceStatuses ? static_cast<DeviceStatus>(v) : DeviceStatus::kReadFailed;
+  // An unknown code from a newer driver is a failed read, never "ok". The
+  // wire carries the statuses up to kTimeout (docs/udp_bridge.md); the later
+  // ones (device_crashed, device_hung) are HapticLab's own findings about a
+  // plugin's process, which a driver cannot claim.
+  return v >= 0 && v <= static_cast<std::int32_t>(DeviceStatus::kTimeout) ? static_cast<DeviceStatus>(v)
+                                                                          : DeviceStatus::kReadFailed;
 }
 }  // namespace
 

@@ -11,6 +11,10 @@
  *
  * Run `device check` first: it reads for 2 s at the loop rate while
  * commanding zero force and prints the rate, jitter, joint ranges and faults.
+ * While the plugin is new, check it isolated (`--device
+ * plugin-isolated:build-plugin/acme_device.so`): it then runs in a process of
+ * its own, and a crash or a hang in it is reported ("device_crashed: SIGSEGV
+ * in read") instead of ending `hapticlab`.
  * When the ranges match what you move by hand, run a session with
  * `hapticlab session run --device plugin:.../acme_device.so ...`.
  *
@@ -26,6 +30,8 @@
  *  - Report HL_DEVICE_NOT_CALIBRATED from activate() if the encoders are not
  *    homed: HapticLab then refuses to start and tells the operator.
  *  - Clip every force to the peak force you report in ratings().
+ *  - Isolated, the process may be killed (a call that hangs): make the
+ *    device stop its motors when its connection closes, if it can.
  */
 #include <hapticlab/device_plugin.h>
 

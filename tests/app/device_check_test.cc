@@ -162,6 +162,26 @@ TEST(DeviceCheckTest, ACrashInConfigureIsReportedNotSuffered) {
   EXPECT_THAT(out, HasSubstr("plugin " + kFake + " crashed (SIGSEGV) in configure; nothing was started"));
 }
 
+// Isolated, a plugin that crashes or hangs in read() ends the check with
+// the reason and exit status 3 instead of taking `device check` down.
+TEST(DeviceCheckTest, AnIsolatedPluginThatCrashesOrHangsIsReportedNotSuffered) {
+  const std::string check = "device check --seconds 0.2 --device plugin-isolated:" + kFake;
+  const auto [crashed, crash_out] =
+      testing::run_cli(kBinary, check + " --device-option fault=crash_in_read --device-option after=50");
+  EXPECT_EQ(crashed, kExitDeviceFault) << crash_out;
+  EXPECT_THAT(crash_out, HasSubstr("(fake), 0.2 s at 1000 Hz"));
+  EXPECT_THAT(crash_out, HasSubstr("faults: read device_crashed 1\n"));
+  EXPECT_THAT(crash_out, HasSubstr("stopped after 51 updates: device_crashed: SIGSEGV in read\n"));
+  EXPECT_THAT(crash_out, HasSubstr("hapticlab device check: device_crashed: SIGSEGV in read after 51 updates"));
+
+  const auto [hung, hang_out] =
+      testing::run_cli(kBinary, check + " --device-option fault=hang_in_read --device-option after=50");
+  EXPECT_EQ(hung, kExitDeviceFault) << hang_out;
+  EXPECT_THAT(hang_out, HasSubstr("faults: read device_hung 1\n"));
+  EXPECT_THAT(hang_out, ::testing::ContainsRegex("hapticlab device check: device read hung for [0-9]+ ms after 51 "
+                                                 "updates"));
+}
+
 TEST(DeviceCheckTest, WrongAbiMissingEntryAndMissingFileAreRefused) {
   const auto [s1, abi] = testing::run_cli(kBinary, "device check --device plugin:" + kFakeAbi2);
   EXPECT_EQ(s1, 1) << abi;

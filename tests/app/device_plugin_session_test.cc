@@ -1,8 +1,11 @@
 // `session run --device plugin:hapticlab_sim_device.so` through the real
-// binary: the same samples as the built-in sim, and a plugin that crashes
-// stops the session before anything is stored.
+// binary: the same samples as the built-in sim, in-process and isolated; a
+// plugin that crashes while loading stops the session before anything is
+// stored, and an isolated one that crashes or hangs during a trial ends
+// that trial with its reason.
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -19,6 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 
 class DevicePluginSessionTest : public ::testing::Test {
@@ -107,41 +111,131 @@ TEST_F(DevicePluginSessionTest, AReadingThatJumpsStopsTheTrialWhichIsRequeuedWit
   EXPECT_EQ(study.samples(aborted_id, 0).size(), 100u);
 }
 
+// The trials of a study that are not planned any more, in id order.
+std::vector<db::TrialRow> run_trials(db::StudyDb& study) {
+  std::vector<db::TrialRow> trials;
+  for (const auto& t : study.trials())
+    if (t.status != db::TrialStatus::kPlanned) trials.push_back(t);
+  return trials;
+}
+
+// Every stored sample of `b` equals that of `a`, bit for bit; returns how
+// many were compared.
+std::size_t expect_same_trials(db::StudyDb& a, db::StudyDb& b, const std::string& what) {
+  const std::vector<db::TrialRow> trials_a = run_trials(a), trials_b = run_trials(b);
+  EXPECT_EQ(trials_a.size(), 2u) << what;
+  EXPECT_EQ(trials_b.size(), trials_a.size()) << what;
+  if (trials_b.size() != trials_a.size()) return 0;
+  std::size_t compared = 0;
+  for (std::size_t k = 0; k < trials_a.size(); ++k) {
+    EXPECT_EQ(trials_a[k].id, trials_b[k].id) << what;
+    EXPECT_EQ(trials_a[k].status, trials_b[k].status) << what;
+    for (int instrument = 0; instrument < 2; ++instrument) {
+      const auto sa = a.samples(trials_a[k].id, instrument), sb = b.samples(trials_b[k].id, instrument);
+      EXPECT_EQ(sa.size(), sb.size()) << what << " trial " << trials_a[k].id;
+      // Trials of up to 4 s at 1 kHz with a moving participant.
+      EXPECT_GT(sa.size(), 500u) << what;
+      if (sa.size() != sb.size()) return compared;
+      for (std::size_t i = 0; i < sa.size(); ++i) {
+        const std::string where = what + " trial " + std::to_string(trials_a[k].id) + " instrument " +
+                                  std::to_string(instrument) + " sample " + std::to_string(i);
+        expect_same(sa[i], sb[i], where);
+        if (::testing::Test::HasFatalFailure()) return compared;
+      }
+      compared += sa.size();
+    }
+  }
+  return compared;
+}
+
+// The sim plugin in-process and isolated (in its host process, the loop
+// clock's time crossing with every call) against the built-in sim.
 TEST_F(DevicePluginSessionTest, ThePluginSessionLogsTheSameSamplesAsTheBuiltInSim) {
-  const std::string sim_db = create_study("sim.db"), plugin_db = create_study("plugin.db");
+  const std::string sim_db = create_study("sim.db"), plugin_db = create_study("plugin.db"),
+                    isolated_db = create_study("isolated.db");
   const std::string run = " --participant S1 --training-trials 0 --max-trials 2 --max-trial-s 4 --clock virtual";
   const auto [s1, out1] = testing::run_cli(kBinary, "session run --db " + sim_db + run + " --device sim");
   ASSERT_EQ(s1, 0) << out1;
   const auto [s2, out2] = testing::run_cli(kBinary, "session run --db " + plugin_db + run +
-                                                        " --device plugin:" + kSimPlugin +
+                                                        " --device plugin-inprocess:" + kSimPlugin +
                                                         " --device-option max_substep_s=1e-3");
   ASSERT_EQ(s2, 0) << out2;
+  const auto [s3, out3] = testing::run_cli(kBinary, "session run --db " + isolated_db + run +
+                                                        " --device plugin-isolated:" + kSimPlugin +
+                                                        " --device-option max_substep_s=1e-3");
+  ASSERT_EQ(s3, 0) << out3;
 
-  db::StudyDb a = open_read_only(sim_db), b = open_read_only(plugin_db);
-  std::vector<db::TrialRow> trials_a, trials_b;
-  for (const auto& t : a.trials())
-    if (t.status != db::TrialStatus::kPlanned) trials_a.push_back(t);
-  for (const auto& t : b.trials())
-    if (t.status != db::TrialStatus::kPlanned) trials_b.push_back(t);
-  ASSERT_EQ(trials_a.size(), 2u);
-  ASSERT_EQ(trials_b.size(), 2u);
-  std::size_t compared = 0;
-  for (std::size_t k = 0; k < trials_a.size(); ++k) {
-    ASSERT_EQ(trials_a[k].id, trials_b[k].id);
-    EXPECT_EQ(trials_a[k].status, trials_b[k].status);
-    for (int instrument = 0; instrument < 2; ++instrument) {
-      const auto sa = a.samples(trials_a[k].id, instrument), sb = b.samples(trials_b[k].id, instrument);
-      ASSERT_EQ(sa.size(), sb.size()) << "trial " << trials_a[k].id;
-      // Trials of up to 4 s at 1 kHz with a moving participant.
-      ASSERT_GT(sa.size(), 500u);
-      for (std::size_t i = 0; i < sa.size(); ++i)
-        ASSERT_NO_FATAL_FAILURE(expect_same(sa[i], sb[i], "trial " + std::to_string(trials_a[k].id) +
-                                                              " instrument " + std::to_string(instrument) +
-                                                              " sample " + std::to_string(i)));
-      compared += sa.size();
+  db::StudyDb a = open_read_only(sim_db), b = open_read_only(plugin_db), c = open_read_only(isolated_db);
+  EXPECT_GT(expect_same_trials(a, b, "in-process"), 2000u);
+  EXPECT_GT(expect_same_trials(a, c, "isolated"), 2000u);
+}
+
+// An isolated plugin that crashes in read() or write() during a trial: the
+// session process lives on, the trial is aborted with the signal and the
+// call as its reason, its samples up to the crash are kept, it is
+// re-queued, the session ends with exit status 3, and the next session
+// continues cleanly.
+TEST_F(DevicePluginSessionTest, AnIsolatedPluginThatCrashesEndsTheTrialWithItsReasonAndTheNextSessionGoesOn) {
+  for (const std::string call : {"read", "write"}) {
+    const std::string db = create_study("crash_in_" + call + ".db");
+    const std::string run = "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 "
+                            "--clock virtual --device plugin-isolated:";
+    const auto [status, out] =
+        testing::run_cli(kBinary, run + kFake + " --device-option fault=crash_in_" + call);
+    EXPECT_EQ(status, 3) << out;
+    const std::string reason = "device_crashed: SIGSEGV in " + call;
+    EXPECT_THAT(out, HasSubstr("hapticlab session run: " + reason + "; the trial is re-queued")) << out;
+    {
+      db::StudyDb study = open_read_only(db);
+      const std::vector<db::TrialRow> trials = study.trials(1);
+      int aborted = 0;
+      for (const db::TrialRow& t : trials) {
+        if (t.status != db::TrialStatus::kAborted) continue;
+        ++aborted;
+        EXPECT_EQ(t.abort_reason, reason);
+        // The fake's first 200 calls of each kind behave (after=200); the
+        // update whose call crashed is not stored.
+        EXPECT_EQ(study.samples(t.id, 0).size(), 200u) << call;
+        EXPECT_EQ(study.samples(t.id, 1).size(), 200u) << call;
+        int copies = 0;
+        for (const db::TrialRow& u : trials)
+          copies += u.participant_id == t.participant_id && u.status == db::TrialStatus::kPlanned &&
+                    u.position == t.position;
+        EXPECT_EQ(copies, 1) << "re-queued at its place";
+      }
+      EXPECT_EQ(aborted, 1) << call;
     }
+    // The lock was released and the re-queued trial runs next.
+    const auto [again, again_out] = testing::run_cli(kBinary, run + kSimPlugin);
+    EXPECT_EQ(again, 0) << again_out;
+    EXPECT_THAT(again_out, Not(HasSubstr("took over the lock")));
+    db::StudyDb study = open_read_only(db);
+    int complete = 0;
+    for (const db::TrialRow& t : study.trials(1)) complete += t.status == db::TrialStatus::kComplete;
+    EXPECT_EQ(complete, 1) << again_out;
   }
-  EXPECT_GT(compared, 2000u);
+}
+
+// A read that never returns: on the virtual clock the host is killed after
+// 1 s and the trial records how long the read hung.
+TEST_F(DevicePluginSessionTest, AnIsolatedPluginThatHangsInReadIsKilledAndTheTrialSaysHowLong) {
+  const std::string db = create_study("hang.db");
+  const auto start = std::chrono::steady_clock::now();
+  const auto [status, out] = testing::run_cli(
+      kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --clock virtual " +
+                   "--device plugin-isolated:" + kFake + " --device-option fault=hang_in_read");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
+  EXPECT_EQ(status, 3) << out;
+  EXPECT_THAT(out, HasSubstr("hapticlab session run: device read hung for 1000 ms; the trial is re-queued"));
+  db::StudyDb study = open_read_only(db);
+  int aborted = 0;
+  for (const db::TrialRow& t : study.trials(1)) {
+    if (t.status != db::TrialStatus::kAborted) continue;
+    ++aborted;
+    EXPECT_EQ(t.abort_reason, "device read hung for 1000 ms");
+    EXPECT_EQ(study.samples(t.id, 0).size(), 200u);
+  }
+  EXPECT_EQ(aborted, 1);
 }
 
 TEST_F(DevicePluginSessionTest, APluginThatCrashesInConfigureStartsNothing) {

@@ -53,6 +53,36 @@
  * When HapticLab starts a session it first loads the plugin in a child
  * process and calls create, configure, ratings and destroy there, so a
  * plugin that crashes is reported before anything is stored.
+ *
+ * Isolated mode (`--device plugin-isolated:PATH.so`): the plugin may run
+ * in a process of its own that HapticLab starts and supervises (the
+ * `hapticlab` executable, loading the library as above), every call
+ * crossing shared memory. A crash or hang there ends the trial with its
+ * reason ("device_crashed: SIGSEGV in read", "device read hung for 15 ms")
+ * instead of the session. What that means for a plugin:
+ *   - It shares no memory with the session's process: no global state in
+ *     common with HapticLab or with other libraries loaded there (what
+ *     the plugin needs initialized, it initializes itself), and no file
+ *     descriptor of the session's is open in its process. Its stdout and
+ *     stderr are the session's; its stdin is /dev/null.
+ *   - Calls come from the host process's threads, one at a time as above;
+ *     halt() comes on a thread of its own, concurrently with a read or
+ *     write that may be stuck in the bus transfer, and must cut the force
+ *     from there.
+ *   - The clock arrives with each call: now_s(context) returns the loop
+ *     clock's time at which HapticLab made the current call (the same value
+ *     throughout the call), so a simulated device stays deterministic.
+ *     Outside a call it returns the last call's time.
+ *   - A call that does not return within its bound (15 ms for read, write
+ *     and the simulation extension on the wall clock, 1 s on the virtual
+ *     clock, 2 s for deactivate, 10 s for the others) gets halt(), and then
+ *     the process is killed: destroy() is not called, so a device must
+ *     also stop its motors when its process ends (the driver's file
+ *     descriptors close; a hardware watchdog is best).
+ *   - The process dies with the session (SIGKILL when HapticLab ends), and
+ *     each trial starts a new one.
+ * HL_DEVICE_CRASHED and HL_DEVICE_HUNG below are HapticLab's statuses for
+ * such a process, never a plugin's.
  */
 #ifndef HAPTICLAB_DEVICE_PLUGIN_H_
 #define HAPTICLAB_DEVICE_PLUGIN_H_
@@ -84,6 +114,10 @@ typedef int32_t hl_device_status;
 #define HL_DEVICE_END_OF_DATA 8        /* a recording is exhausted (replay devices) */
 #define HL_DEVICE_NOT_CALIBRATED 9     /* activate(): not calibrated or homed; must not be driven */
 #define HL_DEVICE_TIMEOUT 10           /* read(): no answer within the device's timeout */
+/* HapticLab's own, for a plugin run isolated (see above); a plugin never
+ * returns them (one that does gets the call's failure status instead). */
+#define HL_DEVICE_CRASHED 11 /* the plugin's process died during the call */
+#define HL_DEVICE_HUNG 12    /* the call did not return in time; the plugin's process was killed */
 
 /* The plugin's own device object; HapticLab only passes the pointer back. */
 typedef struct hl_device hl_device;

@@ -15,6 +15,17 @@ TEST(DeviceSpec, ParsesEveryBackend) {
   const DeviceSpec plugin = parse_device_spec("plugin:/opt/lab/libmydevice.so");
   EXPECT_EQ(plugin.kind, DeviceSpec::Kind::kPlugin);
   EXPECT_EQ(plugin.path, "/opt/lab/libmydevice.so");
+  EXPECT_EQ(plugin.isolated(), kPluginIsolatedByDefault);
+  EXPECT_EQ(plugin.describe(), "plugin:/opt/lab/libmydevice.so");
+  // Either way on request, and said so wherever the spec is shown.
+  const DeviceSpec isolated = parse_device_spec("plugin-isolated:/opt/lab/libmydevice.so");
+  EXPECT_EQ(isolated.kind, DeviceSpec::Kind::kPlugin);
+  EXPECT_TRUE(isolated.isolated());
+  EXPECT_EQ(isolated.path, "/opt/lab/libmydevice.so");
+  EXPECT_EQ(isolated.describe(), "plugin-isolated:/opt/lab/libmydevice.so");
+  const DeviceSpec in_process = parse_device_spec("plugin-inprocess:/opt/lab/libmydevice.so");
+  EXPECT_FALSE(in_process.isolated());
+  EXPECT_EQ(in_process.describe(), "plugin-inprocess:/opt/lab/libmydevice.so");
   const DeviceSpec udp = parse_device_spec("udp:10.0.0.7:5005");
   EXPECT_EQ(udp.kind, DeviceSpec::Kind::kUdp);
   EXPECT_EQ(udp.host, "10.0.0.7");
@@ -26,7 +37,8 @@ TEST(DeviceSpec, ParsesEveryBackend) {
 }
 
 TEST(DeviceSpec, RefusesMalformedSpecsNamingTheText) {
-  for (const char* bad : {"lsw", "", "plugin:", "udp:", "udp:0", "udp:65536", "udp:host:", "udp::5000", "udp:12ab"}) {
+  for (const char* bad : {"lsw", "", "plugin:", "plugin-isolated:", "plugin-inprocess:", "udp:", "udp:0", "udp:65536",
+                          "udp:host:", "udp::5000", "udp:12ab"}) {
     try {
       parse_device_spec(bad);
       ADD_FAILURE() << "accepted '" << bad << "'";
