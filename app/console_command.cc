@@ -57,7 +57,12 @@ int run(const ConsoleOptions& opt) {
   config.session.max_trial_s = opt.max_trial_s;
   if (opt.training_trials >= 0) config.session.training_trials = opt.training_trials;
   config.session.realtime.enabled = opt.realtime;
-  if (opt.realtime) std::fprintf(stderr, "%s\n", prepare_realtime(config.session.realtime).c_str());
+  if (opt.realtime) {
+    RealtimeResult granted;
+    std::fprintf(stderr, "%s\n", prepare_realtime(config.session.realtime, &granted).c_str());
+    // Under SCHED_FIFO an isolated plugin costs under 20 µs per update: "plugin:" runs isolated then.
+    config.session.device.realtime_loop = granted.scheduled;
+  }
   config.bind_address = opt.bind;
   config.port = opt.port;
   config.participant_port = opt.participant_port;

@@ -40,7 +40,8 @@ std::string DeviceSpec::describe() const {
 }
 
 bool DeviceSpec::isolated() const noexcept {
-  return plugin_mode == PluginMode::kIsolated || (plugin_mode == PluginMode::kDefault && kPluginIsolatedByDefault);
+  return plugin_mode == PluginMode::kIsolated ||
+         (plugin_mode == PluginMode::kDefault && realtime_loop && kIsolationCostsLittleUnderRealtime);
 }
 
 DeviceSpec parse_device_spec(std::string_view text) {

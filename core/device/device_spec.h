@@ -4,9 +4,10 @@
 //
 //   sim                  the simulated workstation, built in
 //   plugin:PATH          a device plugin (a shared library implementing
-//                        hapticlab/device_plugin.h), loaded with dlopen
-//                        into this process (plugin_device.h); the same as
-//   plugin-inprocess:PATH
+//                        hapticlab/device_plugin.h): isolated when the loop
+//                        runs real-time, in-process otherwise (below)
+//   plugin-inprocess:PATH the plugin loaded with dlopen into this process
+//                        (plugin_device.h)
 //   plugin-isolated:PATH the same plugin run in a child process that
 //                        HapticLab supervises (isolated_plugin_device.h):
 //                        a crash or hang of the plugin ends the trial with
@@ -44,21 +45,25 @@ struct DeviceSpec {
   // kUdp only: no key_file is acceptable for a host outside 127.0.0.0/8
   // (the operator said --insecure).
   bool insecure = false;
+  // The haptic loop runs SCHED_FIFO (--realtime, granted): what "plugin:"
+  // means depends on it (kIsolationCostsLittleUnderRealtime).
+  bool realtime_loop = false;
 
   // The spec as the operator wrote it, without options ("udp:127.0.0.1:5000",
   // "plugin-isolated:/opt/lab/acme.so").
   std::string describe() const;
-  // kPlugin: whether it runs in a child process (kDefault: in-process,
-  // kPluginIsolatedByDefault).
+  // kPlugin: whether it runs in a child process (kDefault: when the loop
+  // runs real-time).
   bool isolated() const noexcept;
-
 };
 
-// What "plugin:PATH" means. In-process: on the project's shared 2-core
-// machine the isolated round trip cost 1.3-1.9 ms at p99 under normal
-// scheduling (5.7 µs with SCHED_FIFO), above the 20 µs that would have made
-// isolation the default (docs/devices.md).
-inline constexpr bool kPluginIsolatedByDefault = false;
+// What "plugin:PATH" means: isolation is the default where it costs less
+// than 20 µs at p99 per update, which is when the loop (and with it the
+// plugin's host process) runs SCHED_FIFO: measured 0.3-4.7 µs there, and
+// 150-1200 µs under normal scheduling on the project's shared 2-core
+// machine, where the host process is not on a CPU when the loop calls
+// (BENCHMARKS.md, "Isolated device plugins"; docs/devices.md).
+inline constexpr bool kIsolationCostsLittleUnderRealtime = true;
 
 // Throws std::invalid_argument naming the text and what is allowed.
 DeviceSpec parse_device_spec(std::string_view text);

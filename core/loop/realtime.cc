@@ -42,7 +42,7 @@ std::string lock_process_memory() {
   return std::strerror(errno);
 }
 
-std::string prepare_realtime(const RealtimeOptions& options) {
+std::string prepare_realtime(const RealtimeOptions& options, RealtimeResult* granted) {
   if (options.priority < 1 || options.priority > 99)
     throw std::invalid_argument("realtime-priority: " + std::to_string(options.priority) + " is outside 1..99");
   if (options.cpu < -1 || options.cpu >= cpu_count())
@@ -51,6 +51,7 @@ std::string prepare_realtime(const RealtimeOptions& options) {
   const std::string locked = lock_process_memory();
   RealtimeResult r;
   std::thread([&] { r = apply_realtime_to_this_thread(options); }).join();
+  if (granted != nullptr) *granted = r;
 
   std::string line = "real-time: ";
   if (r.scheduled) {

@@ -45,7 +45,8 @@ std::string lock_process_memory();
 // a short-lived thread, and says in one line what the loop will get
 // ("real-time: SCHED_FIFO priority 80 on CPU 1, memory locked", or what was
 // refused and how to allow it). Throws std::invalid_argument for a priority
-// outside 1..99 or a CPU the machine does not have.
-std::string prepare_realtime(const RealtimeOptions& options);
+// outside 1..99 or a CPU the machine does not have. `granted`, if given,
+// gets what the trial thread got.
+std::string prepare_realtime(const RealtimeOptions& options, RealtimeResult* granted = nullptr);
 
 }  // namespace hapticlab

@@ -1,5 +1,6 @@
 // Device faults a whole session must name (issue 33 §1), through the real
-// binary and the fake device plugin loaded in-process:
+// binary and the fake device plugin loaded in-process (plugin-inprocess:;
+// an isolated one is tested in device_plugin_session_test.cc):
 // - a device whose write() takes 5 ms runs a 1 kHz study at 200 Hz: the
 //   trial ends as rate_violation with the measured rate, re-queued, exit 3,
 //   where it used to run the whole trial at that rate and exit 0; within
@@ -59,7 +60,7 @@ class DeviceFaultSessionTest : public ::testing::Test {
   // lateness watchdog ends the trial for before a rate can be measured.
   std::string session(const std::string& db, const std::string& args, int max_trials = 1) const {
     return "session run --db " + db + " --participant P1 --training-trials 0 --max-trials " +
-           std::to_string(max_trials) + " --device plugin:" + kFake + " " + args;
+           std::to_string(max_trials) + " --device plugin-inprocess:" + kFake + " " + args;
   }
   static std::vector<db::TrialRow> trials_of(const std::string& db) {
     db::OpenOptions open;
@@ -203,6 +204,33 @@ TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsIsAnnouncedAtOnceAndRecorded
   EXPECT_EQ(reasons[0], "device read hung for at least 20 ms (the session ended before it returned)");
   EXPECT_THAT(reasons[1], StartsWith("device read hung for "));
   EXPECT_THAT(reasons[1], HasSubstr(" ms and had not returned when the session gave up on it"));
+}
+
+}  // namespace
+}  // namespace hapticlab
+
+namespace hapticlab {
+namespace {
+
+// "plugin:" runs isolated where isolation costs under 20 µs per update: with
+// a real-time loop (BENCHMARKS.md). Its crash then ends the trial, named,
+// and the session exits 3 instead of dying with the plugin.
+TEST_F(DeviceFaultSessionTest, WithARealtimeLoopPluginMeansIsolatedSoACrashEndsOnlyTheTrial) {
+  const std::string db = create_study();
+  const auto [status, out] = testing::run_cli(
+      kBinary, "session run --db " + db + " --participant P1 --training-trials 0 --max-trials 1 --clock wall "
+                   "--realtime --max-trial-s 3 --device plugin:" + kFake +
+                   " --device-option fault=crash_in_read --device-option after=200");
+  if (out.find("SCHED_FIFO refused") != std::string::npos) GTEST_SKIP() << "no real-time scheduling here: " << out;
+  EXPECT_EQ(status, 3) << out;
+  const std::vector<db::TrialRow> trials = trials_of(db);
+  const db::TrialRow* t = aborted(trials);
+  ASSERT_NE(t, nullptr) << out;
+  EXPECT_EQ(t->abort_reason, "device_crashed: SIGSEGV in read");
+  EXPECT_TRUE(requeued(trials, *t));
+  db::OpenOptions open;
+  open.read_only = true;
+  EXPECT_EQ(db::StudyDb(db, open).sample_count(t->id, 0), 200u);  // every update before the crash
 }
 
 }  // namespace

@@ -15,7 +15,12 @@ TEST(DeviceSpec, ParsesEveryBackend) {
   const DeviceSpec plugin = parse_device_spec("plugin:/opt/lab/libmydevice.so");
   EXPECT_EQ(plugin.kind, DeviceSpec::Kind::kPlugin);
   EXPECT_EQ(plugin.path, "/opt/lab/libmydevice.so");
-  EXPECT_EQ(plugin.isolated(), kPluginIsolatedByDefault);
+  // "plugin:" is isolated where isolation costs under 20 µs at p99: with a
+  // real-time loop.
+  EXPECT_FALSE(plugin.isolated());
+  DeviceSpec realtime = plugin;
+  realtime.realtime_loop = true;
+  EXPECT_TRUE(realtime.isolated());
   EXPECT_EQ(plugin.describe(), "plugin:/opt/lab/libmydevice.so");
   // Either way on request, and said so wherever the spec is shown.
   const DeviceSpec isolated = parse_device_spec("plugin-isolated:/opt/lab/libmydevice.so");
@@ -23,7 +28,9 @@ TEST(DeviceSpec, ParsesEveryBackend) {
   EXPECT_TRUE(isolated.isolated());
   EXPECT_EQ(isolated.path, "/opt/lab/libmydevice.so");
   EXPECT_EQ(isolated.describe(), "plugin-isolated:/opt/lab/libmydevice.so");
-  const DeviceSpec in_process = parse_device_spec("plugin-inprocess:/opt/lab/libmydevice.so");
+  DeviceSpec in_process = parse_device_spec("plugin-inprocess:/opt/lab/libmydevice.so");
+  EXPECT_FALSE(in_process.isolated());
+  in_process.realtime_loop = true;  // what the operator asked for wins
   EXPECT_FALSE(in_process.isolated());
   EXPECT_EQ(in_process.describe(), "plugin-inprocess:/opt/lab/libmydevice.so");
   const DeviceSpec udp = parse_device_spec("udp:10.0.0.7:5005");
