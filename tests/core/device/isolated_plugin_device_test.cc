@@ -25,6 +25,7 @@
 #include "core/loop/clock.h"
 #include "tests/testing/files.h"
 #include "tests/testing/test_paths.h"
+#include "tests/testing/thrown.h"
 
 namespace hapticlab {
 namespace isolated_test {
@@ -36,15 +37,7 @@ using Steady = std::chrono::steady_clock;
 
 const std::string kAbi2 = HAPTICLAB_FAKE_PLUGIN_ABI2_PATH;
 
-template <typename E, typename F>
-std::string message_of(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::thrown;
 
 double seconds_since(Steady::time_point start) {
   return std::chrono::duration<double>(Steady::now() - start).count();
@@ -209,18 +202,18 @@ TEST(IsolatedPluginDeviceTest, HaltFromAnotherThreadReachesThePluginAndCommandsA
 }
 
 TEST(IsolatedPluginDeviceTest, TheLoadersRefusalsComeBackWithTheirTextAndType) {
-  EXPECT_EQ(message_of<std::runtime_error>([] { IsolatedPluginDevice(kBinary, "/nonexistent/acme.so", {}); }),
+  EXPECT_EQ(thrown<std::runtime_error>([] { IsolatedPluginDevice(kBinary, "/nonexistent/acme.so", {}); }),
             "plugin /nonexistent/acme.so: no such file");
-  EXPECT_EQ(message_of<std::runtime_error>([] { IsolatedPluginDevice(kBinary, kAbi2, {}); }),
-            message_of<std::runtime_error>([] { PluginDevice(kAbi2, {}); }));
-  EXPECT_THAT(message_of<std::invalid_argument>([] { IsolatedPluginDevice(kBinary, kFake, {{"colour", "red"}}); }),
+  EXPECT_EQ(thrown<std::runtime_error>([] { IsolatedPluginDevice(kBinary, kAbi2, {}); }),
+            thrown<std::runtime_error>([] { PluginDevice(kAbi2, {}); }));
+  EXPECT_THAT(thrown<std::invalid_argument>([] { IsolatedPluginDevice(kBinary, kFake, {{"colour", "red"}}); }),
               HasSubstr("refused its options: 'colour' is not an option of the fake device"));
   // A crash while configuring ends the host, and configure says so.
   IsolatedPluginDevice crashing(kBinary, kFake, {{"fault", "crash_in_configure"}});
   EXPECT_EQ(crashing.configure({}), DeviceStatus::kDeviceCrashed);
   EXPECT_EQ(crashing.configure_error(), "plugin " + kFake + ": device_crashed: SIGSEGV in configure");
   // A host that is not one: it exits before it answers.
-  EXPECT_EQ(message_of<PluginProcessError>([] { IsolatedPluginDevice("/bin/false", kSimPlugin, {}); }),
+  EXPECT_EQ(thrown<PluginProcessError>([] { IsolatedPluginDevice("/bin/false", kSimPlugin, {}); }),
             "plugin " + kSimPlugin + " ended the process (exit status 1) in load");
 }
 
@@ -231,7 +224,7 @@ TEST(IsolatedPluginDeviceTest, TheProbeOfAnIsolatedPluginRunsInItsHostAndSpeaksA
   const auto probe = [](const std::string& spec_text, const std::map<std::string, std::string>& options) {
     DeviceSpec spec = parse_device_spec(spec_text);
     spec.options = options;
-    return message_of<std::runtime_error>([&] { probe_device(spec, DeviceConfig{}); });
+    return thrown<std::runtime_error>([&] { probe_device(spec, DeviceConfig{}); });
   };
   for (const auto& options : std::vector<std::map<std::string, std::string>>{
            {{"fault", "crash_in_configure"}}, {{"fault", "exit_in_create"}}, {{"fault", "invalid_ratings"}},
@@ -248,7 +241,7 @@ TEST(IsolatedPluginDeviceTest, TheProbeOfAnIsolatedPluginRunsInItsHostAndSpeaksA
 TEST(IsolatedPluginDeviceTest, OpenDeviceRunsAnIsolatedSpecInTheRegisteredHost) {
   const DeviceSpec spec = parse_device_spec("plugin-isolated:" + kSimPlugin);
   set_plugin_host_executable("");
-  EXPECT_THAT(message_of<std::runtime_error>([&] { open_device(spec); }), HasSubstr("no host executable"));
+  EXPECT_THAT(thrown<std::runtime_error>([&] { open_device(spec); }), HasSubstr("no host executable"));
   set_plugin_host_executable(kBinary);
   const std::unique_ptr<Device> device = open_device(spec);
   EXPECT_NE(dynamic_cast<IsolatedPluginDevice*>(device.get()), nullptr);

@@ -19,6 +19,7 @@
 #include "core/device/sim_device.h"
 #include "core/loop/clock.h"
 #include "tests/testing/test_paths.h"
+#include "tests/testing/thrown.h"
 #include "tests/testing/files.h"
 
 namespace hapticlab {
@@ -30,16 +31,7 @@ using ::testing::HasSubstr;
 const std::string kFakeAbi2 = HAPTICLAB_FAKE_PLUGIN_ABI2_PATH;
 const std::string kFakeNoEntry = HAPTICLAB_FAKE_PLUGIN_NO_ENTRY_PATH;
 
-// The message of what `f` throws as E ("" if it throws nothing).
-template <typename E, typename F>
-std::string thrown(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::thrown;
 
 using testing::slurp;
 

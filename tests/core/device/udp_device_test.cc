@@ -41,6 +41,19 @@ udp::Key key_from_hex(const std::string& hex) {
 const std::string kKeyHex = "00112233445566778899aabbccddeeff0f1e2d3c4b5a69788796a5b4c3d2e1f0";
 const std::string kOtherKeyHex = "ffeeddccbbaa99887766554433221100f0e1d2c3b4a5968778695a4b3c2d1e0f";
 
+// A UDP socket bound to a free loopback port, which goes to `port`.
+int bind_loopback_udp(int& port) {
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) throw std::runtime_error("bind");
+  socklen_t len = sizeof a;
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  port = ntohs(a.sin_port);
+  return fd;
+}
+
 // A driver that answers HELLO and the control requests itself (with `key`,
 // in the host's session) and hands each POLL to `on_poll`, which sends
 // what the test wants.
@@ -48,14 +61,7 @@ class FakeDriver {
  public:
   using OnPoll = std::function<void(FakeDriver&, const udp::Header& poll)>;
   explicit FakeDriver(OnPoll on_poll, udp::Key key = {}) : key_(std::move(key)), on_poll_(std::move(on_poll)) {
-    fd_ = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) throw std::runtime_error("bind");
-    socklen_t len = sizeof a;
-    ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len);
-    port_ = ntohs(a.sin_port);
+    fd_ = bind_loopback_udp(port_);
     thread_ = std::thread([this] { serve(); });
   }
   ~FakeDriver() {
@@ -274,14 +280,7 @@ class Responder {
  public:
   using Reply = std::function<std::vector<std::byte>(const udp::Header& request)>;
   explicit Responder(Reply reply) : reply_(std::move(reply)) {
-    fd_ = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) throw std::runtime_error("bind");
-    socklen_t len = sizeof a;
-    ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len);
-    port_ = ntohs(a.sin_port);
+    fd_ = bind_loopback_udp(port_);
     thread_ = std::thread([this] {
       std::array<std::byte, 2048> buf;
       while (!stop_) {
