@@ -22,7 +22,7 @@
 #include "app/progress_line.h"
 #include "core/common/csv_format.h"
 #include "core/settings/settings_json.h"
-#include "db/sha256.h"
+#include "core/common/sha256.h"
 #include "core/io/output_file.h"
 #include "planning/calibration.h"
 #include "planning/power.h"
@@ -50,7 +50,7 @@ struct PlanPowerOptions {
 
 std::string power_inputs(const PlanPowerOptions& o, const std::string& protocol_text,
                          const planning::SimulatedStudyOptions& sim) {
-  return "protocol sha256 " + db::sha256_hex(protocol_text) + ", seed " + std::to_string(o.seed) + ", rate " +
+  return "protocol sha256 " + sha256_hex(protocol_text) + ", seed " + std::to_string(o.seed) + ", rate " +
          format_number(sim.rate_Hz) + " Hz, max trial " + format_number(sim.max_trial_s) + " s, alpha " +
          format_number(sim.analysis.alpha) + ", percentiles " +
          std::string(analysis::percentile_method_name(sim.analysis.percentile_method));

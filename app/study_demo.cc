@@ -16,7 +16,7 @@
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
 #include "core/io/input_file.h"
-#include "db/sha256.h"
+#include "core/common/sha256.h"
 #include "db/study_db.h"
 #include "sessions/session_runner.h"
 #include "sessions/study_progress.h"
@@ -45,7 +45,7 @@ void create_or_resume(const fs::path& db_path, const fs::path& protocol, Progres
   db::StudyDb db(db_path);
   const auto studies = db.studies();
   if (!studies.empty()) {
-    const std::string hash = db::sha256_hex(read_text(protocol));
+    const std::string hash = sha256_hex(read_text(protocol));
     if (studies.front().protocol_sha256 != hash)
       throw std::runtime_error(db_path.string() + " holds a study from another protocol (" + studies.front().name +
                                "); choose another --out directory or delete it");

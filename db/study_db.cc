@@ -12,7 +12,7 @@
 #include "db/chunk_reader.h"
 #include "db/schema.h"
 #include "db/session_lock.h"
-#include "db/sha256.h"
+#include "core/common/sha256.h"
 
 namespace hapticlab::db {
 namespace {

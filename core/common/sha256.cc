@@ -116,4 +116,16 @@ Sha256::Digest Sha256::hash(std::span<const std::byte> data) noexcept {
   return h.finish();
 }
 
+std::string sha256_hex(std::string_view text) {
+  const Sha256::Digest d = Sha256::hash(std::as_bytes(std::span<const char>(text.data(), text.size())));
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(2 * d.size());
+  for (std::byte b : d) {
+    out += kDigits[std::to_integer<unsigned>(b) >> 4];
+    out += kDigits[std::to_integer<unsigned>(b) & 15];
+  }
+  return out;
+}
+
 }  // namespace hapticlab

@@ -1,6 +1,6 @@
 #pragma once
 // SHA-256 (FIPS 180-4, section 6.2): the hash under the UDP bridge's
-// HMAC (hmac_sha256.h). Written for the haptic loop's thread: no
+// HMAC (hmac_sha256.h), and the protocol hash a study stores (sha256_hex). Written for the haptic loop's thread: no
 // allocation, no locks, no exceptions; the state is a plain value, so a
 // state that has absorbed a prefix (HMAC's padded key) is saved by copying
 // it and resumed per message.
@@ -12,6 +12,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
+#include <string_view>
 
 namespace hapticlab {
 
@@ -42,5 +44,9 @@ class Sha256 {
   std::size_t pending_bytes_ = 0;
   std::uint64_t total_bytes_ = 0;
 };
+
+// Lower-case hex of the SHA-256 of `text` (64 characters): the protocol
+// hash a study stores, and the keys of stored plans. Allocates.
+std::string sha256_hex(std::string_view text);
 
 }  // namespace hapticlab

@@ -12,7 +12,7 @@
 
 #include "db/chunk_reader.h"
 #include "db/sample_codec.h"
-#include "db/sha256.h"
+#include "core/common/sha256.h"
 #include "db/study_db.h"
 #include "db_test_util.h"
 

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/settings/settings_json.h"
-#include "db/sha256.h"
+#include "core/common/sha256.h"
 #include "db_test_util.h"
 
 namespace hapticlab::db {
