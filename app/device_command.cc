@@ -139,9 +139,12 @@ CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& 
     }
   }
   r.elapsed_s = previous_s - first_s;
-  // The whole run, for one shorter than a window (or the part after the last).
+  // The whole run, for one shorter than a window (or the part after the
+  // last); not one a crashed or hung device cut short, whose last period
+  // holds the hang.
   const double achieved_Hz = r.achieved_Hz();
-  if (!r.rate_violation && r.updates > 1 && std::abs(achieved_Hz / opt.rate_Hz - 1.0) > opt.rate_tolerance_fraction)
+  if (!r.rate_violation && r.process_fault.empty() && r.updates > 1 &&
+      std::abs(achieved_Hz / opt.rate_Hz - 1.0) > opt.rate_tolerance_fraction)
     r.rate_violation = RateViolation{achieved_Hz, opt.rate_Hz, r.elapsed_s, opt.rate_tolerance_fraction};
   std::sort(r.dt_s.begin(), r.dt_s.end());
   return r;

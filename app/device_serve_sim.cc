@@ -50,12 +50,14 @@ void add_device_serve_sim_command(CLI::App& device) {
     std::fflush(stdout);
     server.run(interrupted.flag());
     std::printf("stopped: %llu datagrams received, %llu malformed ignored, %llu rejected: bad MAC, %llu rejected: "
-                "wrong session nonce, %llu rejected: repeated or old sequence\n",
+                "wrong session nonce, %llu rejected: repeated or old sequence, %llu HELLOs refused while a "
+                "session was live\n",
                 static_cast<unsigned long long>(server.received()),
                 static_cast<unsigned long long>(server.malformed()),
                 static_cast<unsigned long long>(server.rejected_mac()),
                 static_cast<unsigned long long>(server.wrong_nonce()),
-                static_cast<unsigned long long>(server.out_of_order()));
+                static_cast<unsigned long long>(server.out_of_order()),
+                static_cast<unsigned long long>(server.busy_hello()));
   });
 }
 

@@ -16,6 +16,9 @@ constexpr int kNumSignals = sizeof kSignals / sizeof kSignals[0];
 // What the handler reads. Written before the handlers are installed and
 // cleared after they are removed, so a handler never sees them half set.
 std::atomic<bool> g_armed{false};
+// The crash signal being handled, for the alarm that cuts a hung halt()
+// short: the process still dies of the crash, not of SIGALRM.
+std::atomic<int> g_crash_signal{0};
 int g_fd = -1;
 long g_offset = 0;
 const HapticLoop* g_loop = nullptr;
@@ -42,8 +45,26 @@ struct Line {
   }
 };
 
+// Every crash signal back to its default action, first thing: a second
+// crash inside the device's halt() then ends the process instead of
+// entering this handler again (SA_RESETHAND resets only the delivered one).
+void reset_crash_signals() noexcept {
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  for (int s : kSignals) ::sigaction(s, &dfl, nullptr);
+}
+
+void on_alarm(int) {
+  // halt() did not return within its second: die of the crash signal.
+  const int sig = g_crash_signal.load();
+  ::raise(sig != 0 ? sig : SIGABRT);
+}
+
 void on_crash(int sig) {
+  reset_crash_signals();
   if (g_armed.exchange(false)) {
+    g_crash_signal.store(sig);
     Line line;
     line.add("abort_reason=");
     const bool loop_thread = g_loop->loop_thread_id() == static_cast<int>(::syscall(SYS_gettid));
@@ -61,8 +82,13 @@ void on_crash(int sig) {
     line.add("\n");
     [[maybe_unused]] const ssize_t n = ::pwrite(g_fd, line.text, line.size, g_offset);
     // Zero force, if the device still can; a halt that hangs is cut short.
+    struct sigaction alarm_action {};
+    alarm_action.sa_handler = &on_alarm;
+    sigemptyset(&alarm_action.sa_mask);
+    ::sigaction(SIGALRM, &alarm_action, nullptr);
     ::alarm(1);
     g_device->halt();
+    ::alarm(0);
   }
   // SA_RESETHAND restored the default action: die of the signal itself.
   ::raise(sig);

@@ -15,7 +15,8 @@
 // Then, best effort, it halts the device (Device::halt(): zero force) under
 // a 1 s alarm, since a plugin that just crashed may hang in its own halt,
 // and dies of the signal as it would have (its default action: the exit
-// status and any core dump are unchanged).
+// status and any core dump are unchanged; also when the alarm cuts the
+// halt short, or a second crash signal comes from inside it).
 //
 // The handler only loads atomics, copies bytes into a static buffer and
 // calls pwrite(2), alarm(2) and raise(3): async-signal-safe, apart from the

@@ -56,8 +56,9 @@ constexpr int kMaxWatchdogTripsInARow = 3;
 
 // On the virtual clock no watchdog runs (simulated time waits for the
 // loop): a device call that has kept the loop from advancing this long in
-// wall time is taken as hung.
-constexpr double kVirtualClockHang_s = 1.0;
+// wall time is announced as hung. Long against what a loaded machine can
+// hold a thread off the CPU, since here nothing real waits on the device.
+constexpr double kVirtualClockHang_s = 2.0;
 
 std::string ms_text(double s) { return std::to_string(static_cast<long long>(std::llround(1e3 * s))) + " ms"; }
 
@@ -323,7 +324,18 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       for (int polls = 0; loop.running(); ++polls) {
         take_actions(loop.elapsed_s());
         const std::uint64_t ticks = loop.ticks();
-        if (ticks != last_ticks) last_ticks = ticks, ticks_moved = Clock::now();
+        if (ticks != last_ticks) {
+          last_ticks = ticks;
+          ticks_moved = Clock::now();
+          // On the virtual clock a call announced as hung that came back
+          // was only slow (a loaded machine): the trial goes on as it was.
+          if (hung_since && !loop.watchdog_tripped()) {
+            hung_since.reset();
+            session.clear_pending_reason();
+            if (options.on_alert) options.on_alert("the device call of trial " + std::to_string(trial.id) +
+                                                   " returned after all; the trial goes on");
+          }
+        }
         if (!hung_since) {
           const DeviceCall in_call = loop.device_call().load(std::memory_order_acquire);
           const bool tripped = loop.watchdog_tripped();
@@ -332,24 +344,27 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           if (tripped || virtual_hang) {
             hung_since = Clock::now();
             hung_call = tripped ? loop.watchdog_call() : in_call;
-            const double limit_s = tripped ? loop.watchdog_timeout_s() : kVirtualClockHang_s;
+            const double limit_s = tripped ? loop.watchdog_limit_s() : kVirtualClockHang_s;
             const std::string what = hung_call != DeviceCall::kNone
                                          ? "device " + std::string(to_string(hung_call)) + "() has not returned"
                                          : std::string("the haptic loop has completed no update");
             if (options.on_alert)
-              options.on_alert(what + " for " + ms_text(limit_s) + " in trial " + std::to_string(trial.id) +
-                               "; the watchdog halted the device (zero force)");
+              options.on_alert(what + " for " + ms_text(limit_s) + (tripped ? "" : " of wall time") + " in trial " +
+                               std::to_string(trial.id) +
+                               (tripped ? "; the watchdog halted the device (zero force)" : ""));
             if (hung_call != DeviceCall::kNone)
               session.record_pending_reason("device " + std::string(to_string(hung_call)) + " hung for at least " +
                                             ms_text(limit_s) + " (the session ended before it returned)");
           }
         }
-        if (hung_since && hung_call != DeviceCall::kNone && loop.running() &&
+        if (hung_since && hung_call != DeviceCall::kNone && loop.running() && loop.ticks() == last_ticks &&
             seconds_since(*hung_since) > options.device_hang_grace_s) {
           // The loop thread is inside the device's code: record the trial and
-          // the session from here, and leave the rig to the stuck thread.
+          // the session from here, and leave the rig to the stuck thread
+          // (told to stop, should the call ever return).
+          loop.request_stop();
           const double hung_s = seconds_since(*hung_since) +
-                                (options.clock == ClockKind::kVirtual ? kVirtualClockHang_s : loop.watchdog_timeout_s());
+                                (options.clock == ClockKind::kVirtual ? kVirtualClockHang_s : loop.watchdog_limit_s());
           outcome.status = db::TrialStatus::kAborted;
           outcome.abort_reason = "device " + std::string(to_string(hung_call)) + " hung for " + ms_text(hung_s) +
                                  " and had not returned when the session gave up on it";

@@ -247,10 +247,19 @@ void IsolatedPluginDevice::kill_hung(PluginCallOp op, double waited_ms, double b
   PluginChannel& ch = *channel_;
   const std::uint32_t asked = word(ch.halt).fetch_add(1) + 1;
   futex_wake(ch.halt);
+  // Asleep, not spinning: on a 2-core machine with the loop at SCHED_FIFO a
+  // spin here could be what keeps the halt thread off a CPU.
   const auto grace_until =
       Steady::now() + std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(bounds_.halt_grace_s));
-  while (static_cast<std::int32_t>(word(ch.halts_done).load() - asked) < 0 && Steady::now() < grace_until)
-    cpu_relax();
+  for (;;) {
+    const std::uint32_t done = word(ch.halts_done).load();
+    if (static_cast<std::int32_t>(done - asked) >= 0) break;
+    const auto left = grace_until - Steady::now();
+    if (left <= Steady::duration::zero()) break;
+    const auto left_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(left).count();
+    const std::timespec ts{static_cast<std::time_t>(left_ns / 1'000'000'000), static_cast<long>(left_ns % 1'000'000'000)};
+    futex_wait(ch.halts_done, done, &ts);
+  }
   ::kill(pid_, SIGKILL);
   fault_ = Fault{FaultKind::kHung, op, 0, true, waited_ms, bound_s};
   dead_ = true;
@@ -341,8 +350,15 @@ DeviceStatus IsolatedPluginDevice::read(DeviceReading& reading) noexcept {
     sched_copied_ = true;
     const int policy = ::sched_getscheduler(0);
     sched_param param{};
-    if ((policy == SCHED_FIFO || policy == SCHED_RR) && ::sched_getparam(0, &param) == 0)
+    if ((policy == SCHED_FIFO || policy == SCHED_RR) && ::sched_getparam(0, &param) == 0) {
       ::sched_setscheduler(pid_, policy, &param);
+      // Its halt thread one above, so a plugin call spinning at the loop's
+      // priority cannot keep a halt from reaching the plugin.
+      const std::int32_t halt_tid = std::atomic_ref<std::int32_t>(channel_->halt_tid).load();
+      sched_param above = param;
+      above.sched_priority = std::min(param.sched_priority + 1, ::sched_get_priority_max(policy));
+      if (halt_tid > 0) ::sched_setscheduler(halt_tid, policy, &above);
+    }
   }
   if (const DeviceStatus s = call(PluginCallOp::kRead, loop_bound_s()); s != DeviceStatus::kOk) return s;
   const PluginCall& c = channel_->call;

@@ -72,8 +72,9 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
     // deactivate() [s]: it may run on the loop thread, as the loop ends.
     double deactivate_s = 2.0;
     // How long a hung child may take to pass a halt to its plugin before
-    // it is killed [s].
-    double halt_grace_s = 0.003;
+    // it is killed [s]: a USB or serial amplifier-disable transfer takes a
+    // few ms (hapticlab/device_plugin.h tells plugin authors).
+    double halt_grace_s = 0.010;
   };
 
   // Starts `host_executable` as the host, loads `path` there and creates

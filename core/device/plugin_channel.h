@@ -89,7 +89,8 @@ struct PluginChannel {
   std::uint32_t parent_sleeping;      // parent: asleep on `reply` (or about to be)
   std::uint32_t serving;              // host: the call it has begun (to tell "in read" from "between calls")
   alignas(64) std::uint32_t halt;     // parent: halts asked for; the host's halt thread waits on it
-  std::uint32_t halts_done;           // host: the last `halt` value passed to the plugin
+  std::uint32_t halts_done;           // host: the last `halt` value passed to the plugin (woken on change)
+  std::int32_t halt_tid;              // host: its halt thread's kernel thread id, for the parent to schedule
   char stage[32];                     // host: the loading step under way during kCreate ("load", "create")
   alignas(64) PluginCall call;
 };

@@ -1,8 +1,10 @@
 #include "core/device/plugin_host.h"
 
+
 #include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -68,6 +70,10 @@ void put_stage(void* context, const char* stage) {
 // Passes each halt the parent asks for after `seen` to the plugin, until
 // the quit bit.
 void serve_halts(PluginChannel& ch, PluginDevice& device, std::uint32_t seen) {
+  // The parent gives this thread a real-time priority above the host's
+  // main thread (IsolatedPluginDevice::read), so a plugin call that spins
+  // at that priority cannot keep a halt from the plugin.
+  std::atomic_ref<std::int32_t>(ch.halt_tid).store(static_cast<std::int32_t>(::syscall(SYS_gettid)));
   for (;;) {
     const std::uint32_t now = word(ch.halt).load();
     if ((now & kPluginHaltQuitBit) != 0) {
@@ -79,6 +85,7 @@ void serve_halts(PluginChannel& ch, PluginDevice& device, std::uint32_t seen) {
       seen = now;
       device.halt();
       word(ch.halts_done).store(now);
+      futex_wake(ch.halts_done);
       continue;
     }
     futex_wait(ch.halt, now, nullptr);

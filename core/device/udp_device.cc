@@ -14,15 +14,11 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/common/steady_ns.h"
 #include "core/loop/clock.h"
 
 namespace hapticlab {
 namespace {
-
-std::int64_t steady_ns() noexcept {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 }  // namespace
 
@@ -81,8 +77,7 @@ UdpDevice::UdpDevice(const UdpDeviceOptions& options)
   const std::int64_t end_ns = steady_ns() + std::int64_t{options.handshake_timeout_ms} * 1'000'000;
   bool answered = false;
   while (!answered && steady_ns() < end_ns) {
-    const std::uint32_t seq = tx_sequence_.load(std::memory_order_relaxed) + 1;
-    send(udp::Type::kHello, 0.0);
+    const std::uint32_t seq = send(udp::Type::kHello, 0.0);
     answered = await(udp::Type::kHelloReply, seq, std::min(end_ns, steady_ns() + 100'000'000));
   }
   if (!answered) {
@@ -150,19 +145,21 @@ double UdpDevice::now_s() const noexcept {
 // driver drops the older one; that is only ever the watchdog's zero
 // COMMAND racing a loop that is not stuck after all, whose own next write
 // is zero (halted_) and whose next check ends the trial.
-void UdpDevice::send(udp::Type type, double time_s) noexcept {
+std::uint32_t UdpDevice::send(udp::Type type, double time_s) noexcept {
   std::array<std::byte, udp::kMaxDatagramBytes> buf;
   const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s, host_nonce_,
                       device_nonce_};
   send_datagram(udp::encode(h, key_, buf.data()), buf.data());
+  return h.sequence;
 }
 
 template <typename Payload>
-void UdpDevice::send(udp::Type type, double time_s, const Payload& payload) noexcept {
+std::uint32_t UdpDevice::send(udp::Type type, double time_s, const Payload& payload) noexcept {
   std::array<std::byte, udp::kMaxDatagramBytes> buf;
   const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s, host_nonce_,
                       device_nonce_};
   send_datagram(udp::encode(h, payload, key_, buf.data()), buf.data());
+  return h.sequence;
 }
 
 void UdpDevice::send_datagram(std::size_t n, const std::byte* data) noexcept {
@@ -249,11 +246,13 @@ bool UdpDevice::await(udp::Type type, std::uint32_t sequence, std::int64_t deadl
 }
 
 DeviceStatus UdpDevice::request_ack(udp::Type type, double time_s, const void* payload, int timeout_ms) noexcept {
-  const std::uint32_t seq = tx_sequence_.load(std::memory_order_relaxed) + 1;
+  // The sequence the request went out with: a halt() on another thread may
+  // take the next one meanwhile.
+  std::uint32_t seq = 0;
   switch (type) {
-    case udp::Type::kConfigure: send(type, time_s, *static_cast<const udp::Configure*>(payload)); break;
-    case udp::Type::kSetStartPose: send(type, time_s, *static_cast<const udp::StartPose*>(payload)); break;
-    default: send(type, time_s); break;
+    case udp::Type::kConfigure: seq = send(type, time_s, *static_cast<const udp::Configure*>(payload)); break;
+    case udp::Type::kSetStartPose: seq = send(type, time_s, *static_cast<const udp::StartPose*>(payload)); break;
+    default: seq = send(type, time_s); break;
   }
   if (!await(udp::Type::kAck, seq, steady_ns() + std::int64_t{timeout_ms} * 1'000'000)) {
     timeouts_.fetch_add(1, std::memory_order_relaxed);
@@ -283,11 +282,10 @@ DeviceStatus UdpDevice::activate(const Clock& clock) {
 
 DeviceStatus UdpDevice::read(DeviceReading& reading) noexcept {
   if (!active_) return DeviceStatus::kNotActive;
-  const std::uint32_t seq = tx_sequence_.load(std::memory_order_relaxed) + 1;
   const std::int64_t sent_ns = steady_ns();
   const double t_s = now_s();
   last_poll_time_s_.store(t_s, std::memory_order_relaxed);
-  send(udp::Type::kPoll, t_s);
+  const std::uint32_t seq = send(udp::Type::kPoll, t_s);
   if (!await(udp::Type::kState, seq, sent_ns + std::int64_t{options_.timeout_ms} * 1'000'000)) {
     timeouts_.fetch_add(1, std::memory_order_relaxed);
     return DeviceStatus::kTimeout;

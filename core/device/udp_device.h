@@ -114,9 +114,10 @@ class UdpDevice final : public Device, public HandAttachment {
   bool authenticated() const noexcept { return key_.keyed(); }
 
  private:
-  void send(udp::Type type, double time_s) noexcept;
+  // Each returns the sequence the datagram went out with.
+  std::uint32_t send(udp::Type type, double time_s) noexcept;
   template <typename Payload>
-  void send(udp::Type type, double time_s, const Payload& payload) noexcept;
+  std::uint32_t send(udp::Type type, double time_s, const Payload& payload) noexcept;
   void send_datagram(std::size_t n, const std::byte* data) noexcept;
   // Waits until `deadline_ns` (steady clock) for a datagram of `type`
   // echoing `sequence`; on success the datagram is in rx_ and its header

@@ -8,14 +8,21 @@
 
 #include <array>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <utility>
 
+#include "core/common/steady_ns.h"
 #include "core/device/udp_protocol.h"
 
 namespace hapticlab {
+namespace {
+
+constexpr std::int64_t kBusyWindow_ns = static_cast<std::int64_t>(UdpSimServer::kBusyWindow_s * 1e9);
+
+}  // namespace
 
 UdpSimServer::UdpSimServer(const std::string& host, int port, udp::Key key) : key_(std::move(key)) {
   if (port < 0 || port > 65535)
@@ -85,6 +92,10 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
       out_of_order_.fetch_add(1, std::memory_order_relaxed);
       return;
     }
+    if (h.host_nonce != host_nonce_ && active_ && steady_ns() - last_command_ns_ <= kBusyWindow_ns) {
+      busy_hello_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
   } else {
     if (!sim_ || h.host_nonce != host_nonce_ || h.device_nonce != device_nonce_) {
       wrong_nonce_.fetch_add(1, std::memory_order_relaxed);
@@ -113,6 +124,7 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
     clock_.set(h.time_s);
 
   if (h.type == udp::Type::kHello) {
+    active_ = false;
     host_nonce_ = h.host_nonce;
     device_nonce_ = udp::new_nonce();
     // As open_device() builds the built-in sim, so both compute the same.
@@ -142,8 +154,17 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
               : DeviceStatus::kInvalidConfig);
       return;
     }
-    case udp::Type::kActivate: ack(sim_->activate(clock_)); return;
-    case udp::Type::kDeactivate: ack(sim_->deactivate()); return;
+    case udp::Type::kActivate: {
+      const DeviceStatus status = sim_->activate(clock_);
+      active_ = status == DeviceStatus::kOk;
+      last_command_ns_ = steady_ns();
+      ack(status);
+      return;
+    }
+    case udp::Type::kDeactivate:
+      active_ = false;
+      ack(sim_->deactivate());
+      return;
     case udp::Type::kPoll: {
       DeviceReading reading;
       udp::State s;
@@ -159,6 +180,7 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
       return;
     }
     case udp::Type::kCommand: {
+      last_command_ns_ = steady_ns();
       udp::Command c;
       udp::decode(data, c);
       DeviceCommand command;

@@ -8,8 +8,11 @@
 // anew). A datagram that is malformed, fails its MAC (with the key, or the
 // empty key when there is none), carries another session's nonces or
 // repeats an earlier sequence of the session (a replay) is counted and
-// ignored: a forged COMMAND moves nothing. Every request is answered at the
-// address it came from.
+// ignored: a forged COMMAND moves nothing. A HELLO of another session while
+// this one is active and its host sent a COMMAND within kBusyWindow_s is
+// refused too (counted as busy_hello): a replayed HELLO, or a second
+// program pointed at the same driver, does not take the device from a
+// running trial. Every request is answered at the address it came from.
 
 #include <atomic>
 #include <cstdint>
@@ -44,6 +47,10 @@ class UdpSimServer {
   std::uint64_t rejected_mac() const noexcept { return rejected_mac_.load(std::memory_order_relaxed); }
   std::uint64_t wrong_nonce() const noexcept { return wrong_nonce_.load(std::memory_order_relaxed); }
   std::uint64_t out_of_order() const noexcept { return out_of_order_.load(std::memory_order_relaxed); }
+  std::uint64_t busy_hello() const noexcept { return busy_hello_.load(std::memory_order_relaxed); }
+  // How recent a COMMAND keeps a session from being taken over by another
+  // HELLO [s] (examples/udp_driver/udp_driver.py: COMMAND_TIMEOUT_S).
+  static constexpr double kBusyWindow_s = 0.05;
   bool authenticated() const noexcept { return key_.keyed(); }
 
  private:
@@ -70,7 +77,10 @@ class UdpSimServer {
   // The session: its nonces and the host's newest sequence in it.
   std::uint64_t host_nonce_ = 0, device_nonce_ = 0;
   std::uint32_t host_sequence_ = 0;
-  std::atomic<std::uint64_t> received_{0}, malformed_{0}, rejected_mac_{0}, wrong_nonce_{0}, out_of_order_{0};
+  std::atomic<std::uint64_t> received_{0}, malformed_{0}, rejected_mac_{0}, wrong_nonce_{0}, out_of_order_{0},
+      busy_hello_{0};
+  bool active_ = false;              // ACTIVATE acknowledged, no DEACTIVATE or HELLO since
+  std::int64_t last_command_ns_ = 0;  // steady clock, the session's last COMMAND (or ACTIVATE)
 };
 
 }  // namespace hapticlab

@@ -142,9 +142,10 @@ bool HapticLoop::activate() {
 void HapticLoop::start_watchdog() {
   if (clock_.is_virtual()) return;
   // A device that waits for its answer (the UDP bridge's timeout_ms) names
-  // its own silence (device_timeout): the watchdog waits that long on top.
-  watchdog_ = std::make_unique<Watchdog>(ticks_, device_,
-                                         config_.safety.watchdog_timeout_s + device_.read_timeout_s(), &device_call_);
+  // its own silence (device_timeout): while the loop is in a read, and only
+  // then, the watchdog waits that long on top.
+  watchdog_ = std::make_unique<Watchdog>(ticks_, device_, config_.safety.watchdog_timeout_s, &device_call_,
+                                         device_.read_timeout_s());
   watchdog_->start();
 }
 
@@ -185,7 +186,10 @@ StopReason HapticLoop::trip(StopReason reason, const SafetyTrip& why) noexcept {
 
 void HapticLoop::finish(StopReason reason) noexcept {
   if (watchdog_) watchdog_->disarm();
+  // In a device call as any other write (a crash in it is the device's).
+  if (device_.calls_may_block()) device_call_.store(DeviceCall::kWrite, std::memory_order_release);
   device_.write(DeviceCommand{});
+  device_call_.store(DeviceCall::kNone, std::memory_order_release);
   device_.deactivate();
   stop_reason_.store(reason, std::memory_order_release);
   running_.store(false, std::memory_order_release);
@@ -221,7 +225,7 @@ StopReason HapticLoop::loop_body() {
   const auto hung_trip = [this](DeviceCall call, double call_s) {
     return SafetyTrip{.kind = SafetyTripKind::kDeviceCallHung,
                       .value = std::max(call_s, watchdog_->stalled_for_s()),
-                      .limit = watchdog_->timeout_s(),
+                      .limit = watchdog_->tripped_limit_s(),
                       .call = call};
   };
   const auto stall_trip = [&](DeviceCall call, double call_s) {
@@ -235,6 +239,16 @@ StopReason HapticLoop::loop_body() {
   RateMonitor rate_monitor(config_.safety.rate);
   rate_monitor.start(t0_s);
   double asked_period_s = schedule_.nominal_period_s();  // what the schedule asked before this update
+  const auto rate_trip = [&] {
+    const RateViolation& v = rate_monitor.violation();
+    return trip(StopReason::kRateViolation, SafetyTrip{.kind = SafetyTripKind::kRateOutOfTolerance,
+                                                       .value = v.achieved_Hz,
+                                                       .limit = v.asked_Hz,
+                                                       .limit_low = v.tolerance_fraction,
+                                                       .window_s = v.window_s});
+  };
+  // A trial that ends by itself: its last, partial window is judged too.
+  const auto last_window_trips = [&] { return !clock_.is_virtual() && rate_monitor.finish(clock_.now_s()); };
 
   for (std::uint64_t tick = 0;; ++tick) {
     const double now_s = clock_.now_s();
@@ -244,14 +258,7 @@ StopReason HapticLoop::loop_body() {
     const double dt_s = first ? schedule_.nominal_period_s() : now_s - last_start_s;
     if (!first) timing_.record(dt_s, now_s > deadline_s + schedule_.nominal_period_s());
     last_start_s = now_s;
-    if (!first && !clock_.is_virtual() && rate_monitor.update(now_s, asked_period_s)) {
-      const RateViolation& v = rate_monitor.violation();
-      return trip(StopReason::kRateViolation, SafetyTrip{.kind = SafetyTripKind::kRateOutOfTolerance,
-                                                         .value = v.achieved_Hz,
-                                                         .limit = v.asked_Hz,
-                                                         .limit_low = v.tolerance_fraction,
-                                                         .window_s = v.window_s});
-    }
+    if (!first && !clock_.is_virtual() && rate_monitor.update(now_s, asked_period_s)) return rate_trip();
 
     if (stop_requested_.load(std::memory_order_relaxed)) {
       finish(StopReason::kStopRequested);
@@ -402,10 +409,12 @@ StopReason HapticLoop::loop_body() {
 
     if (complete_at_s < 0.0 && ve_.complete()) complete_at_s = t_s;
     if (complete_at_s >= 0.0 && t_s - complete_at_s >= config_.linger_after_complete_s) {
+      if (last_window_trips()) return rate_trip();
       finish(StopReason::kTaskComplete);
       return StopReason::kTaskComplete;
     }
     if (t_s >= config_.max_duration_s) {
+      if (last_window_trips()) return rate_trip();
       finish(StopReason::kMaxDuration);
       return StopReason::kMaxDuration;
     }

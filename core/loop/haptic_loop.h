@@ -190,10 +190,10 @@ class HapticLoop {
   // be stuck in that call.
   bool watchdog_tripped() const noexcept { return watchdog_ && watchdog_->tripped(); }
   DeviceCall watchdog_call() const noexcept { return watchdog_ ? watchdog_->call() : DeviceCall::kNone; }
-  // The watchdog's timeout: watchdog_timeout_s plus the device's own read
-  // timeout [s].
-  double watchdog_timeout_s() const noexcept {
-    return watchdog_ ? watchdog_->timeout_s() : config_.safety.watchdog_timeout_s;
+  // After watchdog_tripped(): the limit that applied [s] (watchdog_timeout_s,
+  // plus the device's own read timeout when the loop was in a read).
+  double watchdog_limit_s() const noexcept {
+    return watchdog_ ? watchdog_->tripped_limit_s() : config_.safety.watchdog_timeout_s;
   }
   // Any thread: the device call the loop thread is in now (a crash handler
   // reads it), and the loop thread's kernel thread id (0 before it runs).

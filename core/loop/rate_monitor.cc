@@ -1,5 +1,6 @@
 #include "core/loop/rate_monitor.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hapticlab {
@@ -15,6 +16,16 @@ bool RateMonitor::update(double now_s, double asked_period_s) noexcept {
   asked_s_ += asked_period_s;
   const double elapsed_s = now_s - window_start_s_;
   if (elapsed_s < check_.window_s || !(asked_s_ > 0.0)) return false;
+  return judge(now_s, elapsed_s);
+}
+
+bool RateMonitor::finish(double now_s) noexcept {
+  const double elapsed_s = now_s - window_start_s_;
+  if (elapsed_s < std::min(kMinLastWindow_s, check_.window_s) || updates_ == 0 || !(asked_s_ > 0.0)) return false;
+  return judge(now_s, elapsed_s);
+}
+
+bool RateMonitor::judge(double now_s, double elapsed_s) noexcept {
   const double achieved_Hz = static_cast<double>(updates_) / elapsed_s;
   const double asked_Hz = static_cast<double>(updates_) / asked_s_;
   start(now_s);

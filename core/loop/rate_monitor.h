@@ -49,9 +49,17 @@ class RateMonitor {
   // was due to start by the schedule. Returns true when this closed a window
   // out of tolerance; violation() then holds its figures.
   bool update(double now_s, double asked_period_s) noexcept;
+  // The loop is about to end at now_s: the window under way is judged too,
+  // if it is at least kMinLastWindow_s long (a shorter one holds too few
+  // updates to tell a rate from jitter), so a trial shorter than a window,
+  // or its last part, is not left unchecked.
+  bool finish(double now_s) noexcept;
+  static constexpr double kMinLastWindow_s = 0.25;
   const RateViolation& violation() const noexcept { return violation_; }
 
  private:
+  bool judge(double now_s, double elapsed_s) noexcept;
+
   RateCheck check_;
   double window_start_s_ = 0.0;
   double asked_s_ = 0.0;

@@ -6,8 +6,12 @@
 namespace hapticlab {
 
 Watchdog::Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s,
-                   const std::atomic<DeviceCall>* call) noexcept
-    : heartbeat_(heartbeat), device_(device), timeout_s_(timeout_s), call_(call) {}
+                   const std::atomic<DeviceCall>* call, double read_allowance_s) noexcept
+    : heartbeat_(heartbeat),
+      device_(device),
+      timeout_s_(timeout_s),
+      call_(call),
+      read_allowance_s_(read_allowance_s > 0.0 ? read_allowance_s : 0.0) {}
 
 Watchdog::~Watchdog() { stop(); }
 
@@ -20,6 +24,7 @@ void Watchdog::start() {
   tripped_.store(false, std::memory_order_release);
   stalled_for_s_.store(0.0, std::memory_order_release);
   tripped_call_.store(DeviceCall::kNone, std::memory_order_release);
+  tripped_limit_s_.store(0.0, std::memory_order_release);
   armed_.store(true, std::memory_order_release);
   thread_ = std::thread([this] { watch(); });
 }
@@ -36,6 +41,7 @@ void Watchdog::stop() noexcept {
 void Watchdog::watch() {
   using Steady = std::chrono::steady_clock;
   const auto timeout = std::chrono::duration<double>(timeout_s_);
+  const auto reading_timeout = std::chrono::duration<double>(timeout_s_ + read_allowance_s_);
   const auto poll = std::max<Steady::duration>(std::chrono::duration_cast<Steady::duration>(timeout / 4),
                                                std::chrono::milliseconds(1));
   std::uint64_t last_beat = heartbeat_.load(std::memory_order_relaxed);
@@ -53,10 +59,13 @@ void Watchdog::watch() {
       continue;
     }
     const std::chrono::duration<double> quiet = now - last_change;
-    if (quiet > timeout && armed_.exchange(false, std::memory_order_acq_rel)) {
+    const DeviceCall in_call = call_ != nullptr ? call_->load(std::memory_order_acquire) : DeviceCall::kNone;
+    const auto limit = in_call == DeviceCall::kRead ? reading_timeout : timeout;
+    if (quiet > limit && armed_.exchange(false, std::memory_order_acq_rel)) {
       // Cut the force first; the loop reads the flag when it comes back.
       device_.halt();
-      if (call_ != nullptr) tripped_call_.store(call_->load(std::memory_order_acquire), std::memory_order_release);
+      tripped_call_.store(in_call, std::memory_order_release);
+      tripped_limit_s_.store(limit.count(), std::memory_order_release);
       stalled_for_s_.store(quiet.count(), std::memory_order_release);
       tripped_.store(true, std::memory_order_release);
     }

