@@ -315,7 +315,7 @@ int run_plan_power(const PlanPowerOptions& o) {
   const std::string comparison = planning::comparison_markdown(variants, report);
   const fs::path change_csv = fs::path(o.out) / "predicted_change.csv";
   const fs::path comparison_md = fs::path(o.out) / "comparison.md";
-  write_file_atomically(change_csv, planning::comparison_csv(variants));
+  write_file_atomically(change_csv, planning::comparison_csv(variants, report));
   write_file_atomically(comparison_md, "# " + protocol.study + ": predicted change and power\n\n" + comparison);
   std::vector<std::string> figures;
   if (o.plots) figures = draw_power(o.out, rows, o.measure);
@@ -357,6 +357,12 @@ int run_plan_power(const PlanPowerOptions& o) {
                     {"setting", r.setting}, {"measure", r.measure}, {"studies", r.studies}, {"median", r.median},
                     {"low", r.low}, {"high", r.high}});
     j["predicted_change"] = ch;
+    nlohmann::json out = nlohmann::json::array();
+    for (const planning::TimeoutRow& r : variants.front().timeouts)
+      out.push_back({{"variant", variants.front().label}, {"participants", r.participants}, {"task", r.task},
+                     {"setting", r.setting}, {"trials", r.trials}, {"timed_out", r.timed_out}, {"rate", r.rate},
+                     {"wilson_low", r.wilson_low}, {"wilson_high", r.wilson_high}});
+    j["timed_out"] = out;
     j["comparison"] = {{"csv", change_csv.string()}, {"markdown", comparison_md.string()}};
     std::printf("%s\n", j.dump(2).c_str());
     return 0;

@@ -144,31 +144,34 @@ std::string comparison_markdown(const std::vector<ReportVariant>& variants, cons
   return md;
 }
 
-std::string comparison_csv(const std::vector<ReportVariant>& variants) {
+std::string comparison_csv(const std::vector<ReportVariant>& variants, const ComparisonReportOptions& o) {
   std::string csv =
       "variant,participants,task,setting,measure,studies,predicted_change_median,predicted_change_low,"
       "predicted_change_high,participant_power,participant_power_low,participant_power_high,thesis_power,"
       "thesis_power_low,thesis_power_high,trials_run,trials_timed_out\n";
   auto number = [](double v) { return format_number(v); };
+  const auto lines = lines_of(variants, o.settings);  // task, measure, setting
+  std::set<int> sizes;
   for (const ReportVariant& v : variants) {
-    // Every (participants, task, setting, measure) with a change or a power row.
-    std::set<std::tuple<int, std::string, std::string, std::string>> keys;
-    for (const ChangeRow& r : v.changes) keys.insert({r.participants, r.task, r.setting, r.measure});
-    for (const PowerRow& r : v.power)
-      if (!r.setting.empty()) keys.insert({r.participants, r.task, r.setting, r.measure});
-    std::vector<std::tuple<int, std::string, std::string, std::string>> ordered(keys.begin(), keys.end());
-    for (const auto& [n, task, setting, measure] : ordered) {
-      const ChangeRow* c = find_change(v, n, task, setting, measure);
-      const PowerRow* p = find_power(v, n, "participant_pairwise", task, setting, measure);
-      const PowerRow* t = find_power(v, n, "pairwise", task, setting, measure);
-      const TimeoutRow* out = find_timeouts(v, n, task, setting);
-      csv += csv_text(v.label) + ',' + std::to_string(n) + ',' + csv_text(task) + ',' + csv_text(setting) + ',' +
-             measure + ',' + (c ? std::to_string(c->studies) : "") + ',' + (c ? number(c->median) : "") + ',' +
-             (c ? number(c->low) : "") + ',' + (c ? number(c->high) : "") + ',' + (p ? number(p->rate) : "") + ',' +
-             (p ? number(p->wilson_low) : "") + ',' + (p ? number(p->wilson_high) : "") + ',' +
-             (t ? number(t->rate) : "") + ',' + (t ? number(t->wilson_low) : "") + ',' +
-             (t ? number(t->wilson_high) : "") + ',' + (out ? std::to_string(out->trials) : "") + ',' +
-             (out ? std::to_string(out->timed_out) : "") + '\n';
+    for (const ChangeRow& r : v.changes) sizes.insert(r.participants);
+    for (const PowerRow& r : v.power) sizes.insert(r.participants);
+  }
+  for (const ReportVariant& v : variants) {
+    for (int n : sizes) {
+      for (const auto& [task, measure, setting] : lines) {
+        const ChangeRow* c = find_change(v, n, task, setting, measure);
+        const PowerRow* p = find_power(v, n, "participant_pairwise", task, setting, measure);
+        const PowerRow* t = find_power(v, n, "pairwise", task, setting, measure);
+        if (!c && !p && !t) continue;
+        const TimeoutRow* out = find_timeouts(v, n, task, setting);
+        csv += csv_text(v.label) + ',' + std::to_string(n) + ',' + csv_text(task) + ',' + csv_text(setting) + ',' +
+               measure + ',' + (c ? std::to_string(c->studies) : "") + ',' + (c ? number(c->median) : "") + ',' +
+               (c ? number(c->low) : "") + ',' + (c ? number(c->high) : "") + ',' + (p ? number(p->rate) : "") + ',' +
+               (p ? number(p->wilson_low) : "") + ',' + (p ? number(p->wilson_high) : "") + ',' +
+               (t ? number(t->rate) : "") + ',' + (t ? number(t->wilson_low) : "") + ',' +
+               (t ? number(t->wilson_high) : "") + ',' + (out ? std::to_string(out->trials) : "") + ',' +
+               (out ? std::to_string(out->timed_out) : "") + '\n';
+      }
     }
   }
   return csv;

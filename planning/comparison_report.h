@@ -43,10 +43,11 @@ struct ComparisonReportOptions {
 // under each table, the share of each setting's trials that timed out.
 std::string comparison_markdown(const std::vector<ReportVariant>& variants, const ComparisonReportOptions& options);
 
-// CSV, one line per variant, study size, task, setting and measure: the
-// predicted change (median, 2.5 %, 97.5 % of studies, as fractions), both
-// methods' power with their Wilson intervals, and the setting's trials run
-// and timed out in the task; empty where a study size has none.
-std::string comparison_csv(const std::vector<ReportVariant>& variants);
+// CSV, one line per variant, study size, task, setting and measure (in
+// the options' setting order): the predicted change (median, 2.5 %,
+// 97.5 % of studies, as fractions), both methods' power with their Wilson
+// intervals, and the setting's trials run and timed out in the task; empty
+// where a study size has none.
+std::string comparison_csv(const std::vector<ReportVariant>& variants, const ComparisonReportOptions& options);
 
 }  // namespace hapticlab::planning

@@ -170,6 +170,12 @@ TEST_F(PlanPowerTest, TheDeviceComparisonPredictsEveryDevicesChange) {
   for (const char* d : {"Novint Falcon", "WoodenHaptics", "Mini WoodenHaptics", "PHANTOM Omni", "Touch", "omega.3"})
     expected[d] = 2 * 5;  // 2 tasks x 5 measures
   EXPECT_EQ(per_device, expected);
+  std::set<std::string> tallied;
+  for (const auto& r : j.at("timed_out")) {
+    tallied.insert(r.at("setting").get<std::string>());
+    EXPECT_EQ(r.at("trials"), 1);  // one participant, one repetition per task
+  }
+  EXPECT_EQ(tallied.size(), 7u);  // High Fidelity and the six devices
   EXPECT_TRUE(fs::exists(j.at("comparison").at("markdown").get<std::string>()));
 }
 

@@ -134,7 +134,7 @@ TEST(ComparisonReportTest, TheTablesSayTheyAreTheModelsAndTakeASecondVariantBesi
   // The thesis procedure's power when asked for.
   o.method = "pairwise";
   EXPECT_THAT(comparison_markdown({fixed}, o), HasSubstr("| +35 % [+25, +45] | 99 % ["));
-  const std::string csv = comparison_csv({fixed, uncertain});
+  const std::string csv = comparison_csv({fixed, uncertain}, o);
   EXPECT_THAT(csv, HasSubstr("variant,participants,task,setting,measure,studies,predicted_change_median,"));
   EXPECT_THAT(csv, HasSubstr("\nmodel fixed,8,clip,Falcon,force_p95_N,200,0.35,0.25,0.45,0.88,0.83,0.93,0.99,"));
   EXPECT_THAT(csv, HasSubstr(",1600,16\nwith model uncertainty,8,clip,Falcon,force_p95_N,200,0.3,"));
