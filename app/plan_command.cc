@@ -25,6 +25,8 @@
 #include "core/common/sha256.h"
 #include "core/io/output_file.h"
 #include "planning/calibration.h"
+#include "planning/change_summary.h"
+#include "planning/comparison_report.h"
 #include "planning/power.h"
 #include "planning/power_store.h"
 #include "protocols/protocol_json.h"
@@ -53,7 +55,8 @@ std::string power_inputs(const PlanPowerOptions& o, const std::string& protocol_
   return "protocol sha256 " + sha256_hex(protocol_text) + ", seed " + std::to_string(o.seed) + ", rate " +
          format_number(sim.rate_Hz) + " Hz, max trial " + format_number(sim.max_trial_s) + " s, alpha " +
          format_number(sim.analysis.alpha) + ", percentiles " +
-         std::string(analysis::percentile_method_name(sim.analysis.percentile_method));
+         std::string(analysis::percentile_method_name(sim.analysis.percentile_method)) +
+         ", with setting changes";  // studies stored before changes were kept would leave them out
 }
 
 void write_power_csv(const fs::path& path, const std::vector<planning::PowerRow>& rows) {
@@ -126,6 +129,7 @@ int run_plan_power(const PlanPowerOptions& o) {
   // Refused before any simulation: a protocol without a control, or a
   // design that cannot take a participant count.
   std::set<std::string> null_settings;
+  std::string control_name;
   {
     analysis::StudyAnalysis names;
     for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
@@ -135,6 +139,7 @@ int run_plan_power(const PlanPowerOptions& o) {
       throw std::runtime_error(o.protocol + ": " + e.what() +
                                "; plan power compares every setting with the control");
     }
+    control_name = names.control;
     for (int n : counts) (void)planning::resized_protocol(protocol, n, o.seed);
     // A null setting: the control's parameters under another name. Any
     // difference found for it is a false positive.
@@ -297,6 +302,21 @@ int run_plan_power(const PlanPowerOptions& o) {
   const auto number_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   const fs::path csv = fs::path(o.out) / "power.csv";
   write_power_csv(csv, rows);
+  // Each setting's predicted change against the control beside the power
+  // to detect it (issue 35 §4). One variant: the model as it is; a fitted
+  // population's uncertainty would be a second, beside it.
+  const std::vector<planning::ReportVariant> variants = {
+      {"model fixed", planning::summarize_changes(wanted, setting_order), rows,
+       planning::summarize_timeouts(wanted, setting_order)}};
+  planning::ComparisonReportOptions report;
+  report.control = control_name;
+  report.participants = counts;
+  report.settings = setting_order;
+  const std::string comparison = planning::comparison_markdown(variants, report);
+  const fs::path change_csv = fs::path(o.out) / "predicted_change.csv";
+  const fs::path comparison_md = fs::path(o.out) / "comparison.md";
+  write_file_atomically(change_csv, planning::comparison_csv(variants, report));
+  write_file_atomically(comparison_md, "# " + protocol.study + ": predicted change and power\n\n" + comparison);
   std::vector<std::string> figures;
   if (o.plots) figures = draw_power(o.out, rows, o.measure);
 
@@ -331,6 +351,19 @@ int run_plan_power(const PlanPowerOptions& o) {
                     {"sd_between_participants", number_or_null(r.sd_between_participants)},
                     {"sd_of_study_means", number_or_null(r.sd_of_study_means)}, {"mean_trials", r.mean_trials}});
     j["staircase"] = st;
+    nlohmann::json ch = nlohmann::json::array();
+    for (const planning::ChangeRow& r : variants.front().changes)
+      ch.push_back({{"variant", variants.front().label}, {"participants", r.participants}, {"task", r.task},
+                    {"setting", r.setting}, {"measure", r.measure}, {"studies", r.studies}, {"median", r.median},
+                    {"low", r.low}, {"high", r.high}});
+    j["predicted_change"] = ch;
+    nlohmann::json out = nlohmann::json::array();
+    for (const planning::TimeoutRow& r : variants.front().timeouts)
+      out.push_back({{"variant", variants.front().label}, {"participants", r.participants}, {"task", r.task},
+                     {"setting", r.setting}, {"trials", r.trials}, {"timed_out", r.timed_out}, {"rate", r.rate},
+                     {"wilson_low", r.wilson_low}, {"wilson_high", r.wilson_high}});
+    j["timed_out"] = out;
+    j["comparison"] = {{"csv", change_csv.string()}, {"markdown", comparison_md.string()}};
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
@@ -394,7 +427,10 @@ int run_plan_power(const PlanPowerOptions& o) {
     if (r.method == "participant" && r.measure == o.measure)
       std::printf("  %-12s %3d participants: %5.1f%% [%4.1f, %5.1f] of %d tests\n", r.task.c_str(), r.participants,
                   100 * r.rate, 100 * r.wilson_low, 100 * r.wilson_high, r.tests);
-  std::printf("\nAll measures: %s", csv.c_str());
+  if (!variants.front().changes.empty())
+    std::printf("\nPredicted change against %s and the power to detect it, every measure (%s):\n%s",
+                control_name.c_str(), comparison_md.c_str(), comparison.c_str());
+  std::printf("\nAll measures: %s, %s", csv.c_str(), change_csv.c_str());
   for (const auto& f : figures) std::printf(", %s", (fs::path(o.out) / f).c_str());
   std::printf("\n");
   return 0;

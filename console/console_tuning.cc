@@ -97,6 +97,8 @@ void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
                                 (is_switch ? "true or false" : "a number"));
   const std::string before = node->dump();
   *node = value;
+  // A tuned device preset is no longer the device its source describes.
+  edited.erase("source");
   NamedSettings parsed;
   try {
     // The loader's own checks: the field, its value and the allowed range.

@@ -91,6 +91,8 @@ StudyOutcome run_power_study(const protocols::Protocol& protocol, int participan
   o.trials_timed_out = s.trials_timed_out;
   o.updates = s.updates;
   o.findings = findings_of(s.analysis);
+  o.changes = changes_of(s.analysis);
+  o.setting_trials = s.setting_trials;
   for (const analysis::StaircaseRow& r : s.analysis.staircases)
     o.staircases.push_back({r.participant, r.threshold, static_cast<int>(r.trials.size())});
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -13,6 +13,7 @@
 
 #include "analysis/study/study_analysis.h"
 #include "planning/simulated_study.h"
+#include "planning/study_change.h"
 #include "protocols/protocol.h"
 
 namespace hapticlab::planning {
@@ -52,6 +53,8 @@ struct StudyOutcome {
   double seconds = 0.0;  // wall time to simulate and analyse it
   std::vector<Finding> findings;
   std::vector<StaircaseOutcome> staircases;  // a staircase protocol's, per participant
+  std::vector<ChangeOutcome> changes;        // each setting's change against the control (study_change.h)
+  std::vector<SettingTrials> setting_trials;  // trials run and timed out per task and setting
 };
 
 // The study seed of study `index` with `participants` participants under

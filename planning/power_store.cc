@@ -20,6 +20,12 @@ PowerStore::PowerStore(const std::filesystem::path& path, const std::string& inp
       " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
       "CREATE TABLE IF NOT EXISTS staircase (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
       " participant TEXT NOT NULL, threshold REAL, trials INTEGER NOT NULL,"
+      " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
+      "CREATE TABLE IF NOT EXISTS setting_change (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
+      " task TEXT NOT NULL, setting TEXT NOT NULL, measure TEXT NOT NULL, n INTEGER NOT NULL, ratio REAL NOT NULL,"
+      " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
+      "CREATE TABLE IF NOT EXISTS setting_trials (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
+      " task TEXT NOT NULL, setting TEXT NOT NULL, run INTEGER NOT NULL, timed_out INTEGER NOT NULL,"
       " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));");
   db::Statement q = db_.prepare("SELECT inputs FROM run");
   if (q.step()) {
@@ -80,6 +86,29 @@ std::vector<StudyOutcome> PowerStore::load() {
     by_key.at({static_cast<int>(st.column_int64(0)), static_cast<int>(st.column_int64(1))})
         .staircases.push_back(std::move(x));
   }
+  db::Statement ch =
+      db_.prepare("SELECT participants, idx, task, setting, measure, n, ratio FROM setting_change ORDER BY rowid");
+  while (ch.step()) {
+    ChangeOutcome x;
+    x.task = ch.column_text(2);
+    x.setting = ch.column_text(3);
+    x.measure = ch.column_text(4);
+    x.participants = static_cast<int>(ch.column_int64(5));
+    x.ratio = ch.column_double(6);
+    by_key.at({static_cast<int>(ch.column_int64(0)), static_cast<int>(ch.column_int64(1))})
+        .changes.push_back(std::move(x));
+  }
+  db::Statement tr =
+      db_.prepare("SELECT participants, idx, task, setting, run, timed_out FROM setting_trials ORDER BY rowid");
+  while (tr.step()) {
+    SettingTrials x;
+    x.task = tr.column_text(2);
+    x.setting = tr.column_text(3);
+    x.run = static_cast<int>(tr.column_int64(4));
+    x.timed_out = static_cast<int>(tr.column_int64(5));
+    by_key.at({static_cast<int>(tr.column_int64(0)), static_cast<int>(tr.column_int64(1))})
+        .setting_trials.push_back(std::move(x));
+  }
   std::vector<StudyOutcome> out;
   for (auto& [key, o] : by_key) out.push_back(std::move(o));
   return out;
@@ -117,6 +146,23 @@ void PowerStore::add(const StudyOutcome& o) {
     if (s.threshold) stair.bind(4, *s.threshold); else stair.bind_null(4);
     stair.bind(5, std::int64_t{s.trials});
     stair.run();
+  }
+  db::Statement change = db_.prepare(
+      "INSERT INTO setting_change (participants, idx, task, setting, measure, n, ratio) "
+      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)");
+  for (const ChangeOutcome& c : o.changes) {
+    change.reset();
+    change.bind(1, std::int64_t{o.participants}).bind(2, std::int64_t{o.index}).bind(3, c.task).bind(4, c.setting);
+    change.bind(5, c.measure).bind(6, std::int64_t{c.participants}).bind(7, c.ratio);
+    change.run();
+  }
+  db::Statement trials = db_.prepare(
+      "INSERT INTO setting_trials (participants, idx, task, setting, run, timed_out) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  for (const SettingTrials& t : o.setting_trials) {
+    trials.reset();
+    trials.bind(1, std::int64_t{o.participants}).bind(2, std::int64_t{o.index}).bind(3, t.task).bind(4, t.setting);
+    trials.bind(5, std::int64_t{t.run}).bind(6, std::int64_t{t.timed_out});
+    trials.run();
   }
   tx.commit();
 }

@@ -3,7 +3,9 @@
 // output folder (plan_power.db), so an interrupted run resumes where it
 // stopped: each study is committed in one transaction when it finishes,
 // and a run asked with other inputs (protocol, seed, options) is refused
-// rather than mixed with the stored one.
+// rather than mixed with the stored one. A study's findings, staircases and
+// changes against the control (study_change.h) and trials run and timed out
+// per setting are stored with it.
 #include <filesystem>
 #include <set>
 #include <string>

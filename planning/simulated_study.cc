@@ -173,10 +173,16 @@ SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participa
       const SimTrialResult r = run_sim_trial(c, sink);
       out.updates += r.samples;
       ++out.trials_run;
+      auto tally = std::find_if(out.setting_trials.begin(), out.setting_trials.end(), [&](const SettingTrials& s) {
+        return s.task == task && s.setting == rec.setting;
+      });
+      if (tally == out.setting_trials.end()) tally = out.setting_trials.insert(tally, {task, rec.setting, 0, 0});
+      ++tally->run;
       if (!r.task_complete) {
         // Timed out (or faulted): session run records it aborted, and the
         // analysis leaves aborted trials out unless told otherwise.
         ++out.trials_timed_out;
+        ++tally->timed_out;
         if (!options.analysis.include_aborted) {
           ++a.counts.aborted_excluded;
           return std::nullopt;

@@ -8,6 +8,7 @@
 // thousands of them can say what a design can detect (planning/power.h).
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "analysis/study/study_analysis.h"
 #include "protocols/protocol.h"
@@ -37,12 +38,24 @@ struct SimulatedStudyOptions {
 // design that cannot be balanced for that many participants).
 protocols::Protocol resized_protocol(const protocols::Protocol& protocol, int participants, std::uint64_t seed);
 
+// The trials of one task under one setting: how many ran, and how many of
+// them timed out (left out of the analysis, as `analyze` leaves out aborted
+// trials): a setting under which the task often cannot be finished says so
+// here, not in its measures.
+struct SettingTrials {
+  std::string task;
+  std::string setting;
+  int run = 0;
+  int timed_out = 0;
+};
+
 struct SimulatedStudy {
   analysis::StudyAnalysis analysis;  // trials (their measures) and every statistics table
   int trials_run = 0;
   int trials_timed_out = 0;      // reached max_trial_s: aborted, left out as session run would
   int training_trials = 0;
   std::uint64_t updates = 0;     // haptic-loop updates simulated (trials and training)
+  std::vector<SettingTrials> setting_trials;  // per task and setting, in the order first run
 };
 
 // Plans resized_protocol(protocol, participants, seed) and runs it.

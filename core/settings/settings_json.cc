@@ -1,10 +1,15 @@
 #include "core/settings/settings_json.h"
 
+#include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <system_error>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -288,6 +293,88 @@ void check_preset_force(const EngineSettings& s) {
                         "like the device named in source.device");
 }
 
+// Where `text` names the settings field `path` (a whole dotted name, not
+// part of a longer one), and the number after it when it reads
+// "path = number" (NaN when no number follows that mention).
+std::vector<double> mentions_of(const std::string& text, const std::string& path) {
+  auto word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  std::vector<double> out;
+  for (std::size_t at = text.find(path); at != std::string::npos; at = text.find(path, at + 1)) {
+    const std::size_t end = at + path.size();
+    if ((at > 0 && (word(text[at - 1]) || text[at - 1] == '.')) || (end < text.size() && word(text[end]))) continue;
+    std::size_t k = end;
+    while (k < text.size() && text[k] == ' ') ++k;
+    double value = std::numeric_limits<double>::quiet_NaN();
+    if (k < text.size() && text[k] == '=') {
+      ++k;
+      while (k < text.size() && text[k] == ' ') ++k;
+      double v = 0.0;
+      const auto [ptr, ec] = std::from_chars(text.data() + k, text.data() + text.size(), v);
+      if (ec == std::errc() && ptr != text.data() + k) value = v;
+    }
+    out.push_back(value);
+  }
+  return out;
+}
+
+// A device preset sets only what its source gives. Every number it sets
+// away from the model's default, and every block it switches on, is named
+// in a source.fields entry ("translation.friction.dynamic_level_N = 0.7",
+// or, as the first presets wrote it, the field's name alone); a field a
+// source entry names is in force, at the value the entry gives. The device
+// under the engine (device_limits) and the transform's floor
+// (min_moment_arm_m) are not the named device's and are exempt.
+void check_preset_sourced(EngineSettings s, const SettingsSource& source) {
+  std::vector<Block> blocks;
+  std::vector<std::string> prefixes;
+  for (Block& b : axis_blocks(AxisKind::kTranslation, s.translation)) {
+    blocks.push_back(b);
+    prefixes.push_back("translation.");
+  }
+  for (Block& b : axis_blocks(AxisKind::kRotation, s.rotation)) {
+    blocks.push_back(b);
+    prefixes.push_back("rotation.");
+  }
+  for (Block& b : engine_blocks(s)) {
+    if (b.name == "device_limits") continue;
+    blocks.push_back(b);
+    prefixes.push_back("");
+  }
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    const Block& b = blocks[i];
+    const std::string block_path = prefixes[i] + b.name;
+    const bool on = b.enabled == nullptr || *b.enabled;
+    bool any_named = false;
+    for (const Field& f : b.fields) {
+      const std::string path = block_path + "." + f.key;
+      bool named = false;
+      for (const auto& [quantity, text] : source.fields) {
+        const std::vector<double> mentions = mentions_of(text, path);
+        if (mentions.empty()) continue;
+        named = true;
+        if (!on)
+          throw SettingsError("source.fields." + quantity + " names " + path + ", but this device preset leaves '" +
+                              block_path + "' off: a quantity its source gives is in force");
+        for (double v : mentions)
+          if (!std::isnan(v) && v != *f.value)
+            throw SettingsError("source.fields." + quantity + " gives " + path + " = " + format_number(v) +
+                                ", but this device preset sets it to " + format_number(*f.value));
+      }
+      any_named = any_named || named;
+      // The ripple's period follows the cogging period unless given.
+      const double default_value = f.key.starts_with("ripple_period_") ? *b.fields[1].value : f.default_value;
+      if (on && !named && *f.value != default_value)
+        throw SettingsError("settings field '" + path + "' is " + format_number(*f.value) +
+                            " in this device preset, but no source.fields entry names it: every number a preset "
+                            "sets comes from its source (write \"" + path + " = " + format_number(*f.value) +
+                            "\" in the quantity it comes from)");
+    }
+    if (b.enabled != nullptr && *b.enabled && !any_named)
+      throw SettingsError("settings block '" + block_path + "' is on in this device preset, but no source.fields "
+                          "entry names any of its fields: a preset switches on only what its source gives");
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> split_settings_field(std::string_view dotted) {
@@ -314,6 +401,9 @@ std::string dose_setting_name(std::string_view base, std::string_view field, dou
 
 NamedSettings settings_at_strength(const NamedSettings& base, std::string_view field, double strength) {
   nlohmann::json j = settings_to_json(base);
+  // At another strength a device preset is no longer the device its source
+  // describes: the copy drops the source (and so is no preset).
+  j.erase("source");
   const std::vector<std::string> parts = split_settings_field(field);
   const nlohmann::json* leaf = find_settings_field(j, field);
   if (parts.size() < 2 || leaf == nullptr || !leaf->is_number())
@@ -375,6 +465,7 @@ NamedSettings settings_from_json(const json& j, const std::string& source) {
     if (j.contains("source")) {
       out.source = read_source(j["source"]);
       check_preset_force(s);
+      check_preset_sourced(s, *out.source);
     }
     return out;
   } catch (const SettingsError& e) {

@@ -99,9 +99,10 @@ TEST(CliConventions, SettingsCheckPrintsADevicePresetsSource) {
   const std::string preset = std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/devices/novint_falcon.json";
   const auto [status, out] = testing::run_cli(kBinary, "settings check --settings " + preset);
   EXPECT_EQ(status, 0) << out;
-  EXPECT_THAT(out, HasSubstr("Source: Novint Falcon\n  reference: CHAI3D 3.3.0"));
-  EXPECT_THAT(out, HasSubstr("\n  friction: not published in the cited source"));
-  EXPECT_THAT(out, HasSubstr("\n  peak force: 8.0 N (m_maxLinearForce): tip_force_saturation.limit_N\n"));
+  EXPECT_THAT(out, HasSubstr("Source: Novint Falcon\n  reference: [1] CHAI3D 3.3.0"));
+  EXPECT_THAT(out, HasSubstr("\n  back-drive inertia: not published in the cited sources"));
+  EXPECT_THAT(out, HasSubstr("\n  peak force: more than 8.9 N, vendor-stated"));
+  EXPECT_THAT(out, HasSubstr("tip_force_saturation.limit_N = 8.9, the floor the vendor gives\n"));
 }
 
 TEST(CliConventions, NearestNameIsForTyposOnly) {

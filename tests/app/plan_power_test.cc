@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -127,10 +128,55 @@ TEST_F(PlanPowerTest, TheSameSeedGivesTheSameTableOnAnyNumberOfThreads) {
   EXPECT_THAT(csv, HasSubstr("2,pairwise,clip,No Force Feedback,force_p95_N,2,"));
   EXPECT_THAT(csv, HasSubstr("2,participant,clip,,force_p95_N,4,"));  // 2 studies x 2 participants' Table 3.4 tests
   EXPECT_THAT(one, HasSubstr("2 studies simulated"));
+  // The predicted change beside the power (issue 35 §4), the same on any
+  // number of threads, said to be the model's wherever it is shown.
+  const std::string change = testing::slurp(dir_ / "one" / "predicted_change.csv");
+  EXPECT_EQ(change, testing::slurp(dir_ / "two" / "predicted_change.csv"));
+  EXPECT_THAT(change, HasSubstr("\nmodel fixed,2,clip,No Force Feedback,force_p95_N,2,"));
+  EXPECT_THAT(change, HasSubstr(",8,0\n"));  // 2 studies x 2 participants x 2 repetitions, none timed out
+  EXPECT_THAT(one, HasSubstr("Predicted change against High Fidelity and the power to detect it, every measure"));
+  EXPECT_THAT(one, HasSubstr("**These are the model's predictions**"));
+  EXPECT_THAT(one, HasSubstr("| force_p95_N | No Force Feedback | +"));
+  EXPECT_THAT(testing::slurp(dir_ / "one" / "comparison.md"), HasSubstr("**These are the model's predictions**"));
   // Another seed, other studies (2 studies x 5 measures x 3 methods: some rate differs).
   const auto [other_rc, other] = plan("--participants 2 --studies 2 --seed 10 --no-plots --out " + (dir_ / "other").string());
   ASSERT_EQ(other_rc, 0) << other;
   EXPECT_NE(csv, testing::slurp(dir_ / "other" / "power.csv"));
+}
+
+// The device comparison of issue 35 §4 runs through plan power: every
+// device preset has its predicted change against High Fidelity in every
+// measure and task (the shipped protocol with one repetition and no
+// training, one study of one participant; the documented table has 80).
+TEST_F(PlanPowerTest, TheDeviceComparisonPredictsEveryDevicesChange) {
+  const fs::path shipped = source_dir() / "examples/protocols/device_comparison.json";
+  nlohmann::json p = nlohmann::json::parse(testing::slurp(shipped));
+  for (auto& setting : p["settings"]) setting = (shipped.parent_path() / setting.get<std::string>()).string();
+  p["repetitions"] = {{"dissection", 1}, {"clip", 1}};
+  p["training_trials"] = 0;
+  protocol_ = dir_ / "device_comparison.json";
+  std::ofstream(protocol_) << p.dump();
+  const auto [rc, text] = testing::run_cli_stdout(
+      HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() + kRate +
+                              "--participants 1 --studies 1 --no-plots --json --out " + (dir_ / "devices").string());
+  ASSERT_EQ(rc, 0) << text;
+  const nlohmann::json j = nlohmann::json::parse(text);
+  std::map<std::string, int> per_device;
+  for (const auto& r : j.at("predicted_change")) {
+    EXPECT_EQ(r.at("variant"), "model fixed");
+    ++per_device[r.at("setting").get<std::string>()];
+  }
+  std::map<std::string, int> expected;
+  for (const char* d : {"Novint Falcon", "WoodenHaptics", "Mini WoodenHaptics", "PHANTOM Omni", "Touch", "omega.3"})
+    expected[d] = 2 * 5;  // 2 tasks x 5 measures
+  EXPECT_EQ(per_device, expected);
+  std::set<std::string> tallied;
+  for (const auto& r : j.at("timed_out")) {
+    tallied.insert(r.at("setting").get<std::string>());
+    EXPECT_EQ(r.at("trials"), 1);  // one participant, one repetition per task
+  }
+  EXPECT_EQ(tallied.size(), 7u);  // High Fidelity and the six devices
+  EXPECT_TRUE(fs::exists(j.at("comparison").at("markdown").get<std::string>()));
 }
 
 TEST_F(PlanPowerTest, AKilledRunResumesAndEndsWithTheSameTable) {

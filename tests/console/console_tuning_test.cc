@@ -181,5 +181,22 @@ TEST_F(ConsoleTuningTest, SavedSettingsPassSettingsCheckAndAreNotOverwritten) {
   EXPECT_EQ(tuning.file("../" + file), std::nullopt);
 }
 
+// A device preset tuned on the page is no longer the device its source
+// describes (issue 35): the change is taken, and the settings drop the
+// source, where the preset's own checks (every number from the source)
+// would refuse it.
+TEST_F(ConsoleTuningTest, ATunedDevicePresetDropsItsSource) {
+  ConsoleTuning tuning(config_);
+  tuning.start("clip", load_settings_file(std::filesystem::path(HAPTICLAB_SOURCE_DIR) /
+                                          "examples/settings/devices/novint_falcon.json"));
+  EXPECT_TRUE(tuning.status()["settings"].contains("source"));
+  EXPECT_NO_THROW(tuning.set("translation.friction.dynamic_level_N", 1.0));  // the source says 3.6
+  tuning.stop();
+  EXPECT_FALSE(tuning.status()["settings"].contains("source"));
+  const NamedSettings back = load_settings_file(dir_ / tuning.save("Falcon with less friction"));
+  EXPECT_FALSE(back.source.has_value());
+  EXPECT_DOUBLE_EQ(back.engine.translation.friction.dynamic_level, 1.0);
+}
+
 }  // namespace
 }  // namespace hapticlab::console

@@ -7,7 +7,9 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
+#include "core/settings/settings_json.h"
 #include "protocols/design.h"
 #include "protocols/protocol_json.h"
 #include "protocols/schedule.h"
@@ -148,8 +150,60 @@ TEST(ProtocolExamplesTest, EveryShippedProtocolLoadsAndPlans) {
     EXPECT_FALSE(plan.participants.empty()) << entry.path();
     ++count;
   }
-  EXPECT_EQ(count, 9);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch,
-                       // null_setting_check, calibration, friction_dose, friction_staircase
+  EXPECT_EQ(count, 10);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch,
+                        // null_setting_check, calibration, friction_dose, friction_staircase, device_comparison
+}
+
+// Issue 35 §4: High Fidelity against every device preset, in both tasks.
+TEST(ProtocolExamplesTest, DeviceComparisonIsHighFidelityAgainstEveryDevicePreset) {
+  const Protocol p = load_protocol_file(kDir / "device_comparison.json");
+  std::set<std::string> devices;
+  for (const auto& entry : std::filesystem::directory_iterator(kDir.parent_path() / "settings" / "devices"))
+    if (entry.path().extension() == ".json") devices.insert(load_settings_file(entry.path()).name);
+  ASSERT_FALSE(p.settings.empty());
+  EXPECT_EQ(p.settings.front().settings.name, "High Fidelity");
+  std::set<std::string> compared;
+  for (std::size_t i = 1; i < p.settings.size(); ++i) {
+    compared.insert(p.settings[i].settings.name);
+    EXPECT_TRUE(p.settings[i].settings.source.has_value()) << p.settings[i].settings.name;
+  }
+  EXPECT_EQ(compared, devices);
+  EXPECT_EQ(p.tasks.size(), 2u);
+  EXPECT_EQ(p.design.type, DesignType::kComplete);
+}
+
+// Issue 35 §4: one component of a device at a time, each strength a setting
+// that differs from High Fidelity in that component's blocks only.
+TEST(ProtocolExamplesTest, ComponentDoseSeriesVaryOneComponentEach) {
+  const std::map<std::string, std::set<std::string>> series = {
+      {"friction.json", {"translation.friction"}},
+      {"inertia.json", {"translation.inertia"}},
+      {"backlash.json", {"translation.inertia", "translation.backlash"}},  // the gap needs a virtual mass
+      {"latency.json", {"loop"}},
+      {"update_rate.json", {"loop"}}};
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kDir / "component_dose")) {
+    if (entry.path().extension() != ".json") continue;
+    ++count;
+    const std::string file = entry.path().filename().string();
+    ASSERT_TRUE(series.count(file)) << file;
+    const Protocol p = load_protocol_file(entry.path());
+    ASSERT_GE(p.settings.size(), 4u) << file;  // the control and at least 3 strengths
+    EXPECT_EQ(p.settings.front().settings.name, "High Fidelity");
+    const nlohmann::json control = settings_to_json(p.settings.front().settings);
+    for (std::size_t i = 1; i < p.settings.size(); ++i) {
+      const nlohmann::json dose = settings_to_json(p.settings[i].settings);
+      std::set<std::string> differ;
+      for (const char* axis : {"translation", "rotation"})
+        for (const auto& [block, value] : dose[axis].items())
+          if (value != control[axis][block]) differ.insert(std::string(axis) + "." + block);
+      for (const char* block : {"tip_force_saturation", "loop", "device_limits"})
+        if (dose[block] != control[block]) differ.insert(block);
+      EXPECT_EQ(differ, series.at(file)) << p.settings[i].settings.name;
+    }
+    EXPECT_EQ(make_study_plan(p).participants.size(), 8u) << file;
+  }
+  EXPECT_EQ(count, 5);
 }
 
 TEST(ProtocolExamplesTest, ExternalPegTouchIsTheLabsOwnTask) {
