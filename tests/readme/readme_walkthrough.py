@@ -44,6 +44,9 @@ def rewrites():
         ("--participants 3,5,8 --studies 200", "--participants 3 --studies 2 --rate-hz 250",
          "plan power's 600 studies take about half an hour on 2 cores; 2 at a quarter of "
          "the rate (18 s at 1 kHz) show it runs"),
+        ("--participants 8,16 --studies 40", "--participants 2 --studies 1 --rate-hz 250",
+         "the device comparison's 960 simulated participants take about 20 minutes on 2 cores; "
+         "one study of 2 at a quarter of the rate shows it runs"),
         ("--participants 100 --out calibration/", "--participants 2 --out calibration/",
          "plan calibrate's 100 participants take about two minutes on 2 cores; 2 show it runs"),
         ("stability map --out stability-map",
