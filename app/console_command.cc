@@ -1,6 +1,7 @@
 #include "app/console_command.h"
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
@@ -80,7 +81,16 @@ int run(const ConsoleOptions& opt) {
   std::printf("console token (controls need it): in %s (readable only by you) and in the address below\n",
               token_file.c_str());
   InterruptFlag interrupt;
-  console::serve_console(config, interrupt.flag());
+  const console::ConsoleOutcome outcome = console::serve_console(config, interrupt.flag());
+  if (outcome.device_hung) {
+    std::fprintf(stderr,
+                 "hapticlab console: the device hung (%s); restart the device before the next session\n",
+                 outcome.device_hung->c_str());
+    std::fflush(nullptr);
+    // A thread is still inside the device's code: ending the process the
+    // usual way would wait for it, or destroy what it is using.
+    std::_Exit(3);
+  }
   return 0;
 }
 

@@ -8,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "console/access_tickets.h"
 #include "console/console_results.h"
 #include "console/console_tuning.h"
 #include "console/control_fields.h"
@@ -27,6 +28,14 @@ using http::Route;
 using http::Runs;
 
 constexpr std::size_t kMaxBodyBytes = 16 * 1024;  // notes and reasons are short
+// STOP is answered within this of its head, stored or not (its record is
+// written on a connection of its own, which another's lock can hold up).
+constexpr auto kStopAnswerWithin = std::chrono::milliseconds(50);
+// Connections and event streams per port: each port's own, so the
+// participant's clients (who need no token) never take the operator's.
+// The operator's page holds one stream per tab; the participant's screen one.
+constexpr std::size_t kOperatorConnections = 384, kOperatorStreams = 64;
+constexpr std::size_t kParticipantConnections = 128, kParticipantStreams = 16;
 constexpr auto kLivePeriod = std::chrono::milliseconds(33);          // >= 30 Hz to the plots
 constexpr auto kParticipantPeriod = std::chrono::milliseconds(100);  // the participant's cue
 // Bounds on what the console reads into memory to serve.
@@ -143,15 +152,17 @@ std::string url_host(const std::string& bind) {
 
 }  // namespace
 
-void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
+ConsoleOutcome serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   if (config.token.size() < 16) throw std::invalid_argument("console token: shorter than 16 characters");
   // Opened first: it brings an older file to the current schema, which the
   // read-only connections below need.
   OperatorActions actions(config.session.db);
+  OperatorActions stop_actions(config.session.db);  // STOP's own connection: no control's wait is its
+  DeviceHealth device_health;
   // The participants and settings of the study, read once: codes a request
   // may name, and (for the operator's page) the protocol summary.
   const sessions::StudyProgress at_start = read_progress(config.session.db);
-  ConsoleSession session(config.session, actions);
+  ConsoleSession session(config.session, actions, stop_actions, device_health);
   // Next to the database: STUDY.db -> STUDY-console-analysis/.
   ConsoleResults results(config.session.db,
                          config.session.db.parent_path() / (config.session.db.stem().string() + "-console-analysis"));
@@ -164,7 +175,7 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   tuning_config.force_limits =
       protocols::safety_from_protocol_text(at_start.study.protocol_json, config.session.db.string());
   tuning_config.out_dir = config.session.db.parent_path() / (config.session.db.stem().string() + "-console-tuning");
-  ConsoleTuning tuning(tuning_config);
+  ConsoleTuning tuning(tuning_config, device_health);
   const std::string chart_js = std::filesystem::exists(config.chart_js)
                                    ? read_text_file(config.chart_js, kMaxChartJsBytes, "Chart.js file")
                                    : std::string();
@@ -180,7 +191,35 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   http::Server server(server_config);
   int participant_port = 0;  // known once its site listens
 
-  // --- the operator's site
+  // --- who may: the token, in its header; for a GET a browser must name by
+  // address (the stream, a frame, a download), a one-time ticket instead
+  // (access_tickets.h). Checked on the loop as soon as the head is in,
+  // before any body byte is read.
+  AccessTickets tickets;
+  const auto has_token = [&](const Request& req) {
+    const std::string* token = req.header("x-hapticlab-token");
+    return token != nullptr && same_token(*token, config.token);
+  };
+  const auto token_check = [&](Request& req) -> std::optional<Response> {
+    if (!has_token(req))
+      return Response::error(403, "missing or wrong X-HapticLab-Token header (the console printed the page's address "
+                                  "with it, and it is in the token file); nothing was done");
+    return std::nullopt;
+  };
+  const auto read_check = [&](Request& req) -> std::optional<Response> {
+    if (has_token(req)) return std::nullopt;
+    const std::string ticket = query_value(req.query, "ticket");
+    if (!ticket.empty() && tickets.redeem(ticket, req.path)) return std::nullopt;
+    return Response::error(403, "GET " + req.path.substr(0, 200) + ": " +
+                                    (ticket.empty() ? std::string("missing or wrong X-HapticLab-Token header")
+                                                    : std::string("the ticket is spent, expired or for another path")) +
+                                    "; what the operator's port answers names settings and participants, so it needs "
+                                    "the token (open the address the console printed, which ends in #token=...)");
+  };
+
+  // --- the operator's site: the page's shell and its scripts for anyone
+  // with the right Host; everything that names a setting or a participant
+  // only with the token
   std::vector<Route> op;
   const auto get = [&](const std::string& path, Runs runs, auto handle) {
     Route r;
@@ -188,6 +227,7 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
     r.path = path;
     r.runs = runs;
     r.handle = handle;
+    r.admit = read_check;
     return r;
   };
   for (std::size_t i = 0; i < kAssetCount; ++i) {
@@ -196,6 +236,7 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
     op.push_back(get(a.path, Runs::kLoop, [a](const Request&) {
       return Response::text(200, a.body, std::string(a.content_type) + "; charset=utf-8");
     }));
+    op.back().admit = nullptr;  // the same for everyone: it names nothing
   }
   op.push_back(get("/vendor/chart.js", Runs::kLoop, [&chart_js](const Request&) {
     if (chart_js.empty())
@@ -204,6 +245,7 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
     r.headers.emplace_back("Cache-Control", "max-age=3600");  // the same file for the console's lifetime
     return r;
   }));
+  op.back().admit = nullptr;
   // --- read-only
   op.push_back(get("/api/study", Runs::kReader, [&](const Request&) {
     return json_reply(sessions::study_progress_json(read_progress(config.session.db)));
@@ -251,16 +293,32 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   stream.method = "GET";
   stream.path = "/events/operator";
   stream.stream = "operator";
+  stream.admit = read_check;
   op.push_back(stream);
+  // A ticket for one of the GET routes above (answered on the loop: the
+  // page's stream reconnects with a new one even while a control waits).
+  {
+    Route r;
+    r.method = "POST";
+    r.path = "/api/ticket";
+    r.max_body_bytes = kMaxBodyBytes;
+    r.admit = token_check;
+    r.runs = Runs::kLoop;
+    r.handle = [&](const Request& req) {
+      try {
+        const std::string path = text_field(parse_control_body(req.body), "path", 300);
+        if (path != "/events/operator" && !path.starts_with("/results/") && !path.starts_with("/tuning/"))
+          throw std::invalid_argument("path: '" + path + "' takes no ticket (only /events/operator, /results/NAME, "
+                                      "/tuning/NAME: what a browser must open by address)");
+        return json_reply({{"ticket", tickets.issue(path)}});
+      } catch (const std::invalid_argument& e) {
+        return Response::error(400, e.what());
+      }
+    };
+    op.push_back(r);
+  }
 
   // --- controls: token first (before any body byte is read), then the body
-  const auto token_check = [&](Request& req) -> std::optional<Response> {
-    const std::string* token = req.header("x-hapticlab-token");
-    if (token == nullptr || !same_token(*token, config.token))
-      return Response::error(403, "missing or wrong X-HapticLab-Token header (the console printed the page's address "
-                                  "with it, and it is in the token file); nothing was done");
-    return std::nullopt;
-  };
   const auto control_route = [&](const std::string& path, auto action, auto reply) {
     Route r;
     r.method = "POST";
@@ -308,8 +366,18 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   });
   // STOP stops whatever drives the device, at once: on the server's loop
   // thread as soon as its head is in and the token checked, before its
-  // body is read and before anything waits. Then, on the control thread,
-  // it is stored, and answered.
+  // body is read and before anything waits. Then, on the urgent thread
+  // (never behind a control) and its own database connection, it is
+  // stored, and answered; if storing takes longer than kStopAnswerWithin
+  // (another connection holds the database's lock), the loop answers
+  // without waiting, saying the record is pending, and the status says
+  // when it is stored.
+  const auto stopped_text = [](const nlohmann::json& noted) {
+    std::string stopped = noted["what"].get<std::string>();
+    if (noted["free_trial"].get<bool>()) stopped += (stopped.empty() ? "" : "; ") + std::string("the free trial");
+    if (stopped.empty()) stopped = "nothing was running";
+    return stopped;
+  };
   {
     Route r;
     r.method = "POST";
@@ -320,34 +388,42 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
       const bool free_trial = tuning.running();
       const StopSnapshot s = session.stop();
       tuning.stop();
-      nlohmann::json noted = {{"what", s.what}, {"free_trial", free_trial}, {"session_running", s.session_running}};
+      nlohmann::json noted = {{"what", s.what}, {"free_trial", free_trial}, {"session_running", s.session_running},
+                              {"unix_s", s.unix_s}};
       if (s.session_id) noted["session_id"] = *s.session_id;
       if (s.trial_id) noted["trial_id"] = *s.trial_id;
       if (s.t_s) noted["t_s"] = *s.t_s;
       req.admitted = noted.dump();
       return std::nullopt;
     };
-    r.runs = Runs::kControl;
-    r.handle = [&](const Request& req) {
+    r.runs = Runs::kUrgent;
+    r.handle = [&, stopped_text](const Request& req) {
       const nlohmann::json noted = nlohmann::json::parse(req.admitted);
       StopSnapshot s;
       s.session_running = noted["session_running"];
+      s.unix_s = noted["unix_s"].get<double>();
       if (noted.contains("session_id")) s.session_id = noted["session_id"].get<std::int64_t>();
       if (noted.contains("trial_id")) s.trial_id = noted["trial_id"].get<std::int64_t>();
       if (noted.contains("t_s")) s.t_s = noted["t_s"].get<double>();
-      std::string stopped = noted["what"].get<std::string>();
-      if (noted["free_trial"].get<bool>()) stopped += (stopped.empty() ? "" : "; ") + std::string("the free trial");
-      if (stopped.empty()) stopped = "nothing was running";
+      const std::string stopped = stopped_text(noted);
+      // Stopped all the same when it cannot be stored: the answer says so.
+      const std::string error = session.record_stop(s, stopped);
       nlohmann::json j = session.operator_status();
       j["stopped"] = stopped;
-      try {
-        session.record_stop(s, stopped);
-        j["recorded"] = true;
-      } catch (const std::exception& e) {
-        // Stopped all the same: the answer says what was not stored.
-        j["recorded"] = false;
-        j["record_error"] = std::string("STOP acted, but could not be stored in the database: ") + e.what();
-      }
+      j["recorded"] = error.empty();
+      if (!error.empty()) j["record_error"] = error;
+      return json_reply(j);
+    };
+    r.answer_within = kStopAnswerWithin;
+    r.answer_late = [&, stopped_text](const Request& req) {
+      const nlohmann::json noted = nlohmann::json::parse(req.admitted);
+      nlohmann::json j = session.operator_status();
+      j["stopped"] = stopped_text(noted);
+      j["recorded"] = false;
+      j["record_pending"] = true;
+      j["record_error"] = "STOP acted (the loop stops at zero force), but its record is not stored yet: the study "
+                          "database is busy (another connection holds its lock); it is stored as soon as the lock is "
+                          "free, and the status' last_stop says when";
       return json_reply(j);
     };
     op.push_back(r);
@@ -402,6 +478,7 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
     pp.push_back(get(a.path, Runs::kLoop, [a](const Request&) {
       return Response::text(200, a.body, std::string(a.content_type) + "; charset=utf-8");
     }));
+    pp.back().admit = nullptr;  // the participant's screen: it names no setting
   }
   Route participant_stream;
   participant_stream.method = "GET";
@@ -441,8 +518,10 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
       server.publish("participant", sse("participant", session.participant_status()));
   });
 
-  const int port = server.add_site({"operator", config.bind_address, config.port, std::move(op)});
-  participant_port = server.add_site({"participant", config.bind_address, config.participant_port, std::move(pp)});
+  const int port = server.add_site(
+      {"operator", config.bind_address, config.port, std::move(op), kOperatorConnections, kOperatorStreams});
+  participant_port = server.add_site({"participant", config.bind_address, config.participant_port, std::move(pp),
+                                      kParticipantConnections, kParticipantStreams});
   const std::string host = url_host(config.bind_address);
   std::printf("console: http://%s:%d/#token=%s  (the operator's page; the token stays in the page)\n", host.c_str(),
               port, config.token.c_str());
@@ -452,6 +531,9 @@ void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop) {
   server.run(stop);
   session.stop();
   tuning.stop();
+  ConsoleOutcome outcome;
+  outcome.device_hung = device_health.hung();
+  return outcome;
 }
 
 }  // namespace hapticlab::console

@@ -9,14 +9,19 @@
 //   the participant's port: /participant (trial k of N, a cue, the task's
 //     instructions; never a setting), its script and style, and its one
 //     event stream, /events/participant; nothing else.
-// A page of one origin cannot read the other's answers, so a participant
-// who browses from the screen cannot reach what names the setting.
-// Reads need nothing but the right Host; every control (POST /api/...)
-// needs the token in the X-HapticLab-Token header (a header, not a cookie:
-// another site's page cannot send it, which blocks cross-site requests).
+// A page of one origin cannot read the other's answers. On the operator's
+// port only the page's shell and its scripts and styles are served without
+// the token; every read that names a setting or a participant (/api/...,
+// /events/operator, /results/..., /tuning/...) and every control needs it
+// in the X-HapticLab-Token header (a header, not a cookie: another site's
+// page cannot send it, and a cookie would go to the participant screen's
+// port too), or, for a GET a browser must open by address, a one-time
+// ticket (access_tickets.h). So a participant who types the operator's
+// address into the screen's browser gets the shell and 403s.
 
 #include <atomic>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "console/console_session.h"
@@ -32,12 +37,19 @@ struct ConsoleConfig {
   std::filesystem::path chart_js = "/usr/share/javascript/chart.js/chart.min.js";  // Debian libjs-chart.js
 };
 
+struct ConsoleOutcome {
+  // The console's device hung (device_health.h): why. A thread of this
+  // process is still inside the device's code; the caller must end the
+  // process without waiting for it (std::_Exit, status 3).
+  std::optional<std::string> device_hung;
+};
+
 // Serves until `stop` is set (seen within 50 ms). Prints both addresses to
 // stdout once it listens, the operator's with the token in its fragment
 // (#token=...: the page keeps it and takes it out of the address bar).
 // Throws std::runtime_error when it cannot listen (address in use, bad
 // address) or the database has no study.
-void serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop);
+ConsoleOutcome serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop);
 
 // The embedded pages (console/web/*, built into console_assets.cc).
 struct Asset {

@@ -25,8 +25,13 @@ const char* phase_name(sessions::SessionProgress::Phase p) {
 
 }  // namespace
 
-ConsoleSession::ConsoleSession(ConsoleSessionConfig config, OperatorActions& actions)
-    : config_(std::move(config)), actions_(actions), live_(config_.live_rate_Hz, config_.live_window_s) {}
+ConsoleSession::ConsoleSession(ConsoleSessionConfig config, OperatorActions& actions, OperatorActions& stop_actions,
+                               DeviceHealth& device)
+    : config_(std::move(config)),
+      actions_(actions),
+      stop_actions_(stop_actions),
+      device_(device),
+      live_(config_.live_rate_Hz, config_.live_window_s) {}
 
 bool ConsoleSession::running() const {
   std::lock_guard lock(mutex_);
@@ -41,7 +46,9 @@ ConsoleSession::~ConsoleSession() {
 void ConsoleSession::start(const std::string& participant, bool step) {
   std::lock_guard lock(mutex_);
   if (running_) throw ConsoleConflict("start: a session is running (" + participant_ + "); stop it first");
+  device_.check_usable("start");
   if (thread_.joinable()) thread_.join();  // the previous, finished one
+  device_.clear_alert();
   stop_.store(false);
   paused_.store(false);
   step_.store(step);
@@ -92,6 +99,7 @@ StopSnapshot ConsoleSession::stop() {
   stop_.store(true);
   std::lock_guard lock(mutex_);
   StopSnapshot s;
+  s.unix_s = db::unix_now_s();
   s.session_running = running_;
   if (!running_) return s;
   s.session_id = session_id_;
@@ -107,14 +115,40 @@ StopSnapshot ConsoleSession::stop() {
   return s;
 }
 
-void ConsoleSession::record_stop(const StopSnapshot& snapshot, const std::string& detail) {
+std::string ConsoleSession::record_stop(const StopSnapshot& snapshot, const std::string& detail) {
   db::OperatorActionRow row;
   row.session_id = snapshot.session_id;
   row.trial_id = snapshot.trial_id;
   row.t_s = snapshot.t_s;
+  row.unix_s = snapshot.unix_s;
   row.type = "operator_stop";
   row.detail = detail;
-  actions_.record(row);
+  const auto set_last = [&](const char* recorded, const std::string& error) {
+    std::lock_guard lock(mutex_);
+    last_stop_ = {{"stopped", detail}, {"unix_s", snapshot.unix_s}, {"recorded", recorded}};
+    if (!error.empty()) last_stop_["record_error"] = error;
+  };
+  set_last("pending", "");
+  // Another connection may hold the lock (the sample writer's commit, a
+  // control's, another program's): each try waits the connection's busy
+  // timeout; a lock held past the writer's own patience is a failure.
+  const auto first_try = std::chrono::steady_clock::now();
+  for (;;) {
+    try {
+      stop_actions_.record(row);
+      set_last("stored", "");
+      return "";
+    } catch (const db::DbError& e) {
+      if (e.is_busy() && std::chrono::steady_clock::now() - first_try < db::kBusyPatience) continue;
+      const std::string error = std::string("STOP acted, but could not be stored in the database: ") + e.what();
+      set_last("failed", error);
+      return error;
+    } catch (const std::exception& e) {
+      const std::string error = std::string("STOP acted, but could not be stored in the database: ") + e.what();
+      set_last("failed", error);
+      return error;
+    }
+  }
 }
 
 void ConsoleSession::next_trial() {
@@ -201,6 +235,8 @@ void ConsoleSession::run(std::string participant) {
   options.realtime = config_.realtime;
   options.stop = &stop_;
   options.training_ends = &training_ends_;
+  // At once, while the trial still runs (a device call that has not returned).
+  options.on_alert = [this](const std::string& alert) { device_.alert(alert); };
   options.on_session_opened = [this](std::int64_t session_id) {
     {
       std::lock_guard lock(mutex_);
@@ -276,6 +312,11 @@ void ConsoleSession::run(std::string participant) {
   std::string error;
   try {
     result = sessions::run_session(config_.db, options);
+  } catch (const sessions::DeviceHungError& e) {
+    // The loop's thread is still in the device's code: no session or free
+    // trial may open the device again in this process.
+    error = e.what();
+    device_.mark_hung(e.what());
   } catch (const std::exception& e) {
     error = e.what();
   }
@@ -335,6 +376,8 @@ nlohmann::json ConsoleSession::operator_status() const {
         r.starts_with("rate_violation"))
       j["last_fault"] = r;
   }
+  if (!last_stop_.is_null()) j["last_stop"] = last_stop_;
+  j.update(device_.status());
   if (result_) {
     j["result"] = {{"trials_run", result_->trials_run},
                    {"trials_complete", result_->trials_complete},

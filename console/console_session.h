@@ -20,6 +20,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "console/console_conflict.h"
+#include "console/device_health.h"
 #include "console/live_buffer.h"
 #include "console/operator_actions.h"
 #include "core/device/device_spec.h"
@@ -27,19 +29,13 @@
 
 namespace hapticlab::console {
 
-// A control that cannot act in the session's present state (no session
-// runs, no trial runs, one runs already): the console answers 409.
-class ConsoleConflict : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
 // What STOP found running when it was pressed, for its record.
 struct StopSnapshot {
   bool session_running = false;
   std::optional<std::int64_t> session_id;
   std::optional<std::int64_t> trial_id;
   std::optional<double> t_s;
+  double unix_s = 0.0;  // when STOP acted (its record keeps this time, however late it is stored)
   std::string what;  // "session S1, trial 4 (id 17)", "session S1, between trials", ""
 };
 
@@ -57,23 +53,32 @@ struct ConsoleSessionConfig {
 // Every control is stored (OperatorActions) before it acts and before the
 // console answers; a control that cannot act throws ConsoleConflict (no
 // session, no trial) or std::invalid_argument (a bad value), and then
-// nothing is stored or done.
+// nothing is stored or done. STOP acts first and is stored after, on a
+// connection of its own (`stop_actions`), so neither a control that waits
+// nor the control's connection can hold it up.
 class ConsoleSession {
  public:
-  // `actions` outlives the session.
-  ConsoleSession(ConsoleSessionConfig config, OperatorActions& actions);
+  // `actions`, `stop_actions` (a second connection to the same file) and
+  // `device` outlive the session.
+  ConsoleSession(ConsoleSessionConfig config, OperatorActions& actions, OperatorActions& stop_actions,
+                 DeviceHealth& device);
   ~ConsoleSession();  // stops a running session and waits for it
   ConsoleSession(const ConsoleSession&) = delete;
   ConsoleSession& operator=(const ConsoleSession&) = delete;
 
   // Starts `participant`'s session; throws ConsoleConflict when one is
-  // running. `step`: wait for next_trial() before each trial.
+  // running or the device hung (device_health.h). `step`: wait for
+  // next_trial() before each trial.
   void start(const std::string& participant, bool step);
   // STOP: aborts the trial (re-queued), ends the session. Only sets a flag
   // (the loop thread of the server calls it); returns what ran, which
   // record_stop() then stores.
   StopSnapshot stop();
-  void record_stop(const StopSnapshot& snapshot, const std::string& detail);
+  // Stores STOP's record on its own connection, waiting for another
+  // connection's lock as long as the sample writer would (db/sample_writer.h,
+  // kBusyPatience); returns "" once stored, else what failed. The status'
+  // "last_stop" says meanwhile that it is pending, then stored or failed.
+  std::string record_stop(const StopSnapshot& snapshot, const std::string& detail);
   void next_trial();                // lets the next trial start (step mode)
   void set_paused(bool paused);     // holds the session before its next trial (resume also ends a rest)
   // A timed pause: holds the session before its next trial for `seconds`
@@ -110,6 +115,8 @@ class ConsoleSession {
 
   const ConsoleSessionConfig config_;
   OperatorActions& actions_;
+  OperatorActions& stop_actions_;
+  DeviceHealth& device_;
   mutable std::mutex mutex_;  // guards everything below except the atomics
   std::condition_variable opened_;  // session_id_ set, or the session ended
   std::thread thread_;
@@ -132,6 +139,7 @@ class ConsoleSession {
   std::string error_;
   double trial_started_wall_s_ = 0.0;
   std::optional<sessions::LoopStatus> loop_status_;
+  nlohmann::json last_stop_;  // the newest STOP's record: what, and "recorded": "pending"/"stored"/"failed"
   LiveBuffer live_;  // also knows the newest sample the writer drained
 };
 

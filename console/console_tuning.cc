@@ -3,6 +3,7 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <fstream>
 #include <stdexcept>
@@ -37,9 +38,10 @@ nlohmann::json* at_path(nlohmann::json& j, const std::string& path) {
 
 }  // namespace
 
-ConsoleTuning::ConsoleTuning(ConsoleTuningConfig config)
-    : config_(std::move(config)), live_(config_.live_rate_Hz, config_.live_window_s) {
+ConsoleTuning::ConsoleTuning(ConsoleTuningConfig config, DeviceHealth& device)
+    : config_(std::move(config)), device_(device), live_(config_.live_rate_Hz, config_.live_window_s) {
   if (!(config_.max_s > 0.0)) throw std::invalid_argument("tuning: max_s must be > 0");
+  if (!(config_.device_hang_grace_s > 0.0)) throw std::invalid_argument("tuning: device_hang_grace_s must be > 0");
   // Until a trial starts from a setting: every block off, every field at its documented default.
   const NamedSettings none = settings_from_json_text(R"({"name": "No degradation"})", "tuning");
   settings_ = settings_to_json(none);
@@ -66,6 +68,8 @@ void ConsoleTuning::start(const std::string& task, const NamedSettings& from) {
   }();
   std::lock_guard lock(mutex_);
   if (running_) throw std::invalid_argument("a free trial is running; stop it first");
+  device_.check_usable("free trial");
+  device_.clear_alert();
   if (thread_.joinable()) thread_.join();
   stop_.store(false);
   running_ = true;
@@ -197,7 +201,27 @@ void ConsoleTuning::run(TaskKind task) {
         live_.add({&s, 1});
       };
       int polls = 0;
-      sink.between_drains = [this, &polls](SimRig& rig) {
+      bool alerted = false;
+      int repetition = 0;
+      {
+        std::lock_guard lock(mutex_);
+        repetition = free_trial_;
+      }
+      sink.device_hang_grace_s = config_.device_hang_grace_s;
+      sink.between_drains = [this, &polls, &alerted, repetition](SimRig& rig) {
+        HapticLoop& loop = rig.loop();
+        if (!alerted && loop.watchdog_tripped()) {
+          // At once, as a session's runner does: the loop is halted, and a
+          // call that does not return is given up on after the grace.
+          alerted = true;
+          const DeviceCall call = loop.watchdog_call();
+          char limit[32];
+          std::snprintf(limit, sizeof limit, "%.0f ms", 1e3 * loop.watchdog_timeout_s());
+          device_.alert((call != DeviceCall::kNone
+                             ? "device " + std::string(to_string(call)) + "() has not returned for " + limit
+                             : "the haptic loop has completed no update for " + std::string(limit)) +
+                        " in free trial " + std::to_string(repetition) + "; the watchdog halted the device (zero force)");
+        }
         std::lock_guard lock(mutex_);
         if (changed_) {
           rig.engine().set_settings(engine_);  // taken by the loop at its next update
@@ -208,6 +232,20 @@ void ConsoleTuning::run(TaskKind task) {
         return !stop_.load();
       };
       const SimTrialResult r = run_sim_trial(c, sink);
+      if (r.device_hung) {
+        char hung[32];
+        std::snprintf(hung, sizeof hung, "%.0f ms", 1e3 * r.hung_s);
+        error = "device " + std::string(to_string(r.hung_call)) + " hung for " + hung + " in free trial " +
+                std::to_string(repetition) + " and had not returned when the console gave up on it (zero force since " +
+                "the watchdog halted it)";
+        device_.mark_hung(error);
+        break;
+      }
+      // A trip the polls above missed (the loop ended before the next):
+      // said now, never not at all.
+      if (!alerted && r.stop_reason == StopReason::kWatchdog)
+        device_.alert("the watchdog halted the device (zero force) in free trial " + std::to_string(repetition) +
+                      ": " + describe(r.safety_trip));
       std::lock_guard lock(mutex_);
       elapsed_s_ += r.duration_s;
       last_timing_ = r.timing;
@@ -237,6 +275,7 @@ nlohmann::json ConsoleTuning::status() const {
                       {"saved", saved_},     {"error", error_}};
   if (running_) j["loop_t_s"] = live_.newest_t_s();
   if (running_ && applied_t_s_) j["applied_t_s"] = *applied_t_s_;
+  j.update(device_.status());
   if (last_timing_ && last_timing_->mean_period_s > 0)
     j["loop"] = {{"rate_Hz", 1.0 / last_timing_->mean_period_s},
                  {"p99_period_ms", 1e3 * last_timing_->p99_period_s},

@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "console/device_health.h"
 #include "console/live_buffer.h"
 #include "core/sim/trial_runner.h"
 #include "core/settings/settings_json.h"
@@ -34,18 +35,24 @@ struct ConsoleTuningConfig {
   OperatorForceLimits force_limits;       // the protocol's "safety" object
   std::filesystem::path out_dir;          // tuning-log.csv and the saved settings files
   double max_s = 3600.0;                  // a free trial stops after this much loop time (> 0)
+  // A device call still not returned this long after the loop's watchdog
+  // halted the device [s] (> 0): the free trial gives up on it and the
+  // device is marked hung (device_health.h), as a session does.
+  double device_hang_grace_s = 2.0;
   double live_rate_Hz = 100.0, live_window_s = 10.0;
 };
 
 class ConsoleTuning {
  public:
-  explicit ConsoleTuning(ConsoleTuningConfig config);
+  // `device` (the console's, shared with its sessions) outlives it.
+  ConsoleTuning(ConsoleTuningConfig config, DeviceHealth& device);
   ~ConsoleTuning();  // stops a running free trial and waits for it
   ConsoleTuning(const ConsoleTuning&) = delete;
   ConsoleTuning& operator=(const ConsoleTuning&) = delete;
 
   // Starts a free trial of `task` ("dissection", "clip") from `from`.
-  // Throws std::invalid_argument when one runs or the task is unknown.
+  // Throws std::invalid_argument when one runs or the task is unknown,
+  // ConsoleConflict when the device hung.
   void start(const std::string& task, const NamedSettings& from);
   void stop();  // zero force (the loop's stop), then the thread ends
   bool running() const;
@@ -85,6 +92,7 @@ class ConsoleTuning {
   void append_log(const std::string& field, const std::string& from, const std::string& to);  // holds mutex_
 
   const ConsoleTuningConfig config_;
+  DeviceHealth& device_;
   mutable std::mutex mutex_;  // guards everything below except stop_
   std::thread thread_;
   std::atomic<bool> stop_{false};

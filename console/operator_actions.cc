@@ -15,7 +15,7 @@ db::OpenOptions writer_options() {
 OperatorActions::OperatorActions(const std::filesystem::path& db) : db_(db, writer_options()) {}
 
 void OperatorActions::record(db::OperatorActionRow action) {
-  action.unix_s = db::unix_now_s();
+  if (action.unix_s == 0.0) action.unix_s = db::unix_now_s();  // STOP brings the time it acted
   std::lock_guard lock(mutex_);
   // One INSERT in autocommit mode: committed (WAL, synchronous = NORMAL:
   // it survives a killed process) when add_operator_action returns.

@@ -19,7 +19,7 @@ class OperatorActions {
   // Throws db::DbError naming the file.
   explicit OperatorActions(const std::filesystem::path& db);
 
-  // Stores `action` (its unix_s stamped now) and commits; throws
+  // Stores `action` (its unix_s stamped now unless set) and commits; throws
   // db::DbError naming what failed. Thread-safe.
   void record(db::OperatorActionRow action);
 

@@ -3,6 +3,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 
@@ -36,9 +37,20 @@ void Connection::enter(State s, Clock::time_point now, std::chrono::milliseconds
   deadline = now + deadline_after;
 }
 
-bool Connection::flush() {
-  progressed = false;
-  for (;;) {
+int Connection::eviction_rank() const noexcept {
+  switch (state) {
+    case State::kHead: return 0;
+    case State::kBody: return 1;
+    case State::kWriting: return 2;
+    case State::kStreaming: return 3;
+    case State::kWaiting: return -1;
+  }
+  return -1;
+}
+
+bool Connection::flush(std::size_t budget_bytes) {
+  std::size_t sent = 0;
+  while (sent < budget_bytes) {
     if (unsent() == 0) {
       out.clear();
       out_sent = 0;
@@ -49,15 +61,16 @@ bool Connection::flush() {
       out.assign(piece.data(), static_cast<std::size_t>(n));
       file_left -= static_cast<std::uint64_t>(n);
     }
-    const ssize_t n = ::send(fd, out.data() + out_sent, unsent(), MSG_NOSIGNAL);
+    const ssize_t n = ::send(fd, out.data() + out_sent, std::min(unsent(), budget_bytes - sent), MSG_NOSIGNAL);
     if (n < 0) {
       if (errno == EAGAIN || errno == EWOULDBLOCK) return true;
       if (errno == EINTR) continue;
       return false;
     }
     out_sent += static_cast<std::size_t>(n);
-    progressed = progressed || n > 0;
+    sent += static_cast<std::size_t>(n);
   }
+  return true;  // the budget is spent; the socket is still writable, so the loop comes back
 }
 
 }  // namespace hapticlab::console::http

@@ -21,6 +21,9 @@ namespace hapticlab::console::http {
 namespace {
 
 constexpr std::size_t kReadPiece = 16 * 1024;
+constexpr std::size_t kWriteBudget = 256 * 1024;  // bytes sent to one connection per readiness event
+constexpr int kAcceptsPerRound = 64;               // per site and round of the loop
+constexpr int kSendBuffer = 64 * 1024;             // SO_SNDBUF of a connection (the kernel doubles it)
 constexpr auto kDeadlineScan = std::chrono::milliseconds(50);
 // A worker's answer has no deadline of its own (the route's work bounds
 // it); this one only frees the slot of a client that would wait for ever.
@@ -38,7 +41,7 @@ std::string sse_head(const std::vector<std::pair<std::string, std::string>>& def
 
 }  // namespace
 
-Server::Server(ServerConfig config) : config_(std::move(config)), hub_(config_.max_streams) {
+Server::Server(ServerConfig config) : config_(std::move(config)) {
   headers_ = config_.default_headers;
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
   wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -50,11 +53,13 @@ Server::Server(ServerConfig config) : config_(std::move(config)), hub_(config_.m
   ::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &ev);
   control_ = std::make_unique<WorkQueue>("control", 1, 64);
   reader_ = std::make_unique<WorkQueue>("reader", 2, 64);
+  urgent_ = std::make_unique<WorkQueue>("urgent", 1, 64);
 }
 
 Server::~Server() {
   control_.reset();  // their last tasks post to done_: before anything else goes
   reader_.reset();
+  urgent_.reset();
   connections_.clear();
   for (const auto& l : listeners_) ::close(l->fd);
   if (spare_fd_ >= 0) ::close(spare_fd_);
@@ -63,6 +68,7 @@ Server::~Server() {
 }
 
 int Server::add_site(Site site) {
+  if (site.max_connections == 0) throw std::invalid_argument("console (" + site.name + "): max_connections must be >= 1");
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;
   hints.ai_socktype = SOCK_STREAM;
@@ -116,11 +122,13 @@ void Server::publish(const std::string& channel, const std::string& event) {
     Connection* c = find(id);
     if (c == nullptr) continue;
     if (c->unsent() > config_.max_stream_backlog_bytes) {
-      close(*c);  // it stopped reading: its backlog would only grow
+      close(*c, true);  // it stopped reading: its backlog would only grow
       continue;
     }
     const bool was_empty = c->unsent() == 0;
     c->queue(event);
+    // The backlog's deadline starts with its first unsent event and is not
+    // moved while it drains: it must be empty by then.
     if (was_empty) c->deadline = Clock::now() + config_.write_timeout;
     writable(*c);
   }
@@ -139,7 +147,10 @@ void Server::run(const std::atomic<bool>& stop) {
   while (!stop.load()) {
     Clock::time_point wake = next_scan;
     for (const Timer& t : timers_) wake = std::min(wake, t.next);
-    const auto wait_ms = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now()).count();
+    for (const std::uint64_t id : bounded_waits_)
+      if (const Connection* c = find(id)) wake = std::min(wake, c->deadline);
+    if (!ready_.empty()) wake = Clock::now();  // pipelined requests wait: only look for events
+    const auto wait_ms = std::chrono::ceil<std::chrono::milliseconds>(wake - Clock::now()).count();
     const int n = ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()),
                                static_cast<int>(std::clamp<long long>(wait_ms, 0, 50)));
     for (int i = 0; i < n; ++i) {
@@ -162,7 +173,9 @@ void Server::run(const std::atomic<bool>& stop) {
       if (what & EPOLLIN) readable(*c);
       if ((c = find(key - listener_ids)) != nullptr && (what & EPOLLOUT)) writable(*c);
     }
+    serve_ready();
     const Clock::time_point now = Clock::now();
+    answer_late_waits(now);
     for (Timer& t : timers_) {
       if (now < t.next) continue;
       t.next = std::max(t.next + t.period, now);
@@ -176,44 +189,60 @@ void Server::run(const std::atomic<bool>& stop) {
 }
 
 void Server::accept_all(std::size_t site) {
-  for (;;) {
-    const int fd = ::accept4(listeners_[site]->fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+  Listener& l = *listeners_[site];
+  // Bounded per round: a flood of connections does not keep the loop from
+  // the requests it already has (the rest wait in the listen backlog).
+  for (int accepted = 0; accepted < kAcceptsPerRound; ++accepted) {
+    const int fd = ::accept4(l.fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
       if (errno == EINTR || errno == ECONNABORTED) continue;
-      if ((errno == EMFILE || errno == ENFILE) && evict_one()) continue;
+      if ((errno == EMFILE || errno == ENFILE) && evict_one(site)) continue;
       if ((errno == EMFILE || errno == ENFILE) && spare_fd_ >= 0) {
         // Out of descriptors with nothing to drop: take the connection and
         // close it, rather than leave it to make the listener ready for ever.
         ::close(spare_fd_);
-        const int refused = ::accept(listeners_[site]->fd, nullptr, nullptr);
+        const int refused = ::accept(l.fd, nullptr, nullptr);
         if (refused >= 0) ::close(refused);
         spare_fd_ = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
       }
       return;  // EAGAIN: none left
     }
-    if (connections_.size() >= config_.max_connections && !evict_one()) {
-      ::close(fd);  // every slot serves a request or a stream
+    if (l.connections >= l.site.max_connections && !evict_one(site)) {
+      ::close(fd);  // every slot of this site has a request a worker holds
       continue;
     }
     const int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    // A fixed send buffer (the kernel's own would grow to megabytes for a
+    // client that does not read): what an answer has "sent" is near what
+    // the client took, so its deadline means something, and one client
+    // pins little of the kernel's memory.
+    ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kSendBuffer, sizeof kSendBuffer);
     const Clock::time_point now = Clock::now();
     auto c = std::make_unique<Connection>(fd, next_id_++, site, now);
     c->enter(Connection::State::kHead, now, config_.idle_timeout);
     fd_of_[c->id] = fd;
     Connection& ref = *c;
     connections_[fd] = std::move(c);
+    ++l.connections;
     set_mask(ref, EPOLLIN);
   }
 }
 
-bool Server::evict_one() {
-  // The oldest of the idle and the slow: STOP, sent now, gets the slot.
-  Connection* oldest = nullptr;
-  for (const auto& [fd, c] : connections_)
-    if (c->evictable() && (oldest == nullptr || c->state_since < oldest->state_since)) oldest = c.get();
-  if (oldest == nullptr) return false;
-  close(*oldest);
+bool Server::evict_one(std::size_t site) {
+  // Of this site only (another site's clients never cost it a slot): the
+  // idle and the slow first, then the answer longest in the sending (a
+  // client that does not read), then the oldest stream. STOP, sent now,
+  // gets the slot.
+  Connection* victim = nullptr;
+  for (const auto& [fd, c] : connections_) {
+    if (c->site != site || c->eviction_rank() < 0) continue;
+    if (victim == nullptr || c->eviction_rank() < victim->eviction_rank() ||
+        (c->eviction_rank() == victim->eviction_rank() && c->state_since < victim->state_since))
+      victim = c.get();
+  }
+  if (victim == nullptr) return false;
+  close(*victim, true);
   return true;
 }
 
@@ -227,7 +256,14 @@ void Server::set_mask(Connection& c, std::uint32_t mask) {
   c.epoll_mask = mask;
 }
 
-void Server::close(Connection& c) {
+void Server::close(Connection& c, bool reset) {
+  if (reset) {
+    const linger abortive{1, 0};
+    ::setsockopt(c.fd, SOL_SOCKET, SO_LINGER, &abortive, sizeof abortive);
+  }
+  Listener& l = *listeners_[c.site];
+  if (c.state == Connection::State::kStreaming) --l.streams;
+  --l.connections;
   hub_.unsubscribe(c.id);
   fd_of_.erase(c.id);
   connections_.erase(c.fd);  // closes the socket, which leaves the epoll set
@@ -351,7 +387,7 @@ void Server::head_done(Connection& c) {
   if (const std::string* expect = r.header("expect");
       expect != nullptr && *expect == "100-continue" && framing.kind != BodyFraming::Kind::kNone && c.in.empty()) {
     c.queue("HTTP/1.1 100 Continue\r\n\r\n");
-    if (!c.flush()) close(c);
+    if (!c.flush(kWriteBudget)) close(c);
   }
 }
 
@@ -359,13 +395,16 @@ void Server::dispatch(Connection& c) {
   const Route& route = *c.route;
   const Clock::time_point now = Clock::now();
   if (!route.stream.empty()) {
-    if (!hub_.subscribe(route.stream, c.id)) {
+    Listener& l = *listeners_[c.site];
+    if (l.streams >= l.site.max_streams) {
       c.keep_alive = false;
-      respond(c, Response::error(503, "event stream refused: " + std::to_string(hub_.max_streams()) +
-                                          " streams are open, the most this console serves; close a console tab or "
-                                          "participant screen"));
+      respond(c, Response::error(503, "event stream refused: " + std::to_string(l.site.max_streams) +
+                                          " streams are open on the " + l.site.name +
+                                          "'s port, the most it serves; close a console tab or participant screen"));
       return;
     }
+    hub_.subscribe(route.stream, c.id);
+    ++l.streams;
     c.keep_alive = false;
     c.enter(Connection::State::kStreaming, now, config_.write_timeout);
     c.queue(sse_head(headers_) + hub_.join_event(route.stream));
@@ -383,9 +422,10 @@ void Server::dispatch(Connection& c) {
     respond(c, std::move(r));
     return;
   }
-  WorkQueue& queue = route.runs == Runs::kControl ? *control_ : *reader_;
+  WorkQueue& queue = route.runs == Runs::kControl ? *control_ : route.runs == Runs::kUrgent ? *urgent_ : *reader_;
   const std::uint64_t id = c.id;
-  const bool posted = queue.post([this, id, &route, request = c.request] {
+  const std::uint64_t seq = ++c.request_seq;
+  const bool posted = queue.post([this, id, seq, &route, request = c.request] {
     Response r;
     try {
       r = route.handle(request);
@@ -394,18 +434,47 @@ void Server::dispatch(Connection& c) {
     }
     {
       std::lock_guard lock(done_mutex_);
-      done_.push_back({id, std::move(r)});
+      done_.push_back({id, seq, std::move(r)});
     }
     const std::uint64_t one = 1;
     [[maybe_unused]] const ssize_t w = ::write(wake_fd_, &one, sizeof one);
   });
+  const bool bounded = route.answer_within.count() > 0 && route.answer_late;
   if (!posted) {
+    if (bounded) {
+      respond(c, route.answer_late(c.request));  // what it can say without the worker
+      return;
+    }
     respond(c, Response::error(503, "the console's " + queue.name() + " queue is full (" +
                                         std::to_string(queue.capacity()) + " requests wait); try again"));
     return;
   }
-  c.enter(Connection::State::kWaiting, now, std::chrono::duration_cast<std::chrono::milliseconds>(kWaitingLimit));
+  c.enter(Connection::State::kWaiting, now,
+          bounded ? route.answer_within : std::chrono::duration_cast<std::chrono::milliseconds>(kWaitingLimit));
+  if (bounded) bounded_waits_.push_back(c.id);
   set_mask(c, 0);
+}
+
+void Server::answer_late_waits(Clock::time_point now) {
+  std::vector<std::uint64_t> still;
+  const std::vector<std::uint64_t> waits = std::move(bounded_waits_);
+  bounded_waits_.clear();
+  for (const std::uint64_t id : waits) {
+    Connection* c = find(id);
+    if (c == nullptr || c->state != Connection::State::kWaiting) continue;  // answered, or gone
+    if (now < c->deadline) {
+      still.push_back(id);
+      continue;
+    }
+    Response r;
+    try {
+      r = c->route->answer_late(c->request);
+    } catch (const std::exception& e) {
+      r = Response::error(500, e.what());
+    }
+    respond(*c, std::move(r));
+  }
+  bounded_waits_.insert(bounded_waits_.end(), still.begin(), still.end());
 }
 
 void Server::take_done() {
@@ -417,7 +486,8 @@ void Server::take_done() {
     done.swap(done_);
   }
   for (Done& d : done)
-    if (Connection* c = find(d.id); c != nullptr && c->state == Connection::State::kWaiting)
+    if (Connection* c = find(d.id);
+        c != nullptr && c->state == Connection::State::kWaiting && c->request_seq == d.request_seq)
       respond(*c, std::move(d.response));
 }
 
@@ -439,18 +509,19 @@ void Server::respond(Connection& c, Response r) {
   }
   c.queue(response_head(r, length, c.keep_alive, headers_));
   c.queue(r.body);
-  c.enter(Connection::State::kWriting, Clock::now(), config_.write_timeout);
+  // Absolute: sent in full by then, however the client reads.
+  const std::uint64_t bytes = c.unsent() + c.file_left;
+  const auto allowed = config_.write_timeout + std::chrono::milliseconds(1000 * bytes / config_.min_write_rate_bytes_per_s);
+  c.enter(Connection::State::kWriting, Clock::now(), allowed);
   set_mask(c, EPOLLOUT);
   writable(c);
 }
 
 void Server::writable(Connection& c) {
-  if (!c.flush()) {
+  if (!c.flush(kWriteBudget)) {
     close(c);
     return;
   }
-  const Clock::time_point now = Clock::now();
-  if (c.progressed) c.deadline = now + config_.write_timeout;  // a slow reader that still reads
   if (c.state == Connection::State::kStreaming) {
     set_mask(c, c.unsent() > 0 ? EPOLLIN | EPOLLOUT : EPOLLIN);
     return;
@@ -472,14 +543,38 @@ void Server::finish_write(Connection& c) {
   c.route = nullptr;
   c.keep_alive = true;
   c.enter(Connection::State::kHead, Clock::now(), c.in.empty() ? config_.idle_timeout : config_.head_timeout);
-  set_mask(c, EPOLLIN);
-  process(c);  // a request sent behind the last one (pipelined)
+  if (c.in.empty()) {
+    set_mask(c, EPOLLIN);
+    return;
+  }
+  // A request sent behind the last one (pipelined): served on the next
+  // round, after every other connection's turn, and nothing more is read
+  // from this client until then.
+  set_mask(c, 0);
+  c.ready = true;
+  ready_.push_back(c.id);
+}
+
+void Server::serve_ready() {
+  const std::vector<std::uint64_t> ready = std::move(ready_);
+  ready_.clear();
+  for (const std::uint64_t id : ready) {
+    Connection* c = find(id);
+    if (c == nullptr || !c->ready) continue;
+    c->ready = false;
+    if (c->state != Connection::State::kHead) continue;
+    set_mask(*c, EPOLLIN);  // also for the rest of a head only partly received
+    process(*c);
+  }
 }
 
 void Server::check_deadlines(Clock::time_point now) {
   std::vector<Connection*> late;
   for (const auto& [fd, c] : connections_) {
     if (now < c->deadline) continue;
+    // Its deadline is when the loop answers in the worker's place (answer_late_waits).
+    if (c->state == Connection::State::kWaiting && c->route->answer_within.count() > 0 && c->route->answer_late)
+      continue;
     if (c->state == Connection::State::kStreaming && c->unsent() == 0) {
       c->deadline = now + config_.write_timeout;  // a stream with nothing to send is not late
       continue;
@@ -497,7 +592,9 @@ void Server::check_deadlines(Clock::time_point now) {
       const std::string bytes = response_head(r, r.body.size(), false, headers_) + r.body;
       [[maybe_unused]] const ssize_t n = ::send(c->fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
     }
-    close(*c);
+    // An answer or a stream not taken in time: reset, so what waits in the
+    // kernel's buffers for that client is dropped now, not sent on.
+    close(*c, c->state == Connection::State::kWriting || c->state == Connection::State::kStreaming);
   }
 }
 

@@ -8,10 +8,19 @@
 // Event streams are fanned out from the loop (stream_hub.h); files are sent
 // from the loop 64 kB at a time.
 //
+// Fairness: each readiness event of a connection serves at most one
+// request (requests pipelined behind it wait for a later round of the
+// loop, after every other ready connection had its turn) and sends at most
+// 256 kB; a round accepts at most 64 new connections per site.
+//
 // Limits (docs/console.md, "Limits"): a request head of 16 kB and 64
 // headers, a body of the route's cap (chunked or not), deadlines for an idle
-// connection, a head, a body and a stalled reader, a cap on connections
-// (a new one past it drops the oldest idle or slow one) and on streams.
+// connection, a head, a body, and for sending an answer in full (absolute:
+// not renewed as bytes go), and per site a cap on connections and on
+// streams: one site's clients never take another's slots. A new connection
+// past its site's cap drops one of that site's (idle or slow first, then the
+// oldest answer being sent, then the oldest stream), never a request a
+// worker holds.
 
 #include <atomic>
 #include <chrono>
@@ -40,6 +49,7 @@ enum class Runs : std::uint8_t {
   kLoop,     // on the event loop: answers from memory only, in well under a millisecond
   kControl,  // on the one control thread, in the order received (controls never race each other)
   kReader,   // on a reader thread (two): reads of the database or the disk
+  kUrgent,   // on the urgent thread (one), never behind a control or a read: STOP's record
 };
 
 struct Route {
@@ -55,6 +65,12 @@ struct Route {
   Runs runs = Runs::kLoop;
   std::function<Response(const Request&)> handle;
   std::string stream;  // not empty: an event stream of this channel (`handle` unused)
+  // > 0 with `answer_late`: when the worker has not answered within this
+  // time of the request's dispatch, the loop answers `answer_late(request)`
+  // in its place (and the worker's answer, when it comes, is dropped). The
+  // handler runs on all the same.
+  std::chrono::milliseconds answer_within{0};
+  std::function<Response(const Request&)> answer_late;
 };
 
 struct Site {
@@ -62,16 +78,21 @@ struct Site {
   std::string bind_address;  // as --bind
   int port = 0;              // 0: any free one
   std::vector<Route> routes;
+  std::size_t max_connections = 256;  // open at once on this site's port (>= 1)
+  std::size_t max_streams = 32;       // event streams at once on this site (past it: 503 naming the cap)
 };
 
 struct ServerConfig {
   Limits limits;
-  std::size_t max_connections = 512;  // of all sites together
-  std::size_t max_streams = 64;       // event streams of all sites together
   std::chrono::milliseconds idle_timeout{15000};   // keep-alive, no request begun
   std::chrono::milliseconds head_timeout{5000};    // from a request's first byte to the end of its head
   std::chrono::milliseconds body_timeout{5000};    // from the end of the head to the end of the body
-  std::chrono::milliseconds write_timeout{10000};  // an answer or a stream that the client stops reading
+  // An answer must be sent in full within write_timeout plus its size at
+  // min_write_rate (absolute, from when it is ready: a client that reads a
+  // byte now and then cannot hold it longer); a stream's backlog must be
+  // drained within write_timeout of its first unsent event.
+  std::chrono::milliseconds write_timeout{10000};
+  std::uint64_t min_write_rate_bytes_per_s = 1u << 20;
   std::size_t max_stream_backlog_bytes = 1u << 20;  // a stream's unsent events; past it the stream is closed
   // Headers of every response unless it sets its own (security headers, Cache-Control).
   std::vector<std::pair<std::string, std::string>> default_headers;
@@ -104,6 +125,8 @@ class Server {
     int fd = -1;
     HostCheck hosts;
     Site site;
+    std::size_t connections = 0;  // open, of this site
+    std::size_t streams = 0;      // of those, streaming
   };
   struct Timer {
     std::chrono::milliseconds period;
@@ -112,11 +135,12 @@ class Server {
   };
   struct Done {
     std::uint64_t id;
+    std::uint64_t request_seq;
     Response response;
   };
 
   void accept_all(std::size_t site);
-  bool evict_one();
+  bool evict_one(std::size_t site);
   void readable(Connection& c);
   void writable(Connection& c);
   void process(Connection& c);  // parses what arrived and acts on it
@@ -125,9 +149,12 @@ class Server {
   void respond(Connection& c, Response r);
   void finish_write(Connection& c);
   void set_mask(Connection& c, std::uint32_t mask);
-  void close(Connection& c);
+  // `reset`: abortive (RST), dropping what the kernel still holds for it.
+  void close(Connection& c, bool reset = false);
   void check_deadlines(Clock::time_point now);
   void take_done();
+  void serve_ready();                            // the pipelined requests held back last round
+  void answer_late_waits(Clock::time_point now);  // routes past their answer_within
   Connection* find(std::uint64_t id);
   const Route* match(const Site& site, const Request& r, bool& path_known) const;
 
@@ -144,8 +171,10 @@ class Server {
   std::vector<Timer> timers_;
   std::mutex done_mutex_;
   std::vector<Done> done_;
+  std::vector<std::uint64_t> ready_;           // connections with a pipelined request to serve
+  std::vector<std::uint64_t> bounded_waits_;   // connections waiting on a route with answer_within
   // Destroyed first (declared last): their threads finish before what they post to goes.
-  std::unique_ptr<WorkQueue> control_, reader_;
+  std::unique_ptr<WorkQueue> control_, reader_, urgent_;
 };
 
 }  // namespace hapticlab::console::http

@@ -8,15 +8,10 @@ void StreamHub::add_channel(const std::string& name, std::function<std::string()
   channels_[name].on_join = std::move(on_join);
 }
 
-bool StreamHub::subscribe(const std::string& channel, std::uint64_t connection) {
-  if (stream_count_ >= max_streams_) return false;
+void StreamHub::subscribe(const std::string& channel, std::uint64_t connection) {
   const auto it = channels_.find(channel);
   if (it == channels_.end()) throw std::logic_error("stream channel '" + channel + "' was never added");
-  if (it->second.subscribers.insert(connection).second) {
-    channel_of_[connection] = channel;
-    ++stream_count_;
-  }
-  return true;
+  if (it->second.subscribers.insert(connection).second) channel_of_[connection] = channel;
 }
 
 void StreamHub::unsubscribe(std::uint64_t connection) {
@@ -24,7 +19,6 @@ void StreamHub::unsubscribe(std::uint64_t connection) {
   if (it == channel_of_.end()) return;
   channels_[it->second].subscribers.erase(connection);
   channel_of_.erase(it);
-  --stream_count_;
 }
 
 std::string StreamHub::join_event(const std::string& channel) const {

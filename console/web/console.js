@@ -8,18 +8,59 @@ window.hapticlab = { livePoints: 0, liveMessages: 0, stopAnswers: 0 };  // for t
 
 // --- the token: the console prints this page's address with it in the
 // fragment (#token=...), which the browser never sends to a server. The
-// page keeps it for its origin (every tab of this console, this browser)
-// and takes it out of the address bar, so it is not shown, bookmarked or
-// shared with the address.
+// page keeps it in this tab's sessionStorage (it survives a reload, and
+// goes with the tab) and takes it out of the address bar, so it is not
+// shown, bookmarked or shared with the address. Not localStorage: a tab
+// the participant opens by typing the bare address must not find it.
+// Every read that names a setting or a participant needs it too.
 const TOKEN_KEY = "hapticlab-token";
 (function keepTokenFromAddress() {
   const m = location.hash.match(/(?:^#|&)token=([^&]*)/);
   if (!m) return;
-  localStorage.setItem(TOKEN_KEY, decodeURIComponent(m[1]));
+  sessionStorage.setItem(TOKEN_KEY, decodeURIComponent(m[1]));
   history.replaceState(null, "", location.pathname + location.search);
 })();
-const token = () => localStorage.getItem(TOKEN_KEY) || "";
+const token = () => sessionStorage.getItem(TOKEN_KEY) || "";
 const NO_TOKEN = "this page has no valid token: open the address the console printed (it ends in #token=…)";
+if (!token()) $("message").textContent = NO_TOKEN;
+
+// A read with the token; throws (with NO_TOKEN on a 403) unless answered 200.
+async function getJson(url) {
+  const res = await fetch(url, { headers: { "X-HapticLab-Token": token() }, signal: AbortSignal.timeout(10000) });
+  if (res.status === 403) { $("message").textContent = NO_TOKEN; throw new Error(NO_TOKEN); }
+  if (!res.ok) throw new Error(`${url}: HTTP ${res.status}`);
+  return res.json();
+}
+// An address for a GET the browser itself opens (the stream, a frame, a
+// download): with a one-time ticket, never the token (a ticket left in the
+// downloads list or a frame's address is spent). null without a token.
+async function ticketUrl(path) {
+  try {
+    const res = await fetch("/api/ticket", {
+      method: "POST", headers: { "Content-Type": "application/json", "X-HapticLab-Token": token() },
+      body: JSON.stringify({ path }), signal: AbortSignal.timeout(10000),
+    });
+    if (res.status === 403) { $("message").textContent = NO_TOKEN; return null; }
+    if (!res.ok) return null;
+    return encodeURI(path) + "?ticket=" + (await res.json()).ticket;
+  } catch (e) { return null; }
+}
+// A download link: the click asks for a ticket, then opens the file with it.
+function downloadLink(path, label) {
+  const a = document.createElement("a");
+  a.href = "#";
+  a.textContent = label;
+  a.addEventListener("click", async (ev) => {
+    ev.preventDefault();
+    const url = await ticketUrl(path);
+    if (!url) return;
+    const go = document.createElement("a");
+    go.href = url;
+    go.download = "";
+    go.click();
+  });
+  return a;
+}
 
 function show(page) {
   document.querySelectorAll("section").forEach((s) => s.classList.toggle("on", s.id === page));
@@ -87,8 +128,10 @@ async function sendStop() {
     stopAlarm(`STOP FAILED${res ? ` (HTTP ${res.status})` : ""}: ${why}. The session may still be running.`);
     return;
   }
-  stopState("ok", `STOPPED (${j.stopped}; answered in ${s} s)`);
-  stopAlarm(j.recorded === false ? j.record_error : "");
+  stopState("ok", `STOPPED (${j.stopped}; answered in ${s} s${j.record_pending ? "; its record is being stored" : ""})`);
+  // A record still pending is said beside STOP (the status says when it is
+  // stored); one that failed is loud.
+  stopAlarm(j.recorded === false && !j.record_pending ? j.record_error : "");
 }
 $("stop").addEventListener("click", sendStop);
 
@@ -113,7 +156,7 @@ const text = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&
 
 async function refreshStudy() {
   try {
-    const j = await (await fetch("/api/study")).json();
+    const j = await getJson("/api/study");
     const select = $("participant");
     if (!select.options.length) for (const p of j.participants) {
       select.add(new Option(p.code, p.code));
@@ -133,11 +176,11 @@ refreshStudy();
 setInterval(refreshStudy, 2000);
 
 // The participant screen is served from a port of its own (another origin).
-fetch("/api/status").then((r) => r.json()).then((s) => {
+getJson("/api/status").then((s) => {
   const url = `${location.protocol}//${location.hostname}:${s.participant_port}/participant`;
   $("participant-link").href = url;
   $("participant-link").textContent = url;
-});
+}).catch(() => {});
 
 function describe(s) {
   if (!s.running && !s.result) return "No session running." + (s.error ? ` Last error: ${text(s.error)}` : "");
@@ -154,7 +197,20 @@ function describe(s) {
   if (s.result) h += `<br>result: ${s.result.trials_complete} complete, ${s.result.trials_aborted} aborted, ${s.result.trials_left} left` + (s.result.stopped_by_operator ? " (stopped by the operator)" : "");
   if (s.loop) h += `<br>loop: ${s.loop.rate_Hz.toFixed(0)} Hz, period p99 ${s.loop.p99_period_ms.toFixed(3)} ms (max ${s.loop.max_period_ms.toFixed(3)} ms, ${s.loop.overruns} overruns), ${s.loop.dropped_samples} samples dropped; writer ${(1e3 * s.loop.writer_lag_s).toFixed(0)} ms behind`;
   if (s.error) h += `<br><span class="err">${text(s.error)}</span>`;
+  if (s.last_stop && s.last_stop.recorded !== "stored")
+    h += `<br><span class="${s.last_stop.recorded === "failed" ? "fault" : "ask"}">STOP's record: ${text(s.last_stop.recorded)}` +
+         `${s.last_stop.record_error ? " — " + text(s.last_stop.record_error) : ""}</span>`;
   return h;
+}
+
+// The device's alert (a call that has not returned for the watchdog's
+// time) and a hang (the console must be restarted): a banner, at once.
+function deviceAlarm(s) {
+  const said = s.device_hung ? `DEVICE HUNG: ${s.device_hung}. No session or free trial can use it: stop the console ` +
+                               "(Ctrl-C), restart the device, then start the console again."
+             : s.device_alert ? `DEVICE ALERT (${s.device_alert_utc}): ${s.device_alert}` : "";
+  if ($("device-alarm").textContent !== said) $("device-alarm").textContent = said;
+  $("device-alarm").classList.toggle("on", Boolean(said));
 }
 
 // A live plot of one instrument (Chart.js), or null without Chart.js.
@@ -201,15 +257,22 @@ $("export").addEventListener("click", async () => {
   refreshResults();
 });
 let shownReport = "";
+let shownFiles = "";
 async function refreshResults() {
-  const r = await (await fetch("/api/results")).json();
+  let r;
+  try { r = await getJson("/api/results"); } catch (e) { return; }
   $("results-state").textContent = `${r.job || ""} ${r.state}${r.message ? ": " + r.message : ""}${r.stale ? " — " + r.stale : ""}`;
-  $("downloads").innerHTML = r.files.map((f) => ` <a href="/results/${text(f)}" download>${text(f)}</a>`).join("");
+  if (JSON.stringify(r.files) !== shownFiles) {
+    shownFiles = JSON.stringify(r.files);
+    $("downloads").replaceChildren(...r.files.flatMap((f) => [" ", downloadLink("/results/" + f, f)]));
+  }
   const current = r.files.includes("report.html");
   if (!current && shownReport) { shownReport = ""; $("report").classList.remove("on"); $("report").src = "about:blank"; }
   if (r.state === "done" && r.job === "analysis" && current && shownReport !== r.message) {
+    const url = await ticketUrl("/results/report.html");
+    if (!url) return;
     shownReport = r.message;
-    $("report").src = "/results/report.html?" + Date.now();
+    $("report").src = url;
     $("report").classList.add("on");
   }
 }
@@ -218,20 +281,40 @@ setInterval(refreshResults, 1000);
 
 // The page's one event stream: "live" (the session) and "tuning" (a free
 // trial). A browser opens at most six connections to a host, so each tab
-// holds one stream, and its STOP always has a connection left.
-const stream = new EventSource("/events/operator");
-stream.onerror = () => {
-  $("live-status").textContent = stream.readyState === EventSource.CLOSED
-    ? "The live stream was refused (the console serves a limited number; close other console tabs) — reload the page."
-    : "The live stream was lost; reconnecting…";
-};
+// holds one stream, and its STOP always has a connection left. Opened with
+// a one-time ticket (EventSource sends no header): when it is lost, the
+// browser would retry with the spent one, so the page opens a new stream
+// with a new ticket instead.
+let stream = null;
+const streamListeners = [];
+async function openStream() {
+  const url = await ticketUrl("/events/operator");
+  if (!url) {
+    $("live-status").textContent = "No live stream: " + NO_TOKEN;
+    setTimeout(openStream, 3000);
+    return;
+  }
+  const s = new EventSource(url);
+  stream = s;
+  for (const [name, fn] of streamListeners) s.addEventListener(name, fn);
+  s.onerror = () => {
+    s.close();
+    $("live-status").textContent = "The live stream was lost or refused (the console serves a limited number; " +
+                                   "close other console tabs); reconnecting…";
+    setTimeout(openStream, 1000);
+  };
+}
+function onStream(name, fn) {
+  streamListeners.push([name, fn]);
+  if (stream) stream.addEventListener(name, fn);
+}
 // Follows one event of the stream into two charts: they are cleared when
 // `repetitionKey` of the status changes (a new trial, or a new repetition
 // of the free trial); `counter` in window.hapticlab counts the points
 // received; onStatus(status) runs for every message.
 function followLive(eventName, repetitionKey, twoCharts, counter, onStatus) {
   let last = -1;
-  stream.addEventListener(eventName, (ev) => {
+  onStream(eventName, (ev) => {
     const j = JSON.parse(ev.data);
     if (j.status[repetitionKey] !== last) {
       last = j.status[repetitionKey];
@@ -249,4 +332,6 @@ followLive("live", "trial_number", charts, "livePoints", (s) => {
   shownTrialId = s.running && s.phase === "trial" ? s.trial_id : 0;
   $("status").innerHTML = describe(s);
   $("live-status").innerHTML = s.running ? describe(s) + `<br>points received: ${window.hapticlab.livePoints}` : "No trial running.";
+  deviceAlarm(s);
 });
+openStream();

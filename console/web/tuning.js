@@ -3,10 +3,11 @@
 // (GET /api/tuning's "reference", made from the loader's own table), and a
 // switch for every block. Each change is one POST /api/tuning/set; the
 // server checks it again and the page shows what the server holds.
-// Uses post(), $, text(), makeChart() and followLive() of console.js.
+// Uses post(), getJson(), downloadLink(), deviceAlarm(), $, text(),
+// makeChart() and followLive() of console.js.
 "use strict";
 
-const tuning = { fields: [], built: false, lastLogLength: -1 };
+const tuning = { fields: [], built: false, lastLogLength: -1, shownSaved: "" };
 window.hapticlab.tuningPoints = 0;  // for the browser tests
 
 // Many ranges span decades (a mass of 1 g..10 kg, a stiffness of 0..1e5
@@ -85,7 +86,8 @@ function showSettings(settings) {
 }
 
 async function refreshTuning() {
-  const t = await (await fetch("/api/tuning")).json();
+  let t;
+  try { t = await getJson("/api/tuning"); } catch (e) { return; }
   if (!tuning.built) {
     tuning.built = true;
     for (const task of t.tasks) $("tuning-task").add(new Option(task, task));
@@ -98,7 +100,11 @@ async function refreshTuning() {
   let state = t.running ? `free trial ${t.free_trial} of ${text(t.task)} (from ${text(t.from)}) running` : "no free trial running";
   if (t.loop) state += ` — loop ${t.loop.rate_Hz.toFixed(0)} Hz, period p99 ${t.loop.p99_period_ms.toFixed(3)} ms`;
   $("tuning-state").innerHTML = state + (t.error ? ` <span class="err">${text(t.error)}</span>` : "");
-  $("tuning-saved").innerHTML = t.saved.map((f) => ` <a href="/tuning/${encodeURIComponent(f)}" download>${text(f)}</a>`).join("");
+  deviceAlarm(t);
+  if (JSON.stringify(t.saved) !== tuning.shownSaved) {
+    tuning.shownSaved = JSON.stringify(t.saved);
+    $("tuning-saved").replaceChildren(...t.saved.flatMap((f) => [" ", downloadLink("/tuning/" + f, f)]));
+  }
   if (t.log.length !== tuning.lastLogLength) {
     tuning.lastLogLength = t.log.length;
     $("tuning-log").innerHTML = "<tr><th>UTC</th><th>free trial</th><th>loop time s</th><th>field</th><th>from</th><th>to</th></tr>" +
@@ -113,6 +119,7 @@ $("tuning-start").addEventListener("click", async () => {
 });
 $("tuning-stop").addEventListener("click", async () => { await post("/api/tuning/stop", {}); refreshTuning(); });
 $("tuning-save").addEventListener("click", async () => { await post("/api/tuning/save", { name: $("tuning-name").value }); refreshTuning(); });
+$("tuning-log-link").append(downloadLink("/tuning/tuning-log.csv", "tuning-log.csv"));
 refreshTuning();
 setInterval(refreshTuning, 1000);
 

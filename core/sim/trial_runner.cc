@@ -1,8 +1,10 @@
 #include "core/sim/trial_runner.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -100,7 +102,10 @@ SimRig::~SimRig() {
 }
 
 SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& sink) {
-  SimRig rig(config);
+  // On the heap: a device call that never returns keeps the loop thread
+  // inside the rig, which then can never be destroyed (device_hung).
+  auto rig_owner = std::make_unique<SimRig>(config);
+  SimRig& rig = *rig_owner;
   HapticLoop& loop = rig.loop();
   SimTrialResult result;
   std::vector<LoopSample> batch(256);
@@ -133,9 +138,29 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
     result.device_refused = true;
     return result;
   }
+  std::optional<std::chrono::steady_clock::time_point> hung_since;
   while (loop.running()) {
     drain();
     if (sink.between_drains && !sink.between_drains(rig)) loop.request_stop();
+    if (sink.device_hang_grace_s > 0.0 && loop.watchdog_tripped() && loop.watchdog_call() != DeviceCall::kNone) {
+      const auto now = std::chrono::steady_clock::now();
+      if (!hung_since) hung_since = now;
+      const double waited_s = std::chrono::duration<double>(now - *hung_since).count();
+      if (waited_s > sink.device_hang_grace_s) {
+        result.device_hung = true;
+        result.hung_call = loop.watchdog_call();
+        result.hung_s = waited_s + loop.watchdog_timeout_s();
+        result.stop_reason = loop.stop_reason();
+        result.device_status = loop.device_status();
+        result.safety_trip = loop.safety_trip();
+        result.duration_s = loop.elapsed_s();
+        result.dropped_samples = loop.dropped_samples();
+        result.dropped_events = loop.dropped_events();
+        result.timing = loop.timing();
+        (void)rig_owner.release();  // the loop's thread is still inside the device's code
+        return result;
+      }
+    }
     std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   loop.join();

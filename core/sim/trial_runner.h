@@ -73,6 +73,14 @@ struct SimTrialResult {
   std::uint64_t dropped_events = 0;
   std::array<double, 2> peak_ve_force_N{0.0, 0.0};  // max |VE force| per instrument
   LoopTimingSummary timing;
+  // SimTrialSink::device_hang_grace_s passed with a device call still not
+  // returned after the watchdog halted the device: run_sim_trial gave up on
+  // it. The rig was left to the loop's thread, which is inside the device's
+  // code: the process must end without waiting for it (std::_Exit), and
+  // must not open the device again meanwhile.
+  bool device_hung = false;
+  DeviceCall hung_call = DeviceCall::kNone;
+  double hung_s = 0.0;  // how long the call had not returned when it was given up on [s]
 };
 
 // Everything one simulated trial needs, wired together and ready to run:
@@ -115,6 +123,12 @@ struct SimTrialSink {
   // to read the loop's timing. Returning false asks the loop to stop (zero
   // force, as any stop).
   std::function<bool(SimRig&)> between_drains;
+  // > 0: once the loop's watchdog has tripped inside a device call
+  // (HapticLoop::watchdog_tripped, watchdog_call), the call is waited for
+  // this long [s]; then run_sim_trial returns with device_hung (above).
+  // 0: waited for as long as it takes (a call that never returns then
+  // keeps run_sim_trial from returning).
+  double device_hang_grace_s = 0.0;
 };
 
 // Throws std::invalid_argument (rate, durations) or SettingsError before any

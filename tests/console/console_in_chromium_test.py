@@ -104,7 +104,12 @@ class Console:
             return e.code, json.loads(e.read())
 
     def get(self, path, base=None):
-        with urllib.request.urlopen((base or self.url) + path.lstrip("/"), timeout=10) as r:
+        """A GET; on the operator's port with the token (every route there
+        that names a setting or a participant needs it)."""
+        req = urllib.request.Request((base or self.url) + path.lstrip("/"))
+        if base is None:
+            req.add_header("X-HapticLab-Token", self.token)
+        with urllib.request.urlopen(req, timeout=10) as r:
             return r.read().decode()
 
     def events(self, path, count, base=None):
@@ -170,8 +175,11 @@ def main():
             wait_for("the participant list", lambda: driver.find_elements(By.CSS_SELECTOR, "#participant option"), 10)
             if "token" in driver.current_url:
                 fail(f"the token is still in the address bar: {driver.current_url}")
-            if driver.execute_script("return localStorage.getItem('hapticlab-token')") != console.token:
-                fail("the page did not keep the token of its address")
+            # In this tab's sessionStorage, not in localStorage: a tab the
+            # participant opens by typing the bare address must not find it.
+            if driver.execute_script("return sessionStorage.getItem('hapticlab-token')") != console.token or \
+                    driver.execute_script("return localStorage.getItem('hapticlab-token')") is not None:
+                fail("the page did not keep the token of its address in this tab's sessionStorage (only)")
 
         def no_csp_violation(where):
             refused = [e["message"] for e in driver.get_log("browser") if "Content Security Policy" in e["message"]]
@@ -273,6 +281,33 @@ def main():
                 if e.code != 404:
                     fail(f"{path} on the participant's port: HTTP {e.code}")
 
+        # The participant types the operator's address into the screen's
+        # browser (the operator's page is open in another tab of it): the
+        # reads answer 403 and name nothing; the page's shell, opened bare,
+        # finds no token and shows nothing of the study.
+        driver.switch_to.new_window("tab")
+        driver.get(c.url + "api/status")
+        said = driver.find_element(By.TAG_NAME, "body").text
+        if list(json.loads(said)) != ["error"] or "X-HapticLab-Token" not in said or any(n in said for n in settings):
+            fail(f"/api/status typed into the participant's browser: {said[:300]}")
+        driver.get(c.url + "api/study")
+        if "X-HapticLab-Token" not in driver.find_element(By.TAG_NAME, "body").text:
+            fail("/api/study typed into the participant's browser was served")
+        driver.get(c.url)
+        wait_for("the bare page's word that it has no token",
+                 lambda: "no valid token" in driver.find_element(By.ID, "message").text, 10)
+        time.sleep(1)  # its polls and its stream have had their time
+        if driver.execute_script("return sessionStorage.getItem('hapticlab-token') || localStorage.getItem('hapticlab-token')"):
+            fail("a tab opened by typing the bare address found the token")
+        shown = driver.find_element(By.TAG_NAME, "body").text
+        for name in settings + ["S1", "S2"]:
+            if name in shown.replace("STOP", ""):
+                fail(f"the page opened by typing the bare address shows {name!r}: {shown[:400]}")
+        if driver.execute_script("return window.hapticlab.liveMessages") != 0:
+            fail("the page opened by typing the bare address receives the live stream")
+        driver.close()
+        driver.switch_to.window(driver.window_handles[0])
+
         # --- 4. results: the analysis run from the page, its report shown,
         # its files downloadable, nothing outside its folder
         driver.get(c.url)
@@ -298,7 +333,8 @@ def main():
         r = json.loads(c.get("/api/results"))
         if r["state"] != "done" or "exports/samples.csv.gz" not in r["files"] or "exports/trials.csv.gz" not in r["files"]:
             fail(f"the sample export from the console failed: {r}")
-        with urllib.request.urlopen(c.url + "results/exports/samples.csv.gz", timeout=30) as resp:
+        with urllib.request.urlopen(urllib.request.Request(c.url + "results/exports/samples.csv.gz",
+                                                           headers={"X-HapticLab-Token": c.token}), timeout=30) as resp:
             if "attachment" not in resp.headers.get("Content-Disposition", ""):
                 fail(f"the export is not offered as a download: {resp.headers}")
             rows = gzip.decompress(resp.read()).decode().splitlines()
@@ -452,10 +488,10 @@ def main():
         wait_for("the late answer", lambda: "STOPPED" in driver.find_element(By.ID, "stop-state").text and
                  not driver.find_element(By.ID, "stop-alarm").is_displayed(), 10)
         # A refused STOP (a wrong token) is as loud.
-        driver.execute_script("localStorage.setItem('hapticlab-token', '0'.repeat(32))")
+        driver.execute_script("sessionStorage.setItem('hapticlab-token', '0'.repeat(32))")
         click("stop")
         wait_for("the refused STOP's alarm", lambda: "STOP FAILED (HTTP 403)" in driver.find_element(By.ID, "stop-alarm").text, 5)
-        driver.execute_script("localStorage.setItem('hapticlab-token', arguments[0])", c.token)
+        driver.execute_script("sessionStorage.setItem('hapticlab-token', arguments[0])", c.token)
         # 390 px wide (a phone): a viewport, and STOP large.
         driver.set_window_size(390, 844)
         driver.get(c.url)
@@ -565,6 +601,11 @@ def main():
             driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
             Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
             click("start")
+            # The runner's alert, at once (the read has not returned for the
+            # watchdog's 20 ms), as a banner on the page.
+            wait_for("the device alert on the page", lambda: "DEVICE ALERT" in driver.find_element(By.ID, "device-alarm").text
+                     and "device read() has not returned for 20 ms" in driver.find_element(By.ID, "device-alarm").text
+                     and driver.find_element(By.ID, "device-alarm").is_displayed(), 30)
             fault = wait_for("the watchdog's trip in the status", lambda: status().get("last_fault"), 30)
             if not fault.startswith("device read hung for "):
                 fail(f"the trial's fault is not the hung read: {fault}")

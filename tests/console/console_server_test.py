@@ -93,7 +93,10 @@ def read_response(s, timeout=10.0):
     s.settimeout(timeout)
     data = b""
     while b"\r\n\r\n" not in data:
-        chunk = s.recv(65536)
+        try:
+            chunk = s.recv(65536)
+        except ConnectionResetError:
+            return None  # closed at accept (no slot), or reset
         if not chunk:
             return None
         data += chunk
@@ -153,8 +156,8 @@ def expect(what, result, status, contains=""):
 
 
 def status_of(c, sock=None):
-    r = request(c.port, "GET", "/api/status", sock=sock)
-    return r[2] if r else {}
+    r = request(c.port, "GET", "/api/status", token=c.token, sock=sock)
+    return r[2] if r and isinstance(r[2], dict) else {}
 
 
 def wait_for(what, predicate, timeout_s):
@@ -191,12 +194,13 @@ class Load:
 def streams(c, n, path=None, port=None):
     # (/events/live: the page's stream before issue 33, for the --bench of an older binary)
     if path is None:
-        probe = request(c.port, "GET", "/events/operator", timeout=5)
+        probe = request(c.port, "GET", "/events/operator", token=c.token, timeout=5)
         path = "/events/operator" if probe and probe[0] == 200 else "/events/live"
     load = Load(f"{n} live streams")
     for _ in range(n):
         s = connect(port or c.port)
-        s.sendall(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port or c.port}\r\n\r\n".encode())
+        s.sendall(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port or c.port}\r\nX-HapticLab-Token: {c.token}\r\n\r\n"
+                  .encode())
         load.socks.append(s)
     for s in load.socks:  # each answered as a stream (they keep reading nothing more: the server buffers)
         if BENCH:
@@ -225,6 +229,74 @@ def slowloris(c, n):
         s.sendall(b"GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\nX-A: ")
         load.socks.append(s)
     return load
+
+
+def resets(load):
+    """How many of a load's connections the server reset (dropped to make
+    room, or past a deadline)."""
+    import errno
+    return sum(1 for s in load.socks if s.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR) == errno.ECONNRESET)
+
+
+def pipelined(port, n, path, name):
+    """n connections that each pipeline about 1,300 requests for `path`
+    (64 kB of them, no token needed) with a 1 kB receive buffer and never
+    read an answer: the attack of the review of issue 33. Every connection
+    ends up with its answers waiting on the client (the state the server
+    could not drop before)."""
+    load = Load(name)
+    one = f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode()
+    burst = one * (65536 // len(one))
+    for _ in range(n):
+        s = socket.socket()
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1024)
+        s.settimeout(5)
+        s.connect(("127.0.0.1", port))
+        s.setblocking(False)
+        try:
+            s.send(burst)  # what fits; the server reads the rest as it answers
+        except OSError:
+            pass  # dropped already to make room (its site's cap): the others go on
+        load.socks.append(s)
+    return load
+
+
+class SlowReader:
+    """One connection (no token) that pipelines 20 requests for Chart.js
+    (200 kB each) and reads the answers at about 10 kB/s: a client that
+    still reads, a little every moment, too slowly to take one answer within
+    the server's write deadline (10 s and a second per MB, not moved by
+    progress). Records when the server closed it."""
+
+    def __init__(self, port):
+        import threading
+        self.sock = socket.socket()
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        self.sock.connect(("127.0.0.1", port))
+        self.sock.sendall(f"GET /vendor/chart.js HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode() * 20)
+        self.started = time.monotonic()
+        self.closed_after_s = None
+        self.received = 0
+        self.thread = threading.Thread(target=self._read, daemon=True)
+        self.thread.start()
+
+    def _read(self):
+        self.sock.settimeout(1.0)
+        while time.monotonic() - self.started < 40:
+            try:
+                data = self.sock.recv(2500)
+            except socket.timeout:
+                continue
+            except OSError:
+                data = b""
+            if not data:
+                self.closed_after_s = time.monotonic() - self.started
+                return
+            self.received += len(data)
+            time.sleep(0.25)
+
+    def close(self):
+        self.sock.close()
 
 
 def trickle(load):
@@ -324,12 +396,162 @@ def token_files(cli, db, work, consoles):
     consoles.remove(c)
 
 
+def reads_need_the_token(c):
+    """Every operator route that names a setting or a participant needs the
+    token (or a one-time ticket); only the page's shell and its files do
+    not: a participant who types the operator's address into the screen's
+    browser reads nothing."""
+    for path in ("/api/status", "/api/study", "/api/tuning", "/api/results", "/events/operator",
+                 "/results/report.html", "/tuning/tuning-log.csv"):
+        for token in (None, "0" * 32):
+            expect(f"GET {path} with token {token!r}", request(c.port, "GET", path, token=token), 403,
+                   "X-HapticLab-Token")
+    for path in ("/", "/console.js", "/console.css", "/tuning.js"):
+        expect(f"GET {path} without the token", request(c.port, "GET", path), 200)
+    # A ticket: for one path, once.
+    expect("a ticket without the token", request(c.port, "POST", "/api/ticket", {"path": "/events/operator"}), 403)
+    expect("a ticket for a route that takes none", request(c.port, "POST", "/api/ticket", {"path": "/api/status"},
+                                                           token=c.token), 400, "takes no ticket")
+    ticket = expect("a ticket", request(c.port, "POST", "/api/ticket", {"path": "/events/operator"}, token=c.token),
+                    200)["ticket"]
+    expect("a ticket on another path", request(c.port, "GET", "/api/status?ticket=" + ticket), 403, "ticket")
+    expect("a ticket used again", request(c.port, "GET", "/events/operator?ticket=" + ticket), 403, "spent")
+    ticket = request(c.port, "POST", "/api/ticket", {"path": "/events/operator"}, token=c.token)[2]["ticket"]
+    s = connect(c.port)
+    s.sendall(f"GET /events/operator?ticket={ticket} HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\n\r\n".encode())
+    s.settimeout(5)
+    head = s.recv(4096)
+    s.close()
+    if not head.startswith(b"HTTP/1.1 200") or b"text/event-stream" not in head:
+        fail(f"the operator's stream with a ticket: {head[:300]!r}")
+
+
+def stop_while_the_control_thread_waits(c, db, poll):
+    """STOP is answered within the bound while the one control thread waits
+    on a note that the study database's lock holds up (this test holds the
+    lock, as a long commit of another connection would), and while STOP's
+    own record waits for it too: the answer says the record is pending, and
+    the record is stored once the lock is free."""
+    import threading
+    expect("start", request(c.port, "POST", "/api/session/start", {"participant": "S1"}, token=c.token), 200)
+    wait_for("a running trial", lambda: status_of(c, poll).get("phase") == "trial", 30)
+    lock = sqlite3.connect(db, timeout=10, isolation_level=None)
+    lock.execute("BEGIN IMMEDIATE")
+    held = {}
+    note = threading.Thread(target=lambda: held.update(
+        r=request(c.port, "POST", "/api/session/note", {"text": "held up"}, token=c.token, timeout=30)))
+    try:
+        note.start()
+        time.sleep(0.3)  # the note is on the control thread, waiting for the lock
+        t0 = time.monotonic()
+        try:
+            r = request(c.port, "POST", "/api/session/stop", token=c.token, timeout=3)
+        except socket.timeout:
+            r = None
+        answered = time.monotonic() - t0
+    finally:
+        lock.execute("ROLLBACK")
+        lock.close()
+    if r is None:
+        fail("STOP while the control thread waited on the database: no answer within 3 s")
+    print(f"  STOP while a note waits on the database's lock: answered in {1e3 * answered:.1f} ms")
+    body = expect("STOP while the control thread waits", r, 200, "record_pending")
+    if answered > LOADED_BOUND_S or body["recorded"] is not False or not body["stopped"].startswith("session S1"):
+        fail(f"STOP while the control thread waited: {answered:.3f} s, {body}")
+    wait_for("STOP's record stored once the lock was free",
+             lambda: status_of(c, poll).get("last_stop", {}).get("recorded") == "stored", 15)
+    note.join(30)
+    expect("the held-up note, once the lock was free", held.get("r"), 200)
+    stops = [r for r in actions(db) if r[3] == "operator_stop"]
+    if not stops or stops[-1][4] != body["stopped"]:
+        fail(f"STOP's record as stored: {stops[-1:]}, answered {body['stopped']!r}")
+    wait_for("the session's end", lambda: not status_of(c, poll).get("running"), 30)
+
+
+def start_device_hangs(cli, source, work, plugin, consoles):
+    """A device read that never returns (the fake plugin, in-process), in a
+    session and in a free trial of the Tuning page, each in a console of
+    its own: the alert is in the status at once, before the hang is given
+    up on (after 2 s, while the rest of this test runs; then
+    check_device_hangs)."""
+    protocol = os.path.join(source, "examples/protocols/thesis_quick.json")
+    fault = ["--device", "plugin-inprocess:" + plugin, "--device-option", "fault=hang_in_read",
+             "--device-option", "after=100"]
+    hung = {}
+    for what in ("session", "free trial"):
+        db = os.path.join(work, what.replace(" ", "_") + "_hang.db")
+        subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+        c = hung[what] = Console(cli, db, *fault)
+        c.db = db
+        c.status_path = "/api/status" if what == "session" else "/api/tuning"
+        consoles.append(c)
+    s, t = hung["session"], hung["free trial"]
+    t.setting = request(t.port, "GET", "/api/tuning", token=t.token)[2]["study_settings"][0]
+    for what, c in hung.items():
+        for attempt in range(3):
+            if what == "free trial":
+                expect("a free trial on the hanging device", request(
+                    t.port, "POST", "/api/tuning/start", {"task": "dissection", "from": t.setting}, token=t.token), 200)
+            else:
+                expect("a session on the hanging device", request(
+                    s.port, "POST", "/api/session/start", {"participant": "S1"}, token=s.token), 200)
+            seen = wait_for(f"the {what}'s device alert", lambda: (j := device_view(c)).get("device_alert") and
+                            ("device read()" in j["device_alert"] or not j["running"]) and j, 10)
+            # (On a busy machine the loop's watchdog can end a free trial, or
+            # a session after three trials, before the hang: started again.)
+            if "device read() has not returned for" in seen["device_alert"]:
+                break
+        if "device read() has not returned for 20 ms" not in seen["device_alert"] or "device_hung" in seen:
+            fail(f"the {what}'s alert, before the hang was given up on: {seen}")
+    return hung
+
+
+def device_view(c):
+    r = request(c.port, "GET", c.status_path, token=c.token)
+    return r[2] if r and isinstance(r[2], dict) else {}
+
+
+def check_device_hangs(hung, consoles):
+    """After the grace, each console's device is hung: every later session
+    or free trial is refused saying so, STOP still answers, the alert is
+    still shown, and the console, stopped, exits with status 3."""
+    setting = hung["free trial"].setting
+    for what, c in hung.items():
+        seen = wait_for(f"the {what}'s device marked hung", lambda: (j := device_view(c)).get("device_hung") and j, 20)
+        if "hung for" not in seen["device_hung"] or seen["running"] or "device read()" not in seen.get("device_alert", ""):
+            fail(f"the {what}'s hung device: {seen}")
+        for refused, body in (("/api/session/start", {"participant": "S2"}),
+                              ("/api/tuning/start", {"task": "dissection", "from": setting})):
+            expect(f"{refused} after the {what}'s device hung", request(c.port, "POST", refused, body, token=c.token),
+                   409, "the device hung")
+        expect(f"STOP after the {what}'s device hung", request(c.port, "POST", "/api/session/stop", token=c.token), 200)
+    conn = sqlite3.connect(f"file:{hung['session'].db}?mode=ro", uri=True)
+    reasons = [r[0] for r in conn.execute("SELECT abort_reason FROM trial WHERE status = 'aborted' ORDER BY id")]
+    conn.close()
+    # (before it, a busy machine may have aborted a trial by the loop's watchdog)
+    if not reasons or not reasons[-1].startswith("device read hung for") or \
+            any(not r.startswith("watchdog") for r in reasons[:-1]):
+        fail(f"the session's hung trial as stored: {reasons}")
+    for what, c in hung.items():
+        c.proc.send_signal(signal.SIGINT)
+        try:
+            out, _ = c.proc.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            fail(f"the console whose {what}'s device hung did not end within 20 s of SIGINT")
+        if c.proc.returncode != 3 or "the device hung" not in out:
+            fail(f"the console whose {what}'s device hung ended with {c.proc.returncode}: {out[-600:]}")
+        consoles.remove(c)
+    print("  a device read hung in a session and in a free trial: the alert at once, then each console refused "
+          "its device, and exited with status 3")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("cli")
     ap.add_argument("source")
     ap.add_argument("work")
     ap.add_argument("--bench", type=int, default=0, help="STOPs per load, and print only the figures")
+    ap.add_argument("--fake-plugin", help="tests/core/device/fake_device_plugin.so: the device that hangs")
     a = ap.parse_args()
     global BENCH
     BENCH = a.bench > 0
@@ -348,15 +570,38 @@ def main():
             fail(f"the operator's address does not hold the token file's token: {c.token_in_address}")
         samples = a.bench or 2
         poll = connect(c.port)  # one keep-alive connection for the polls
+        # A reader too slow for any answer (checked once its deadline has passed, below).
+        slow = None
+        hung = None
+        if not a.bench:
+            if a.fake_plugin:  # checked at the end, long after the device's grace
+                hung = start_device_hangs(a.cli, a.source, a.work, a.fake_plugin, consoles)
+            if request(c.port, "GET", "/vendor/chart.js")[0] == 200:
+                slow = SlowReader(c.port)
+            else:
+                print("  (Chart.js is not installed: the slow reader's check is skipped)")
+            reads_need_the_token(c)
 
         # --- STOP under load
         print("STOP under load (ms):")
         results = {}
         results["none"] = report("no other connection", measure_stop(c, samples, poll=poll))
-        for make in (lambda: streams(c, 50), lambda: idle(c, 200), lambda: slowloris(c, 200)):
+        # (the last: the review of issue 33's attack, no token needed: the
+        # participant's port full of clients that pipeline requests and never
+        # read an answer; the operator's port has connections of its own)
+        for make in (lambda: streams(c, 50), lambda: idle(c, 200), lambda: slowloris(c, 200),
+                     lambda: pipelined(c.participant_port, 520, "/participant", "520 pipelining participant conns")):
             load = make()
             try:
                 results[load.name] = report(load.name, measure_stop(c, samples, load, poll))
+                if load.name.endswith("participant conns") and not a.bench:
+                    # The port under attack still serves a newcomer (it takes
+                    # the slot of the longest unread answer), and holds no more
+                    # than its own 128: the rest were dropped (reset).
+                    expect("/participant under attack", request(c.participant_port, "GET", "/participant"), 200)
+                    if resets(load) < 520 - 128:
+                        fail(f"520 participant connections: {resets(load)} dropped, expected at least 392 past the "
+                             "participant port's cap of 128")
                 if load.name.endswith("slowloris connections") and not a.bench:
                     # The head deadline (5 s from a request's first byte): each
                     # is answered 408 and closed, however it trickles.
@@ -377,33 +622,36 @@ def main():
             finally:
                 load.close()
         if a.bench:
+            load = pipelined(c.port, 400, "/", "400 pipelining operator conns")
+            report(load.name, measure_stop(c, samples, load))
             return 0
         for name, r in results.items():
             check_bound(name, r)
 
-        # A flood of stream requests: the cap (64) refuses the rest by name,
-        # STOP and status still answered.
+        # A flood of stream requests: the operator's port's cap (64) refuses
+        # the rest by name, STOP and status still answered.
         load = Load("stream flood")
         refused = 0
         for _ in range(100):
             s = connect(c.port)
-            s.sendall(f"GET /events/operator HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\n\r\n".encode())
+            s.sendall(f"GET /events/operator HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\nX-HapticLab-Token: {c.token}\r\n\r\n"
+                      .encode())
             load.socks.append(s)
         for s in load.socks:
             s.settimeout(5)
             head = s.recv(4096)
             if head.startswith(b"HTTP/1.1 503"):
                 refused += 1
-                if b"64 streams are open" not in head + s.recv(4096):
+                if b"64 streams are open on the operator's port" not in head + s.recv(4096):
                     fail(f"a refused stream does not name the cap: {head[:300]!r}")
         if refused != 100 - 64:
             fail(f"100 stream requests: {refused} refused, expected 36 past the cap of 64")
         check_bound("a stream flood", report("100 stream requests", measure_stop(c, 1, load, poll)))
         load.close()
-        # More connections than the table holds (512): the oldest idle ones
-        # (the poll's among them) are dropped, STOP is served.
-        load = idle(c, 560)
-        check_bound("a full connection table", report("560 idle connections", measure_stop(c, 1, load)))
+        # More connections than the operator's table holds (384): the oldest
+        # idle ones (the poll's among them) are dropped, STOP is served.
+        load = idle(c, 400)
+        check_bound("a full connection table", report("400 idle connections", measure_stop(c, 1, load)))
         load.socks[0].settimeout(2)
         try:
             dropped = load.socks[0].recv(1) == b""
@@ -414,13 +662,64 @@ def main():
         load.close()
         poll.close()
         poll = connect(c.port)
+        # Streams: the participant's port has its own cap (16); 64 streams
+        # there leave the operator's page its stream.
+        load = Load("64 participant streams")
+        refused = 0
+        for _ in range(64):
+            s = connect(c.participant_port)
+            s.sendall(f"GET /events/participant HTTP/1.1\r\nHost: 127.0.0.1:{c.participant_port}\r\n\r\n".encode())
+            load.socks.append(s)
+        for s in load.socks:
+            s.settimeout(5)
+            head = s.recv(4096)
+            if head.startswith(b"HTTP/1.1 503"):
+                refused += 1
+                if b"16 streams are open on the participant's port" not in head + s.recv(4096):
+                    fail(f"a refused participant stream does not name its port's cap: {head[:300]!r}")
+        if refused != 64 - 16:
+            fail(f"64 participant streams: {refused} refused, expected 48 past the participant port's cap of 16")
+        op = connect(c.port)
+        op.sendall(f"GET /events/operator HTTP/1.1\r\nHost: 127.0.0.1:{c.port}\r\nX-HapticLab-Token: {c.token}\r\n\r\n"
+                   .encode())
+        op.settimeout(5)
+        head = op.recv(4096)
+        if not head.startswith(b"HTTP/1.1 200") or b"text/event-stream" not in head:
+            fail(f"the operator's stream with the participant's port full of streams: {head[:300]!r}")
+        op.close()
+        load.close()
+        stop_while_the_control_thread_waits(c, db, poll)
+        if slow is not None:
+            # The slow reader: cut at its answer's deadline (10 s and 0.2 s
+            # for 200 kB, from when the answer was ready), reset; before,
+            # every byte it took moved the deadline on.
+            wait_for("the slow reader cut at its answer's deadline", lambda: slow.closed_after_s is not None,
+                     max(0.0, 20 - (time.monotonic() - slow.started)))
+            print(f"  a reader taking 200 kB answers at about 10 kB/s: closed after {slow.closed_after_s:.1f} s "
+                  f"({slow.received} bytes read)")
+            if slow.closed_after_s < 9.5:
+                fail(f"the slow reader was closed after {slow.closed_after_s:.1f} s, before its answer's deadline")
+            slow.close()
+        # The operator's port full of pipelining clients (no token: the
+        # page's shell), every one with an answer it does not read (no idle
+        # connection left to drop, not even the polls'): a new connection
+        # takes the slot of the longest unread answer, so STOP is served.
+        poll.close()
+        load = pipelined(c.port, 400, "/", "400 pipelining operator conns")
+        try:
+            time.sleep(0.5)  # each has its answers waiting
+            check_bound(load.name, report(load.name, measure_stop(c, samples, load)))
+            expect("/ under attack", request(c.port, "GET", "/"), 200)
+        finally:
+            load.close()
+        poll = connect(c.port)
 
         # --- Host, origins, headers
         for port in (c.port, c.participant_port):
             expect("Host evil.example", request(port, "GET", "/participant" if port != c.port else "/api/status",
                                                 host=f"evil.example:{port}"), 421, "evil.example")
         expect("Host without the port", request(c.port, "GET", "/api/study", host="127.0.0.1"), 421)
-        expect("Host localhost", request(c.port, "GET", "/api/status", host=f"localhost:{c.port}"), 200)
+        expect("Host localhost", request(c.port, "GET", "/api/status", host=f"localhost:{c.port}", token=c.token), 200)
         for path in ("/api/status", "/api/study", "/events/operator", "/", "/api/tuning", "/results/report.html"):
             expect(f"{path} on the participant's port", request(c.participant_port, "GET", path), 404)
         for path in ("/participant", "/events/participant"):
@@ -520,6 +819,8 @@ def main():
         stopped = expect("STOP between trials", request(c.port, "POST", "/api/session/stop", token=c.token), 200)
         if "between trials" not in stopped["stopped"]:
             fail(f"STOP's answer does not say what it stopped: {stopped}")
+        if not stopped["recorded"]:  # answered before its record was in (a busy machine): it says so
+            wait_for("STOP's record", lambda: status_of(c, poll).get("last_stop", {}).get("recorded") == "stored", 15)
         got = actions(db)[before + 5:]
         kinds = [(r[3], r[1] == trial_id, r[4][:12]) for r in got]
         if kinds != [("operator_rest", False, "1 s"), ("operator_resume", False, "rest over"),
@@ -550,6 +851,8 @@ def main():
         exported = open(os.path.join(out, "operator_actions.csv")).read()
         if "before the kill" not in exported or "operator_stop" not in exported:
             fail(f"the export's operator_actions.csv: {exported[:500]}")
+        if hung:
+            check_device_hangs(hung, consoles)
     finally:
         for c in consoles:
             c.kill()

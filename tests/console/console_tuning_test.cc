@@ -36,6 +36,7 @@ class ConsoleTuningTest : public ::testing::Test {
 
   std::filesystem::path dir_;
   ConsoleTuningConfig config_;
+  DeviceHealth device_;
 };
 
 // Force feedback switched off by the sliders while the loop runs ("No Force
@@ -43,7 +44,7 @@ class ConsoleTuningTest : public ::testing::Test {
 // displayed force is 0 while the tissue still pushes on the tip, within the
 // same repetition of the task (the change did not wait for a new trial).
 TEST_F(ConsoleTuningTest, AChangeReachesTheRunningLoopBetweenTwoUpdates) {
-  ConsoleTuning tuning(config_);
+  ConsoleTuning tuning(config_, device_);
   tuning.start("dissection", high_fidelity());
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   auto max_force = [](const LivePoint& a, const LivePoint& b, bool displayed) {
@@ -125,7 +126,7 @@ TEST_F(ConsoleTuningTest, AChangeReachesTheRunningLoopBetweenTwoUpdates) {
 // The loader's own checks, field by field: a refused value names the field,
 // the value and the range, and leaves the settings as they were.
 TEST_F(ConsoleTuningTest, OutOfRangeOrMistypedChangesAreRefusedAndChangeNothing) {
-  ConsoleTuning tuning(config_);
+  ConsoleTuning tuning(config_, device_);
   const nlohmann::json before = tuning.status()["settings"];
   EXPECT_THAT([&] { tuning.set("translation.friction.dynamic_level_N", 60.0); },
               ::testing::ThrowsMessage<std::invalid_argument>(
@@ -163,7 +164,7 @@ TEST_F(ConsoleTuningTest, ReferenceListsEveryFieldWithTheLoadersRange) {
 }
 
 TEST_F(ConsoleTuningTest, SavedSettingsPassSettingsCheckAndAreNotOverwritten) {
-  ConsoleTuning tuning(config_);
+  ConsoleTuning tuning(config_, device_);
   tuning.set("translation.friction.enabled", true);
   tuning.set("translation.friction.dynamic_level_N", 0.3);
   const std::string file = tuning.save("Pilot friction + 0.3");
