@@ -216,7 +216,7 @@ void ConsoleTuning::run(TaskKind task) {
           alerted = true;
           const DeviceCall call = loop.watchdog_call();
           char limit[32];
-          std::snprintf(limit, sizeof limit, "%.0f ms", 1e3 * loop.watchdog_timeout_s());
+          std::snprintf(limit, sizeof limit, "%.0f ms", 1e3 * loop.watchdog_limit_s());
           device_.alert((call != DeviceCall::kNone
                              ? "device " + std::string(to_string(call)) + "() has not returned for " + limit
                              : "the haptic loop has completed no update for " + std::string(limit)) +

@@ -149,7 +149,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
       if (waited_s > sink.device_hang_grace_s) {
         result.device_hung = true;
         result.hung_call = loop.watchdog_call();
-        result.hung_s = waited_s + loop.watchdog_timeout_s();
+        result.hung_s = waited_s + loop.watchdog_limit_s();
         result.stop_reason = loop.stop_reason();
         result.device_status = loop.device_status();
         result.safety_trip = loop.safety_trip();

@@ -187,7 +187,7 @@ TEST_F(ConsoleTuningTest, SavedSettingsPassSettingsCheckAndAreNotOverwritten) {
 // source, where the preset's own checks (every number from the source)
 // would refuse it.
 TEST_F(ConsoleTuningTest, ATunedDevicePresetDropsItsSource) {
-  ConsoleTuning tuning(config_);
+  ConsoleTuning tuning(config_, device_);
   tuning.start("clip", load_settings_file(std::filesystem::path(HAPTICLAB_SOURCE_DIR) /
                                           "examples/settings/devices/novint_falcon.json"));
   EXPECT_TRUE(tuning.status()["settings"].contains("source"));
