@@ -58,7 +58,9 @@ void edit_study_db(const fs::path& db, const std::string& sql) {
 }
 
 TEST_F(NamedRefusalsTest, OptionValuesAreNamedWithWhatIsAllowed) {
-  const std::string plan = "plan power --protocol " + protocol("p.json", two_settings()).string() + " ";
+  // --studies 1 and an --out of its own: had a value slipped through, the run would be short and kept here.
+  const std::string plan = "plan power --protocol " + protocol("p.json", two_settings()).string() +
+                           " --studies 1 --no-plots --out " + (dir_ / "plan").string() + " ";
   auto [rc, text] = cli(plan + "--seed -1");
   EXPECT_EQ(rc, 2);
   EXPECT_THAT(text, HasSubstr("--seed: '-1' is refused: must be a whole number from 0 to 18446744073709551615"));
@@ -103,10 +105,10 @@ TEST_F(NamedRefusalsTest, ADamagedStudyFileNamesTheFileTheRowAndTheValue) {
     return copy;
   };
   const std::string analyze = " --no-plots --no-ks --quiet --out " + (dir_ / "report").string();
-  fs::path db = damaged("seed.db", "UPDATE study SET seed = '12abc'");
+  fs::path db = damaged("seed.db", "UPDATE study SET seed = 'x12'");
   std::tie(rc, text) = cli("analyze --db " + db.string() + analyze);
   EXPECT_EQ(rc, 1);
-  EXPECT_THAT(text, AllOf(HasSubstr(db.string() + ": study 1: column study.seed is '12abc', but must be a whole "
+  EXPECT_THAT(text, AllOf(HasSubstr(db.string() + ": study 1: column study.seed is 'x12', but must be a whole "
                                     "number from 0 to 18446744073709551615"),
                           Not(HasSubstr("stoull"))));
   db = damaged("status.db", "PRAGMA ignore_check_constraints = ON; UPDATE trial SET status = 'exploded' WHERE id = 2");
