@@ -141,6 +141,7 @@ int run(const SessionCommandOptions& opt) {
                         {"participant", opt.participant},
                         {"device", options.device.describe()},
                         {"training_trials", r.training_trials},
+                        {"training_cut_short", r.training_cut_short},
                         {"trials_run", r.trials_run},
                         {"trials_complete", r.trials_complete},
                         {"trials_aborted", r.trials_aborted},
@@ -175,7 +176,11 @@ int run(const SessionCommandOptions& opt) {
                 r.trials_run == 1 ? "trial" : "trials", r.trials_complete, r.trials_aborted, r.trials_requeued,
                 r.trials_left, static_cast<unsigned long long>(r.samples_logged),
                 r.training_trials > 0 ? (", after " + std::to_string(r.training_trials) + " training trial" +
-                                         (r.training_trials == 1 ? "" : "s"))
+                                         (r.training_trials == 1 ? "" : "s") +
+                                         (r.training_cut_short > 0
+                                              ? " (" + std::to_string(r.training_cut_short) +
+                                                    " cut short before the task was complete)"
+                                              : std::string()))
                                             .c_str()
                                       : "");
     if (r.staircase) std::printf("%s\n", analysis::staircase_summary(*r.staircase).c_str());

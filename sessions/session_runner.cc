@@ -270,6 +270,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
       row.trials = done - row.cut_short;
       db.add_training(row);
       result.training_trials += done;
+      result.training_cut_short += row.cut_short;
       if (stop_requested(options)) break;
     }
 

@@ -24,6 +24,7 @@ namespace hapticlab {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
@@ -67,9 +68,11 @@ TEST_F(SessionCommandTest, APracticeTrialCutShortIsRecordedAsWhatItWas) {
   std::tie(status, out) =
       testing::run_cli(kBinary, "session run --db " + db + " --participant A --max-trial-s 0.5 --max-trials 1");
   ASSERT_EQ(status, 0) << out;
+  EXPECT_THAT(out, HasSubstr("after 2 training trials (2 cut short before the task was complete)"));
   // Given time, both are done in full.
   std::tie(status, out) = testing::run_cli(kBinary, "session run --db " + db + " --participant A --max-trials 1");
   ASSERT_EQ(status, 0) << out;
+  EXPECT_THAT(out, AllOf(HasSubstr("after 2 training trials"), Not(HasSubstr("cut short"))));
   db::StudyDb study(db);
   const std::vector<db::TrainingRow> cut = study.training(1);
   ASSERT_EQ(cut.size(), 1u);
