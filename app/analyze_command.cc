@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "analysis/study/headline_format.h"
 #include "analysis/report/gnuplot.h"
 #include "analysis/report/report.h"
@@ -68,7 +69,7 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
   for (const an::ParticipantPairwiseCell& c : a.participant_pairwise)
     by_participant.push_back({{"task", c.task}, {"setting", c.setting}, {"measure", an::measure_column(c.measure)},
                               {"p", optional(c.p)}, {"significant", c.significant},
-                              {"participants", c.participants}, {"mean_difference", c.mean_difference},
+                              {"participants", c.participants}, {"mean_difference", optional(c.mean_difference)},
                               {"note", c.note}});
   nlohmann::json dose;  // null unless a dose-response study
   if (a.dose) {
@@ -209,11 +210,12 @@ void add_analyze_command(CLI::App& app) {
                   "cover the series' autocorrelation")
       ->capture_default_str();
   cmd->add_option("--seed", opt->seed, "Seed of the KS bootstrap; same seed and data, same result")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(seed_number());
   cmd->add_flag("--no-plots", opt->no_plots, "Write the report without figures (gnuplot not needed)");
   cmd->add_flag("--pdf", opt->pdf, "Also write each figure as figures/NAME.pdf (vector, for a paper)");
   cmd->add_option("--jobs,-j", opt->jobs, "Trials read, and figures drawn (gnuplot processes), in parallel (0: one "
-                  "per core); the results do not depend on it")->capture_default_str()->check(CLI::Range(0, 256));
+                  "per core); the results do not depend on it")->capture_default_str()->check(whole_number_in(0, 256));
   cmd->add_flag("--json", opt->json,
                 "Print a JSON summary (counts, whole-design and pairwise results, files) instead of the tables");
   cmd->add_flag("--quiet", opt->quiet, "Do not print the headline tables");

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "app/cli_checks.h"
 #include "app/renamed_option.h"
 #include "analysis/report/report.h"
 #include "analysis/stats/split_mix64.h"
@@ -366,7 +367,7 @@ void add_bench_analyze_command(CLI::App& bench) {
   add_old_spelling(*cmd, out, "--dir", opt->dir);
   cmd->add_flag("--keep", opt->keep, "Keep the database and report (in --out, or the temporary directory)");
   cmd->add_option("--rate-hz", opt->rate_hz, "Logging rate of the synthetic trials, Hz (> 0)")->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_flag("--no-plots", opt->no_plots, "Time the report without figures (gnuplot not needed)");
   cmd->add_option("--db", opt->db,
                   "Time this study database (e.g. the demo's demo-output/study.db) instead of a synthetic one")
@@ -376,7 +377,7 @@ void add_bench_analyze_command(CLI::App& bench) {
                   "on the same database, alternating, and print the ratio of their median wall times")
       ->check(CLI::ExistingFile);
   cmd->add_option("--rounds", opt->rounds, "Rounds of each with --compare (1..100)")->capture_default_str()
-      ->check(CLI::Range(1, 100));
+      ->check(whole_number_in(1, 100));
   cmd->add_option("--python", opt->python, "Python 3 with numpy and scipy, for --compare")->capture_default_str();
   cmd->add_flag("--json", opt->json, "Print one JSON object instead of text");
   cmd->callback([opt] { run_bench(*opt); });

@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "app/renamed_option.h"
 #include "app/data_paths.h"
 #include "core/settings/settings_json.h"
@@ -317,14 +318,14 @@ void add_bench_db_command(CLI::App& bench) {
       "db", "Study database: sustained logging rate, bytes per hour at 1 kHz, and the 1 kHz loop's period "
             "with logging off and on");
   cmd->add_option("--rate-seconds", opt->rate_seconds, "Wall time of the logging-rate flood [s]")
-      ->check(CLI::Range(0.5, 600.0))
+      ->check(number_in(0.5, 600.0))
       ->capture_default_str();
   cmd->add_option("--size-seconds", opt->size_seconds,
                   "Simulated seconds of 1 kHz logging measured for the size, scaled to an hour [s]")
-      ->check(CLI::Range(1.0, 3600.0))
+      ->check(number_in(1.0, 3600.0))
       ->capture_default_str();
   cmd->add_option("--loop-seconds", opt->loop_seconds, "Wall time of each 1 kHz loop run, off then on [s]")
-      ->check(CLI::Range(0.5, 3600.0))
+      ->check(number_in(0.5, 3600.0))
       ->capture_default_str();
   CLI::Option* scratch =
       cmd->add_option("--scratch-dir", opt->dir, "Folder for the scratch databases (default: the system temp folder)");

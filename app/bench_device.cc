@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "core/device/device_factory.h"
 #include "core/device/hand_attachment.h"
 #include "core/device/isolated_plugin_device.h"
@@ -241,17 +242,17 @@ void add_bench_device_command(CLI::App& bench) {
   cmd->add_option("--plugin", o->plugin,
                   "The sim plugin to load (default: hapticlab_sim_device.so next to this binary)");
   cmd->add_option("--updates", o->updates, "Updates per round, 1000..100000000")
-      ->check(CLI::Range(std::uint64_t{1000}, std::uint64_t{100000000}))
+      ->check(whole_number_in(1000, 100000000))
       ->capture_default_str();
   cmd->add_option("--rounds", o->rounds, "Rounds per backend, alternating, 1..100")
-      ->check(CLI::Range(1, 100))
+      ->check(whole_number_in(1, 100))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Machine-readable output");
   cmd->add_flag("--isolation", o->isolation,
                 "Instead: the sim plugin isolated in a child process against in-process, per update latency "
                 "(p50/p99/max) over --updates updates paced at --period-us on the wall clock");
   cmd->add_option("--period-us", o->period_us, "With --isolation: the update period [us], 0..10000 (0: back to back)")
-      ->check(CLI::Range(0.0, 10000.0))
+      ->check(number_in(0.0, 10000.0))
       ->capture_default_str();
   cmd->callback([o] {
     if (o->isolation) bench_isolation(o->plugin, o->updates, o->period_us, o->json);

@@ -22,6 +22,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "core/engine/engine.h"
 #include "core/engine/joint_transform.h"
 #include "core/engine/status.h"
@@ -360,10 +361,10 @@ void add_bench_engine_command(CLI::App& bench) {
   cmd->add_flag("--json", opt->json, "Print the results as JSON");
   cmd->add_option("--updates", opt->updates, "Timed updates per row and repeat")
       ->capture_default_str()
-      ->check(CLI::Range(std::int64_t{1000}, std::int64_t{1000000000}));
+      ->check(whole_number_in(1000, 1000000000));
   cmd->add_option("--repeats", opt->repeats, "Repeats per row; the median is reported")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
+      ->check(whole_number_in(1, 1000));
   cmd->callback([opt] { run_bench(opt->json, opt->updates, opt->repeats); });
 }
 

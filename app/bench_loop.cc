@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "app/data_paths.h"
 #include "core/loop/realtime.h"
 #include "core/loop/stall_probe.h"
@@ -149,20 +150,20 @@ void add_bench_loop_commands(CLI::App& bench) {
       "loop", "Run the wall-clock haptic loop with the full simulated rig and report period "
               "percentiles (p50/p99/max), jitter and overruns");
   loop->add_option("--seconds", lo->seconds, "How long to run [s]")
-      ->check(CLI::Range(0.5, 3600.0))
+      ->check(number_in(0.5, 3600.0))
       ->capture_default_str();
   loop->add_option("--rate-hz", lo->rate_Hz, "Loop rate [Hz], 150..2000")
-      ->check(CLI::Range(150.0, 2000.0))
+      ->check(number_in(150.0, 2000.0))
       ->capture_default_str();
   loop->add_option("--probe-s", lo->probe_s,
                    "Before the loop, spin a bare thread this long [s] and report how often the machine "
                    "itself stalled it > 100 us (0: skip)")
-      ->check(CLI::Range(0.0, 600.0))
+      ->check(number_in(0.0, 600.0))
       ->capture_default_str();
   loop->add_flag("--realtime", lo->realtime.enabled,
                  "SCHED_FIFO, CPU affinity and locked memory for the loop, as `session run --realtime`");
   loop->add_option("--realtime-priority", lo->realtime.priority, "SCHED_FIFO priority, 1..99")
-      ->check(CLI::Range(1, 99))
+      ->check(whole_number_in(1, 99))
       ->capture_default_str();
   loop->add_option("--realtime-cpu", lo->realtime.cpu, "CPU for the loop (-1: the last one)")->capture_default_str();
   loop->add_flag("--json", lo->json, "Machine-readable output");
@@ -178,7 +179,7 @@ void add_bench_loop_commands(CLI::App& bench) {
       "sim", "Virtual-clock throughput: loop updates per second with engine, VE and simulated "
              "participant running");
   sim->add_option("--simulated-s", so->simulated_s, "Simulated seconds per row")
-      ->check(CLI::Range(1.0, 3600.0))
+      ->check(number_in(1.0, 3600.0))
       ->capture_default_str();
   sim->add_flag("--every-setting", so->every_setting,
                 "Also one dissection row for each other thesis setting (Table 3.1)");

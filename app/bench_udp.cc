@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "app/insecure_flag.h"
 #include "core/device/udp_device.h"
 #include "core/device/udp_sim_server.h"
@@ -130,13 +131,13 @@ void add_bench_udp_command(CLI::App& bench) {
   auto o = std::make_shared<BenchUdpOptions>();
   CLI::App* cmd = bench.add_subcommand("udp", "Measure the UDP bridge's round trip (POLL -> STATE), over loopback "
                                               "or to a driver on the network");
-  cmd->add_option("--seconds", o->seconds, "How long to run [s]")->check(CLI::Range(0.1, 3600.0))->capture_default_str();
+  cmd->add_option("--seconds", o->seconds, "How long to run [s]")->check(number_in(0.1, 3600.0))->capture_default_str();
   cmd->add_option("--rate-hz", o->rate_Hz, "Poll rate [Hz], 150..2000")
-      ->check(CLI::Range(150.0, 2000.0))
+      ->check(number_in(150.0, 2000.0))
       ->capture_default_str();
   cmd->add_option("--port", o->port,
                   "Port of a running `device serve-sim` or driver (0: serve the simulated workstation in this process)")
-      ->check(CLI::Range(0, 65535));
+      ->check(whole_number_in(0, 65535));
   cmd->add_option("--host", o->host, "IPv4 address of the driver (with --port)")->capture_default_str();
   cmd->add_option("--key-file", o->key_file,
                   "The bridge's shared key (as --device-option key_file=PATH); without --port the served "

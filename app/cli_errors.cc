@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <exception>
 
+#include "app/cli_checks.h"
+
 namespace hapticlab::app {
 namespace {
 
@@ -142,7 +144,10 @@ int run_command_line(CLI::App& app, int argc, char** argv) {
     return app.exit(e);  // --help, --version (CLI11 derives them from Success)
   } catch (const CLI::ParseError& e) {
     const std::string path = command_path(app);
-    std::fprintf(stderr, "hapticlab: error: %s\nRun '%s --help' for usage.\n", e.what(), path.c_str());
+    const std::string what = dynamic_cast<const CLI::ArgumentMismatch*>(&e) != nullptr
+                                 ? argument_mismatch_text(app, e.what())
+                                 : std::string(e.what());
+    std::fprintf(stderr, "hapticlab: error: %s\nRun '%s --help' for usage.\n", what.c_str(), path.c_str());
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hapticlab: error: %s\n", e.what());

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "app/cli_checks.h"
 #include "app/insecure_flag.h"
 #include "app/interrupt_flag.h"
 #include "console/console_server.h"
@@ -103,12 +104,12 @@ void add_console_command(CLI::App& app) {
                  "participant screen, in a browser (docs/console.md)");
   cmd->add_option("--db", opt->db, "Study database (hapticlab study create)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--port", opt->port, "TCP port, 0..65535 (0: any free one, printed)")
-      ->check(CLI::Range(0, 65535))
+      ->check(whole_number_in(0, 65535))
       ->capture_default_str();
   cmd->add_option("--participant-port", opt->participant_port,
                   "TCP port of the participant screen, 0..65535 (0: any free one, printed); a port of its own, so "
                   "the participant's browser cannot read the operator's pages, which name the setting")
-      ->check(CLI::Range(0, 65535))
+      ->check(whole_number_in(0, 65535))
       ->capture_default_str();
   cmd->add_option("--bind", opt->bind, "Address to listen on; anything but 127.0.0.1 needs --token-file")
       ->capture_default_str();
@@ -122,11 +123,11 @@ void add_console_command(CLI::App& app) {
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();
   cmd->add_option("--max-trial-s", opt->max_trial_s, "Time limit per trial [s]")
-      ->check(CLI::PositiveNumber)
+      ->check(positive_number())
       ->capture_default_str();
   cmd->add_option("--training-trials", opt->training_trials,
                   "Simulated training trials per task (default: the protocol's)")
-      ->check(CLI::Range(0, 1000));
+      ->check(whole_number_in(0, 1000));
   cmd->add_flag("--realtime", opt->realtime,
                 "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked, as `session run --realtime` "
                 "(recommended when browsers watch on the same machine: BENCHMARKS.md)");

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "app/insecure_flag.h"
 #include "core/device/device_factory.h"
 #include "core/device/hand_attachment.h"
@@ -339,15 +340,15 @@ void add_device_check_command(CLI::App& device) {
   cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
   add_insecure_flag(cmd, opt->insecure);
   cmd->add_option("--seconds", opt->seconds, "How long to read [s], 0.05..3600")
-      ->check(CLI::Range(0.05, 3600.0))
+      ->check(number_in(0.05, 3600.0))
       ->capture_default_str();
   cmd->add_option("--rate-hz", opt->rate_Hz, "Loop rate [Hz], 150..2000")
-      ->check(CLI::Range(150.0, 2000.0))
+      ->check(number_in(150.0, 2000.0))
       ->capture_default_str();
   cmd->add_option("--rate-tolerance", opt->rate_tolerance_fraction,
                   "How far the achieved rate may stray from --rate-hz (fraction, 0.001..0.5; a session takes its "
                   "protocol's rate_tolerance_fraction)")
-      ->check(CLI::Range(0.001, 0.5))
+      ->check(number_in(0.001, 0.5))
       ->capture_default_str();
   cmd->add_flag("--json", opt->json, "Machine-readable output");
   cmd->callback([opt] {

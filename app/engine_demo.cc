@@ -4,6 +4,7 @@
 // did. The same motion is felt through each shipped setting; one CSV per
 // setting (the `engine replay` output format) and a summary table come out.
 #include "app/engine_demo.h"
+#include "app/cli_checks.h"
 #include "app/data_paths.h"
 
 #include <algorithm>
@@ -127,7 +128,7 @@ void add_engine_demo_command(CLI::App& engine) {
                   "Directory with the settings files (default: the shipped examples)");
   cmd->add_option("--seconds", opt->duration_s, "Length of the motion")
       ->capture_default_str()
-      ->check(CLI::Range(0.1, 600.0));
+      ->check(number_in(0.1, 600.0));
   cmd->callback([opt] {
     const fs::path dir =
         opt->settings_dir.empty() ? default_settings_dir() : fs::path(opt->settings_dir);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "app/cli_checks.h"
 #include "db/export_csv.h"
 #include "db/sample_codec.h"
 #include "db/study_db.h"
@@ -151,19 +152,19 @@ void add_export_command(CLI::App& app) {
                   "_samples.csv (one row per update per instrument, SI units in the column names) and "
                   "_events.csv; each file is written to NAME.tmp and renamed when complete")
       ->required();
-  cmd->add_option("--channels", opt->channels,
-                  "Only these sample channels, comma-separated, in this order (default: all): " + all_channel_names())
-      ->delimiter(',')
-      ->check(CLI::Validator(
-          [](std::string& name) {
-            return db::channel_index(name) ? std::string() : "'" + name + "' is not a channel; channels: " +
-                                                                  all_channel_names();
-          },
-          "CHANNEL"));
+  add_list_option(*cmd, "--channels", opt->channels,
+                  "Only these sample channels, comma-separated, in this order (default: all): " + all_channel_names(),
+                  CLI::Validator(
+                      [](std::string& name) {
+                        return db::channel_index(name) ? std::string()
+                                                       : "'" + name + "' is not a channel; channels: " +
+                                                             all_channel_names();
+                      },
+                      "CHANNEL"));
   cmd->add_option("--every", opt->selection.every,
                   "Keep every N-th update (rows whose tick is a multiple of N; both instruments), N >= 1")
       ->capture_default_str()
-      ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1000000}));
+      ->check(whole_number_in(1, 1000000));
   cmd->add_option("--participant", opt->participants, "Only this participant's trials (repeatable)");
   cmd->add_option("--setting", opt->settings, "Only trials under this setting name (repeatable)");
   cmd->add_option("--status", opt->statuses, "Only trials with this status (repeatable): complete, aborted, running")

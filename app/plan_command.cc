@@ -4,8 +4,10 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cerrno>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <exception>
 #include <filesystem>
@@ -15,18 +17,22 @@
 #include <sstream>
 #include <thread>
 
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 
 #include "analysis/report/gnuplot.h"
+#include "app/cli_checks.h"
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
 #include "core/common/csv_format.h"
 #include "core/settings/settings_json.h"
-#include "core/common/sha256.h"
 #include "core/io/output_file.h"
 #include "planning/calibration.h"
 #include "planning/change_summary.h"
 #include "planning/comparison_report.h"
+#include "planning/plan_inputs.h"
+#include "planning/plan_lock.h"
 #include "planning/power.h"
 #include "planning/power_store.h"
 #include "protocols/protocol_json.h"
@@ -50,13 +56,28 @@ struct PlanPowerOptions {
   bool json = false;
 };
 
-std::string power_inputs(const PlanPowerOptions& o, const std::string& protocol_text,
-                         const planning::SimulatedStudyOptions& sim) {
-  return "protocol sha256 " + sha256_hex(protocol_text) + ", seed " + std::to_string(o.seed) + ", rate " +
-         format_number(sim.rate_Hz) + " Hz, max trial " + format_number(sim.max_trial_s) + " s, alpha " +
-         format_number(sim.analysis.alpha) + ", percentiles " +
-         std::string(analysis::percentile_method_name(sim.analysis.percentile_method)) +
-         ", with setting changes";  // studies stored before changes were kept would leave them out
+// The --out folder, made now and proven writable, before anything is
+// simulated: a folder that cannot take the results is found in a second,
+// not after the whole simulation.
+void prepare_out_folder(const fs::path& out) {
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec)
+    throw std::runtime_error("--out '" + out.string() + "': cannot make the folder (" + ec.message() +
+                             "); nothing was simulated");
+  const fs::path probe = out / (".hapticlab-write-check-" + std::to_string(::getpid()));
+  {
+    std::ofstream f(probe);
+    f << "x";
+    f.flush();
+    if (!f) {
+      const std::string why = std::strerror(errno);
+      fs::remove(probe, ec);
+      throw std::runtime_error("--out '" + out.string() + "': cannot write in the folder (" + why +
+                               "); nothing was simulated");
+    }
+  }
+  fs::remove(probe, ec);
 }
 
 void write_power_csv(const fs::path& path, const std::vector<planning::PowerRow>& rows) {
@@ -184,8 +205,12 @@ int run_plan_power(const PlanPowerOptions& o) {
   }
   if (o.plots) (void)analysis::find_gnuplot();
 
-  fs::create_directories(o.out);
-  planning::PowerStore store(fs::path(o.out) / "plan_power.db", power_inputs(o, protocol_text, sim));
+  prepare_out_folder(o.out);
+  // One run per folder; then the stored plan must be this one, every row checked.
+  const planning::PlanLock lock = planning::PlanLock::acquire(o.out);
+  planning::PowerStore store(fs::path(o.out) / "plan_power.db",
+                             planning::plan_inputs(protocol, o.protocol, protocol_text, o.seed, counts, o.studies, sim),
+                             protocol);
   const std::set<std::pair<int, int>> done = store.done();
   std::vector<std::pair<int, int>> todo;
   for (int n : counts)
@@ -291,11 +316,8 @@ int run_plan_power(const PlanPowerOptions& o) {
 
   std::vector<std::string> setting_order;
   for (const auto& s : protocol.settings) setting_order.push_back(s.settings.name);
-  const std::vector<planning::StudyOutcome> outcomes = store.load();
-  std::vector<planning::StudyOutcome> wanted;
-  for (const auto& s : outcomes)
-    if (std::find(counts.begin(), counts.end(), s.participants) != counts.end() && s.index < o.studies)
-      wanted.push_back(s);
+  // The plan's studies, every one of them, checked again as stored.
+  const std::vector<planning::StudyOutcome> wanted = store.load(/*complete=*/true);
   const std::vector<planning::PowerRow> rows = planning::summarize_power(wanted, setting_order);
   const std::vector<planning::FalsePositiveRow> fp = planning::false_positive_rates(wanted, null_settings);
   const std::vector<planning::StaircaseSummaryRow> stairs = planning::summarize_staircases(wanted);
@@ -474,6 +496,8 @@ int run_plan_calibrate(const PlanCalibrateOptions& o) {
   if (const int rest = o.participants % planning::kCalibrationGroup; rest > 0)
     (void)planning::resized_protocol(protocol, rest, o.seed);
 
+  prepare_out_folder(o.out);
+
   ProgressLine line(o.json ? stderr : stdout);
   line.print("simulating " + std::to_string(o.participants) + " participants of " + protocol.study + " (" +
              no_feedback + " against " + names.control + ")");
@@ -497,7 +521,6 @@ int run_plan_calibrate(const PlanCalibrateOptions& o) {
   const std::size_t timed_out = population.trials_timed_out;
   const std::vector<planning::MeasuredEffect> effects = planning::measure_effects(all, names.control, no_feedback);
 
-  fs::create_directories(o.out);
   std::ostringstream csv;
   csv << "id,task,what,published,source,criterion,participants,median_ratio,q1,q3,share_above_1,consistent\n";
   for (const auto& e : effects)
@@ -527,7 +550,7 @@ int run_plan_calibrate(const PlanCalibrateOptions& o) {
               "participant's medians, summarized over them\n\n",
               o.participants, timed_out);
   for (const auto& e : effects) {
-    std::printf("%s: %s\n  published: %s (%s)\n  simulated: median %.2f [IQR %.2f, %.2f], > 1 for %.0f%% of %zu "
+    std::printf("%s: %s\n  published: %s (%s)\n  simulated: median %.2f [Q1 %.2f, Q3 %.2f], > 1 for %.0f%% of %zu "
                 "participants; %s: %s\n\n",
                 e.effect.task.c_str(), e.effect.what.c_str(), e.effect.published.c_str(), e.effect.source.c_str(),
                 e.median, e.q1, e.q3, 100.0 * e.share_above_one, e.participants, e.effect.criterion.c_str(),
@@ -552,18 +575,18 @@ void add_plan_command(CLI::App& app) {
   cmd->add_option("--protocol", opt->protocol, "Protocol file (examples/protocols/*.json)")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--participants", opt->participants,
-                  "Participant counts to simulate, comma-separated (default: the protocol's), each 1..999")
-      ->delimiter(',')
-      ->check(CLI::Range(1, 999));
+  add_list_option(*cmd, "--participants", opt->participants,
+                  "Participant counts to simulate, comma-separated (default: the protocol's), each 1..999",
+                  whole_number_in(1, 999));
   cmd->add_option("--studies", opt->studies, "Simulated studies per participant count, 1..100000")
       ->capture_default_str()
-      ->check(CLI::Range(1, 100000));
+      ->check(whole_number_in(1, 100000));
   cmd->add_option("--seed", opt->seed, "Seed of the whole plan: the same seed gives the same studies")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(seed_number());
   cmd->add_option("--jobs,-j", opt->jobs, "Studies simulated at once (0: two per core)")
       ->capture_default_str()
-      ->check(CLI::Range(0, 256));
+      ->check(whole_number_in(0, 256));
   cmd->add_option("--out", opt->out, "Folder for plan_power.db (the finished studies), power.csv and figures")
       ->capture_default_str();
   cmd->add_option("--measure", opt->measure, "Measure of the printed table and figures (power.csv has all)")
@@ -571,11 +594,11 @@ void add_plan_command(CLI::App& app) {
       ->check(CLI::IsMember({"force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s",
                              "path_length_m"}));
   cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000, as session run's")
-      ->check(CLI::Range(150.0, 2000.0))
+      ->check(number_in(150.0, 2000.0))
       ->capture_default_str();
   cmd->add_option("--max-trial-s", opt->max_trial_s, "Per-trial time limit [s], as session run's")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; }, "No figures (no gnuplot needed)");
   cmd->add_flag("--json", opt->json, "Print the power table as JSON (progress goes to stderr)");
   cmd->callback([opt] {
@@ -593,18 +616,19 @@ void add_plan_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   calibrate->add_option("--participants", cal->participants, "Simulated participants, 2..100000")
       ->capture_default_str()
-      ->check(CLI::Range(2, 100000));
+      ->check(whole_number_in(2, 100000));
   calibrate->add_option("--seed", cal->seed, "Seed: the same seed gives the same participants and table")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(seed_number());
   calibrate->add_option("--jobs,-j", cal->jobs, "Groups of 10 participants simulated at once (0: two per core)")
-      ->check(CLI::Range(0, 256));
+      ->check(whole_number_in(0, 256));
   calibrate->add_option("--out", cal->out, "Folder for calibration.csv")->capture_default_str();
   calibrate->add_option("--rate-hz", cal->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000")
-      ->check(CLI::Range(150.0, 2000.0))
+      ->check(number_in(150.0, 2000.0))
       ->capture_default_str();
   calibrate->add_option("--max-trial-s", cal->max_trial_s, "Per-trial time limit [s], as session run's")
       ->capture_default_str()
-      ->check(CLI::Range(1.0, 3600.0));
+      ->check(number_in(1.0, 3600.0));
   calibrate->add_flag("--json", cal->json, "Print the table as JSON (progress goes to stderr)");
   calibrate->callback([cal] { (void)run_plan_calibrate(*cal); });
 }

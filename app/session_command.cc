@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/cli_checks.h"
 #include "app/insecure_flag.h"
 #include "app/interrupt_flag.h"
 #include "app/progress_line.h"
@@ -140,6 +141,7 @@ int run(const SessionCommandOptions& opt) {
                         {"participant", opt.participant},
                         {"device", options.device.describe()},
                         {"training_trials", r.training_trials},
+                        {"training_cut_short", r.training_cut_short},
                         {"trials_run", r.trials_run},
                         {"trials_complete", r.trials_complete},
                         {"trials_aborted", r.trials_aborted},
@@ -174,7 +176,11 @@ int run(const SessionCommandOptions& opt) {
                 r.trials_run == 1 ? "trial" : "trials", r.trials_complete, r.trials_aborted, r.trials_requeued,
                 r.trials_left, static_cast<unsigned long long>(r.samples_logged),
                 r.training_trials > 0 ? (", after " + std::to_string(r.training_trials) + " training trial" +
-                                         (r.training_trials == 1 ? "" : "s"))
+                                         (r.training_trials == 1 ? "" : "s") +
+                                         (r.training_cut_short > 0
+                                              ? " (" + std::to_string(r.training_cut_short) +
+                                                    " cut short before the task was complete)"
+                                              : std::string()))
                                             .c_str()
                                       : "");
     if (r.staircase) std::printf("%s\n", analysis::staircase_summary(*r.staircase).c_str());
@@ -226,26 +232,26 @@ void add_session_command(CLI::App& app) {
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();
   cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
-      ->check(CLI::Range(150.0, 2000.0))
+      ->check(number_in(150.0, 2000.0))
       ->capture_default_str();
   cmd->add_option("--max-trial-s", opt->max_trial_s,
                   "Time limit per trial [s]; a trial that reaches it is aborted and not re-queued")
-      ->check(CLI::PositiveNumber)
+      ->check(positive_number())
       ->capture_default_str();
   cmd->add_option("--training-trials", opt->training_trials,
                   "Simulated training trials per task before its first trial, 0..1000 (default: the protocol's; "
                   "with --training-until-enter the most it may last, default 1000)")
-      ->check(CLI::Range(0, kMaxTrainingTrials));
+      ->check(whole_number_in(0, kMaxTrainingTrials));
   cmd->add_flag("--training-until-enter", opt->training_until_enter,
                 "The operator ends each task's training: trials repeat until Enter is pressed (or stdin ends), "
                 "as with a real participant, who practises until the operator judges them ready");
   cmd->add_option("--max-trials", opt->max_trials, "Run at most this many trials, then stop (default: all)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative_number());
   cmd->add_flag("--realtime", opt->realtime.enabled,
                 "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked (for a real device; "
                 "if the system refuses, says so and runs without; docs/devices.md)");
   cmd->add_option("--realtime-priority", opt->realtime.priority, "SCHED_FIFO priority with --realtime, 1..99")
-      ->check(CLI::Range(1, 99))
+      ->check(whole_number_in(1, 99))
       ->capture_default_str();
   cmd->add_option("--realtime-cpu", opt->realtime.cpu, "CPU for the loop with --realtime (-1: the last one)")
       ->capture_default_str();

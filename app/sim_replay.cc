@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "app/cli_checks.h"
 #include "app/renamed_option.h"
 #include "app/sim_run.h"
 #include "core/io/output_file.h"
@@ -162,11 +163,12 @@ void add_sim_replay_command(CLI::App& sim) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--trial-seed", opt->trial_seed,
                   "Task layout seed (default for a database trial: the one its simulated session used; "
-                  "for --csv: 1)");
+                  "for --csv: 1)")
+      ->check(seed_number());
   cmd->add_option("--rate-hz", opt->rate_Hz,
                   "Haptic loop rate [Hz], 150..2000 (default for a database trial: the rate it was recorded at, "
                   "from its median update period; for --csv: 1000)")
-      ->check(CLI::Range(150.0, 2000.0));
+      ->check(number_in(150.0, 2000.0));
   CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update)");
   const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
   cmd->callback([opt, out_option] {

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <string>
 
+#include "app/cli_checks.h"
 #include "app/renamed_option.h"
 #include "core/io/loop_sample_csv.h"
 #include "core/io/output_file.h"
@@ -94,28 +95,30 @@ void add_sim_run_command(CLI::App& sim) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--participant-seed", opt->participant_seed,
                   "Seed of the simulated participant's traits (who performs)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(seed_number());
   cmd->add_option("--trial-seed", opt->trial_seed,
                   "Seed of this trial: task layout and trial-to-trial variation")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(seed_number());
   cmd->add_option("--practice", opt->practice,
                   "Trials the participant already did (practice makes it faster), >= 0")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative_number())
       ->capture_default_str();
   cmd->add_option("--clock", opt->clock,
                   "virtual: as fast as the CPU allows, deterministic; wall: real time")
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();
   cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
-      ->check(CLI::Range(150.0, 2000.0))
+      ->check(number_in(150.0, 2000.0))
       ->capture_default_str();
   cmd->add_flag("--thesis-rate", opt->thesis_rate,
                 "Let the rate wander between 200 and 2000 Hz like the thesis' VE (overrides --rate-hz)");
   CLI::Option* limit = cmd->add_option("--max-trial-s", opt->max_duration_s,
                                        "Time limit of the trial [s] (simulated time with --clock virtual)")
-                           ->check(CLI::PositiveNumber)
+                           ->check(positive_number())
                            ->capture_default_str();
-  add_old_spelling(*cmd, limit, "--max-duration-s", opt->max_duration_s).old->check(CLI::PositiveNumber);
+  add_old_spelling(*cmd, limit, "--max-duration-s", opt->max_duration_s).old->check(positive_number());
   CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update)");
   const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
   cmd->callback([opt, out_option] {

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "analysis/report/gnuplot.h"
+#include "app/cli_checks.h"
 #include "app/data_paths.h"
 #include "app/progress_line.h"
 #include "core/common/csv_format.h"
@@ -317,39 +318,36 @@ void add_stability_command(CLI::App& app) {
   cmd->add_option("--settings", opt->settings,
                   "Base settings (default: the shipped max_stable.json, Table 4.1's set, everything on)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--rates", opt->rates_Hz, "Update rates [Hz], comma-separated, each 150..2000")
-      ->delimiter(',')
-      ->capture_default_str()
-      ->check(CLI::Range(150.0, 2000.0));
-  cmd->add_option("--effects", opt->effects,
+  add_list_option(*cmd, "--rates", opt->rates_Hz, "Update rates [Hz], comma-separated, each 150..2000",
+                  number_in(150.0, 2000.0))
+      ->default_str("150,300,500,1000,2000");
+  add_list_option(*cmd, "--effects", opt->effects,
                   "Effects (inertia, backlash, cogging, friction) or settings fields to map, comma-separated "
-                  "(default: all of Table 4.1's parameters and friction's level)")
-      ->delimiter(',');
-  cmd->add_option("--stiffness", opt->stiffnesses_N_per_m,
+                  "(default: all of Table 4.1's parameters and friction's level)");
+  add_list_option(*cmd, "--stiffness", opt->stiffnesses_N_per_m,
                   "The VE's stiffness [N/m], comma-separated, each 0.001..1e6 (default 320: the dissection "
-                  "task's stiffest tissue; 2000: a firm rendered wall)")
-      ->delimiter(',')
-      ->capture_default_str()
-      ->check(CLI::Range(1e-3, 1e6));
+                  "task's stiffest tissue; 2000: a firm rendered wall)",
+                  number_in(1e-3, 1e6))
+      ->default_str("320,2000");
   cmd->add_option("--contact", opt->contact,
                   "grasped: the tip tied to tissue, the thesis' unstable case; wall: pressed into a plane")
       ->capture_default_str()
       ->check(CLI::IsMember({"grasped", "wall"}));
   cmd->add_option("--duration-s", opt->duration_s, "Length of every run [s], 1.5..600; the last second is judged")
       ->capture_default_str()
-      ->check(CLI::Range(1.5, 600.0));
+      ->check(number_in(1.5, 600.0));
   cmd->add_option("--max-oscillation-mm", opt->max_oscillation_mm, "Stable: tip peak to peak at most this [mm]")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_option("--max-energy-mJ", opt->max_energy_mJ, "Stable: net energy given to the hand at most this [mJ]")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   cmd->add_option("--steps", opt->steps, "Bisection steps per boundary, 1..40")
       ->capture_default_str()
-      ->check(CLI::Range(1, 40));
+      ->check(whole_number_in(1, 40));
   cmd->add_option("--jobs,-j", opt->jobs, "Threads (0: one per core); the map does not depend on it")
       ->capture_default_str()
-      ->check(CLI::Range(0, 256));
+      ->check(whole_number_in(0, 256));
   cmd->add_option("--out", opt->out, "Folder for the tables and figures")->capture_default_str();
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; }, "No figures (no gnuplot needed)");
   cmd->add_flag("--yes", opt->yes, "Run a map estimated to take over 5 minutes without asking");

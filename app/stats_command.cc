@@ -25,6 +25,7 @@
 #include "analysis/stats/percentile.h"
 #include "analysis/stats/sign_flip_vs_control.h"
 #include "analysis/stats/skillings_mack.h"
+#include "app/cli_checks.h"
 
 namespace hapticlab::app {
 namespace {
@@ -105,10 +106,9 @@ void add_csv_option(CLI::App& cmd, std::string& csv) {
 }
 
 void add_group_option(CLI::App& cmd, std::vector<std::string>& group) {
-  cmd.add_option("--group", group,
-                 "Column(s) to split the data by (repeat the option or separate with commas); "
-                 "one result per distinct combination, e.g. --group participant,task")
-      ->delimiter(',');
+  add_list_option(cmd, "--group", group,
+                  "Column(s) to split the data by (repeat the option or separate with commas); "
+                  "one result per distinct combination, e.g. --group participant,task");
 }
 
 void add_drop_missing_flag(CLI::App& cmd, bool& drop_missing) {
@@ -562,7 +562,8 @@ void add_stats_command(CLI::App& app) {
                     "Moving block length in samples (>= 1, at most the shortest repetition); "
                     "cover the autocorrelation of the data");
     cmd->add_option("--seed", opt->seed, "Random seed; the same seed and data give the same ranges")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(seed_number());
     cmd->add_option("--percentile-method", opt->percentile_method,
                     "Percentile definition for the 95% ranges: matlab, r7, r6, nearest")
         ->capture_default_str();

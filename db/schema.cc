@@ -205,6 +205,16 @@ CREATE TABLE operator_action (
 CREATE INDEX operator_action_by_session ON operator_action (session_id, id);
 )sql";
 
+// Version 7: a practice trial that ended before its task was complete (a
+// time limit, the watchdog, a device fault) is counted as what it was, not
+// as a training trial done: `trials` counts those done in full, `cut_short`
+// the others, `cut_short_reason` why the last of them ended. Rows recorded
+// before counted both in `trials` (cut_short 0: not known then).
+constexpr const char* kV7 = R"sql(
+ALTER TABLE training ADD COLUMN cut_short INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE training ADD COLUMN cut_short_reason TEXT;
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
@@ -214,6 +224,7 @@ constexpr Migration kMigrations[] = {
      checksum_old_chunks},
     {5, "device_counter table: a device's own counts per trial (UDP bridge packet losses, ...)", kV5},
     {6, "operator_action table: the console operator's actions, stored when accepted", kV6},
+    {7, "training: practice trials cut short counted apart (cut_short, cut_short_reason)", kV7},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 

@@ -1,5 +1,6 @@
 #include "db/study_db.h"
 
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -54,7 +55,7 @@ constexpr const char* kTrialColumns =
     "t.started_unix_s, t.ended_unix_s, t.abort_reason, p.code, s.name "
     "FROM trial t JOIN participant p ON p.id = t.participant_id JOIN setting s ON s.id = t.setting_id ";
 
-TrialRow read_trial(const Statement& s) {
+TrialRow read_trial(const Database& db, const Statement& s) {
   TrialRow r;
   r.id = s.column_int64(0);
   r.participant_id = s.column_int64(1);
@@ -63,7 +64,15 @@ TrialRow read_trial(const Statement& s) {
   r.repetition = static_cast<int>(s.column_int64(4));
   r.block = static_cast<int>(s.column_int64(5));
   r.position = static_cast<int>(s.column_int64(6));
-  r.status = parse_trial_status(s.column_text(7));
+  try {
+    r.status = parse_trial_status(s.column_text(7));
+  } catch (const DbError&) {
+    // Which file and which trial: the schema's CHECK keeps other values
+    // out, so this one came in some other way (a damaged or edited file).
+    throw DbError(db.path() + ": trial " + std::to_string(r.id) + ": column trial.status is '" +
+                  s.column_text(7).substr(0, 40) + "', but must be one of planned, running, complete, aborted; the "
+                  "file is damaged or was edited");
+  }
   if (!s.is_null(8)) r.session_id = s.column_int64(8);
   r.started_unix_s = opt_double(s, 9);
   r.ended_unix_s = opt_double(s, 10);
@@ -71,6 +80,40 @@ TrialRow read_trial(const Statement& s) {
   r.participant_code = s.column_text(12);
   r.setting_name = s.column_text(13);
   return r;
+}
+
+// What is wrong with the 100-byte header of a file SQLite calls "not a
+// database" (https://sqlite.org/fileformat2.html#the_database_header), or
+// "" when nothing there explains it. Read through SQLite's own file handle
+// (see below for why never through one of ours).
+std::string sqlite_header_problem(Database& db) {
+  sqlite3_file* file = nullptr;
+  if (sqlite3_file_control(db.raw(), "main", SQLITE_FCNTL_FILE_POINTER, &file) != SQLITE_OK || file == nullptr ||
+      file->pMethods == nullptr)
+    return "";
+  unsigned char h[100] = {};
+  const int rc = file->pMethods->xRead(file, h, sizeof h, 0);  // a short file reads as zeros
+  if (rc != SQLITE_OK && rc != SQLITE_IOERR_SHORT_READ) return "";
+  if (std::memcmp(h, "SQLite format 3", 16) != 0)
+    return "not an SQLite database file (it does not start with \"SQLite format 3\")";
+  const std::string damaged = "an SQLite file with a damaged header: ";
+  const unsigned field = (unsigned{h[16]} << 8) | h[17];
+  const unsigned page_size = field == 1 ? 65536 : field;
+  if (page_size < 512 || page_size > 65536 || (page_size & (page_size - 1)) != 0)
+    return damaged + "its page size (bytes 16-17) is " + std::to_string(field) +
+           ", but must be a power of two from 512 to 32768, or 1 for 65536";
+  for (int i : {18, 19})
+    if (h[i] != 1 && h[i] != 2)
+      return damaged + "its file format " + (i == 18 ? "write" : "read") + " version (byte " + std::to_string(i) +
+             ") is " + std::to_string(h[i]) + ", but must be 1 (rollback journal) or 2 (WAL)";
+  if (page_size - h[20] < 480)
+    return damaged + "its reserved space per page (byte 20) is " + std::to_string(h[20]) + ", which leaves " +
+           std::to_string(page_size - h[20]) + " usable bytes of a " + std::to_string(page_size) +
+           "-byte page, but at least 480 are needed";
+  if (h[21] != 64 || h[22] != 32 || h[23] != 32)
+    return damaged + "its payload fractions (bytes 21-23) are " + std::to_string(h[21]) + ", " +
+           std::to_string(h[22]) + ", " + std::to_string(h[23]) + ", but must be 64, 32, 32";
+  return "";
 }
 
 // A file that is not SQLite at all: SQLite itself would only say "file is
@@ -88,8 +131,10 @@ void refuse_non_sqlite_file(Database& db) {
     // Anything else (a damaged page) is the integrity check's to report,
     // with SQLite's findings.
     if ((e.sqlite_code() & 0xff) != SQLITE_NOTADB) return;
-    throw DbError(db.path() + ": not an SQLite database file (it does not start with \"SQLite format 3\"); "
-                  "expected a HapticLab study database, as made by `hapticlab study create`",
+    const std::string problem = sqlite_header_problem(db);
+    throw DbError(db.path() + ": " +
+                      (problem.empty() ? "not an SQLite database file (SQLite: file is not a database)" : problem) +
+                      "; expected a HapticLab study database, as made by `hapticlab study create`",
                   e.sqlite_code());
   }
 }
@@ -244,7 +289,14 @@ std::vector<StudyRow> StudyDb::studies() {
     r.name = s.column_text(1);
     r.protocol_json = s.column_text(2);
     r.protocol_sha256 = s.column_text(3);
-    r.seed = std::stoull(s.column_text(4));
+    // Stored as text (a u64 does not fit SQLite's integer): read back
+    // strictly, naming the row, since std::stoull would say only "stoull"
+    // and would take "-1" or "12abc".
+    const std::string seed = s.column_text(4);
+    const auto [end, ec] = std::from_chars(seed.data(), seed.data() + seed.size(), r.seed, 10);
+    if (seed.empty() || ec != std::errc{} || end != seed.data() + seed.size())
+      throw DbError(db_.path() + ": study " + std::to_string(r.id) + ": column study.seed is '" + seed.substr(0, 40) +
+                    "', but must be a whole number from 0 to 18446744073709551615; the file is damaged or was edited");
     r.software_version = s.column_text(5);
     r.created_utc = s.column_text(6);
     out.push_back(std::move(r));
@@ -323,25 +375,33 @@ SessionRow StudyDb::session(std::int64_t id) {
   r.ended_unix_s = opt_double(s, 2);
   r.device = s.column_text(3);
   r.clock = s.column_text(4);
-  r.status = parse_session_status(s.column_text(5));
+  try {
+    r.status = parse_session_status(s.column_text(5));
+  } catch (const DbError&) {
+    throw DbError(db_.path() + ": session " + std::to_string(id) + ": column session.status is '" +
+                  s.column_text(5).substr(0, 40) + "', but must be one of open, closed, interrupted; the file is "
+                  "damaged or was edited");
+  }
   return r;
 }
 
 std::int64_t StudyDb::add_training(const TrainingRow& t) {
   Statement s = db_.prepare(
-      "INSERT INTO training (session_id, task, started_unix_s, ended_unix_s, duration_s, trials) "
-      "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+      "INSERT INTO training (session_id, task, started_unix_s, ended_unix_s, duration_s, trials, cut_short, "
+      "cut_short_reason) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
   s.bind(1, t.session_id).bind(2, t.task).bind(3, t.started_unix_s);
   bind_opt(s, 4, t.ended_unix_s);
   bind_opt(s, 5, t.duration_s);
-  s.bind(6, std::int64_t{t.trials}).run();
+  s.bind(6, std::int64_t{t.trials}).bind(7, std::int64_t{t.cut_short});
+  if (t.cut_short_reason.empty()) s.bind_null(8); else s.bind(8, t.cut_short_reason);
+  s.run();
   return db_.last_insert_rowid();
 }
 
 std::vector<TrainingRow> StudyDb::training(std::int64_t session_id) {
   Statement s = db_.prepare(
-      "SELECT id, task, started_unix_s, ended_unix_s, duration_s, trials FROM training WHERE session_id = ?1 "
-      "ORDER BY id");
+      "SELECT id, task, started_unix_s, ended_unix_s, duration_s, trials, cut_short, cut_short_reason FROM training "
+      "WHERE session_id = ?1 ORDER BY id");
   s.bind(1, session_id);
   std::vector<TrainingRow> out;
   while (s.step()) {
@@ -353,6 +413,8 @@ std::vector<TrainingRow> StudyDb::training(std::int64_t session_id) {
     r.ended_unix_s = opt_double(s, 3);
     r.duration_s = opt_double(s, 4);
     r.trials = static_cast<int>(s.column_int64(5));
+    r.cut_short = static_cast<int>(s.column_int64(6));
+    r.cut_short_reason = s.column_text(7);
     out.push_back(std::move(r));
   }
   return out;
@@ -398,7 +460,7 @@ TrialRow StudyDb::trial(std::int64_t id) {
   Statement s = db_.prepare(std::string("SELECT ") + kTrialColumns + "WHERE t.id = ?1");
   s.bind(1, id);
   if (!s.step()) missing(db_, "trial", id);
-  return read_trial(s);
+  return read_trial(db_, s);
 }
 
 std::vector<TrialRow> StudyDb::trials(std::optional<std::int64_t> study_id) {
@@ -406,7 +468,7 @@ std::vector<TrialRow> StudyDb::trials(std::optional<std::int64_t> study_id) {
                             "WHERE ?1 IS NULL OR p.study_id = ?1 ORDER BY p.study_id, p.code, t.position, t.id");
   bind_opt(s, 1, study_id);
   std::vector<TrialRow> out;
-  while (s.step()) out.push_back(read_trial(s));
+  while (s.step()) out.push_back(read_trial(db_, s));
   return out;
 }
 

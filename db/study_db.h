@@ -79,7 +79,9 @@ struct TrainingRow {
   double started_unix_s = 0.0;
   std::optional<double> ended_unix_s;
   std::optional<double> duration_s;  // time actually spent training
-  int trials = 0;                    // training trials done
+  int trials = 0;                    // training trials done in full (the task completed)
+  int cut_short = 0;                 // training trials that ended before the task was complete
+  std::string cut_short_reason;      // why the last of those ended; empty when none was
 };
 
 // A trial as scheduled (protocols/schedule.h PlannedTrial).

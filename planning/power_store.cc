@@ -1,43 +1,231 @@
 #include "planning/power_store.h"
 
+#include <algorithm>
+#include <bit>
+#include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
-#include <stdexcept>
+#include <tuple>
+
+#include "analysis/stats/pairwise_friedman.h"
+#include "analysis/study/study_analysis.h"
+#include "core/common/sha256.h"
+#include "planning/simulated_study.h"
 
 namespace hapticlab::planning {
 
-PowerStore::PowerStore(const std::filesystem::path& path, const std::string& inputs) : db_(path) {
-  db_.exec("PRAGMA journal_mode = WAL");
-  db_.exec(
-      "CREATE TABLE IF NOT EXISTS run (inputs TEXT NOT NULL);"
-      "CREATE TABLE IF NOT EXISTS study (participants INTEGER NOT NULL, idx INTEGER NOT NULL, seed TEXT NOT NULL,"
-      " trials_run INTEGER NOT NULL, trials_timed_out INTEGER NOT NULL, updates INTEGER NOT NULL,"
-      " seconds REAL NOT NULL, PRIMARY KEY (participants, idx));"
-      "CREATE TABLE IF NOT EXISTS finding (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
-      " method TEXT NOT NULL, task TEXT NOT NULL, setting TEXT NOT NULL, measure TEXT NOT NULL,"
-      " participant TEXT NOT NULL, p REAL, significant INTEGER NOT NULL,"
-      " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
-      "CREATE TABLE IF NOT EXISTS staircase (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
-      " participant TEXT NOT NULL, threshold REAL, trials INTEGER NOT NULL,"
-      " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
-      "CREATE TABLE IF NOT EXISTS setting_change (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
-      " task TEXT NOT NULL, setting TEXT NOT NULL, measure TEXT NOT NULL, n INTEGER NOT NULL, ratio REAL NOT NULL,"
-      " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
-      "CREATE TABLE IF NOT EXISTS setting_trials (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
-      " task TEXT NOT NULL, setting TEXT NOT NULL, run INTEGER NOT NULL, timed_out INTEGER NOT NULL,"
-      " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));");
-  db::Statement q = db_.prepare("SELECT inputs FROM run");
-  if (q.step()) {
-    const std::string stored = q.column_text(0);
-    if (stored != inputs) {
-      throw std::runtime_error(path.string() + " holds the studies of another plan (" + stored +
-                               "); this one is (" + inputs + "): use another --out, or delete that folder");
+// What a row of this plan may hold.
+struct PowerStore::Shape {
+  std::set<std::string> tasks;
+  std::set<std::string> compared;  // settings compared with the control
+  std::set<std::string> settings;  // every setting of the protocol, the control too
+  std::set<std::string> measures;
+  std::map<int, std::set<std::string>> codes;  // per participant count
+  double alpha = 0.05;
+  double sidak_level = 0.05;
+  int max_staircase_trials = -1;  // -1: no staircase
+};
+
+namespace {
+
+// The plan_power.db layout this code writes (PRAGMA user_version); files
+// of version 1 (a "run" table, no record of the settings files) are refused.
+constexpr int kPlanStoreVersion = 2;
+
+const char* const kMethods[] = {"pairwise", "participant_pairwise", "participant"};
+
+// A stored text as it may be shown: at most 40 characters, bytes outside
+// printable ASCII as \xNN (a damaged row may hold anything).
+std::string shown_text(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size() && i < 40; ++i) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02X", c);
+      out += hex;
     }
-  } else {
-    db_.prepare("INSERT INTO run (inputs) VALUES (?1)").bind(1, inputs).run();
   }
+  return s.size() > 40 ? out + "…" : out;
 }
+
+std::string hex_double(double x) {
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(std::bit_cast<std::uint64_t>(x)));
+  return buf;
+}
+
+// Reads one stored row, each column with the type it must have; the first
+// that does not is refused with the file, the row and the column.
+class RowReader {
+ public:
+  RowReader(const db::Statement& s, std::string file, std::string row)
+      : s_(s), file_(std::move(file)), row_(std::move(row)) {}
+
+  [[noreturn]] void refuse(const std::string& reason) const {
+    throw PlanStoreError(file_ + ": " + row_ + ": " + reason +
+                         "; the file is damaged or was edited: start a new --out or remove it");
+  }
+  // Column `c` holds its value, column c + 1 its typeof().
+  std::int64_t integer(int c, const char* name, std::int64_t lo, std::int64_t hi) const {
+    expect(c, name, "integer");
+    const std::int64_t x = s_.column_int64(c);
+    if (x < lo || x > hi)
+      refuse(std::string("column ") + name + " is " + std::to_string(x) + ", but must be from " + std::to_string(lo) +
+             " to " + std::to_string(hi));
+    return x;
+  }
+  std::string text(int c, const char* name) const {
+    expect(c, name, "text");
+    return s_.column_text(c);
+  }
+  std::optional<double> real_or_null(int c, const char* name) const {
+    if (type(c) == "null") return std::nullopt;
+    expect(c, name, "real");
+    const double x = s_.column_double(c);
+    if (!std::isfinite(x)) refuse(std::string("column ") + name + " is not a finite number");
+    return x;
+  }
+  double real(int c, const char* name) const {
+    if (type(c) == "null") refuse(std::string("column ") + name + " is NULL, but must be a number");
+    return *real_or_null(c, name);
+  }
+  const std::string& row() const { return row_; }
+
+ private:
+  std::string type(int c) const { return s_.column_text(c + 1); }
+  void expect(int c, const char* name, const char* wanted) const {
+    const std::string t = type(c);
+    if (t != wanted)
+      refuse(std::string("column ") + name + " holds " + (t == "null" ? "NULL" : "a " + t) + ", but must hold " +
+             (std::string(wanted) == "integer" ? "an " : "a ") + wanted);
+  }
+  const db::Statement& s_;
+  std::string file_;
+  std::string row_;
+};
+
+std::string study_label(std::int64_t participants, std::int64_t index) {
+  return "study of " + std::to_string(participants) + " participants, number " + std::to_string(index);
+}
+
+}  // namespace
+
+PowerStore::PowerStore(const std::filesystem::path& path, const PlanInputs& inputs,
+                       const protocols::Protocol& protocol)
+    : db_(path), path_(path.string()), inputs_(inputs), shape_(std::make_unique<Shape>()) {
+  // What a row may hold, from the plan.
+  Shape& shape = *shape_;
+  for (const protocols::Task& t : protocol.tasks) shape.tasks.insert(std::string(protocols::task_name(t)));
+  analysis::StudyAnalysis names;
+  for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
+  analysis::AnalysisOptions analysis_options = SimulatedStudyOptions::default_analysis();
+  analysis_options.alpha = inputs.alpha;
+  analysis::choose_control(names, analysis_options);
+  for (const auto& s : names.settings) {
+    shape.settings.insert(s);
+    if (s != names.control) shape.compared.insert(s);
+  }
+  for (analysis::Measure m : analysis::kAllMeasures) shape.measures.insert(analysis::measure_column(m));
+  for (int n : inputs.participants)
+    for (const auto& p : resized_protocol(protocol, n, inputs.seed).participants) shape.codes[n].insert(p.code);
+  shape.alpha = inputs.alpha;
+  // As the study's analysis judges its comparisons (statistics_tables.cc).
+  const std::size_t m = names.settings.empty() ? 0 : names.settings.size() - 1;
+  shape.sidak_level = m > 0 ? analysis::sidak_level(inputs.alpha, m) : inputs.alpha;
+  if (protocol.staircase) shape.max_staircase_trials = 2 * protocol.staircase->spec.max_trials;
+  plan_sha256_ = sha256_hex(inputs.to_json().dump());
+
+  // A file SQLite reads in full, before anything is trusted.
+  {
+    db::Statement q = db_.prepare("PRAGMA quick_check");
+    std::string findings;
+    while (q.step())
+      if (const std::string r = q.column_text(0); r != "ok") findings += (findings.empty() ? "" : "; ") + r;
+    if (!findings.empty())
+      throw PlanStoreError(path_ + ": SQLite finds the file damaged (" + findings.substr(0, 400) +
+                           "): start a new --out or remove it");
+  }
+  const std::int64_t version = db_.pragma_int("user_version");
+  std::int64_t table_count = 0, old_run_tables = 0;
+  {
+    db::Statement tables = db_.prepare("SELECT count(*), sum(name = 'run') FROM sqlite_schema WHERE type = 'table'");
+    tables.step();
+    table_count = tables.column_int64(0);
+    old_run_tables = tables.column_int64(1);
+  }
+  const bool empty = table_count == 0;
+  if (!empty && version != kPlanStoreVersion) {
+    throw PlanStoreError(
+        path_ + ": " +
+        (old_run_tables > 0
+             ? std::string("made by an older HapticLab, which did not record the plan's settings files and options "
+                           "with it, so what its studies were made from cannot be checked")
+             : "not a plan_power.db of this HapticLab (schema version " + std::to_string(version) + ", expected " +
+                   std::to_string(kPlanStoreVersion) + ")") +
+        ": start a new --out or remove it");
+  }
+  if (empty) {
+    db_.exec("PRAGMA journal_mode = WAL");
+    db::Transaction tx(db_);
+    db_.exec(
+        "CREATE TABLE plan (inputs TEXT NOT NULL, sha256 TEXT NOT NULL);"
+        "CREATE TABLE study (participants INTEGER NOT NULL, idx INTEGER NOT NULL, seed TEXT NOT NULL,"
+        " trials_run INTEGER NOT NULL, trials_timed_out INTEGER NOT NULL, updates INTEGER NOT NULL,"
+        " seconds REAL NOT NULL, sha256 TEXT NOT NULL, PRIMARY KEY (participants, idx));"
+        "CREATE TABLE finding (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
+        " method TEXT NOT NULL, task TEXT NOT NULL, setting TEXT NOT NULL, measure TEXT NOT NULL,"
+        " participant TEXT NOT NULL, p REAL, significant INTEGER NOT NULL,"
+        " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
+        "CREATE TABLE staircase (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
+        " participant TEXT NOT NULL, threshold REAL, trials INTEGER NOT NULL,"
+        " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
+        "CREATE TABLE setting_change (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
+        " task TEXT NOT NULL, setting TEXT NOT NULL, measure TEXT NOT NULL, n INTEGER NOT NULL, ratio REAL NOT NULL,"
+        " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
+        "CREATE TABLE setting_trials (participants INTEGER NOT NULL, idx INTEGER NOT NULL,"
+        " task TEXT NOT NULL, setting TEXT NOT NULL, run INTEGER NOT NULL, timed_out INTEGER NOT NULL,"
+        " FOREIGN KEY (participants, idx) REFERENCES study (participants, idx));"
+        "PRAGMA user_version = 2;");
+    db_.prepare("INSERT INTO plan (inputs, sha256) VALUES (?1, ?2)")
+        .bind(1, inputs.to_json().dump())
+        .bind(2, plan_sha256_)
+        .run();
+    tx.commit();
+    return;
+  }
+  db::Statement q = db_.prepare("SELECT inputs, typeof(inputs) FROM plan");
+  std::vector<std::string> stored;
+  while (q.step()) stored.push_back(q.column_text(1) == "text" ? q.column_text(0) : std::string());
+  if (stored.size() != 1)
+    throw PlanStoreError(path_ + ": table plan has " + std::to_string(stored.size()) +
+                         " rows, but a plan has one; the file is damaged or was edited: start a new --out or "
+                         "remove it");
+  PlanInputs was;
+  try {
+    was = PlanInputs::from_json(nlohmann::json::parse(stored.front()));
+  } catch (const std::exception& e) {
+    throw PlanStoreError(path_ + ": " + e.what() + "; the file is damaged or was edited: start a new --out or "
+                         "remove it");
+  }
+  const std::vector<std::string> changed = plan_differences(was, inputs);
+  if (!changed.empty()) {
+    std::string list;
+    for (std::size_t i = 0; i < changed.size(); ++i)
+      list += (i == 0 ? "" : i + 1 == changed.size() ? " and " : "; ") + changed[i];
+    throw PlanStoreError("the plan in " + path.parent_path().string() + " was made from " + was.describe() + "; " +
+                         list + (changed.size() == 1 ? " has" : " have") +
+                         " changed (settings are compared as loaded: white space does not count, any value does): start a "
+                         "new --out or remove it (its studies would mix two designs in one table)");
+  }
+  (void)load();  // every stored row, checked before anything is simulated
+}
+
+PowerStore::~PowerStore() = default;
 
 std::set<std::pair<int, int>> PowerStore::done() {
   std::set<std::pair<int, int>> out;
@@ -46,79 +234,218 @@ std::set<std::pair<int, int>> PowerStore::done() {
   return out;
 }
 
-std::vector<StudyOutcome> PowerStore::load() {
+std::string PowerStore::digest(const std::string& plan_sha256, const StudyOutcome& o) {
+  std::string text = plan_sha256 + "\n" + std::to_string(o.participants) + " " + std::to_string(o.index) + " " +
+                     std::to_string(o.seed) + " " + std::to_string(o.trials_run) + " " +
+                     std::to_string(o.trials_timed_out) + " " + std::to_string(o.updates) + " " +
+                     hex_double(o.seconds) + "\n";
+  // Sorted: the rows' order in the file is not part of what they say.
+  std::vector<std::string> lines;
+  for (const Finding& f : o.findings)
+    lines.push_back("f\x1f" + f.method + "\x1f" + f.task + "\x1f" + f.setting + "\x1f" + f.measure + "\x1f" +
+                    f.participant + "\x1f" + (std::isnan(f.p) ? std::string("null") : hex_double(f.p)) + "\x1f" +
+                    (f.significant ? "1" : "0"));
+  for (const StaircaseOutcome& s : o.staircases)
+    lines.push_back("s\x1f" + s.participant + "\x1f" + (s.threshold ? hex_double(*s.threshold) : "null") + "\x1f" +
+                    std::to_string(s.trials));
+  for (const ChangeOutcome& c : o.changes)
+    lines.push_back("c\x1f" + c.task + "\x1f" + c.setting + "\x1f" + c.measure + "\x1f" +
+                    std::to_string(c.participants) + "\x1f" + hex_double(c.ratio));
+  for (const SettingTrials& t : o.setting_trials)
+    lines.push_back("t\x1f" + t.task + "\x1f" + t.setting + "\x1f" + std::to_string(t.run) + "\x1f" +
+                    std::to_string(t.timed_out));
+  std::sort(lines.begin(), lines.end());
+  for (const std::string& l : lines) text += l + "\n";
+  return sha256_hex(text);
+}
+
+std::vector<StudyOutcome> PowerStore::load(bool complete) {
+  const Shape& shape = *shape_;
+  constexpr std::int64_t kMaxInt = std::numeric_limits<int>::max();
   std::map<std::pair<int, int>, StudyOutcome> by_key;
+  std::map<std::pair<int, int>, std::string> stored_sha;
   db::Statement s = db_.prepare(
-      "SELECT participants, idx, seed, trials_run, trials_timed_out, updates, seconds FROM study "
-      "ORDER BY participants, idx");
+      "SELECT rowid, participants, typeof(participants), idx, typeof(idx), seed, typeof(seed), trials_run, "
+      "typeof(trials_run), trials_timed_out, typeof(trials_timed_out), updates, typeof(updates), seconds, "
+      "typeof(seconds), sha256, typeof(sha256) FROM study ORDER BY participants, idx");
   while (s.step()) {
+    const RowReader r(s, path_, "table study, row " + std::to_string(s.column_int64(0)));
     StudyOutcome o;
-    o.participants = static_cast<int>(s.column_int64(0));
-    o.index = static_cast<int>(s.column_int64(1));
-    o.seed = std::stoull(s.column_text(2));
-    o.trials_run = static_cast<int>(s.column_int64(3));
-    o.trials_timed_out = static_cast<int>(s.column_int64(4));
-    o.updates = static_cast<std::uint64_t>(s.column_int64(5));
-    o.seconds = s.column_double(6);
+    o.participants = static_cast<int>(r.integer(1, "participants", 1, 999));
+    if (!shape.codes.count(o.participants))
+      r.refuse("it is a study of " + std::to_string(o.participants) + " participants, which this plan (--participants " +
+               [&] {
+                 std::string l;
+                 for (int n : inputs_.participants) l += (l.empty() ? "" : ",") + std::to_string(n);
+                 return l;
+               }() + ") does not ask for");
+    o.index = static_cast<int>(r.integer(3, "idx", 0, inputs_.studies - 1));
+    const RowReader rs(s, path_, r.row() + " (" + study_label(o.participants, o.index) + ")");
+    const std::string seed = rs.text(5, "seed");
+    const std::uint64_t expected_seed = study_seed(inputs_.seed, o.participants, o.index);
+    if (seed != std::to_string(expected_seed))
+      rs.refuse("column seed is '" + shown_text(seed) + "', but this plan's --seed " + std::to_string(inputs_.seed) +
+                " gives that study the seed " + std::to_string(expected_seed));
+    o.seed = expected_seed;
+    o.trials_run = static_cast<int>(rs.integer(7, "trials_run", 0, kMaxInt));
+    o.trials_timed_out = static_cast<int>(rs.integer(9, "trials_timed_out", 0, o.trials_run));
+    o.updates = static_cast<std::uint64_t>(rs.integer(11, "updates", 0, std::numeric_limits<std::int64_t>::max()));
+    o.seconds = rs.real(13, "seconds");
+    if (o.seconds < 0.0) rs.refuse("column seconds is negative");
+    stored_sha[{o.participants, o.index}] = rs.text(15, "sha256");
     by_key[{o.participants, o.index}] = std::move(o);
   }
+
+  // Each finding and staircase row belongs to a stored study of the plan.
+  const auto owner = [&](const RowReader& r) -> StudyOutcome& {
+    const auto n = static_cast<int>(r.integer(1, "participants", 1, 999));
+    const auto i = static_cast<int>(r.integer(3, "idx", 0, kMaxInt));
+    const auto it = by_key.find({n, i});
+    if (it == by_key.end())
+      r.refuse("it belongs to the " + study_label(n, i) + ", which has no row in table study (a study "
+               "row was deleted, or this row was added)");
+    return it->second;
+  };
+  std::map<std::pair<int, int>, std::set<std::tuple<std::string, std::string, std::string, std::string, std::string>>>
+      seen;
   db::Statement f = db_.prepare(
-      "SELECT participants, idx, method, task, setting, measure, participant, p, significant FROM finding "
-      "ORDER BY rowid");
+      "SELECT rowid, participants, typeof(participants), idx, typeof(idx), method, typeof(method), task, "
+      "typeof(task), setting, typeof(setting), measure, typeof(measure), participant, typeof(participant), p, "
+      "typeof(p), significant, typeof(significant) FROM finding ORDER BY rowid");
   while (f.step()) {
+    const RowReader r(f, path_, "table finding, row " + std::to_string(f.column_int64(0)));
+    StudyOutcome& o = owner(r);
     Finding x;
-    x.method = f.column_text(2);
-    x.task = f.column_text(3);
-    x.setting = f.column_text(4);
-    x.measure = f.column_text(5);
-    x.participant = f.column_text(6);
-    x.p = f.is_null(7) ? std::numeric_limits<double>::quiet_NaN() : f.column_double(7);
-    x.significant = f.column_int64(8) != 0;
-    by_key.at({static_cast<int>(f.column_int64(0)), static_cast<int>(f.column_int64(1))})
-        .findings.push_back(std::move(x));
+    x.method = r.text(5, "method");
+    if (std::find(std::begin(kMethods), std::end(kMethods), x.method) == std::end(kMethods))
+      r.refuse("column method is '" + shown_text(x.method) + "', but must be pairwise, participant_pairwise or "
+               "participant");
+    x.task = r.text(7, "task");
+    if (!shape.tasks.count(x.task)) r.refuse("column task is '" + shown_text(x.task) + "', not a task of the protocol");
+    x.setting = r.text(9, "setting");
+    if (x.method == "participant" ? !x.setting.empty() : !shape.compared.count(x.setting))
+      r.refuse("column setting is '" + shown_text(x.setting) + "', but must be " +
+               (x.method == "participant" ? std::string("empty for a participant's test")
+                                          : "one of the settings compared with the control"));
+    x.measure = r.text(11, "measure");
+    if (!shape.measures.count(x.measure)) r.refuse("column measure is '" + shown_text(x.measure) + "', not a measure");
+    x.participant = r.text(13, "participant");
+    if (x.method == "participant" ? !shape.codes.at(o.participants).count(x.participant) : !x.participant.empty())
+      r.refuse("column participant is '" + shown_text(x.participant) + "', but must be " +
+               (x.method == "participant" ? "one of the study's participants" : std::string("empty")));
+    const std::optional<double> p = r.real_or_null(15, "p");
+    if (p && !(*p >= 0.0 && *p <= 1.0)) r.refuse("column p is " + std::to_string(*p) + ", but a p lies in [0, 1]");
+    x.p = p.value_or(std::numeric_limits<double>::quiet_NaN());
+    x.significant = r.integer(17, "significant", 0, 1) != 0;
+    if (!seen[{o.participants, o.index}].insert({x.method, x.task, x.setting, x.measure, x.participant}).second)
+      r.refuse("it repeats a test of its study (" + x.method + ", " + x.task + ", " +
+               (x.setting.empty() ? x.participant : x.setting) + ", " + x.measure + ")");
+    o.findings.push_back(std::move(x));
   }
-  db::Statement st = db_.prepare("SELECT participants, idx, participant, threshold, trials FROM staircase ORDER BY rowid");
+  db::Statement st = db_.prepare(
+      "SELECT rowid, participants, typeof(participants), idx, typeof(idx), participant, typeof(participant), "
+      "threshold, typeof(threshold), trials, typeof(trials) FROM staircase ORDER BY rowid");
   while (st.step()) {
+    const RowReader r(st, path_, "table staircase, row " + std::to_string(st.column_int64(0)));
+    StudyOutcome& o = owner(r);
+    if (shape.max_staircase_trials < 0) r.refuse("this plan's protocol has no staircase");
     StaircaseOutcome x;
-    x.participant = st.column_text(2);
-    if (!st.is_null(3)) x.threshold = st.column_double(3);
-    x.trials = static_cast<int>(st.column_int64(4));
-    by_key.at({static_cast<int>(st.column_int64(0)), static_cast<int>(st.column_int64(1))})
-        .staircases.push_back(std::move(x));
+    x.participant = r.text(5, "participant");
+    if (!shape.codes.at(o.participants).count(x.participant))
+      r.refuse("column participant is '" + shown_text(x.participant) + "', not one of the study's participants");
+    x.threshold = r.real_or_null(7, "threshold");
+    x.trials = static_cast<int>(r.integer(9, "trials", 0, shape.max_staircase_trials));
+    o.staircases.push_back(std::move(x));
   }
-  db::Statement ch =
-      db_.prepare("SELECT participants, idx, task, setting, measure, n, ratio FROM setting_change ORDER BY rowid");
+  // Each setting's change against the control (study_change.h), and the
+  // trials run and timed out per setting (the comparison report's).
+  std::map<std::pair<int, int>, std::set<std::tuple<std::string, std::string, std::string>>> seen_change;
+  db::Statement ch = db_.prepare(
+      "SELECT rowid, participants, typeof(participants), idx, typeof(idx), task, typeof(task), setting, "
+      "typeof(setting), measure, typeof(measure), n, typeof(n), ratio, typeof(ratio) FROM setting_change "
+      "ORDER BY rowid");
   while (ch.step()) {
+    const RowReader r(ch, path_, "table setting_change, row " + std::to_string(ch.column_int64(0)));
+    StudyOutcome& o = owner(r);
     ChangeOutcome x;
-    x.task = ch.column_text(2);
-    x.setting = ch.column_text(3);
-    x.measure = ch.column_text(4);
-    x.participants = static_cast<int>(ch.column_int64(5));
-    x.ratio = ch.column_double(6);
-    by_key.at({static_cast<int>(ch.column_int64(0)), static_cast<int>(ch.column_int64(1))})
-        .changes.push_back(std::move(x));
+    x.task = r.text(5, "task");
+    if (!shape.tasks.count(x.task)) r.refuse("column task is '" + shown_text(x.task) + "', not a task of the protocol");
+    x.setting = r.text(7, "setting");
+    if (!shape.compared.count(x.setting))
+      r.refuse("column setting is '" + shown_text(x.setting) + "', but must be one of the settings compared with the "
+               "control");
+    x.measure = r.text(9, "measure");
+    if (!shape.measures.count(x.measure)) r.refuse("column measure is '" + shown_text(x.measure) + "', not a measure");
+    x.participants = static_cast<int>(r.integer(11, "n", 1, o.participants));
+    x.ratio = r.real(13, "ratio");
+    if (!(x.ratio >= 0.0)) r.refuse("column ratio is " + std::to_string(x.ratio) + ", but a ratio of medians is >= 0");
+    if (!seen_change[{o.participants, o.index}].insert({x.task, x.setting, x.measure}).second)
+      r.refuse("it repeats a change of its study (" + x.task + ", " + x.setting + ", " + x.measure + ")");
+    o.changes.push_back(std::move(x));
   }
-  db::Statement tr =
-      db_.prepare("SELECT participants, idx, task, setting, run, timed_out FROM setting_trials ORDER BY rowid");
+  std::map<std::pair<int, int>, std::set<std::pair<std::string, std::string>>> seen_trials;
+  db::Statement tr = db_.prepare(
+      "SELECT rowid, participants, typeof(participants), idx, typeof(idx), task, typeof(task), setting, "
+      "typeof(setting), run, typeof(run), timed_out, typeof(timed_out) FROM setting_trials ORDER BY rowid");
   while (tr.step()) {
+    const RowReader r(tr, path_, "table setting_trials, row " + std::to_string(tr.column_int64(0)));
+    StudyOutcome& o = owner(r);
     SettingTrials x;
-    x.task = tr.column_text(2);
-    x.setting = tr.column_text(3);
-    x.run = static_cast<int>(tr.column_int64(4));
-    x.timed_out = static_cast<int>(tr.column_int64(5));
-    by_key.at({static_cast<int>(tr.column_int64(0)), static_cast<int>(tr.column_int64(1))})
-        .setting_trials.push_back(std::move(x));
+    x.task = r.text(5, "task");
+    if (!shape.tasks.count(x.task)) r.refuse("column task is '" + shown_text(x.task) + "', not a task of the protocol");
+    x.setting = r.text(7, "setting");
+    if (!shape.settings.count(x.setting))
+      r.refuse("column setting is '" + shown_text(x.setting) + "', not a setting of the protocol");
+    x.run = static_cast<int>(r.integer(9, "run", 0, o.trials_run));
+    x.timed_out = static_cast<int>(r.integer(11, "timed_out", 0, x.run));
+    if (!seen_trials[{o.participants, o.index}].insert({x.task, x.setting}).second)
+      r.refuse("it repeats the trials of its study's " + x.task + " under " + x.setting);
+    o.setting_trials.push_back(std::move(x));
   }
+
+  // Recomputed, not trusted: each test's significance, then each study's digest.
   std::vector<StudyOutcome> out;
-  for (auto& [key, o] : by_key) out.push_back(std::move(o));
+  for (auto& [key, o] : by_key) {
+    const std::string where = path_ + ": " + study_label(key.first, key.second);
+    std::set<std::pair<std::string, std::string>> table34;  // (task, measure) with a participant's test below alpha
+    for (const Finding& x : o.findings)
+      if (x.method == "participant" && x.p < shape.alpha) table34.insert({x.task, x.measure});
+    for (const Finding& x : o.findings) {
+      if (std::isnan(x.p)) continue;
+      const bool expected = x.method == "participant"            ? x.p < shape.alpha
+                            : x.method == "participant_pairwise" ? x.p < shape.sidak_level
+                                                                 : x.p < shape.sidak_level &&
+                                                                       table34.count({x.task, x.measure}) > 0;
+      if (x.significant != expected)
+        throw PlanStoreError(where + ": its " + x.method + " test (" + x.task + ", " +
+                             (x.setting.empty() ? x.participant : x.setting) + ", " + x.measure + ") is stored as " +
+                             (x.significant ? "significant" : "not significant") + ", but its p " +
+                             std::to_string(x.p) + " makes it " + (expected ? "significant" : "not significant") +
+                             "; the file is damaged or was edited: start a new --out or remove it");
+    }
+    if (digest(plan_sha256_, o) != stored_sha.at(key))
+      throw PlanStoreError(where + ": its rows do not match the SHA-256 stored with it (a finding, staircase or "
+                           "count was changed, added or removed after the study was stored); the file is damaged or "
+                           "was edited: start a new --out or remove it");
+    out.push_back(std::move(o));
+  }
+  if (complete) {
+    for (int n : inputs_.participants)
+      for (int i = 0; i < inputs_.studies; ++i)
+        if (!by_key.count({n, i}))
+          throw PlanStoreError(path_ + ": the " + study_label(n, i) + " is missing after the run (" +
+                               std::to_string(by_key.size()) + " of " +
+                               std::to_string(inputs_.participants.size() * static_cast<std::size_t>(inputs_.studies)) +
+                               " studies stored)");
+  }
   return out;
 }
 
 void PowerStore::add(const StudyOutcome& o) {
   db::Transaction tx(db_);
   db_.prepare(
-         "INSERT INTO study (participants, idx, seed, trials_run, trials_timed_out, updates, seconds) "
-         "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)")
+         "INSERT INTO study (participants, idx, seed, trials_run, trials_timed_out, updates, seconds, sha256) "
+         "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)")
       .bind(1, std::int64_t{o.participants})
       .bind(2, std::int64_t{o.index})
       .bind(3, std::to_string(o.seed))  // a u64 seed does not fit SQLite's signed integer
@@ -126,6 +453,7 @@ void PowerStore::add(const StudyOutcome& o) {
       .bind(5, std::int64_t{o.trials_timed_out})
       .bind(6, static_cast<std::int64_t>(o.updates))
       .bind(7, o.seconds)
+      .bind(8, digest(plan_sha256_, o))
       .run();
   db::Statement ins = db_.prepare(
       "INSERT INTO finding (participants, idx, method, task, setting, measure, participant, p, significant) "

@@ -77,6 +77,16 @@ std::string staircase_base_row_name(std::string_view base_name) {
   return std::string(kStaircaseBasePrefix) + std::string(base_name);
 }
 
+std::string setting_name_key(std::string_view name) {
+  const auto space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; };
+  while (!name.empty() && space(name.front())) name.remove_prefix(1);
+  while (!name.empty() && space(name.back())) name.remove_suffix(1);
+  std::string key(name);
+  for (char& c : key)
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  return key;
+}
+
 std::optional<std::size_t> Protocol::find_setting(std::string_view name) const {
   for (std::size_t i = 0; i < settings.size(); ++i) {
     if (settings[i].settings.name == name) return i;
@@ -135,16 +145,34 @@ void validate_protocol(const Protocol& p, const std::string& source) {
                           "is missing or empty, but every setting needs a name: designs refer to settings by it");
     }
     for (std::size_t j = 0; j < i; ++j) {
-      if (p.settings[j].settings.name == name) {
+      const std::string& other = p.settings[j].settings.name;
+      if (other == name) {
         throw ProtocolError(source, index_path("settings", i) + ".name",
                             "is " + in_quotes(name) + ", the same as settings[" + std::to_string(j) +
                                 "]; setting names must be unique");
+      }
+      // "High Fidelity" and "high fidelity " are one name to a reader, and
+      // to analyze, which finds the control by name.
+      if (setting_name_key(other) == setting_name_key(name)) {
+        throw ProtocolError(source, index_path("settings", i) + ".name",
+                            "is " + in_quotes(name) + ", the same as settings[" + std::to_string(j) + "] (" +
+                                in_quotes(other) + ") but for case or surrounding spaces; setting names must be "
+                                "unique ignoring both (analyze finds the control by its name)");
       }
     }
   }
   if (p.settings.size() < (p.staircase ? 1u : 2u)) {
     throw ProtocolError(source, "settings",
                         "has " + std::to_string(p.settings.size()) + " setting(s), but must have at least 2");
+  }
+
+  // Only `session run` adds a staircase's trials; the study API, which an
+  // external VE's application drives, has none.
+  if (p.staircase && p.ve == Ve::kExternal) {
+    throw ProtocolError(source, "staircase",
+                        "is given with \"ve\": \"external\", but an external VE's application runs the study "
+                        "through the study API (hapticlab/study.h), which never runs a staircase (only `session "
+                        "run` adds its trials, with the simulated VE): remove \"staircase\" or \"ve\"");
   }
 
   // participants: codes, tasks, training

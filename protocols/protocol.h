@@ -132,7 +132,7 @@ struct Protocol {
   std::string description;                // free text, may be empty
   Ve ve = Ve::kSimulated;                 // where the tasks run
   std::vector<Task> tasks;                // non-empty, no duplicates, in file order
-  std::vector<ProtocolSetting> settings;  // >= 2, unique names
+  std::vector<ProtocolSetting> settings;  // >= 2, names unique ignoring case and surrounding spaces
   // Repetitions of every setting per task, 1..100, for every task in
   // `tasks` (thesis: 3 dissection, 9 clip).
   std::map<Task, int> repetitions;
@@ -162,6 +162,12 @@ struct Protocol {
   // Index into `settings` of the setting called `name`, or nullopt.
   std::optional<std::size_t> find_setting(std::string_view name) const;
 };
+
+// The form in which two setting names are the same name: without
+// surrounding white space, ASCII letters in lower case. A protocol's
+// setting names are unique in this form ("High Fidelity" and
+// "high fidelity " are refused together).
+std::string setting_name_key(std::string_view name);
 
 // Why `code` is not an acceptable participant code, or nullopt if it is.
 // A code with a space is refused as looking like a person's name.

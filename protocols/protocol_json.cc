@@ -150,8 +150,11 @@ class Reader {
     st.spec = read_staircase_spec(v, &p);
     st.base = read_setting(require(v, "settings", "staircase"), "staircase.settings");
     check_numeric_field(st.base.settings, v["field"], "staircase.field");
-    if (p.find_setting(st.base.settings.name))
-      fail("staircase.settings", "is named \"" + st.base.settings.name + "\", like one of the settings; give it a name of its own");
+    for (const ProtocolSetting& ps : p.settings)
+      if (setting_name_key(ps.settings.name) == setting_name_key(st.base.settings.name))
+        fail("staircase.settings", "is named \"" + st.base.settings.name + "\", like the setting \"" +
+                                       ps.settings.name + "\" (ignoring case and surrounding spaces); give it a "
+                                       "name of its own");
     // Both ends must be strengths the settings accept.
     for (const char* end : {"min", "max"}) {
       const double x = end == std::string("min") ? st.spec.min : st.spec.max;

@@ -96,6 +96,22 @@ void refuse_external_ve(const db::StudyRow& study) {
                              "docs/ve_events.md).");
 }
 
+// Why a practice trial ended before its task was complete, said as a
+// trial's abort_reason would say it; empty when it was done in full.
+std::string practice_cut_short_reason(const SimTrialResult& r, double max_trial_s) {
+  if (r.task_complete) return {};
+  switch (r.stop_reason) {
+    case StopReason::kMaxDuration: return time_limit_reason(format_number(max_trial_s) + " s");
+    case StopReason::kSafetyLimit: return "safety limit: " + describe(r.safety_trip);
+    case StopReason::kRateViolation: return "rate_violation: " + describe(r.safety_trip);
+    case StopReason::kWatchdog:
+      return r.safety_trip.kind == SafetyTripKind::kDeviceCallHung ? describe(r.safety_trip)
+                                                                   : "watchdog: " + describe(r.safety_trip);
+    case StopReason::kDeviceFault: return std::string("device fault: ") + to_string(r.device_status);
+    default: return std::string("ended before the task was complete (") + to_string(r.stop_reason) + ")";
+  }
+}
+
 }  // namespace
 
 std::uint64_t participant_seed(std::uint64_t study_seed, std::string_view code) noexcept {
@@ -244,12 +260,18 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
           refuse(practice.device_status, "the training for trial " + std::to_string(trial.id));
         trained_s += practice.duration_s;
         ++done;
+        // Recorded as what it was: a practice trial cut short is not one done.
+        if (std::string why = practice_cut_short_reason(practice, options.max_trial_s); !why.empty()) {
+          ++row.cut_short;
+          row.cut_short_reason = std::move(why);
+        }
       }
       row.ended_unix_s = db::unix_now_s();
       row.duration_s = trained_s;
-      row.trials = done;
+      row.trials = done - row.cut_short;
       db.add_training(row);
       result.training_trials += done;
+      result.training_cut_short += row.cut_short;
       if (stop_requested(options)) break;
     }
 

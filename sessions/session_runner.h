@@ -131,6 +131,7 @@ struct SessionOptions {
 struct SessionResult {
   std::int64_t session_id = 0;
   int training_trials = 0;   // simulated training trials run
+  int training_cut_short = 0;  // of those, ended before the task was complete (training.cut_short)
   int trials_run = 0;        // scheduled trials started in this session
   int trials_complete = 0;
   int trials_aborted = 0;

@@ -15,6 +15,7 @@
 #include "core/common/utc_time.h"
 #include "core/settings/settings_json.h"
 #include "analysis/stats/data_error.h"
+#include "analysis/stats/sign_flip.h"
 #include "core/common/build_info.h"
 #include "core/io/output_file.h"
 
@@ -382,7 +383,7 @@ Section pairwise_section(const StudyAnalysis& a, const std::string& task, int nu
 
   // What the p values are about.
   Table d;
-  d.title = "Median [interquartile range] per setting";
+  d.title = "Median [Q1, Q3] per setting";
   d.header = {"Setting"};
   for (Measure m : kAllMeasures) d.header.push_back(std::string(measure_label(m)) + " [" + measure_unit(m) + "]");
   for (const std::string& setting : a.settings) {
@@ -405,6 +406,40 @@ Section pairwise_section(const StudyAnalysis& a, const std::string& task, int nu
   return s;
 }
 
+// What the sign-flip test can reach in this study: with n participants
+// its smallest p is 2/2^n, against the Šidák level of m comparisons at
+// alpha; computed from the task's comparisons, whose participant counts
+// may differ (an incomplete design).
+std::string participant_reach_sentence(const StudyAnalysis& a, const std::string& task) {
+  std::size_t fewest = 0, most = 0;
+  bool any = false;
+  for (const auto& c : a.participant_pairwise) {
+    if (c.task != task || !c.p) continue;
+    fewest = any ? std::min(fewest, c.participants) : c.participants;
+    most = std::max(most, c.participants);
+    any = true;
+  }
+  const std::size_t needed = sign_flip_differences_needed(a.sidak_level);
+  const auto smallest = [](std::size_t n) { return num(sign_flip_smallest_p(n), "%.2g"); };
+  std::string out = "With n participants the smallest p the test can give is 2/2^n; the level " +
+                    format_level(a.sidak_level) + " (alpha " + num(a.options.alpha) + ", m = " +
+                    std::to_string(a.sidak_m) + " comparisons) needs " +
+                    (needed == 0 ? std::string("more participants than the test can count")
+                                 : "at least " + std::to_string(needed) + " (2/2^" + std::to_string(needed) + " = " +
+                                       smallest(needed) + ")") +
+                    ".";
+  if (!any) return out;
+  const std::string count = fewest == most ? std::to_string(most) : std::to_string(fewest) + " to " + std::to_string(most);
+  out += " In this task the comparisons have " + count + " participants";
+  if (needed != 0 && fewest >= needed)
+    return out + " (smallest p " + smallest(fewest) +
+           "), so one in which every participant differs in the same direction reaches it.";
+  if (needed == 0 || most < needed)
+    return out + " (smallest p " + smallest(most) + "), so none can reach it, whatever the data.";
+  return out + ": one with fewer than " + std::to_string(needed) +
+         " (the number in brackets) cannot reach it, whatever the data.";
+}
+
 // Each setting against the control with one value per participant
 // (analysis/study/participant_level.h), the default method.
 Section participant_section(const StudyAnalysis& a, const std::string& task) {
@@ -417,9 +452,8 @@ Section participant_section(const StudyAnalysis& a, const std::string& task) {
             "Each participant's median over their repetitions (and both hands, for per-hand measures) under "
             "each setting; their differences from the same participant's median under " + a.control +
             " tested with the exact sign-flip permutation test, so a participant counts once however many "
-            "trials they did. Bold: significant at the Šidák level " + format_level(a.sidak_level) +
-            ". With n participants the smallest possible p is 2/2^n: 0.25 for 3, 0.0078 for 8, so a study of "
-            "fewer than 9 participants cannot reach that level.";
+            "trials they did. Bold: significant at the Šidák level " + format_level(a.sidak_level) + ". " +
+            participant_reach_sentence(a, task);
   Table t;
   t.header = measure_header(a.control + " compared to:");
   Table d;
@@ -438,7 +472,7 @@ Section participant_section(const StudyAnalysis& a, const std::string& task) {
       for (const auto& c : a.participant_pairwise)
         if (c.task == task && c.setting == a.settings[si] && c.measure == m && c.p) {
           cell = {format_p(*c.p, a.sidak_level), c.significant};
-          mean = {(c.mean_difference > 0 ? "+" : "") + num(c.mean_difference)};
+          if (c.mean_difference) mean = {(*c.mean_difference > 0 ? "+" : "") + num(*c.mean_difference)};
         }
       row.push_back(cell);
       diff.push_back(mean);
@@ -550,12 +584,13 @@ Section dose_response_section(const StudyAnalysis& a, const std::string& task) {
             "significant strength: each strength against " + a.control + " (the participant-level p), tested "
             "from the strongest down at alpha " + num(a.options.alpha) + " and stopped at the first that is not "
             "significant (fixed sequence, Hsu & Berger 1999), so no Šidák correction is needed among the "
-            "strengths. Bold: p < " + num(a.options.alpha) + ".";
+            "strengths. In the trend table, bold: p < " + num(a.options.alpha) + ".";
   Table trend;
   trend.header = {"Measure", "Mean slope [unit per " + unit + "]", "Participants", "p (trend)",
                   "Smallest significant strength"};
   Table medians;
-  medians.title = "Median over participants of each participant's median, and p against " + a.control;
+  medians.title = "Median over participants of each participant's median, and p against " + a.control +
+                  " (unadjusted); bold: the strengths the fixed-sequence procedure accepts";
   medians.header = {"Measure"};
   for (const DoseLevel& level : dose.levels) medians.header.push_back(num(level.strength));
   for (const DoseResponseRow& r : a.dose_response) {
@@ -569,14 +604,22 @@ Section dose_response_section(const StudyAnalysis& a, const std::string& task) {
     std::vector<Cell> row{{label}};
     for (std::size_t i = 0; i < r.level_medians.size(); ++i) {
       std::string text = std::isfinite(r.level_medians[i]) ? num(r.level_medians[i]) : "N/A";
-      const bool significant = i < r.p_vs_control.size() && r.p_vs_control[i] && *r.p_vs_control[i] < a.options.alpha;
+      // The procedure accepts every strength from the strongest down to the
+      // smallest significant one; a p below alpha under a strength it never
+      // reached (it stopped above) is not a finding.
+      const bool accepted = i > 0 && r.smallest_significant_strength &&
+                            dose.levels[i].strength >= *r.smallest_significant_strength;
       if (i < r.p_vs_control.size() && r.p_vs_control[i]) text += " (p " + format_p(*r.p_vs_control[i]) + ")";
-      row.push_back({text, significant});
+      row.push_back({text, accepted});
     }
     medians.rows.push_back(std::move(row));
   }
   trend.note = "Participants: those with data at two or more strengths. With n participants the smallest possible "
                "p is 2/2^n: 0.0625 for 5, 0.031 for 6.";
+  medians.note = "Bold: the strengths the fixed-sequence procedure accepts, from the strongest down to the "
+                 "smallest significant strength of the table above; each p is that strength against " + a.control +
+                 " alone, unadjusted, so a p below " + num(a.options.alpha) + " under a strength the procedure did "
+                 "not reach is not bold.";
   s.tables.push_back(std::move(trend));
   s.tables.push_back(std::move(medians));
   return s;

@@ -52,4 +52,16 @@ SignFlipResult sign_flip_test(std::span<const double> d, std::uint64_t seed) {
   return r;
 }
 
+double sign_flip_smallest_p(std::size_t n) {
+  if (n == 0) return 1.0;
+  if (n <= 24) return 2.0 / static_cast<double>(std::uint64_t{1} << n);
+  return 1.0 / static_cast<double>((std::uint64_t{1} << 20) + 1);
+}
+
+std::size_t sign_flip_differences_needed(double level) {
+  for (std::size_t n = 1; n <= 25; ++n)
+    if (sign_flip_smallest_p(n) < level) return n;
+  return 0;
+}
+
 }  // namespace hapticlab::analysis

@@ -26,4 +26,15 @@ struct SignFlipResult {
 // 0.0005) with the observed pattern counted, as Phipson & Smyth (2010) advise.
 SignFlipResult sign_flip_test(std::span<const double> differences, std::uint64_t seed = 1);
 
+// The smallest p sign_flip_test can give with n >= 1 differences: 2/2^n
+// (every difference of one sign: the observed pattern and its mirror),
+// 1/(2^20 + 1) beyond 24 (the observed pattern counted among the random
+// ones). 1 for n = 0.
+double sign_flip_smallest_p(std::size_t n);
+
+// The fewest differences with which sign_flip_test can give p < level
+// (what a comparison judged at `level` needs at least); 0 when no number
+// of differences can (level <= 1/(2^20 + 1)).
+std::size_t sign_flip_differences_needed(double level);
+
 }  // namespace hapticlab::analysis

@@ -132,8 +132,15 @@ void choose_control(StudyAnalysis& a, const AnalysisOptions& options) {
     }
     a.control = options.control_setting;
   } else {
-    for (const auto& s : a.settings)
-      if (normalized(s) == "high_fidelity") a.control = s;
+    for (const auto& s : a.settings) {
+      if (normalized(s) != "high_fidelity") continue;
+      // Two candidates (a file made before protocols refused such names):
+      // which one is the control is the user's to say, not the last one's.
+      if (!a.control.empty())
+        throw DataError("settings '" + a.control + "' and '" + s + "' are both named 'High Fidelity' (ignoring case, "
+                        "spaces and punctuation), so neither is known to be the control; name it with --control");
+      a.control = s;
+    }
     if (a.control.empty() && !a.settings.empty()) {
       std::string names;
       for (const auto& s : a.settings) names += (names.empty() ? "'" : ", '") + s + "'";

@@ -179,7 +179,7 @@ struct ParticipantPairwiseCell {
   Measure measure = Measure::kForceMedian;
   std::size_t participants = 0;      // who did both (with data)
   std::optional<double> p;           // two-sided; empty when no participant did both
-  double mean_difference = 0.0;      // setting minus control, in the measure's unit
+  std::optional<double> mean_difference;  // setting minus control, in the measure's unit; empty without a test
   bool significant = false;          // p < the study's Šidák level
   std::string note;
 };

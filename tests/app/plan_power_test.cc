@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -24,7 +25,9 @@ namespace hapticlab::app {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::AllOf;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 fs::path source_dir() {
   if (const char* env = std::getenv("HAPTICLAB_SOURCE_DIR")) return env;
@@ -46,6 +49,19 @@ int stored_studies(const fs::path& db) {
   sqlite3_finalize(s);
   sqlite3_close(c);
   return n;
+}
+
+// Runs `sql` on a plan_power.db as any SQLite client could (checksums and
+// constraints are the file's own business): how the damaged copies are made.
+void edit_plan_db(const fs::path& db, const std::string& sql) {
+  sqlite3* c = nullptr;
+  ASSERT_EQ(sqlite3_open(db.c_str(), &c), SQLITE_OK);
+  char* error = nullptr;
+  const int rc = sqlite3_exec(c, sql.c_str(), nullptr, nullptr, &error);
+  const std::string message = error ? error : "";
+  sqlite3_free(error);
+  sqlite3_close(c);
+  ASSERT_EQ(rc, SQLITE_OK) << sql << ": " << message;
 }
 
 class PlanPowerTest : public ::testing::Test {
@@ -240,8 +256,9 @@ TEST_F(PlanPowerTest, AFullDiskIsNamedAndTheStoredStudiesResume) {
   fs::create_directories(mnt);
   const std::string run = std::string(HAPTICLAB_CLI_PATH) + " plan power --protocol " + protocol_.string() + kRate +
                           "--participants 2 --studies 4 --jobs 1 --no-plots --out ";
-  // 128 kB: the database and about 3 studies (its WAL grows ~30 kB a study).
-  const std::string script = "mount -t tmpfs -o size=128k tmpfs " + mnt.string() + " && " + run + mnt.string() +
+  // 96 kB: the WAL index (32 kB), the database and about 2 studies (its
+  // WAL grows 20-30 kB a study).
+  const std::string script = "mount -t tmpfs -o size=96k tmpfs " + mnt.string() + " && " + run + mnt.string() +
                              "/plan; rc=$?; mkdir -p " + (dir_ / "kept").string() + " && cp " + mnt.string() +
                              "/plan/plan_power.db* " + (dir_ / "kept").string() + "/; exit $rc";
   const auto [status, out] = testing::run_cli("unshare", "-m sh -c '" + script + "'");
@@ -256,6 +273,117 @@ TEST_F(PlanPowerTest, AFullDiskIsNamedAndTheStoredStudiesResume) {
   const auto [fresh_rc, fresh] = plan("--participants 2 --studies 4 --no-plots --out " + (dir_ / "fresh").string());
   ASSERT_EQ(fresh_rc, 0) << fresh;
   EXPECT_EQ(testing::slurp(dir_ / "kept" / "power.csv"), testing::slurp(dir_ / "fresh" / "power.csv"));
+}
+
+// Issue 34 section 3: a settings file changed under the same name (No
+// Force Feedback replaced by a copy of High Fidelity) made a resumed plan
+// mix two designs in one table. The plan is keyed by every settings file
+// as loaded: white space alone is the same plan, any value is another,
+// and so are other participant counts or studies.
+TEST_F(PlanPowerTest, AChangedSettingsFileIsRefusedNotMixed) {
+  const fs::path examples = source_dir() / "examples" / "settings";
+  fs::copy_file(examples / "high_fidelity.json", dir_ / "hf.json");
+  fs::copy_file(examples / "no_force_feedback.json", dir_ / "nff.json");
+  protocol_ = dir_ / "copies.json";
+  std::ofstream(protocol_) << R"({"study": "copies", "tasks": ["clip"], "repetitions": {"clip": 1}, )"
+                           << R"("settings": ["hf.json", "nff.json"], "participants": ["A", "B"], )"
+                           << R"("design": {"type": "complete"}, "seed": 5})";
+  const fs::path out = dir_ / "plan";
+  const std::string args = "--participants 2 --studies 1 --no-plots --out " + out.string();
+  auto [rc, text] = plan(args);
+  ASSERT_EQ(rc, 0) << text;
+  const std::string table = testing::slurp(out / "power.csv");
+  // Re-indented: the settings as loaded are the same, so is the plan.
+  nlohmann::json nff = nlohmann::json::parse(testing::slurp(dir_ / "nff.json"));
+  std::ofstream(dir_ / "nff.json") << nff.dump(8);
+  std::tie(rc, text) = plan(args);
+  ASSERT_EQ(rc, 0) << text;
+  EXPECT_THAT(text, HasSubstr("1 of 1 studies already in"));
+  // The same file name, the control's parameters under the old name.
+  nlohmann::json copy = nlohmann::json::parse(testing::slurp(examples / "high_fidelity.json"));
+  copy["name"] = nff["name"];
+  std::ofstream(dir_ / "nff.json") << copy.dump();
+  std::tie(rc, text) = plan(args);
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, AllOf(HasSubstr("the plan in " + out.string() + " was made from " + protocol_.string()),
+                          HasSubstr("settings[1] 'No Force Feedback' (nff.json) has changed"),
+                          HasSubstr("start a new --out or remove it")));
+  EXPECT_EQ(testing::slurp(out / "power.csv"), table);  // nothing rewritten
+  std::ofstream(dir_ / "nff.json") << nff.dump();
+  // Other counts or another number of studies: another plan, each named.
+  std::tie(rc, text) = plan("--participants 2,3 --studies 2 --no-plots --out " + out.string());
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, AllOf(HasSubstr("--participants (2 then, 2,3 now)"), HasSubstr("--studies (1 then, 2 now)"),
+                          HasSubstr("have changed")));
+}
+
+// Issue 34 section 3: rows of plan_power.db were used unchecked. Each
+// damaged copy (made through SQLite, as any client could) is refused
+// before anything is simulated, naming the file, the row and the reason.
+TEST_F(PlanPowerTest, DamagedStoredRowsAreRefusedNamingTheRow) {
+  const fs::path good = dir_ / "good";
+  const std::string args = "--participants 2 --studies 2 --no-plots --out ";
+  auto [rc, text] = plan(args + good.string());
+  ASSERT_EQ(rc, 0) << text;
+  struct Damage {
+    const char* sql;
+    std::vector<std::string> said;
+  };
+  const std::vector<Damage> damages = {
+      // 8 bytes of 0xFF (a garbage row in power.csv before).
+      {"UPDATE finding SET method = CAST(x'FFFFFFFFFFFFFFFF' AS TEXT) WHERE rowid = 3",
+       {"table finding, row 3: column method is '\\xFF\\xFF", "must be pairwise, participant_pairwise or participant"}},
+      {"UPDATE finding SET p = x'FFFFFFFFFFFFFFFF' WHERE rowid = 4",
+       {"table finding, row 4: column p holds a blob, but must hold a real"}},
+      // A deleted study row: its old findings counted again (41 "studies" of 40).
+      {"DELETE FROM study WHERE idx = 1",
+       {"table finding, row", "belongs to the study of 2 participants, number 1, which has no row in table study"}},
+      // An edited finding, its significance recomputed to match: the study's digest does not.
+      {"UPDATE finding SET p = p / 2 WHERE rowid = (SELECT min(rowid) FROM finding WHERE p > 0.5)",
+       {"study of 2 participants, number", "its rows do not match the SHA-256 stored with it"}},
+      // Significance that its p does not give.
+      {"UPDATE finding SET significant = 1 - significant WHERE rowid = 6",
+       {"study of 2 participants, number", "is stored as", "but its p"}},
+      {"UPDATE study SET seed = '7' WHERE idx = 0", {"column seed is '7', but this plan's --seed 1 gives that study"}},
+      {"UPDATE study SET idx = 5 WHERE idx = 1", {"table study, row", "column idx is 5, but must be from 0 to 1"}},
+      {"INSERT INTO finding SELECT * FROM finding WHERE rowid = 2", {"it repeats a test of its study"}},
+  };
+  for (const Damage& d : damages) {
+    const fs::path copy = dir_ / "copy";
+    fs::remove_all(copy);
+    fs::copy(good, copy);
+    edit_plan_db(copy / "plan_power.db", d.sql);
+    std::tie(rc, text) = plan(args + copy.string());
+    EXPECT_EQ(rc, 1) << d.sql << "\n" << text;
+    EXPECT_THAT(text, HasSubstr((copy / "plan_power.db").string() + ": ")) << d.sql;
+    for (const std::string& s : d.said) EXPECT_THAT(text, HasSubstr(s)) << d.sql;
+    EXPECT_THAT(text, HasSubstr("start a new --out or remove it")) << d.sql;
+    EXPECT_THAT(text, Not(HasSubstr("simulating"))) << d.sql;  // refused before anything ran
+  }
+}
+
+// Issue 34 section 3: a second run on the same --out failed late with
+// "UNIQUE constraint failed ... free space". It is refused at once, naming
+// the run that holds the folder.
+TEST_F(PlanPowerTest, ASecondRunOnTheSameFolderIsRefusedNamingTheHolder) {
+  const fs::path out = dir_ / "busy";
+  testing::ChildProcess first({HAPTICLAB_CLI_PATH, "plan", "power", "--protocol", protocol_.string(), "--rate-hz", "250",
+                               "--participants", "2", "--studies", "200", "--jobs", "1", "--no-plots", "--out",
+                               out.string()},
+                              (dir_ / "first.log").string());
+  ASSERT_TRUE(testing::wait_until([&] { return fs::exists(out / "plan_power.db.lock") && stored_studies(out / "plan_power.db") >= 0; },
+                                  std::chrono::seconds(60)))
+      << testing::slurp(dir_ / "first.log");
+  const auto [rc, text] = plan("--participants 2 --studies 200 --jobs 1 --no-plots --out " + out.string());
+  const bool first_still_running = first.running();
+  first.kill(SIGKILL);
+  first.wait();
+  ASSERT_TRUE(first_still_running) << "the first run ended before the second started; the test proves nothing";
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, AllOf(HasSubstr(out.string() + " is in use by another plan power run (pid " +
+                                    std::to_string(first.pid()) + " on host "),
+                          HasSubstr(", since "), HasSubstr("give this run another --out")));
+  EXPECT_THAT(text, Not(HasSubstr("UNIQUE")));
 }
 
 TEST_F(PlanPowerTest, BadInputIsNamed) {
@@ -279,14 +407,15 @@ TEST_F(PlanPowerTest, BadInputIsNamed) {
   std::ofstream(protocol_, std::ios::app) << "\n";  // same study, other text: another hash
   std::tie(rc, text) = plan("--studies 1 --no-plots --out " + (dir_ / "d").string());
   EXPECT_EQ(rc, 1);
-  EXPECT_THAT(text, HasSubstr("holds the studies of another plan"));
+  EXPECT_THAT(text, AllOf(HasSubstr("the plan in " + (dir_ / "d").string() + " was made from"),
+                          HasSubstr("the protocol's text"), HasSubstr("start a new --out or remove it")));
   // The same protocol at another loop rate is another plan too; a rate out
   // of the loop's range is named.
   protocol_ = dir_ / "tiny.json";
   const std::string tiny = "plan power --protocol " + protocol_.string() + " --studies 1 --no-plots --rate-hz ";
   std::tie(rc, text) = testing::run_cli(HAPTICLAB_CLI_PATH, tiny + "500 --out " + (dir_ / "d").string());
   EXPECT_EQ(rc, 1);
-  EXPECT_THAT(text, AllOf(HasSubstr("holds the studies of another plan"), HasSubstr("rate 500 Hz")));
+  EXPECT_THAT(text, AllOf(HasSubstr("the plan in"), HasSubstr("--rate-hz (250 then, 500 now) has changed")));
   std::tie(rc, text) = testing::run_cli(HAPTICLAB_CLI_PATH, tiny + "100 --out " + (dir_ / "g").string());
   EXPECT_EQ(rc, 2);
   EXPECT_THAT(text, AllOf(HasSubstr("--rate-hz"), HasSubstr("150")));

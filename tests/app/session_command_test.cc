@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -23,6 +24,7 @@ namespace hapticlab {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
@@ -50,6 +52,39 @@ class SessionCommandTest : public ::testing::Test {
   fs::path dir_;
   std::string db_;
 };
+
+// Issue 34 section 3: a practice trial cut short (here by the time limit;
+// the watchdog or a device fault end one the same way) was recorded as a
+// training trial done. It is counted apart, with why it ended.
+TEST_F(SessionCommandTest, APracticeTrialCutShortIsRecordedAsWhatItWas) {
+  const fs::path protocol = dir_ / "training.json";
+  std::ofstream(protocol) << R"({"study": "training", "tasks": ["clip"], "repetitions": {"clip": 1},
+    "settings": [{"name": "High Fidelity"}, {"name": "Copy"}], "participants": ["A"], "training_trials": 2,
+    "design": {"type": "complete"}, "seed": 5})";
+  const std::string db = (dir_ / "training.db").string();
+  auto [status, out] = testing::run_cli(kBinary, "study create --protocol " + protocol.string() + " --db " + db);
+  ASSERT_EQ(status, 0) << out;
+  // 0.5 s: no practice trial completes the clip task.
+  std::tie(status, out) =
+      testing::run_cli(kBinary, "session run --db " + db + " --participant A --max-trial-s 0.5 --max-trials 1");
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_THAT(out, HasSubstr("after 2 training trials (2 cut short before the task was complete)"));
+  // Given time, both are done in full.
+  std::tie(status, out) = testing::run_cli(kBinary, "session run --db " + db + " --participant A --max-trials 1");
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_THAT(out, AllOf(HasSubstr("after 2 training trials"), Not(HasSubstr("cut short"))));
+  db::StudyDb study(db);
+  const std::vector<db::TrainingRow> cut = study.training(1);
+  ASSERT_EQ(cut.size(), 1u);
+  EXPECT_EQ(cut[0].trials, 0);
+  EXPECT_EQ(cut[0].cut_short, 2);
+  EXPECT_THAT(cut[0].cut_short_reason, HasSubstr("time limit (0.5 s) reached before the task was complete"));
+  const std::vector<db::TrainingRow> full = study.training(2);
+  ASSERT_EQ(full.size(), 1u);
+  EXPECT_EQ(full[0].trials, 2);
+  EXPECT_EQ(full[0].cut_short, 0);
+  EXPECT_EQ(full[0].cut_short_reason, "");
+}
 
 TEST_F(SessionCommandTest, ShowPrintsTheScheduleAndProgressSummaryOnlyProgress) {
   const auto [status, out] = testing::run_cli(kBinary, "study show --db " + db_);

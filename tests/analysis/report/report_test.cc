@@ -61,7 +61,7 @@ TEST_F(ReportTest, TablesOnlyWithoutGnuplot) {
     // Beside every table of p values: its effect sizes and the medians.
     EXPECT_THAT(s, HasSubstr("Effect size: Kendall's W"));
     EXPECT_THAT(s, HasSubstr("Effect size: matched-pairs rank-biserial r, and direction"));
-    EXPECT_THAT(s, HasSubstr("Median [interquartile range] per setting"));
+    EXPECT_THAT(s, HasSubstr("Median [Q1, Q3] per setting"));
     EXPECT_THAT(s, HasSubstr("95p force [N]"));
   }
 }

@@ -41,7 +41,8 @@ TEST(ParticipantPairwiseTest, OneValuePerParticipantThenTheSignFlipTest) {
   EXPECT_EQ(it->participants, 3u);
   ASSERT_TRUE(it->p.has_value());
   EXPECT_DOUBLE_EQ(*it->p, 0.25);
-  EXPECT_DOUBLE_EQ(it->mean_difference, 2.0);
+  ASSERT_TRUE(it->mean_difference.has_value());
+  EXPECT_DOUBLE_EQ(*it->mean_difference, 2.0);
   EXPECT_FALSE(it->significant);  // 3 participants can never reach p < 0.25
   // Measures without data (NaN everywhere else): no test, and said so.
   const auto none = std::find_if(cells.begin(), cells.end(), [](const auto& c) { return c.measure == Measure::kPathLength; });

@@ -1,0 +1,57 @@
+#pragma once
+// Everything a `plan power` plan's results depend on: the protocol's text,
+// every setting it resolves as loaded and re-serialised (so a settings
+// file's white space does not matter but any value does, also one changed
+// under the same file name), the staircase's base settings, the options
+// that change a study or the table (seed, participant counts, studies,
+// loop rate, time limit, alpha, percentiles) and the software that
+// simulates. plan_power.db stores them; a resumed plan whose inputs differ
+// is refused, naming what changed, never mixed with the stored studies.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "planning/simulated_study.h"
+#include "protocols/protocol.h"
+
+namespace hapticlab::planning {
+
+struct PlanSetting {
+  std::string name;
+  std::string source;  // as the protocol gives it: a file path, "inline", or a dose strength
+  std::string sha256;  // of settings_to_json(...).dump(): the settings as loaded
+};
+
+struct PlanInputs {
+  std::string protocol_file;    // as given on the command line; not compared (a copy elsewhere is the same plan)
+  std::string protocol_sha256;  // of its text
+  std::vector<PlanSetting> settings;      // the protocol's, in its order (dose strengths included)
+  std::vector<PlanSetting> staircase;     // its staircase's base settings, if it has one
+  std::string software;                   // software_version(): the simulation is the code's
+  std::uint64_t seed = 0;
+  std::vector<int> participants;          // sorted, each once
+  int studies = 0;
+  double rate_Hz = 0.0;
+  double max_trial_s = 0.0;
+  double alpha = 0.0;
+  std::string percentiles;
+
+  nlohmann::json to_json() const;
+  // Throws std::runtime_error when `j` is not such an object.
+  static PlanInputs from_json(const nlohmann::json& j);
+  // "tiny.json (sha256 0123456789ab…), settings 'High Fidelity', 'No Force Feedback', --seed 1, ..."
+  std::string describe() const;
+};
+
+PlanInputs plan_inputs(const protocols::Protocol& protocol, const std::string& protocol_file,
+                       const std::string& protocol_text, std::uint64_t seed, std::vector<int> participants,
+                       int studies, const SimulatedStudyOptions& options);
+
+// What differs between the inputs a plan was made from and a run's, in
+// words ("settings[1] 'No Force Feedback' (no_force_feedback.json), now
+// 'High Fidelity'"), one per difference; empty when they are the same plan.
+std::vector<std::string> plan_differences(const PlanInputs& stored, const PlanInputs& now);
+
+}  // namespace hapticlab::planning

@@ -1,0 +1,185 @@
+// Issue 34 section 3, through the real binary: messages that said
+// "stoull", "At Most 1 required but received 2", a 309-digit number, "1
+// required TEXT missing" or "does not start with SQLite format 3" now name
+// the option or field, the value and what is allowed; a damaged row names
+// the file and the row; plan calibrate checks --out before it simulates;
+// setting names are unique ignoring case and spaces; a staircase with an
+// external VE is refused.
+#include <sqlite3.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tests/app/cli_process.h"
+#include "tests/testing/scratch_dir.h"
+
+namespace hapticlab::app {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+const fs::path kSettings = fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
+
+class NamedRefusalsTest : public ::testing::Test {
+ protected:
+  static std::pair<int, std::string> cli(const std::string& args) { return testing::run_cli(HAPTICLAB_CLI_PATH, args); }
+  // A protocol of `settings` (JSON array items) for 2 participants, one clip repetition.
+  fs::path protocol(const std::string& name, const std::string& settings, const std::string& extra = "") const {
+    const fs::path p = dir_ / name;
+    std::ofstream(p) << R"({"study": "named", "tasks": ["clip"], "repetitions": {"clip": 1}, "settings": [)"
+                     << settings << R"(], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 5)"
+                     << extra << "}";
+    return p;
+  }
+  std::string two_settings() const {
+    return "\"" + (kSettings / "high_fidelity.json").string() + "\", \"" +
+           (kSettings / "no_force_feedback.json").string() + "\"";
+  }
+  hapticlab::testing::ScratchDir scratch_{"hapticlab_named_"};
+  const fs::path dir_ = scratch_.path();
+};
+
+void edit_study_db(const fs::path& db, const std::string& sql) {
+  sqlite3* c = nullptr;
+  ASSERT_EQ(sqlite3_open(db.c_str(), &c), SQLITE_OK);
+  char* error = nullptr;
+  const int rc = sqlite3_exec(c, sql.c_str(), nullptr, nullptr, &error);
+  const std::string message = error ? error : "";
+  sqlite3_free(error);
+  sqlite3_close(c);
+  ASSERT_EQ(rc, SQLITE_OK) << sql << ": " << message;
+}
+
+TEST_F(NamedRefusalsTest, OptionValuesAreNamedWithWhatIsAllowed) {
+  // --studies 1 and an --out of its own: had a value slipped through, the run would be short and kept here.
+  const std::string plan = "plan power --protocol " + protocol("p.json", two_settings()).string() +
+                           " --studies 1 --no-plots --out " + (dir_ / "plan").string() + " ";
+  auto [rc, text] = cli(plan + "--seed -1");
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, HasSubstr("--seed: '-1' is refused: must be a whole number from 0 to 18446744073709551615"));
+  std::tie(rc, text) = cli(plan + "--seed 99999999999999999999");  // strtoull saturated it before
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, HasSubstr("--seed: '99999999999999999999' is refused"));
+  std::tie(rc, text) = cli(plan + "--seed 1 --seed 2");
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, AllOf(HasSubstr("--seed is given 2 values ('1', '2'), but takes one"), Not(HasSubstr("At Most"))));
+  std::tie(rc, text) = cli(plan + "--max-trial-s inf");
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, AllOf(HasSubstr("--max-trial-s: 'inf' is refused: must be a finite number > 0"),
+                          Not(HasSubstr("17976931348623157"))));
+  std::tie(rc, text) = cli(plan + "--rate-hz nan");  // passed CLI::Range before
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, HasSubstr("--rate-hz: 'nan' is refused: must be a finite number from 150 to 2000"));
+  std::tie(rc, text) = cli(plan + "--participants 2,,3");
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, HasSubstr("--participants: '2,,3' is refused: an empty item in the comma-separated list"));
+  std::tie(rc, text) = cli("stability map --effects , --out " + (dir_ / "map").string());
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, AllOf(HasSubstr("--effects: ',' is refused: an empty item in the comma-separated list"),
+                          Not(HasSubstr("required TEXT missing")), Not(HasSubstr("'--out'"))));
+  EXPECT_FALSE(fs::exists(dir_ / "map"));
+  std::tie(rc, text) = cli("sim run --settings " + (kSettings / "high_fidelity.json").string() + " --trial-seed -1 --out " +
+                           (dir_ / "s.db").string());
+  EXPECT_EQ(rc, 2);
+  EXPECT_THAT(text, HasSubstr("--trial-seed: '-1' is refused"));
+  EXPECT_FALSE(fs::exists(dir_ / "s.db"));
+}
+
+// Damaged copies of a study file, made through SQLite: each refusal names
+// the file, the row and what the column may hold.
+TEST_F(NamedRefusalsTest, ADamagedStudyFileNamesTheFileTheRowAndTheValue) {
+  const fs::path good = dir_ / "good.db";
+  auto [rc, text] = cli("study create --protocol " + protocol("p.json", two_settings()).string() + " --db " + good.string());
+  ASSERT_EQ(rc, 0) << text;
+  const auto damaged = [&](const std::string& name, const std::string& sql) {
+    const fs::path copy = dir_ / name;
+    fs::copy_file(good, copy);
+    edit_study_db(copy, sql);
+    return copy;
+  };
+  const std::string analyze = " --no-plots --no-ks --quiet --out " + (dir_ / "report").string();
+  fs::path db = damaged("seed.db", "UPDATE study SET seed = 'x12'");
+  std::tie(rc, text) = cli("analyze --db " + db.string() + analyze);
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr(db.string() + ": study 1: column study.seed is 'x12', but must be a whole "
+                                    "number from 0 to 18446744073709551615"),
+                          Not(HasSubstr("stoull"))));
+  db = damaged("status.db", "PRAGMA ignore_check_constraints = ON; UPDATE trial SET status = 'exploded' WHERE id = 2");
+  std::tie(rc, text) = cli("analyze --db " + db.string() + analyze);
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, HasSubstr(db.string() + ": trial 2: column trial.status is 'exploded', but must be one of "
+                                            "planned, running, complete, aborted"));
+  // A page size of 768 (bytes 16-17): SQLite format 3 all the same.
+  db = dir_ / "page.db";
+  fs::copy_file(good, db);
+  {
+    std::fstream f(db, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(16);
+    f.put('\x03').put('\x00');
+  }
+  std::tie(rc, text) = cli("analyze --db " + db.string() + analyze);
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr(db.string() + ": an SQLite file with a damaged header: its page size (bytes "
+                                                  "16-17) is 768, but must be a power of two from 512 to 32768"),
+                          Not(HasSubstr("does not start with"))));
+  // And a file that is not SQLite still says so.
+  db = dir_ / "text.db";
+  std::ofstream(db) << "hello, this is not a database at all, but long enough to be read as a header..........";
+  std::tie(rc, text) = cli("analyze --db " + db.string() + analyze);
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, HasSubstr("does not start with \"SQLite format 3\""));
+}
+
+// plan calibrate found an --out it could not write only after simulating
+// every participant.
+TEST_F(NamedRefusalsTest, PlanCalibrateChecksItsOutputFolderBeforeSimulating) {
+  std::ofstream(dir_ / "a_file") << "x";
+  const fs::path out = dir_ / "a_file" / "calibration";
+  const auto [rc, text] = cli("plan calibrate --protocol " + protocol("p.json", two_settings()).string() +
+                              " --participants 2 --rate-hz 250 --out " + out.string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr("--out '" + out.string() + "': cannot make the folder"),
+                          HasSubstr("nothing was simulated"), Not(HasSubstr("simulating"))));
+}
+
+TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseAndSpaces) {
+  const fs::path p = protocol("case.json", "\"" + (kSettings / "high_fidelity.json").string() +
+                                               R"(", {"name": " high fidelity", "translation": {"friction": {}}})");
+  auto [rc, text] = cli("study create --protocol " + p.string() + " --db " + (dir_ / "case.db").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr("protocol field 'settings[1].name' is \" high fidelity\", the same as settings[0] "
+                                    "(\"High Fidelity\") but for case or surrounding spaces"),
+                          HasSubstr("analyze finds the control by its name")));
+  EXPECT_FALSE(fs::exists(dir_ / "case.db"));
+  // Spelled apart, both still read as the control's name: not one taken silently.
+  const fs::path q = protocol("dash.json", "\"" + (kSettings / "high_fidelity.json").string() +
+                                               R"(", {"name": "High-Fidelity", "translation": {"friction": {}}})");
+  std::tie(rc, text) = cli("plan power --protocol " + q.string() + " --studies 1 --no-plots --out " +
+                           (dir_ / "plan").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, HasSubstr("settings 'High Fidelity' and 'High-Fidelity' are both named 'High Fidelity'"));
+}
+
+TEST_F(NamedRefusalsTest, AStaircaseWithAnExternalVeIsRefused) {
+  const fs::path p = dir_ / "external.json";
+  std::ofstream(p) << R"({"study": "ext", "ve": "external", "tasks": ["peg"], "repetitions": {"peg": 1},
+    "settings": [{"name": "High Fidelity"}], "participants": ["A"], "design": {"type": "complete"}, "seed": 1,
+    "staircase": {"settings": {"name": "Friction", "translation": {"friction": {}}},
+                  "field": "translation.friction.dynamic_level_N", "measure": "force_p95_N", "change": 0.2,
+                  "baseline": "High Fidelity", "start": 0.5, "step": 0.1, "min": 0.0, "max": 1.0}})";
+  const auto [rc, text] = cli("study create --protocol " + p.string() + " --db " + (dir_ / "ext.db").string());
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, AllOf(HasSubstr("protocol field 'staircase' is given with \"ve\": \"external\""),
+                          HasSubstr("never runs a staircase")));
+  EXPECT_FALSE(fs::exists(dir_ / "ext.db"));
+}
+
+}  // namespace
+}  // namespace hapticlab::app
