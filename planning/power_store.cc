@@ -12,6 +12,7 @@
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/study/study_analysis.h"
 #include "core/common/sha256.h"
+#include "core/settings/settings_json.h"
 #include "planning/simulated_study.h"
 
 namespace hapticlab::planning {
@@ -21,6 +22,7 @@ struct PowerStore::Shape {
   std::set<std::string> tasks;
   std::set<std::string> compared;  // settings compared with the control
   std::set<std::string> settings;  // every setting of the protocol, the control too
+  std::string staircase_prefix;    // the staircase's strengths' names begin so ("" : no staircase)
   std::set<std::string> measures;
   std::map<int, std::set<std::string>> codes;  // per participant count
   double alpha = 0.05;
@@ -137,7 +139,12 @@ PowerStore::PowerStore(const std::filesystem::path& path, const PlanInputs& inpu
   // As the study's analysis judges its comparisons (statistics_tables.cc).
   const std::size_t m = names.settings.empty() ? 0 : names.settings.size() - 1;
   shape.sidak_level = m > 0 ? analysis::sidak_level(inputs.alpha, m) : inputs.alpha;
-  if (protocol.staircase) shape.max_staircase_trials = 2 * protocol.staircase->spec.max_trials;
+  if (protocol.staircase) {
+    shape.max_staircase_trials = 2 * protocol.staircase->spec.max_trials;
+    // dose_setting_name(base, field, strength) without its strength
+    const std::string any = dose_setting_name(protocol.staircase->base.settings.name, protocol.staircase->spec.field, 0.0);
+    shape.staircase_prefix = any.substr(0, any.rfind(" = ") + 3);
+  }
   plan_sha256_ = sha256_hex(inputs.to_json().dump());
 
   // A file SQLite reads in full, before anything is trusted.
@@ -394,8 +401,10 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
     x.task = r.text(5, "task");
     if (!shape.tasks.count(x.task)) r.refuse("column task is '" + shown_text(x.task) + "', not a task of the protocol");
     x.setting = r.text(7, "setting");
-    if (!shape.settings.count(x.setting))
-      r.refuse("column setting is '" + shown_text(x.setting) + "', not a setting of the protocol");
+    if (!shape.settings.count(x.setting) &&
+        (shape.staircase_prefix.empty() || x.setting.rfind(shape.staircase_prefix, 0) != 0))
+      r.refuse("column setting is '" + shown_text(x.setting) + "', not a setting of the protocol" +
+               (shape.staircase_prefix.empty() ? "" : " or a strength of its staircase"));
     x.run = static_cast<int>(r.integer(9, "run", 0, o.trials_run));
     x.timed_out = static_cast<int>(r.integer(11, "timed_out", 0, x.run));
     if (!seen_trials[{o.participants, o.index}].insert({x.task, x.setting}).second)
