@@ -347,6 +347,13 @@ TEST_F(PlanPowerTest, DamagedStoredRowsAreRefusedNamingTheRow) {
       {"UPDATE study SET seed = '7' WHERE idx = 0", {"column seed is '7', but this plan's --seed 1 gives that study"}},
       {"UPDATE study SET idx = 5 WHERE idx = 1", {"table study, row", "column idx is 5, but must be from 0 to 1"}},
       {"INSERT INTO finding SELECT * FROM finding WHERE rowid = 2", {"it repeats a test of its study"}},
+      // A setting's predicted change (comparison.md) edited: the digest covers it.
+      {"UPDATE setting_change SET ratio = ratio * 2 WHERE rowid = 1",
+       {"study of 2 participants, number", "its rows do not match the SHA-256 stored with it"}},
+      {"UPDATE setting_change SET ratio = 'x' WHERE rowid = 2",
+       {"table setting_change, row 2: column ratio holds a text, but must hold a real"}},
+      {"UPDATE setting_trials SET timed_out = run + 1 WHERE rowid = 1",
+       {"table setting_trials, row 1: column timed_out is"}},
   };
   for (const Damage& d : damages) {
     const fs::path copy = dir_ / "copy";
