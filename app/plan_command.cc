@@ -12,7 +12,9 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -54,6 +56,8 @@ struct PlanPowerOptions {
   double max_trial_s = 300.0;
   bool plots = true;
   bool json = false;
+  int shard = 0;   // --shard I/N
+  int shards = 1;
 };
 
 // The --out folder, made now and proven writable, before anything is
@@ -137,18 +141,22 @@ std::vector<std::string> draw_power(const fs::path& out, const std::vector<plann
   return script.outputs();
 }
 
-int run_plan_power(const PlanPowerOptions& o) {
-  const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
-  const std::string protocol_text = protocols::read_protocol_text(o.protocol);
-  planning::SimulatedStudyOptions sim;
-  sim.rate_Hz = o.rate_Hz;
-  sim.max_trial_s = o.max_trial_s;
-  std::vector<int> counts = o.participants;
-  if (counts.empty()) counts.push_back(static_cast<int>(protocol.participants.size()));
-  std::sort(counts.begin(), counts.end());
-  counts.erase(std::unique(counts.begin(), counts.end()), counts.end());
-  // Refused before any simulation: a protocol without a control, or a
-  // design that cannot take a participant count.
+// What the report needs of the design beyond the protocol: its control
+// and its null settings (copies of the control under another name).
+struct PlanDesign {
+  std::string control;
+  std::set<std::string> null_settings;
+};
+
+// Refused before any simulation: a protocol without a control, a null
+// setting that is not a copy of the control, or a design that cannot take
+// a participant count.
+PlanDesign check_design(const protocols::Protocol& protocol, const std::string& protocol_path,
+                        const std::vector<int>& counts, std::uint64_t seed, const planning::SimulatedStudyOptions& sim) {
+  const struct {
+    const std::string& protocol;
+    std::uint64_t seed;
+  } o{protocol_path, seed};
   std::set<std::string> null_settings;
   std::string control_name;
   {
@@ -203,20 +211,70 @@ int run_plan_power(const PlanPowerOptions& o) {
                              "the protocol's \"null_settings\" to say it is meant)\n", s.settings.name.c_str());
       }
   }
+  return {control_name, null_settings};
+}
+
+// What a finished plan writes and prints: power.csv, the comparison of each
+// setting's predicted change, the figures and the tables. A plan run on one
+// machine and the same plan merged from shards (plan merge) give the same
+// files byte for byte.
+struct PlanResults {
+  const protocols::Protocol& protocol;
+  const planning::PlanInputs& inputs;
+  const PlanDesign& design;
+  std::vector<planning::StudyOutcome> outcomes;  // every study of the plan
+  fs::path out;
+  std::string measure;
+  bool plots = true;
+  bool json = false;
+  // This run's work, for the summary line and --json.
+  std::string did;  // "12 studies simulated in 3.1 s (...)", or the merge's
+  double seconds_this_run = 0.0;
+  std::size_t studies_this_run = 0;
+};
+int write_plan_results(const PlanResults& p);
+
+std::vector<int> plan_counts(const PlanPowerOptions& o, const protocols::Protocol& protocol) {
+  std::vector<int> counts = o.participants;
+  if (counts.empty()) counts.push_back(static_cast<int>(protocol.participants.size()));
+  std::sort(counts.begin(), counts.end());
+  counts.erase(std::unique(counts.begin(), counts.end()), counts.end());
+  return counts;
+}
+
+planning::SimulatedStudyOptions plan_simulation(double rate_Hz, double max_trial_s) {
+  planning::SimulatedStudyOptions sim;
+  sim.rate_Hz = rate_Hz;
+  sim.max_trial_s = max_trial_s;
+  return sim;
+}
+
+int run_plan_power(const PlanPowerOptions& o) {
+  const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
+  const std::string protocol_text = protocols::read_protocol_text(o.protocol);
+  const planning::SimulatedStudyOptions sim = plan_simulation(o.rate_Hz, o.max_trial_s);
+  const std::vector<int> counts = plan_counts(o, protocol);
+  const PlanDesign design = check_design(protocol, o.protocol, counts, o.seed, sim);
+  planning::PlanInputs inputs = planning::plan_inputs(protocol, o.protocol, protocol_text, o.seed, counts, o.studies, sim);
+  inputs.shard = o.shard;
+  inputs.shards = o.shards;
+  const std::size_t plan_size = inputs.studies_of_plan().size();
+  if (static_cast<std::size_t>(o.shards) > plan_size)
+    throw std::runtime_error("--shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + ": the plan has " +
+                             std::to_string(plan_size) + " studies (--participants x --studies), so at most " +
+                             std::to_string(plan_size) + " shards, each with a study");
   if (o.plots) (void)analysis::find_gnuplot();
 
   prepare_out_folder(o.out);
   // One run per folder; then the stored plan must be this one, every row checked.
   const planning::PlanLock lock = planning::PlanLock::acquire(o.out);
-  planning::PowerStore store(fs::path(o.out) / "plan_power.db",
-                             planning::plan_inputs(protocol, o.protocol, protocol_text, o.seed, counts, o.studies, sim),
-                             protocol);
+  planning::PowerStore store(fs::path(o.out) / "plan_power.db", inputs, protocol);
   const std::set<std::pair<int, int>> done = store.done();
   std::vector<std::pair<int, int>> todo;
-  for (int n : counts)
-    for (int i = 0; i < o.studies; ++i)
-      if (!done.count({n, i})) todo.push_back({n, i});
-  const std::size_t total = counts.size() * static_cast<std::size_t>(o.studies);
+  const std::vector<std::pair<int, int>> mine = inputs.studies_of_shard();
+  for (const auto& study : mine)
+    if (!done.count(study)) todo.push_back(study);
+  const std::size_t total = mine.size();
   const std::size_t already = total - todo.size();
 
   ProgressLine line(o.json ? stderr : stdout);
@@ -229,8 +287,11 @@ int run_plan_power(const PlanPowerOptions& o) {
       std::max<std::size_t>(1, todo.size()));
   if (already > 0) line.print(std::to_string(already) + " of " + std::to_string(total) + " studies already in " +
                               (fs::path(o.out) / "plan_power.db").string() + "; continuing");
-  line.print("simulating " + std::to_string(todo.size()) + " studies of " + protocol.study + " on " +
-             std::to_string(jobs) + " thread(s), no samples stored");
+  line.print("simulating " + std::to_string(todo.size()) + " studies of " + protocol.study +
+             (o.shards > 1 ? " (shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + " of the plan's " +
+                                 std::to_string(plan_size) + ")"
+                           : std::string()) +
+             " on " + std::to_string(jobs) + " thread(s), no samples stored");
 
   InterruptFlag interrupt;
   std::atomic<std::size_t> next{0};
@@ -314,10 +375,46 @@ int run_plan_power(const PlanPowerOptions& o) {
     return 130;
   }
 
+  char did[160];
+  std::snprintf(did, sizeof did, "%zu studies simulated in %.1f s (%.1f million loop updates, none stored)", stored,
+                elapsed_s, static_cast<double>(updates) / 1e6);
+  PlanResults results{protocol, inputs, design, store.load(/*complete=*/true), o.out, o.measure, o.plots, o.json,
+                      did, elapsed_s, stored};
+  if (o.shards > 1) {
+    // A shard's studies alone are no plan: `plan merge` makes one of all of them.
+    const std::string line_out = "shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + ": " + did +
+                                 "; all " + std::to_string(total) + " of its studies are in " +
+                                 (fs::path(o.out) / "plan_power.db").string() +
+                                 ". When every shard is done: hapticlab plan merge SHARD_DIR... --out DIR";
+    if (o.json) {
+      std::printf("%s\n", nlohmann::json{{"shard", o.shard}, {"shards", o.shards}, {"studies", total},
+                                         {"studies_this_run", stored}, {"seconds_this_run", elapsed_s},
+                                         {"store", (fs::path(o.out) / "plan_power.db").string()}}
+                              .dump(2)
+                              .c_str());
+    } else {
+      std::printf("\n%s\n", line_out.c_str());
+    }
+    return 0;
+  }
+  return write_plan_results(results);
+}
+
+int write_plan_results(const PlanResults& p) {
+  const protocols::Protocol& protocol = p.protocol;
+  const std::vector<int>& counts = p.inputs.participants;
+  const std::set<std::string>& null_settings = p.design.null_settings;
+  const std::string& control_name = p.design.control;
+  const planning::SimulatedStudyOptions sim = plan_simulation(p.inputs.rate_Hz, p.inputs.max_trial_s);
+  struct {
+    const fs::path& out;
+    const std::string& measure;
+    bool plots, json;
+    int studies;
+  } o{p.out, p.measure, p.plots, p.json, p.inputs.studies};
   std::vector<std::string> setting_order;
   for (const auto& s : protocol.settings) setting_order.push_back(s.settings.name);
-  // The plan's studies, every one of them, checked again as stored.
-  const std::vector<planning::StudyOutcome> wanted = store.load(/*complete=*/true);
+  const std::vector<planning::StudyOutcome>& wanted = p.outcomes;
   const std::vector<planning::PowerRow> rows = planning::summarize_power(wanted, setting_order);
   const std::vector<planning::FalsePositiveRow> fp = planning::false_positive_rates(wanted, null_settings);
   const std::vector<planning::StaircaseSummaryRow> stairs = planning::summarize_staircases(wanted);
@@ -346,8 +443,8 @@ int run_plan_power(const PlanPowerOptions& o) {
     nlohmann::json j;
     j["studies_per_count"] = o.studies;
     j["participants"] = counts;
-    j["seconds_this_run"] = elapsed_s;
-    j["studies_this_run"] = stored;
+    j["seconds_this_run"] = p.seconds_this_run;
+    j["studies_this_run"] = p.studies_this_run;
     j["csv"] = csv.string();
     j["figures"] = figures;
     nlohmann::json list = nlohmann::json::array();
@@ -389,8 +486,7 @@ int run_plan_power(const PlanPowerOptions& o) {
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
-  std::printf("\n%zu studies simulated in %.1f s (%.1f million loop updates, none stored)\n", stored, elapsed_s,
-              static_cast<double>(updates) / 1e6);
+  std::printf("\n%s\n", p.did.c_str());
   auto print_table = [&](const std::string& method, const char* title) {
     // A staircase protocol's baseline alone has nothing to compare.
     if (std::none_of(rows.begin(), rows.end(), [&](const planning::PowerRow& r) { return r.method == method; })) return;
@@ -456,6 +552,127 @@ int run_plan_power(const PlanPowerOptions& o) {
   for (const auto& f : figures) std::printf(", %s", (fs::path(o.out) / f).c_str());
   std::printf("\n");
   return 0;
+}
+
+struct PlanMergeOptions {
+  std::vector<std::string> shards;  // folders of `plan power --shard I/N`
+  std::string out;
+  std::string protocol;  // default: the file the shards name
+  std::string measure = "force_p95_N";
+  bool plots = true;
+  bool json = false;
+};
+
+std::string shard_label(const planning::PlanInputs& p) {
+  return std::to_string(p.shard) + "/" + std::to_string(p.shards);
+}
+
+// The shards of one plan, checked to be that and all of it, merged into one
+// plan folder that says what a one-machine run of the plan says. Nothing in
+// the shards' folders is written.
+int run_plan_merge(const PlanMergeOptions& o) {
+  // An output folder that is one of the inputs would put the merged plan
+  // into a shard's store (refused there as another plan, but say why here).
+  const fs::path out = fs::weakly_canonical(fs::absolute(o.out));
+  std::vector<planning::PlanInputs> plans;
+  std::vector<fs::path> dirs;
+  for (const std::string& d : o.shards) {
+    const fs::path dir = fs::weakly_canonical(fs::absolute(d));
+    if (dir == out) throw std::runtime_error("--out '" + o.out + "' is one of the shard folders it merges (" + d +
+                                             "): name a folder of its own");
+    if (std::find(dirs.begin(), dirs.end(), dir) != dirs.end())
+      throw std::runtime_error("shard folder '" + d + "' is named twice");
+    const fs::path db = dir / "plan_power.db";
+    if (!fs::exists(db))
+      throw std::runtime_error(d + ": no plan_power.db: not a folder of `plan power --shard` (or its run never began)");
+    planning::PlanInputs p = planning::PowerStore::read_plan(db);
+    if (p.shards < 2)
+      throw std::runtime_error(d + ": holds a whole plan (" + p.describe() + "), not a shard of one; plan merge "
+                               "joins the folders of `plan power --shard I/N`");
+    dirs.push_back(dir);
+    plans.push_back(std::move(p));
+  }
+  // One plan: every input the same but the shard, and each shard once.
+  const planning::PlanInputs& first = plans.front();
+  std::vector<int> holder(static_cast<std::size_t>(first.shards), -1);
+  for (std::size_t k = 0; k < plans.size(); ++k) {
+    const planning::PlanInputs& p = plans[k];
+    std::vector<std::string> differ = planning::plan_differences(first.whole(), p.whole());
+    if (p.shards != first.shards)
+      differ.push_back("the number of shards (" + std::to_string(first.shards) + " in " + o.shards.front() + ", " +
+                       std::to_string(p.shards) + " here)");
+    if (!differ.empty()) {
+      std::string list;
+      for (const std::string& d : differ) list += (list.empty() ? "" : "; ") + d;
+      throw std::runtime_error(o.shards[k] + ": a shard of another plan than " + o.shards.front() + " (" +
+                               first.describe() + "): " + list + " differ (\"then\" is " + o.shards.front() +
+                               ", \"now\" " + o.shards[k] + "); plan merge joins the shards of one plan");
+    }
+    int& h = holder[static_cast<std::size_t>(p.shard)];
+    if (h >= 0)
+      throw std::runtime_error("shard " + shard_label(p) + " is in both " + o.shards[static_cast<std::size_t>(h)] +
+                               " and " + o.shards[k] + "; name each shard's folder once");
+    h = static_cast<int>(k);
+  }
+  std::string missing;
+  for (std::size_t i = 0; i < holder.size(); ++i)
+    if (holder[i] < 0) missing += (missing.empty() ? "" : ", ") + std::to_string(i) + "/" + std::to_string(first.shards);
+  if (!missing.empty())
+    throw std::runtime_error("the plan has " + std::to_string(first.shards) + " shards, and " + missing +
+                             (missing.find(',') == std::string::npos ? " is" : " are") +
+                             " not among the folders given; run (or name) the missing shard's folder");
+
+  // The protocol the shards were made from, proven the same file and settings.
+  const std::string protocol_path = o.protocol.empty() ? first.protocol_file : o.protocol;
+  if (!fs::exists(protocol_path))
+    throw std::runtime_error("the shards were made from the protocol '" + first.protocol_file + "', which is not at " +
+                             protocol_path + " from here: give its path with --protocol");
+  const protocols::Protocol protocol = protocols::load_protocol_file(protocol_path);
+  const std::string protocol_text = protocols::read_protocol_text(protocol_path);
+  const planning::SimulatedStudyOptions sim = plan_simulation(first.rate_Hz, first.max_trial_s);
+  planning::PlanInputs whole = planning::plan_inputs(protocol, first.protocol_file, protocol_text, first.seed,
+                                                     first.participants, first.studies, sim);
+  if (const std::vector<std::string> d = planning::plan_differences(first.whole(), whole); !d.empty()) {
+    std::string list;
+    for (const std::string& x : d) list += (list.empty() ? "" : "; ") + x;
+    throw std::runtime_error(protocol_path + ": not the protocol the shards were made from: " + list +
+                             " (\"then\" is the shards', \"now\" this file's)");
+  }
+  const PlanDesign design = check_design(protocol, protocol_path, whole.participants, whole.seed, sim);
+  if (o.plots) (void)analysis::find_gnuplot();
+
+  // Every shard's rows checked as its own run checks them, complete, while
+  // no run of it can add to it.
+  std::vector<planning::PlanLock> locks;
+  std::map<std::pair<int, int>, planning::StudyOutcome> studies;
+  for (std::size_t k = 0; k < plans.size(); ++k) {
+    locks.push_back(planning::PlanLock::acquire(dirs[k]));
+    planning::PowerStore shard(dirs[k] / "plan_power.db", plans[k], protocol);
+    for (planning::StudyOutcome& s : shard.load(/*complete=*/true)) studies[{s.participants, s.index}] = std::move(s);
+  }
+
+  prepare_out_folder(o.out);
+  const planning::PlanLock lock = planning::PlanLock::acquire(o.out);
+  planning::PowerStore merged(fs::path(o.out) / "plan_power.db", whole, protocol);
+  const std::set<std::pair<int, int>> done = merged.done();  // merged before: the same studies, checked
+  std::size_t added = 0;
+  for (const auto& [key, s] : studies) {
+    if (done.count(key)) continue;
+    try {
+      merged.add(s);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(std::string(e.what()) + "; " + std::to_string(done.size() + added) + " of " +
+                               std::to_string(studies.size()) + " studies are in " +
+                               (fs::path(o.out) / "plan_power.db").string() +
+                               ", the shards are untouched: free space, then run the same merge again");
+    }
+    ++added;
+  }
+  char did[200];
+  std::snprintf(did, sizeof did, "%zu shards merged: %zu studies (%zu added now, %zu already in %s)", plans.size(),
+                studies.size(), added, done.size(), (fs::path(o.out) / "plan_power.db").c_str());
+  return write_plan_results({protocol, whole, design, merged.load(/*complete=*/true), o.out, o.measure, o.plots, o.json,
+                             did, 0.0, 0});
 }
 
 struct PlanCalibrateOptions {
@@ -601,8 +818,53 @@ void add_plan_command(CLI::App& app) {
       ->check(positive_number());
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; }, "No figures (no gnuplot needed)");
   cmd->add_flag("--json", opt->json, "Print the power table as JSON (progress goes to stderr)");
+  cmd->add_option_function<std::string>(
+         "--shard",
+         [opt](const std::string& v) {
+           const auto slash = v.find('/');
+           const auto whole = [](const std::string& t, long long lo, long long hi) -> std::optional<int> {
+             if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos) return {};
+             const long long x = std::stoll(t);
+             return x >= lo && x <= hi ? std::optional<int>(static_cast<int>(x)) : std::nullopt;
+           };
+           const std::optional<int> n = slash == std::string::npos ? std::nullopt : whole(v.substr(slash + 1), 1, 100000);
+           const std::optional<int> i = n ? whole(v.substr(0, slash), 0, *n - 1) : std::nullopt;
+           if (!i)
+             throw CLI::ValidationError("--shard", "'" + v + "' is not I/N with 0 <= I < N <= 100000 (shard I of N, "
+                                                   "counting from 0: --shard 0/3, 1/3, 2/3)");
+           opt->shard = *i;
+           opt->shards = *n;
+         },
+         "This run's part of the plan, I/N (0 <= I < N): the studies k (the plan's, in order) with k mod N = I, the "
+         "same ones a one-machine run simulates, into this --out; `plan merge` joins the N folders. For a Slurm job "
+         "array (scripts/slurm/)")
+      ->type_name("I/N");
   cmd->callback([opt] {
     const int status = run_plan_power(*opt);
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+
+  auto mo = std::make_shared<PlanMergeOptions>();
+  CLI::App* merge = plan->add_subcommand(
+      "merge",
+      "Join the folders of one plan's shards (plan power --shard I/N, e.g. a Slurm job array) into one plan: checks "
+      "they are the shards of one plan (protocol, settings, options, seed, version), each once and all of them, "
+      "complete and undamaged, then writes what a one-machine run of the plan writes (power.csv, comparison.md, "
+      "predicted_change.csv, figures), byte for byte. The shards' folders are only read.");
+  merge->add_option("shards", mo->shards, "The shards' --out folders")->required()->check(CLI::ExistingDirectory);
+  merge->add_option("--out", mo->out, "Folder for the merged plan (not one of the shards')")->required();
+  merge->add_option("--protocol", mo->protocol,
+                    "The protocol file, when it is not where the shards' runs read it (its text and settings must be "
+                    "the same)")
+      ->check(CLI::ExistingFile);
+  merge->add_option("--measure", mo->measure, "Measure of the printed table and figures (power.csv has all)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s",
+                             "path_length_m"}));
+  merge->add_flag("--no-plots", [mo](std::int64_t) { mo->plots = false; }, "No figures (no gnuplot needed)");
+  merge->add_flag("--json", mo->json, "Print the power table as JSON");
+  merge->callback([mo] {
+    const int status = run_plan_merge(*mo);
     if (status != 0) throw CLI::RuntimeError(status);
   });
   auto cal = std::make_shared<PlanCalibrateOptions>();

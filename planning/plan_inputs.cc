@@ -61,7 +61,7 @@ void compare_plan_settings(const std::string& list, const std::vector<PlanSettin
 }  // namespace
 
 json PlanInputs::to_json() const {
-  return {{"protocol_file", protocol_file},
+  json j = {{"protocol_file", protocol_file},
           {"protocol_sha256", protocol_sha256},
           {"settings", plan_settings_json(settings)},
           {"staircase", plan_settings_json(staircase)},
@@ -73,6 +73,39 @@ json PlanInputs::to_json() const {
           {"max_trial_s", max_trial_s},
           {"alpha", alpha},
           {"percentiles", percentiles}};
+  // The whole plan's record has no "shard": a merged plan is the same as one
+  // made on one machine.
+  if (shards > 1) j["shard"] = {shard, shards};
+  return j;
+}
+
+std::vector<std::pair<int, int>> PlanInputs::studies_of_plan() const {
+  std::vector<std::pair<int, int>> out;
+  for (int n : participants)
+    for (int i = 0; i < studies; ++i) out.push_back({n, i});
+  return out;
+}
+
+std::vector<std::pair<int, int>> PlanInputs::studies_of_shard() const {
+  std::vector<std::pair<int, int>> all = studies_of_plan(), out;
+  for (std::size_t k = static_cast<std::size_t>(shard); k < all.size(); k += static_cast<std::size_t>(shards))
+    out.push_back(all[k]);
+  return out;
+}
+
+int PlanInputs::shard_of(int n, int index) const {
+  const auto at = std::find(participants.begin(), participants.end(), n);
+  if (at == participants.end() || index < 0 || index >= studies) return -1;
+  const std::size_t k = static_cast<std::size_t>(at - participants.begin()) * static_cast<std::size_t>(studies) +
+                        static_cast<std::size_t>(index);
+  return static_cast<int>(k % static_cast<std::size_t>(shards));
+}
+
+PlanInputs PlanInputs::whole() const {
+  PlanInputs p = *this;
+  p.shard = 0;
+  p.shards = 1;
+  return p;
 }
 
 PlanInputs PlanInputs::from_json(const json& j) {
@@ -93,6 +126,13 @@ PlanInputs PlanInputs::from_json(const json& j) {
     p.max_trial_s = j.at("max_trial_s").get<double>();
     p.alpha = j.at("alpha").get<double>();
     p.percentiles = j.at("percentiles").get<std::string>();
+    if (j.contains("shard")) {
+      const auto shard = j.at("shard").get<std::vector<int>>();
+      if (shard.size() != 2 || shard[1] < 2 || shard[0] < 0 || shard[0] >= shard[1])
+        throw std::runtime_error("shard " + j.at("shard").dump() + " is not [I, N] with 0 <= I < N, N >= 2");
+      p.shard = shard[0];
+      p.shards = shard[1];
+    }
     return p;
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string("its record of the plan's inputs cannot be read (") + e.what() + ")");
@@ -106,7 +146,8 @@ std::string PlanInputs::describe() const {
          (staircase.empty() ? "" : " and a staircase on '" + staircase.front().name + "'") + ", --seed " +
          std::to_string(seed) + ", --participants " + joined_counts(participants) + ", --studies " +
          std::to_string(studies) + ", --rate-hz " + format_number(rate_Hz) + ", --max-trial-s " +
-         format_number(max_trial_s) + ", by " + software;
+         format_number(max_trial_s) + (shards > 1 ? ", --shard " + std::to_string(shard) + "/" + std::to_string(shards) : "") +
+         ", by " + software;
 }
 
 PlanInputs plan_inputs(const protocols::Protocol& protocol, const std::string& protocol_file,
@@ -148,6 +189,8 @@ std::vector<std::string> plan_differences(const PlanInputs& was, const PlanInput
   option("--max-trial-s", format_number(was.max_trial_s), format_number(now.max_trial_s));
   option("alpha", format_number(was.alpha), format_number(now.alpha));
   option("the percentile method", was.percentiles, now.percentiles);
+  option("--shard", std::to_string(was.shard) + "/" + std::to_string(was.shards),
+         std::to_string(now.shard) + "/" + std::to_string(now.shards));
   return out;
 }
 

@@ -9,6 +9,7 @@
 // is refused, naming what changed, never mixed with the stored studies.
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -37,6 +38,20 @@ struct PlanInputs {
   double max_trial_s = 0.0;
   double alpha = 0.0;
   std::string percentiles;
+  // --shard I/N: this run simulates the plan's studies k (in the order of
+  // studies(), counting from 0) with k mod N = I; N = 1 is the whole plan.
+  int shard = 0;
+  int shards = 1;
+
+  // The plan's studies, (participants, index), participant counts in
+  // increasing order and each count's studies in index order.
+  std::vector<std::pair<int, int>> studies_of_plan() const;
+  // The studies of this shard of the plan (all of them when shards = 1).
+  std::vector<std::pair<int, int>> studies_of_shard() const;
+  // Which shard (0..shards-1) simulates study `index` with `participants`.
+  int shard_of(int participants, int index) const;
+  // The same plan whole (shard 0 of 1): what `plan merge` makes of its shards.
+  PlanInputs whole() const;
 
   nlohmann::json to_json() const;
   // Throws std::runtime_error when `j` is not such an object.

@@ -115,6 +115,58 @@ std::string study_label(std::int64_t participants, std::int64_t index) {
   return "study of " + std::to_string(participants) + " participants, number " + std::to_string(index);
 }
 
+// The file as SQLite reads it and its layout version; true when it is new
+// (no table yet). Throws PlanStoreError naming the file.
+bool check_file(db::Database& db, const std::string& path) {
+  // A file SQLite reads in full, before anything is trusted.
+  {
+    db::Statement q = db.prepare("PRAGMA quick_check");
+    std::string findings;
+    while (q.step())
+      if (const std::string r = q.column_text(0); r != "ok") findings += (findings.empty() ? "" : "; ") + r;
+    if (!findings.empty())
+      throw PlanStoreError(path + ": SQLite finds the file damaged (" + findings.substr(0, 400) +
+                           "): start a new --out or remove it");
+  }
+  const std::int64_t version = db.pragma_int("user_version");
+  std::int64_t table_count = 0, old_run_tables = 0;
+  {
+    db::Statement tables = db.prepare("SELECT count(*), sum(name = 'run') FROM sqlite_schema WHERE type = 'table'");
+    tables.step();
+    table_count = tables.column_int64(0);
+    old_run_tables = tables.column_int64(1);
+  }
+  const bool empty = table_count == 0;
+  if (!empty && version != kPlanStoreVersion) {
+    throw PlanStoreError(
+        path + ": " +
+        (old_run_tables > 0
+             ? std::string("made by an older HapticLab, which did not record the plan's settings files and options "
+                           "with it, so what its studies were made from cannot be checked")
+             : "not a plan_power.db of this HapticLab (schema version " + std::to_string(version) + ", expected " +
+                   std::to_string(kPlanStoreVersion) + ")") +
+        ": start a new --out or remove it");
+  }
+  return empty;
+}
+
+// The plan's record, the one row of table plan.
+PlanInputs stored_plan(db::Database& db, const std::string& path) {
+  db::Statement q = db.prepare("SELECT inputs, typeof(inputs) FROM plan");
+  std::vector<std::string> stored;
+  while (q.step()) stored.push_back(q.column_text(1) == "text" ? q.column_text(0) : std::string());
+  if (stored.size() != 1)
+    throw PlanStoreError(path + ": table plan has " + std::to_string(stored.size()) +
+                         " rows, but a plan has one; the file is damaged or was edited: start a new --out or "
+                         "remove it");
+  try {
+    return PlanInputs::from_json(nlohmann::json::parse(stored.front()));
+  } catch (const std::exception& e) {
+    throw PlanStoreError(path + ": " + e.what() + "; the file is damaged or was edited: start a new --out or "
+                         "remove it");
+  }
+}
+
 }  // namespace
 
 PowerStore::PowerStore(const std::filesystem::path& path, const PlanInputs& inputs,
@@ -147,35 +199,7 @@ PowerStore::PowerStore(const std::filesystem::path& path, const PlanInputs& inpu
   }
   plan_sha256_ = sha256_hex(inputs.to_json().dump());
 
-  // A file SQLite reads in full, before anything is trusted.
-  {
-    db::Statement q = db_.prepare("PRAGMA quick_check");
-    std::string findings;
-    while (q.step())
-      if (const std::string r = q.column_text(0); r != "ok") findings += (findings.empty() ? "" : "; ") + r;
-    if (!findings.empty())
-      throw PlanStoreError(path_ + ": SQLite finds the file damaged (" + findings.substr(0, 400) +
-                           "): start a new --out or remove it");
-  }
-  const std::int64_t version = db_.pragma_int("user_version");
-  std::int64_t table_count = 0, old_run_tables = 0;
-  {
-    db::Statement tables = db_.prepare("SELECT count(*), sum(name = 'run') FROM sqlite_schema WHERE type = 'table'");
-    tables.step();
-    table_count = tables.column_int64(0);
-    old_run_tables = tables.column_int64(1);
-  }
-  const bool empty = table_count == 0;
-  if (!empty && version != kPlanStoreVersion) {
-    throw PlanStoreError(
-        path_ + ": " +
-        (old_run_tables > 0
-             ? std::string("made by an older HapticLab, which did not record the plan's settings files and options "
-                           "with it, so what its studies were made from cannot be checked")
-             : "not a plan_power.db of this HapticLab (schema version " + std::to_string(version) + ", expected " +
-                   std::to_string(kPlanStoreVersion) + ")") +
-        ": start a new --out or remove it");
-  }
+  const bool empty = check_file(db_, path_);
   if (empty) {
     db_.exec("PRAGMA journal_mode = WAL");
     db::Transaction tx(db_);
@@ -205,20 +229,7 @@ PowerStore::PowerStore(const std::filesystem::path& path, const PlanInputs& inpu
     tx.commit();
     return;
   }
-  db::Statement q = db_.prepare("SELECT inputs, typeof(inputs) FROM plan");
-  std::vector<std::string> stored;
-  while (q.step()) stored.push_back(q.column_text(1) == "text" ? q.column_text(0) : std::string());
-  if (stored.size() != 1)
-    throw PlanStoreError(path_ + ": table plan has " + std::to_string(stored.size()) +
-                         " rows, but a plan has one; the file is damaged or was edited: start a new --out or "
-                         "remove it");
-  PlanInputs was;
-  try {
-    was = PlanInputs::from_json(nlohmann::json::parse(stored.front()));
-  } catch (const std::exception& e) {
-    throw PlanStoreError(path_ + ": " + e.what() + "; the file is damaged or was edited: start a new --out or "
-                         "remove it");
-  }
+  const PlanInputs was = stored_plan(db_, path_);
   const std::vector<std::string> changed = plan_differences(was, inputs);
   if (!changed.empty()) {
     std::string list;
@@ -233,6 +244,13 @@ PowerStore::PowerStore(const std::filesystem::path& path, const PlanInputs& inpu
 }
 
 PowerStore::~PowerStore() = default;
+
+PlanInputs PowerStore::read_plan(const std::filesystem::path& path) {
+  if (!std::filesystem::exists(path)) throw PlanStoreError(path.string() + ": no such file");
+  db::Database db(path, db::Database::Mode::kReadOnly);
+  if (check_file(db, path.string())) throw PlanStoreError(path.string() + ": holds no plan (no table)");
+  return stored_plan(db, path.string());
+}
 
 std::set<std::pair<int, int>> PowerStore::done() {
   std::set<std::pair<int, int>> out;
@@ -288,6 +306,9 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
                }() + ") does not ask for");
     o.index = static_cast<int>(r.integer(3, "idx", 0, inputs_.studies - 1));
     const RowReader rs(s, path_, r.row() + " (" + study_label(o.participants, o.index) + ")");
+    if (const int shard = inputs_.shard_of(o.participants, o.index); shard != inputs_.shard)
+      rs.refuse("it is a study of shard " + std::to_string(shard) + "/" + std::to_string(inputs_.shards) +
+                ", not of this run's shard " + std::to_string(inputs_.shard) + "/" + std::to_string(inputs_.shards));
     const std::string seed = rs.text(5, "seed");
     const std::uint64_t expected_seed = study_seed(inputs_.seed, o.participants, o.index);
     if (seed != std::to_string(expected_seed))
@@ -439,13 +460,15 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
     out.push_back(std::move(o));
   }
   if (complete) {
-    for (int n : inputs_.participants)
-      for (int i = 0; i < inputs_.studies; ++i)
-        if (!by_key.count({n, i}))
-          throw PlanStoreError(path_ + ": the " + study_label(n, i) + " is missing after the run (" +
-                               std::to_string(by_key.size()) + " of " +
-                               std::to_string(inputs_.participants.size() * static_cast<std::size_t>(inputs_.studies)) +
-                               " studies stored)");
+    const std::vector<std::pair<int, int>> wanted = inputs_.studies_of_shard();
+    for (const auto& [n, i] : wanted)
+      if (!by_key.count({n, i}))
+        throw PlanStoreError(path_ + ": the " + study_label(n, i) + " is missing" +
+                             (inputs_.shards > 1 ? " from shard " + std::to_string(inputs_.shard) + "/" +
+                                                       std::to_string(inputs_.shards)
+                                                 : std::string()) +
+                             " (" + std::to_string(by_key.size()) + " of " + std::to_string(wanted.size()) +
+                             " studies stored)");
   }
   return out;
 }

@@ -60,6 +60,11 @@ class PowerStore {
   // Throws db::DbError (a full disk, say) with nothing half-written.
   void add(const StudyOutcome& outcome);
 
+  // The plan recorded in an existing plan_power.db, read-only, after
+  // SQLite's check of the file (PlanStoreError when it holds none or is
+  // damaged): what `plan merge` compares its shards by.
+  static PlanInputs read_plan(const std::filesystem::path& path);
+
   // The SHA-256 a stored study's rows carry: of the plan's inputs and the
   // study's values, its findings and staircases in a canonical order.
   static std::string digest(const std::string& plan_sha256, const StudyOutcome& outcome);
