@@ -23,6 +23,9 @@ if [[ -z ${HAPTICLAB_TARGETS:-} ]]; then
   packages+=(clang libclang-rt-dev)
   # lld links the test executables about 4x faster than GNU ld (CMakeLists.txt).
   packages+=(lld)
+  # A private single-node Slurm cluster for the test of plan power's job
+  # array (tests/slurm/): the daemons only; the test configures and starts its own.
+  packages+=(slurm-wlm munge)
 fi
 missing=()
 for p in "${packages[@]}"; do
