@@ -3,6 +3,7 @@
 // they write what one machine writes, byte for byte, and folders that are
 // not the shards of one plan are refused by name. tests/slurm/ runs the
 // same through a real Slurm job array.
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -98,6 +99,45 @@ TEST_F(PlanMergeTest, ShardsMergedWriteWhatOneMachineWrites) {
   refused(s0 + " " + s1 + " " + (dir_ / "e2").string() + " --out " + (dir_ / "m").string(),
           {(dir_ / "e2" / "plan_power.db").string() + ": the study of 2 participants, number 2 is missing from shard 2/3"});
   EXPECT_FALSE(fs::exists(dir_ / "m" / "power.csv"));
+}
+
+// A full disk during a merge: stopped, named, the shards untouched and the
+// studies merged so far kept; the same merge again finishes the plan.
+TEST_F(PlanMergeTest, AFullDiskStopsTheMergeAndLosesNothing) {
+  if (std::system("unshare -m sh -c 'mount -t tmpfs -o size=64k tmpfs /mnt' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "mounting a tmpfs needs root in a mount namespace";
+  const std::string plan6 = "--participants 2 --studies 6 --no-plots ";
+  for (int i = 0; i < 3; ++i) {
+    const auto [rc, text] = plan(plan6 + "--shard " + std::to_string(i) + "/3 --out " +
+                                 (dir_ / ("s" + std::to_string(i))).string());
+    ASSERT_EQ(rc, 0) << text;
+  }
+  std::vector<std::string> before;
+  for (int i = 0; i < 3; ++i) before.push_back(testing::slurp(dir_ / ("s" + std::to_string(i)) / "plan_power.db"));
+  const fs::path mnt = dir_ / "mnt";
+  fs::create_directories(mnt);
+  // 96 kB: the WAL index (32 kB), the database and about 2 studies.
+  const std::string script = "mount -t tmpfs -o size=96k tmpfs " + mnt.string() + " && " + HAPTICLAB_CLI_PATH +
+                             " plan merge " + shard_dirs(3) + "--no-plots --out " + mnt.string() + "/m; rc=$?; mkdir -p " +
+                             (dir_ / "kept").string() + " && cp " + mnt.string() + "/m/plan_power.db* " +
+                             (dir_ / "kept").string() + "/; exit $rc";
+  const auto [status, out] = testing::run_cli("unshare", "-m sh -c '" + script + "'");
+  EXPECT_EQ(status, 1) << out;
+  EXPECT_THAT(out, AllOf(HasSubstr("disk is full"), HasSubstr("the shards are untouched"),
+                         HasSubstr("then run the same merge again")));
+  const int kept = stored_studies(dir_ / "kept" / "plan_power.db");
+  ASSERT_GE(kept, 0) << "the merged database on the full disk is unreadable";
+  ASSERT_LT(kept, 6);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_EQ(testing::slurp(dir_ / ("s" + std::to_string(i)) / "plan_power.db"), before[static_cast<std::size_t>(i)])
+        << "shard " << i << " was written";
+  const auto [rc, text] = merge(shard_dirs(3) + "--no-plots --out " + (dir_ / "kept").string());
+  ASSERT_EQ(rc, 0) << text;
+  EXPECT_THAT(text, HasSubstr("6 studies (" + std::to_string(6 - kept) + " added now, " + std::to_string(kept) +
+                              " already in"));
+  const auto [one_rc, one] = plan(plan6 + "--out " + (dir_ / "one").string());
+  ASSERT_EQ(one_rc, 0) << one;
+  EXPECT_EQ(testing::slurp(dir_ / "kept" / "power.csv"), testing::slurp(dir_ / "one" / "power.csv"));
 }
 
 TEST_F(PlanMergeTest, AShardIsNamedInItsFolderAndChecked) {
