@@ -144,23 +144,28 @@ class ChunkError(ValueError):
     ``StudyDatabase``, ``trial_id``, ``instrument``, ``first_tick`` and
     ``count`` name the chunk."""
 
-    def __init__(self, kind, problem, trial_id=None, instrument=None, first_tick=None, count=None):
+    def __init__(self, kind, problem, trial_id=None, instrument=None, first_tick=None, count=None, path=None):
         self.kind = kind
         self.problem = problem
         self.trial_id = trial_id
         self.instrument = instrument
         self.first_tick = first_tick
         self.count = count
+        self.path = path
         super().__init__(self._message())
 
     def _message(self):
         if self.trial_id is None:
             return self.problem
-        return f"damaged sample chunk: {chunk_name(self.trial_id, self.instrument, self.first_tick, self.count)}: " \
-               f"{self.problem}"
+        return (f"{self.path}: " if self.path else "") + \
+            f"damaged sample chunk: {chunk_name(self.trial_id, self.instrument, self.first_tick, self.count)}: " \
+            f"{self.problem}"
 
-    def located(self, trial_id, instrument, first_tick, count):
-        return ChunkError(self.kind, self.problem, trial_id, instrument, first_tick, count)
+    def located(self, trial_id, instrument, first_tick, count, path=None):
+        return ChunkError(self.kind, self.problem, trial_id, instrument, first_tick, count, path or self.path)
+
+    def in_file(self, path):
+        return ChunkError(self.kind, self.problem, self.trial_id, self.instrument, self.first_tick, self.count, path)
 
 
 def chunk_name(trial_id, instrument, first_tick, count):
@@ -814,14 +819,14 @@ class StudyDatabase:
         for trial in trials:
             with self._snapshot():
                 good, misplaced = _layout(self._chunk_rows(trial))
-                bad.extend(misplaced)
+                bad.extend(e.in_file(self.path) for e in misplaced)
                 for r, result in self._verified(good[0] + good[1]):
                     try:
                         if isinstance(result, ChunkError):
                             raise result
                         _decode_verified(r[3], r[4], result[1], result[0])
                     except ChunkError as e:
-                        bad.append(e.located(r[1], r[2], r[3], r[4]))
+                        bad.append(e.located(r[1], r[2], r[3], r[4], self.path))
         return bad
 
     def samples(self, trial_id, instrument=None):
@@ -841,7 +846,7 @@ class StudyDatabase:
                 rows = [r for r in rows if r[2] == instrument]
             good, bad = _layout(rows)
             if bad:
-                raise bad[0]
+                raise bad[0].in_file(self.path)
             wanted = (0, 1) if instrument is None else (instrument,)
             total = sum(r[4] for k in wanted for r in good[k])
             out = np.empty(total, dtype=SAMPLE_DTYPE)
@@ -875,7 +880,7 @@ class StudyDatabase:
                         raise result
                     channels = _decode_verified(first, count, result[1], result[0])
                 except ChunkError as e:
-                    raise e.located(trial_id, hand, first, count) from None
+                    raise e.located(trial_id, hand, first, count, self.path) from None
                 where = destination(hand, first, count, int(before[hand][index[rid]]))
                 out["instrument"][where] = hand
                 for name, values in channels.items():
