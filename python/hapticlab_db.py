@@ -401,35 +401,68 @@ def _decompress(frame, count):
     if end != len(frame):
         raise ChunkError("structure", f"{len(frame) - end} bytes follow the zstd frame (a chunk holds exactly one "
                                       f"frame)")
+    # Straight into a buffer of the stated size (zstd never writes past it),
+    # which the preconditioning is then undone in: one copy of the body.
+    body = bytearray(params.content_size)
+    got = 0
     try:
-        body = zstandard.ZstdDecompressor().decompress(frame, max_output_size=limit)
+        with zstandard.ZstdDecompressor().stream_reader(frame, read_across_frames=False) as reader:
+            view = memoryview(body)
+            while got < len(body):
+                n = reader.readinto(view[got:])
+                if n == 0:
+                    break
+                got += n
+            more = reader.read(1)  # the frame's end: its content checksum verified
     except zstandard.ZstdError as e:
         raise ChunkError("structure", f"the zstd frame does not decompress: {e}") from None
-    if len(body) != params.content_size:
-        raise ChunkError("structure", "the zstd frame does not decompress: shorter than its header says")
+    if got != len(body) or more:
+        raise ChunkError("structure", "the zstd frame does not decompress: not to the size its header states")
     return body
 
 
-def _from_bit_planes(raw, count, width):
-    """Bit planes (db/sample_codec.cc shuffle()) -> values as unsigned ints:
-    the first count - count % 8 values as 8 * width planes (plane k: bit
-    k % 8 of byte k // 8 of each value, value i at bit i % 8 of byte i // 8),
-    then the last count % 8 values as they are."""
+_U64_7, _U64_14, _U64_28 = np.uint64(7), np.uint64(14), np.uint64(28)
+_MASK_7, _MASK_14, _MASK_28 = np.uint64(0x00AA00AA00AA00AA), np.uint64(0x0000CCCC0000CCCC), np.uint64(0x00000000F0F0F0F0)
+
+
+def _transpose8x8(x):
+    """Each uint64 of `x` as an 8 x 8 bit matrix (row r = byte r, column c
+    = bit c) transposed, as db/sample_codec.cc transpose8x8 does; its own
+    inverse."""
+    t = (x ^ (x >> _U64_7)) & _MASK_7
+    x = x ^ t ^ (t << _U64_7)
+    t = (x ^ (x >> _U64_14)) & _MASK_14
+    x = x ^ t ^ (t << _U64_14)
+    t = (x ^ (x >> _U64_28)) & _MASK_28
+    return x ^ t ^ (t << _U64_28)
+
+
+def _from_bit_planes(raw, count, width, out):
+    """Bit planes (db/sample_codec.cc bit_planes()) -> values as unsigned
+    ints, written to `out` (a little-endian uint array of `count`): the first
+    count - count % 8 values as 8 * width planes (plane k: bit k % 8 of byte
+    k // 8 of each value, value i at bit i % 8 of byte i // 8), then the last
+    count % 8 values as they are. For byte b of the values, the eight planes
+    8b .. 8b + 7 hold, per group of 8 values, an 8 x 8 bit matrix whose
+    transpose is those values' byte b: one uint64 per group."""
     whole = count - count % 8
-    planes = np.frombuffer(raw, dtype=np.uint8, count=whole * width).reshape(8 * width, whole // 8)
-    bits = np.unpackbits(planes, axis=1, bitorder="little")          # (8 * width, whole)
-    head = np.packbits(np.ascontiguousarray(bits.T), axis=1, bitorder="little")  # (whole, width)
-    data = head.tobytes() + bytes(raw[whole * width:count * width])
-    return np.frombuffer(data, dtype="<u%d" % width).copy()
+    groups = whole // 8
+    planes = np.frombuffer(raw, dtype=np.uint8, count=whole * width).reshape(8 * width, groups)
+    dest = out[:whole].view(np.uint8).reshape(whole, width)
+    for b in range(width):
+        rows = np.ascontiguousarray(planes[8 * b:8 * b + 8].T).view("<u8").ravel()  # byte j: plane 8b + j
+        dest[:, b] = _transpose8x8(rows).view(np.uint8)  # byte r of group g: value 8g + r's byte b
+    if count > whole:
+        out[whole:] = np.frombuffer(raw, dtype="<u%d" % width, count=count - whole, offset=whole * width)
 
 
 def _unprecondition(body, count):
-    """Undoes format 3's preconditioning (db/sample_codec.h): every channel
-    stored per update with 4- or 8-byte values is bit planes of the
-    differences of consecutive bit patterns; when t_s is stored per update
-    too, dt_s is bit planes of dt's bits XOR those of t's differences.
-    Returns the format-1 body."""
-    out = bytearray(body)
+    """Undoes format 3's preconditioning (db/sample_codec.h), in place in
+    `body` (a bytearray, returned): every channel stored per update with 4-
+    or 8-byte values is bit planes of the differences of consecutive bit
+    patterns; when t_s is stored per update too, dt_s is bit planes of dt's
+    bits XOR those of t's differences. Gives the format-1 body."""
+    out = body
     pos = 0
     places = {}
     for name, code in CHANNELS:
@@ -451,24 +484,23 @@ def _unprecondition(body, count):
         if name not in places or width == 1:
             continue
         at = places[name]
-        values = _from_bit_planes(out[at:at + count * width], count, width)
+        values = np.empty(count, dtype="<u%d" % width)
+        _from_bit_planes(memoryview(out)[at:at + count * width], count, width, values)
         if not (name == "dt_s" and residual_dt):
             # Unsigned sums wrap modulo 2^32 / 2^64, as the encoder's differences did.
-            values = np.cumsum(values, dtype=values.dtype)
+            np.cumsum(values, dtype=values.dtype, out=values)
         out[at:at + count * width] = values.tobytes()
+        del values
     if residual_dt:
-        t = np.frombuffer(bytes(out[places["t_s"]:places["t_s"] + 8 * count]), dtype="<f8")
-        at = places["dt_s"]
-        dt = np.frombuffer(bytes(out[at:at + 8 * count]), dtype="<u8").copy()
+        t = np.frombuffer(out, dtype="<f8", count=count, offset=places["t_s"])
+        dt = np.frombuffer(out, dtype="<u8", count=count, offset=places["dt_s"])
         dt[1:] ^= (t[1:] - t[:-1]).view("<u8")
-        out[at:at + 8 * count] = dt.tobytes()
-    return bytes(out)
+    return out
 
 
 def _decode_body(blob, fmt, count):
     """The channels of a verified chunk as a dict name -> array of `count`."""
     pos = HEADER_BYTES
-    size = len(blob)
 
     def take(nbytes):
         nonlocal pos
@@ -479,9 +511,9 @@ def _decode_body(blob, fmt, count):
         return start
 
     if fmt == FORMAT_CURRENT:
-        plain = _unprecondition(_decompress(bytes(blob[HEADER_BYTES:]), count), count)
-        blob = bytes(HEADER_BYTES) + plain
-        size = len(blob)
+        blob = _unprecondition(_decompress(memoryview(blob)[HEADER_BYTES:], count), count)
+        pos = 0
+    size = len(blob)
     if fmt == FORMAT_MIGRATED:
         # The old blob whole, its own format byte (1) first.
         legacy = blob[take(1)]
@@ -871,7 +903,14 @@ class StudyDatabase:
                 j = np.searchsorted(starts[other], q, side="right") - 1
                 jj = np.maximum(j, 0)
                 n = np.where(j >= 0, before[other][jj] + np.minimum(q - starts[other][jj] + 1, counts[other][jj]), 0)
-                return offset + (t - first) + n
+                rows = offset + (t - first) + n
+                # Both hands at every tick (the usual case): every other row, a
+                # strided slice, far cheaper to fill than a list of rows.
+                step = int(rows[1] - rows[0]) if count > 1 else 1
+                if step > 0 and int(rows[-1] - rows[0]) == step * (count - 1) and \
+                        bool(np.all(np.diff(rows) == step)):
+                    return slice(int(rows[0]), int(rows[-1]) + 1, step)
+                return rows
 
             for r, result in self._verified([r for k in wanted for r in good[k]]):
                 rid, _, hand, first, count = r[:5]

@@ -149,7 +149,7 @@ class SamplesEqualExportTest(unittest.TestCase):
 
 
 class WallClockSamplesTest(unittest.TestCase):
-    """A trial on the wall clock: every dt_s differs, so format 2 stores dt
+    """A trial on the wall clock: every dt_s differs, so format 3 stores dt
     per update as differences in bit planes (on the virtual clock it is one
     constant); the reader must give the export's values to the bit."""
 
@@ -202,7 +202,7 @@ class DamageTest(unittest.TestCase):
     def test_a_damaged_format_byte_or_moved_chunk_is_damage_too(self):
         path = STUDY.copy("format.db")
         chunk_id, first, count = self.chunk(path, 0, 0)
-        flip_byte(path, chunk_id, 0)  # format 2 -> 0xFD: damage, not "a newer format"
+        flip_byte(path, chunk_id, 0)  # format 3 -> 0xFC: damage, not "a newer format"
         with h.open_study(path) as db:
             with self.assertRaises(h.ChunkError) as caught:
                 db.samples(1, instrument=0)
