@@ -367,8 +367,9 @@ TEST_F(StudyFileDamageTest, EveryReaderRefusesEveryDamageAndNamesIt) {
     if (clean) {
       EXPECT_EQ(py["rows"], 20) << py.dump();
     } else {
-      EXPECT_THAT(std::string(py["type"]), ::testing::AnyOf("ChunkError", "StructureError")) << py.dump();
-      expect_named_by(std::string(py["message"]), d.named, "Python", path_of[k]);
+      EXPECT_THAT(py.value("type", std::string("(none: accepted)")), ::testing::AnyOf("ChunkError", "StructureError"))
+          << py.dump();
+      expect_named_by(py.value("message", std::string()), d.named, "Python", path_of[k]);
     }
   }
 }
