@@ -447,11 +447,12 @@ def _from_bit_planes(raw, count, width, out):
     transpose is those values' byte b: one uint64 per group."""
     whole = count - count % 8
     groups = whole // 8
-    planes = np.frombuffer(raw, dtype=np.uint8, count=whole * width).reshape(8 * width, groups)
-    dest = out[:whole].view(np.uint8).reshape(whole, width)
-    for b in range(width):
-        rows = np.ascontiguousarray(planes[8 * b:8 * b + 8].T).view("<u8").ravel()  # byte j: plane 8b + j
-        dest[:, b] = _transpose8x8(rows).view(np.uint8)  # byte r of group g: value 8g + r's byte b
+    planes = np.frombuffer(raw, dtype=np.uint8, count=whole * width).reshape(width, 8, groups)
+    # [b, g] as a uint64 whose byte j is plane 8b + j's byte g, for all b at once.
+    rows = np.ascontiguousarray(planes.transpose(0, 2, 1)).view("<u8").reshape(width, groups)
+    # Transposed, its byte r is value 8g + r's byte b.
+    values = _transpose8x8(rows).view(np.uint8).reshape(width, whole)
+    out[:whole].view(np.uint8).reshape(whole, width)[:] = values.T
     if count > whole:
         out[whole:] = np.frombuffer(raw, dtype="<u%d" % width, count=count - whole, offset=whole * width)
 
