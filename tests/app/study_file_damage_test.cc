@@ -374,5 +374,81 @@ TEST_F(StudyFileDamageTest, EveryReaderRefusesEveryDamageAndNamesIt) {
   }
 }
 
+// Issue 34 section 2: within the format's own limits, eight valid all-zero
+// chunks (35 kB on disk) drove export to 2.4 GB and the Python reader to
+// 3.3 GB, each holding a trial's samples at once. Here four chunks of 2^17
+// updates per instrument (every channel stored per update, all zero: a
+// valid body that zstd shrinks to a few kB), 1 Mi samples in all: `export`
+// must stay within a chunk per instrument (2 x 15 MB decompressed; measured
+// 42 MB in all, 0.27 GB when it reads every sample first) however many
+// chunks there are, and the Python reader within its result (134 bytes a
+// row) plus about that (measured 60 MB beyond it, 171 MB when it keeps
+// every chunk's arrays). The bound on export leaves room for ASan.
+TEST_F(StudyFileDamageTest, ZeroChunksWithinTheFormatsLimitKeepEveryReaderSmall) {
+  constexpr std::uint64_t kCount = std::uint64_t{1} << 17;
+  constexpr int kChunksPerInstrument = 4;
+  const fs::path path = dir_.path() / "zero_chunks.db";
+  fs::copy_file(clean_, path);
+  {
+    db::Database conn(path);
+    conn.exec("DELETE FROM sample_chunk WHERE trial_id = 1");
+    // 28 tags of 0 (per update) and every value 0: the preconditioned
+    // body of all-zero samples is all zero too.
+    const std::vector<std::byte> frame = checksummed_frame(std::vector<std::byte>(28 + 117 * kCount));
+    for (std::int64_t instrument = 0; instrument < 2; ++instrument)
+      for (int k = 0; k < kChunksPerInstrument; ++k) {
+        std::vector<std::byte> blob(db::kChunkHeaderBytes);
+        blob[0] = std::byte{3};
+        blob.insert(blob.end(), frame.begin(), frame.end());
+        const db::ChunkPlace place{1, instrument, k * kCount, kCount};
+        conn.prepare("INSERT INTO sample_chunk (trial_id, instrument, first_tick, count, t0_s, data) "
+                     "VALUES (1, ?1, ?2, ?3, 0, ?4)")
+            .bind(1, instrument).bind(2, static_cast<std::int64_t>(place.first_tick))
+            .bind(3, static_cast<std::int64_t>(kCount))
+            .bind_blob(4, db::testing::resign_blob(blob, place)).run();
+      }
+  }
+  // Peak memory of a child, as the kernel counts it (ru_maxrss, kB). A
+  // small ASan quarantine, so that freed buffers are not counted as held.
+  const std::string measure =
+      "ASAN_OPTIONS=\"${ASAN_OPTIONS:+$ASAN_OPTIONS:}quarantine_size_mb=8\" " + kTimeout + HAPTICLAB_PYTHON +
+      " -c " +
+      sh_quote("import resource, subprocess, sys\n"
+               "r = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)\n"
+               "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n");
+  const auto peak_kB = [](const std::string& out) {
+    std::istringstream in(out);
+    int status = -1;
+    long kB = -1;
+    in >> status >> kB;
+    EXPECT_EQ(status, 0) << out;
+    return kB;
+  };
+  const std::string db = sh_quote(path.string());
+  const auto [export_status, exported] =
+      testing::run_shell(measure + " " + HAPTICLAB_CLI_PATH + " export --db " + db +
+                         " --trial 1 --format csv --channels t_s --every 1000000 --out " +
+                         sh_quote((dir_.path() / "zero_out").string()) + " 2>&1");
+  ASSERT_EQ(export_status, 0) << exported;
+  EXPECT_LT(peak_kB(exported), 150'000) << "export of 2 x 4 chunks of 2^17 updates: " << exported;
+  EXPECT_TRUE(fs::exists(dir_.path() / "zero_out"));
+
+  // The Python reader: its result (134 bytes a row) and one chunk's arrays.
+  const std::string script =
+      "import resource, sys\nsys.path.insert(0, sys.argv[1])\nimport hapticlab_db as h\n"
+      "with h.open_study(sys.argv[2]) as db:\n"
+      "    s = db.samples(1)\n"
+      "print(s.size, s.nbytes // 1024, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n";
+  const auto [python_status, python_out] = testing::run_shell(
+      kTimeout + HAPTICLAB_PYTHON + " -c " + sh_quote(script) + " " +
+      sh_quote(std::string(HAPTICLAB_SOURCE_DIR) + "/python") + " " + db + " 2>&1");
+  ASSERT_EQ(python_status, 0) << python_out;
+  std::istringstream in(python_out);
+  long rows = 0, result_kB = 0, python_kB = 0;
+  in >> rows >> result_kB >> python_kB;
+  EXPECT_EQ(rows, 2 * kChunksPerInstrument * static_cast<long>(kCount)) << python_out;
+  EXPECT_LT(python_kB - result_kB, 110'000) << "the Python reader beyond its result: " << python_out;
+}
+
 }  // namespace
 }  // namespace hapticlab::app
