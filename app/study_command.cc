@@ -12,6 +12,7 @@
 #include "core/common/build_info.h"
 #include "db/chunk_reader.h"
 #include "db/schema.h"
+#include "db/structure_check.h"
 #include "db/study_db.h"
 #include "sessions/study_progress.h"
 #include "sessions/study_setup.h"
@@ -67,9 +68,11 @@ void show(const StudyOptions& opt) {
   }
 }
 
-// `study check`: SQLite's integrity_check, then every chunk's checksum. On a
-// plain read-only connection, not StudyDb: StudyDb refuses a damaged file
-// at the door, and this command's job is to say what is damaged.
+// `study check`: SQLite's integrity_check, then the file's structure
+// (db/structure_check.h: tables, references, value types), then every
+// chunk's place, checksum and structure (db/chunk_reader.h). On a plain
+// read-only connection, not StudyDb: StudyDb refuses a damaged file at the
+// door, and this command's job is to say everything that is damaged.
 void check(const StudyOptions& opt) {
   if (!std::filesystem::is_regular_file(opt.db))
     throw std::runtime_error("--db: '" + opt.db + "' " +
@@ -77,38 +80,60 @@ void check(const StudyOptions& opt) {
                              "; give a study database made by `hapticlab study create`");
   db::Database conn(opt.db, db::Database::Mode::kReadOnly);
 
-  std::vector<std::string> findings;
+  std::vector<db::Finding> findings;  // every one, in the order checked
+  std::size_t integrity = 0;
   try {
     db::Statement s = conn.prepare("PRAGMA integrity_check(100)");
     while (s.step())
-      if (const std::string line = s.column_text(0); line != "ok") findings.push_back(line);
+      if (const std::string line = s.column_text(0); line != "ok") {
+        findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt, line});
+        ++integrity;
+      }
   } catch (const db::DbError& e) {
-    findings.push_back(std::string("integrity_check itself failed: ") + e.what());
+    findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt,
+                        std::string("integrity_check itself failed: ") + e.what()});
+    ++integrity;
   }
 
-  // Checksums need the current schema (version 4 added them); a file that
-  // SQLite cannot even read gets no further.
-  std::string schema_problem;
+  // The structure, then the chunks: each only when what it reads is sound
+  // (a view in a table's place could make any query hang, and an older
+  // schema has other checksums).
+  std::string not_checked;  // why the chunks were not checked
+  std::size_t structure = 0;
   db::ChunkCheck chunks;
   try {
     const int version = db::check_schema_version(conn);
-    // Version 4 added the checksums; later versions keep them.
-    constexpr int kChecksumVersion = 4;
-    if (version < kChecksumVersion)
-      schema_problem = "schema version " + std::to_string(version) + " has no chunk checksums (version " +
-                       std::to_string(kChecksumVersion) + " adds them); a command that opens it read-write "
-                       "(`hapticlab analyze`) migrates it, then check again";
-    else
+    std::vector<db::Finding> tables = db::check_tables(conn, version);
+    structure += tables.size();
+    findings.insert(findings.end(), tables.begin(), tables.end());
+    if (!tables.empty()) {
+      not_checked = "the tables are not what the schema says (above), so no query reads them";
+    } else if (version < db::kSchemaVersion) {
+      not_checked = "schema version " + std::to_string(version) + " predates this HapticLab's checks (version " +
+                    std::to_string(db::kSchemaVersion) + "); a command that opens it read-write "
+                    "(`hapticlab analyze`) migrates it, then check again";
+    } else {
+      for (auto* check : {&db::check_foreign_keys, &db::check_value_types}) {
+        std::vector<db::Finding> found = (*check)(conn, 100);
+        structure += found.size();
+        findings.insert(findings.end(), found.begin(), found.end());
+      }
       chunks = db::check_all_chunks(conn);
+      for (const db::BadChunk& c : chunks.bad)
+        findings.push_back({"chunk", "sample_chunk", std::nullopt, c.trial_id, c.instrument, db::describe(c)});
+    }
   } catch (const db::DbError& e) {
-    schema_problem = e.what();
+    not_checked = e.what();
   }
 
-  const bool damaged = !findings.empty() || !chunks.bad.empty() || !schema_problem.empty();
+  const bool damaged = !findings.empty() || !not_checked.empty();
   if (opt.json) {
     nlohmann::json j;
     j["db"] = opt.db;
-    j["integrity_check"] = findings;  // empty: "ok"
+    nlohmann::json integrity_lines = nlohmann::json::array();
+    for (const db::Finding& f : findings)
+      if (f.check == "integrity") integrity_lines.push_back(f.message);
+    j["integrity_check"] = integrity_lines;  // empty: "ok"
     j["chunks_checked"] = chunks.chunks;
     j["updates_checked"] = chunks.updates;
     j["migrated_chunks"] = chunks.migrated_chunks;
@@ -118,21 +143,41 @@ void check(const StudyOptions& opt) {
                      {"instrument", c.instrument},
                      {"first_tick", c.first_tick},
                      {"count", c.count},
+                     {"kind", db::to_string(c.kind)},
                      {"problem", c.problem}});
     j["bad_chunks"] = bad;
-    if (!schema_problem.empty()) j["error"] = schema_problem;
+    // Every finding of every check, each naming what it concerns.
+    nlohmann::json all = nlohmann::json::array();
+    for (const db::Finding& f : findings) {
+      nlohmann::json x = {{"check", f.check}, {"message", f.message}};
+      if (!f.table.empty()) x["table"] = f.table;
+      if (f.row) x["row"] = *f.row;
+      if (f.trial_id) x["trial_id"] = *f.trial_id;
+      if (f.instrument) x["instrument"] = *f.instrument;
+      all.push_back(std::move(x));
+    }
+    j["findings"] = all;
+    if (!not_checked.empty()) j["error"] = not_checked;
     j["ok"] = !damaged;
     std::printf("%s\n", j.dump(2).c_str());
   } else {
     std::printf("%s\n", opt.db.c_str());
-    if (findings.empty()) {
-      std::printf("  integrity_check: ok\n");
-    } else {
-      std::printf("  integrity_check: %zu finding(s)\n", findings.size());
-      for (const std::string& f : findings) std::printf("    %s\n", f.c_str());
-    }
-    if (!schema_problem.empty()) {
-      std::printf("  sample chunks: not checked: %s\n", schema_problem.c_str());
+    const auto list = [&](const char* title, const std::vector<std::string>& checks) {
+      std::vector<const db::Finding*> mine;
+      for (const db::Finding& f : findings)
+        for (const std::string& c : checks)
+          if (f.check == c) mine.push_back(&f);
+      if (mine.empty()) {
+        std::printf("  %s: ok\n", title);
+        return;
+      }
+      std::printf("  %s: %zu finding(s)\n", title, mine.size());
+      for (const db::Finding* f : mine) std::printf("    %s\n", f->message.c_str());
+    };
+    list("integrity_check", {"integrity"});
+    if (structure > 0 || not_checked.empty()) list("structure (tables, references, value types)", {"schema", "foreign_key", "type"});
+    if (!not_checked.empty()) {
+      std::printf("  sample chunks: not checked: %s\n", not_checked.c_str());
     } else {
       std::printf("  sample chunks: %llu checked, %zu damaged; %llu updates read back\n",
                   static_cast<unsigned long long>(chunks.chunks), chunks.bad.size(),
@@ -145,11 +190,12 @@ void check(const StudyOptions& opt) {
     }
   }
   std::fflush(stdout);
-  if (!findings.empty() || !chunks.bad.empty())
-    throw std::runtime_error(opt.db + ": damaged: " + std::to_string(findings.size()) +
-                             " integrity_check finding(s), " + std::to_string(chunks.bad.size()) +
-                             " damaged sample chunk(s)" + (schema_problem.empty() ? "" : ", chunks not checked"));
-  if (damaged) throw std::runtime_error(opt.db + ": sample chunks not checked: " + schema_problem);
+  if (!findings.empty())
+    throw std::runtime_error(opt.db + ": damaged: " + std::to_string(integrity) + " integrity_check finding(s), " +
+                             std::to_string(structure) + " structure finding(s), " +
+                             std::to_string(chunks.bad.size()) + " damaged sample chunk(s)" +
+                             (not_checked.empty() ? "" : ", chunks not checked"));
+  if (damaged) throw std::runtime_error(opt.db + ": sample chunks not checked: " + not_checked);
   if (!opt.json) std::printf("no damage found\n");
 }
 
@@ -180,8 +226,9 @@ void add_study_command(CLI::App& app) {
   s->callback([opt] { show(*opt); });
 
   CLI::App* k = study->add_subcommand(
-      "check", "Look for damage: SQLite's integrity_check (pages, indexes) plus every sample chunk's checksum. "
-               "Prints a summary naming each damaged chunk's trial, instrument and ticks; exit status 1 if "
+      "check", "Look for damage: SQLite's integrity_check (pages, indexes); the tables, references and value "
+               "types the schema says; every sample chunk's place (instrument, ticks, no overlap), checksum and "
+               "structure. Prints every finding, naming the table, row, trial and instrument; exit status 1 if "
                "anything is damaged, 0 if not. Read-only.");
   k->add_option("--db", opt->db, "Study database")->required();
   k->add_flag("--json", opt->json, "Machine-readable summary");

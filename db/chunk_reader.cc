@@ -1,71 +1,141 @@
 #include "db/chunk_reader.h"
 
+#include <algorithm>
+#include <memory>
+
+#include <sqlite3.h>
+
 namespace hapticlab::db {
 namespace {
 
-BadChunk bad_chunk(std::int64_t trial_id, int instrument, std::uint64_t first_tick, std::int64_t count,
-                   const ChunkError& e) {
-  return {trial_id, instrument, first_tick, static_cast<std::uint64_t>(count), e.kind(), e.what()};
+BadChunk bad_chunk(const ChunkRow& r, const ChunkError& e) {
+  return {r.trial_id, r.instrument, r.first_tick, r.count, e.kind(), e.what()};
 }
 
 }  // namespace
 
-std::string describe(const BadChunk& c) {
-  const char* hand = c.instrument == 0 ? "left" : c.instrument == 1 ? "right" : "unknown";
-  std::string ticks = std::to_string(c.first_tick);
-  if (c.count > 1) ticks += ".." + std::to_string(c.first_tick + c.count - 1);
-  return "trial " + std::to_string(c.trial_id) + ", " + hand + " instrument (" + std::to_string(c.instrument) +
-         "), ticks " + ticks + ": " + c.problem;
+// A read transaction for the guard's life, when the connection holds none:
+// the rows and the blobs read later are one snapshot of the file, even
+// while a session appends to it or rewrites its open chunk.
+class ReadSnapshot {
+ public:
+  explicit ReadSnapshot(Database& db) : db_(db) {
+    if (sqlite3_get_autocommit(db.raw()) == 0) return;
+    db.exec("BEGIN");
+    own_ = true;
+  }
+  ~ReadSnapshot() {
+    // Nothing to keep or undo; ending it lets the WAL be checkpointed past
+    // this snapshot.
+    if (own_) sqlite3_exec(db_.raw(), "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  ReadSnapshot(const ReadSnapshot&) = delete;
+  ReadSnapshot& operator=(const ReadSnapshot&) = delete;
+
+ private:
+  Database& db_;
+  bool own_ = false;
+};
+
+std::vector<ChunkRow> read_chunk_rows(Database& db, std::int64_t trial_id) {
+  Statement s = db.prepare(chunk_rows_sql());
+  s.bind(1, trial_id);
+  std::vector<ChunkRow> rows;
+  while (s.step()) {
+    ChunkRow r;
+    r.id = s.column_int64(0);
+    r.trial_id = s.column_int64(1);
+    r.instrument = s.column_int64(2);
+    r.first_tick = s.column_int64(3);
+    r.count = s.column_int64(4);
+    for (int c = 0; c < 5; ++c) r.types[c] = s.column_text(5 + c);
+    for (int c = 0; c < 4; ++c) r.values[c] = s.column_text(10 + c);
+    rows.push_back(std::move(r));
+  }
+  return rows;
 }
 
-void for_each_chunk(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& scratch,
-                    const std::function<void(std::span<const StoredSample>)>& on_chunk,
-                    std::vector<BadChunk>& bad) {
-  Statement s = db.prepare(
-      "SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = ?1 AND instrument = ?2 ORDER BY first_tick");
-  s.bind(1, trial_id).bind(2, std::int64_t{instrument});
-  while (s.step()) {
-    const auto first = static_cast<std::uint64_t>(s.column_int64(0));
-    const std::int64_t count = s.column_int64(1);
-    scratch.clear();
+TrialChunks::TrialChunks(Database& db, std::int64_t trial_id, int only_instrument)
+    : db_(db),
+      snapshot_(std::make_unique<ReadSnapshot>(db)),
+      trial_id_(trial_id),
+      blob_(db.prepare("SELECT data FROM sample_chunk WHERE id = ?1")) {
+  std::vector<ChunkRow> rows = read_chunk_rows(db, trial_id);
+  if (only_instrument >= 0) std::erase_if(rows, [&](const ChunkRow& r) { return r.instrument != only_instrument; });
+  layout_ = layout_chunks(std::move(rows), bad_);
+}
+
+TrialChunks::~TrialChunks() = default;
+
+bool TrialChunks::load_next(int instrument) {
+  Stream& st = stream_[instrument];
+  const std::vector<ChunkRow>& rows = layout_.instrument[instrument];
+  while (st.row < rows.size()) {
+    const ChunkRow& r = rows[st.row++];
+    blob_.reset();
+    blob_.bind(1, r.id);
+    if (!blob_.step()) throw DbError(db_.path() + ": sample chunk row " + std::to_string(r.id) + " of trial " +
+                                     std::to_string(trial_id_) + " vanished while it was read");
     try {
-      decode_chunk(first, static_cast<std::size_t>(count), s.column_blob(2), scratch);
+      st.chunk.load(r.place(), blob_.column_blob(0));
     } catch (const ChunkError& e) {
-      bad.push_back(bad_chunk(trial_id, instrument, first, count, e));
+      bad_.push_back(bad_chunk(r, e));
       continue;
     }
-    on_chunk(scratch);
+    st.pos = 0;
+    return true;
   }
+  return false;
+}
+
+std::span<const StoredSample> TrialChunks::next(int instrument) {
+  Stream& st = stream_[instrument];
+  if (st.pos >= st.chunk.size() && !load_next(instrument)) return {};
+  const std::size_t n = std::min(kChunkWindow, st.chunk.size() - st.pos);
+  st.window.resize(n);
+  st.chunk.read(st.pos, st.pos + n, st.window.data());
+  st.pos += n;
+  return st.window;
 }
 
 void read_samples(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& out,
                   std::vector<BadChunk>& bad) {
-  std::vector<StoredSample> scratch;
-  for_each_chunk(db, trial_id, instrument, scratch,
-                 [&](std::span<const StoredSample> chunk) { out.insert(out.end(), chunk.begin(), chunk.end()); },
-                 bad);
+  TrialChunks chunks(db, trial_id, instrument);
+  out.reserve(out.size() + chunks.updates(instrument));
+  for (std::span<const StoredSample> w = chunks.next(instrument); !w.empty(); w = chunks.next(instrument))
+    out.insert(out.end(), w.begin(), w.end());
+  bad.insert(bad.end(), chunks.bad().begin(), chunks.bad().end());
 }
 
 ChunkCheck check_all_chunks(Database& db) {
   ChunkCheck result;
-  Statement s = db.prepare(
-      "SELECT trial_id, instrument, first_tick, count, data FROM sample_chunk "
-      "ORDER BY trial_id, instrument, first_tick");
-  std::vector<StoredSample> scratch;
-  while (s.step()) {
-    ++result.chunks;
-    const std::int64_t trial_id = s.column_int64(0);
-    const int instrument = static_cast<int>(s.column_int64(1));
-    const auto first = static_cast<std::uint64_t>(s.column_int64(2));
-    const std::int64_t count = s.column_int64(3);
-    scratch.clear();
-    try {
-      const std::span<const std::byte> blob = s.column_blob(4);
-      decode_chunk(first, static_cast<std::size_t>(count), blob, scratch);
-      result.updates += scratch.size();
-      if (std::to_integer<std::uint8_t>(blob[0]) == kChunkFormatMigrated) ++result.migrated_chunks;
-    } catch (const ChunkError& e) {
-      result.bad.push_back(bad_chunk(trial_id, instrument, first, count, e));
+  std::vector<std::int64_t> trials;
+  const ReadSnapshot snapshot(db);
+  {
+    Statement s = db.prepare(
+        "SELECT DISTINCT trial_id FROM sample_chunk WHERE typeof(trial_id) = 'integer' ORDER BY trial_id");
+    while (s.step()) trials.push_back(s.column_int64(0));
+  }
+  Statement blob = db.prepare("SELECT data FROM sample_chunk WHERE id = ?1");
+  ChunkDecoder decoder;
+  for (const std::int64_t trial : trials) {
+    std::vector<ChunkRow> rows = read_chunk_rows(db, trial);
+    result.chunks += rows.size();
+    const ChunkLayout layout = layout_chunks(std::move(rows), result.bad);
+    for (const auto& instrument : layout.instrument) {
+      for (const ChunkRow& r : instrument) {
+        blob.reset();
+        blob.bind(1, r.id);
+        if (!blob.step()) continue;
+        try {
+          decoder.load(r.place(), blob.column_blob(0));
+        } catch (const ChunkError& e) {
+          result.bad.push_back(bad_chunk(r, e));
+          continue;
+        }
+        result.updates += decoder.size();
+        if (decoder.format() == kChunkFormatMigrated) ++result.migrated_chunks;
+      }
     }
   }
   return result;

@@ -149,24 +149,30 @@ void write_trial_rows(StudyDb& db, const TrialRow& t, CsvFile& samples, CsvFile&
                       std::vector<BadChunk>* bad_chunks, const ExportSelection& selection) {
   const std::vector<std::size_t> channels = channels_of(selection);
   std::string line;
-  std::vector<StoredSample> left, right;
-  std::vector<BadChunk> bad;
-  read_samples(db.connection(), t.id, 0, left, bad);
-  read_samples(db.connection(), t.id, 1, right, bad);
-  if (bad_chunks == nullptr) refuse_unreported(db, bad);
-  else bad_chunks->insert(bad_chunks->end(), bad.begin(), bad.end());
-  // Merge by tick, left first within a tick.
-  std::size_t i = 0, k = 0;
-  while (i < left.size() || k < right.size()) {
-    const bool take_left = k == right.size() || (i < left.size() && left[i].tick <= right[k].tick);
-    const StoredSample& s = take_left ? left[i++] : right[k++];
+  // Both instruments' chunks streamed and merged by tick, left first
+  // within a tick: a window of each in memory, never the trial.
+  TrialChunks chunks(db.connection(), t.id);
+  std::span<const StoredSample> window[2];
+  std::size_t pos[2] = {0, 0};
+  for (;;) {
+    for (int k = 0; k < 2; ++k)
+      if (pos[k] == window[k].size()) {
+        window[k] = chunks.next(k);
+        pos[k] = 0;
+      }
+    const bool left = !window[0].empty(), right = !window[1].empty();
+    if (!left && !right) break;
+    const int k = !right || (left && window[0][pos[0]].tick <= window[1][pos[1]].tick) ? 0 : 1;
+    const StoredSample& s = window[k][pos[k]++];
     if (s.tick % selection.every != 0) continue;
     put_trial_key(line, t);
-    line += take_left ? ",0," : ",1,";
+    line += k == 0 ? ",0," : ",1,";
     append_number(line, s.tick);
     for (std::size_t c : channels) put_channel(line, s, c);
     samples.line(line);
   }
+  if (bad_chunks == nullptr) refuse_unreported(db, chunks.bad());
+  else bad_chunks->insert(bad_chunks->end(), chunks.bad().begin(), chunks.bad().end());
   for (const EventRow& e : db.events(t.id)) {
     put_trial_key(line, t);
     line += ',';

@@ -3,50 +3,67 @@
 #include <algorithm>
 #include <array>
 #include <limits>
+#include <span>
 #include <string>
 
 #include "db/chunk_reader.h"
 
 namespace hapticlab::db {
 
+namespace {
+
+[[noreturn]] void refuse_damage(const StudyDb& db, std::int64_t trial_id, const std::vector<BadChunk>& bad) {
+  std::string list;
+  for (const BadChunk& c : bad) list += "; " + describe(c);
+  throw DbError(db.path() + ": trial " + std::to_string(trial_id) + " cannot be replayed: " +
+                std::to_string(bad.size()) + " damaged sample chunk(s)" + list);
+}
+
+}  // namespace
+
 std::vector<ReplayFrame> load_replay_frames(StudyDb& db, std::int64_t trial_id) {
   db.trial(trial_id);  // throws, naming the trial, if there is none
-  std::array<std::vector<StoredSample>, 2> stored;
-  std::vector<BadChunk> bad;
-  for (int k = 0; k < 2; ++k) read_samples(db.connection(), trial_id, k, stored[static_cast<std::size_t>(k)], bad);
-  if (!bad.empty()) {
-    std::string list;
-    for (const BadChunk& c : bad) list += "; " + describe(c);
-    throw DbError(db.path() + ": trial " + std::to_string(trial_id) + " cannot be replayed: " +
-                  std::to_string(bad.size()) + " damaged sample chunk(s)" + list);
-  }
-  if (stored[0].empty() && stored[1].empty())
+  TrialChunks chunks(db.connection(), trial_id);
+  // Misplaced chunks are known before any blob is read.
+  if (!chunks.bad().empty()) refuse_damage(db, trial_id, chunks.bad());
+  if (chunks.updates(0) == 0 && chunks.updates(1) == 0)
     throw DbError(db.path() + ": trial " + std::to_string(trial_id) +
                   " has no stored samples, so there is nothing to replay (has it run?)");
 
-  // Each instrument's position before its first stored update.
-  std::array<DeviceJoints, 2> latest{};
-  for (std::size_t k = 0; k < 2; ++k)
-    if (!stored[k].empty()) latest[k] = stored[k].front().value.raw_position;
-
-  // Merge the two tick-ordered lists: one frame per tick.
+  // The two instruments' chunks streamed and merged: one frame per tick, a
+  // window of each in memory besides the frames.
   std::vector<ReplayFrame> frames;
-  frames.reserve(std::max(stored[0].size(), stored[1].size()));
-  std::array<std::size_t, 2> next{0, 0};
-  while (next[0] < stored[0].size() || next[1] < stored[1].size()) {
+  frames.reserve(std::max(chunks.updates(0), chunks.updates(1)));
+  std::array<std::span<const StoredSample>, 2> window;
+  std::array<std::size_t, 2> pos{0, 0};
+  std::array<DeviceJoints, 2> latest{};
+  std::array<bool, 2> seen{false, false};
+  for (;;) {
+    for (std::size_t k = 0; k < 2; ++k)
+      if (pos[k] == window[k].size()) {
+        window[k] = chunks.next(static_cast<int>(k));
+        pos[k] = 0;
+      }
     std::uint64_t tick = std::numeric_limits<std::uint64_t>::max();
     for (std::size_t k = 0; k < 2; ++k)
-      if (next[k] < stored[k].size()) tick = std::min(tick, stored[k][next[k]].tick);
+      if (!window[k].empty()) tick = std::min(tick, window[k][pos[k]].tick);
+    if (window[0].empty() && window[1].empty()) break;
     double t_s = 0.0;
     for (std::size_t k = 0; k < 2; ++k) {
-      if (next[k] < stored[k].size() && stored[k][next[k]].tick == tick) {
-        const StoredSample& s = stored[k][next[k]++];
-        latest[k] = s.value.raw_position;
-        t_s = s.t_s;  // the same loop time for both instruments of one update
+      if (window[k].empty() || window[k][pos[k]].tick != tick) continue;
+      const StoredSample& s = window[k][pos[k]++];
+      if (!seen[k]) {
+        // Before its first stored update an instrument holds its first
+        // stored position: fill in the frames made without it.
+        for (ReplayFrame& f : frames) f.position[k] = s.value.raw_position;
+        seen[k] = true;
       }
+      latest[k] = s.value.raw_position;
+      t_s = s.t_s;  // the same loop time for both instruments of one update
     }
     frames.push_back({t_s, latest});
   }
+  if (!chunks.bad().empty()) refuse_damage(db, trial_id, chunks.bad());
   return frames;
 }
 

@@ -21,15 +21,30 @@ const std::array<const char*, kChunkChannels> kChannelNames = kSampleChannelName
 
 namespace {
 
-// The checksum of a chunk: its row's first tick and count, then the blob
-// without the checksum bytes (format byte, body).
-std::uint32_t chunk_crc(std::uint64_t first_tick, std::uint64_t count, std::byte format,
-                        std::span<const std::byte> body) noexcept {
+// 8 bytes little-endian of `v` at `out`.
+void put_le64(std::byte* out, std::uint64_t v) noexcept {
+  for (int i = 0; i < 8; ++i) out[i] = static_cast<std::byte>(v >> (8 * i));
+}
+
+// The checksum of a chunk (schema 7 on): where it belongs -- its row's
+// trial, instrument, first tick and count -- then the blob without the
+// checksum bytes (format byte, body).
+std::uint32_t chunk_crc(const ChunkPlace& place, std::byte format, std::span<const std::byte> body) noexcept {
+  std::array<std::byte, 33> head{};
+  put_le64(&head[0], static_cast<std::uint64_t>(place.trial_id));
+  put_le64(&head[8], static_cast<std::uint64_t>(place.instrument));
+  put_le64(&head[16], place.first_tick);
+  put_le64(&head[24], place.count);
+  head[32] = format;
+  return crc32c(crc32c(0, head), body);
+}
+
+// Schemas 4..6: the row's first tick and count only.
+std::uint32_t schema6_crc(std::uint64_t first_tick, std::uint64_t count, std::byte format,
+                          std::span<const std::byte> body) noexcept {
   std::array<std::byte, 17> head{};
-  for (int i = 0; i < 8; ++i) {
-    head[static_cast<std::size_t>(i)] = static_cast<std::byte>(first_tick >> (8 * i));
-    head[static_cast<std::size_t>(8 + i)] = static_cast<std::byte>(count >> (8 * i));
-  }
+  put_le64(&head[0], first_tick);
+  put_le64(&head[8], count);
   head[16] = format;
   return crc32c(crc32c(0, head), body);
 }
@@ -67,66 +82,6 @@ constexpr std::size_t kFirstFloat = 2, kEndFloat = 25;
 constexpr std::size_t kEngineStatus = 25, kDeviceStatus = 26, kInContact = 27;
 
 static_assert(std::endian::native == std::endian::little, "the chunk format is little-endian; memcpy assumes it");
-
-class Reader {
- public:
-  explicit Reader(std::span<const std::byte> blob) : blob_(blob) {}
-  // The next `Bytes` bytes, little-endian (asserted above for the memcpy).
-  template <int Bytes>
-  std::uint64_t get() {
-    if (pos_ + Bytes > blob_.size()) throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
-    std::uint64_t v = 0;
-    std::memcpy(&v, blob_.data() + pos_, Bytes);
-    pos_ += Bytes;
-    return v;
-  }
-  bool at_end() const noexcept { return pos_ == blob_.size(); }
-
- private:
-  std::span<const std::byte> blob_;
-  std::size_t pos_ = 0;
-};
-
-// Reads the values of one channel whose tag was just read, calling
-// `set(i, bits)` for every sample.
-template <int Bytes, typename Set>
-void get_values(Reader& r, std::uint8_t tag, std::size_t n, std::size_t channel, Set set) {
-  if (tag == kConstant) {
-    const std::uint64_t v = r.get<Bytes>();
-    for (std::size_t i = 0; i < n; ++i) set(i, v);
-  } else if (tag == kPerUpdate) {
-    for (std::size_t i = 0; i < n; ++i) set(i, r.get<Bytes>());
-  } else {
-    throw ChunkError(ChunkError::Kind::kStructure,
-                     std::string("channel ") + kChannelNames[channel] + " has unknown tag " + std::to_string(tag));
-  }
-}
-
-template <int Bytes, typename Set>
-void get_channel(Reader& r, std::size_t n, std::size_t channel, Set set) {
-  get_values<Bytes>(r, static_cast<std::uint8_t>(r.get<1>()), n, channel, set);
-}
-
-void decode_into(Reader& r, std::size_t count, StoredSample* s) {
-  get_channel<8>(r, count, 0, [&](std::size_t i, std::uint64_t v) { s[i].dt_s = std::bit_cast<double>(v); });
-  const auto t_tag = static_cast<std::uint8_t>(r.get<1>());
-  if (t_tag == kRunningSum) {
-    s[0].t_s = std::bit_cast<double>(r.get<8>());
-    for (std::size_t i = 1; i < count; ++i) s[i].t_s = s[i - 1].t_s + s[i].dt_s;
-  } else {
-    get_values<8>(r, t_tag, count, 1, [&](std::size_t i, std::uint64_t v) { s[i].t_s = std::bit_cast<double>(v); });
-  }
-  for (std::size_t c = kFirstFloat; c < kEndFloat; ++c)
-    get_channel<4>(r, count, c, [&](std::size_t i, std::uint64_t v) {
-      *float_channel(s[i].value, c) = double{std::bit_cast<float>(static_cast<std::uint32_t>(v))};
-    });
-  get_channel<4>(r, count, kEngineStatus,
-                 [&](std::size_t i, std::uint64_t v) { s[i].value.engine_status = static_cast<std::uint32_t>(v); });
-  get_channel<4>(r, count, kDeviceStatus, [&](std::size_t i, std::uint64_t v) {
-    s[i].device_status = std::bit_cast<std::int32_t>(static_cast<std::uint32_t>(v));
-  });
-  get_channel<1>(r, count, kInContact, [&](std::size_t i, std::uint64_t v) { s[i].value.in_contact = v != 0; });
-}
 
 }  // namespace
 
@@ -219,11 +174,13 @@ struct Segment {
   std::size_t width = 0;        // bytes per value
 };
 
-std::array<Segment, kChunkChannels> segments(std::span<std::byte> body, std::size_t n) {
+// The channels of a format-1 body of `n` updates; `end` (if given) gets the
+// offset just past the last one.
+std::array<Segment, kChunkChannels> segments(std::span<std::byte> body, std::size_t n, std::size_t* end = nullptr) {
   std::array<Segment, kChunkChannels> out;
   std::size_t pos = 0;
   const auto need = [&](std::size_t bytes) {
-    if (pos + bytes > body.size()) throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
+    if (bytes > body.size() - pos) throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
   };
   for (std::size_t c = 0; c < kChunkChannels; ++c) {
     need(1);
@@ -238,6 +195,7 @@ std::array<Segment, kChunkChannels> segments(std::span<std::byte> body, std::siz
     g.values = body.data() + pos;
     pos += bytes;
   }
+  if (end != nullptr) *end = pos;
   return out;
 }
 
@@ -419,8 +377,7 @@ struct ZstdContexts {
   }
 };
 thread_local ZstdContexts tls_zstd;
-thread_local std::vector<std::byte> tls_plain;    // a decompressed body
-thread_local std::vector<std::byte> tls_shuffle;  // precondition's scratch
+thread_local std::vector<std::byte> tls_shuffle;  // the encoder's precondition scratch
 
 // zstd level 1: the fastest standard level; higher levels gained under 1 %
 // in size on the demo study's chunks (BENCHMARKS.md, issue 20 goal 2).
@@ -431,9 +388,135 @@ constexpr int kZstdLevel = 1;
 constexpr std::size_t kBytesPerUpdate = 8 + 8 + 4 * (kEndFloat - kFirstFloat) + 4 + 4 + 1;
 constexpr std::size_t max_body_bytes(std::size_t n) noexcept { return kChunkChannels + n * kBytesPerUpdate; }
 
+ChunkError structure(const std::string& what) { return ChunkError(ChunkError::Kind::kStructure, what); }
+
+// A plain body (preconditioned) as one zstd frame -- level 1, its content
+// size and content checksum in it -- behind room for the 5-byte header.
+std::vector<std::byte> compress_body(std::span<const std::byte> plain) {
+  if (tls_zstd.c == nullptr) {
+    if ((tls_zstd.c = ZSTD_createCCtx()) == nullptr) throw std::bad_alloc();
+    for (const auto& [parameter, value] :
+         {std::pair{ZSTD_c_compressionLevel, kZstdLevel}, std::pair{ZSTD_c_checksumFlag, 1},
+          std::pair{ZSTD_c_contentSizeFlag, 1}}) {
+      const std::size_t rc = ZSTD_CCtx_setParameter(tls_zstd.c, parameter, value);
+      if (ZSTD_isError(rc))
+        throw std::runtime_error(std::string("zstd refused a compression parameter: ") + ZSTD_getErrorName(rc));
+    }
+  }
+  std::vector<std::byte> packed(kChunkHeaderBytes + ZSTD_compressBound(plain.size()));
+  const std::size_t size = ZSTD_compress2(tls_zstd.c, packed.data() + kChunkHeaderBytes,
+                                          packed.size() - kChunkHeaderBytes, plain.data(), plain.size());
+  if (ZSTD_isError(size))
+    throw std::runtime_error(std::string("zstd could not compress a sample chunk: ") + ZSTD_getErrorName(size));
+  packed.resize(kChunkHeaderBytes + size);
+  return packed;
+}
+
+// A chunk's zstd frame, checked before anything is allocated for it: one
+// frame (RFC 8878 section 3.1.1: magic number, then the frame header
+// descriptor) that states its content size, at most `most` bytes (what the
+// row's count of updates can take), with the content checksum flag when
+// `need_checksum`, and nothing after it. Returns the content size.
+std::size_t check_frame(std::span<const std::byte> frame, std::size_t most, bool need_checksum) {
+  constexpr std::array<std::uint8_t, 4> kMagic{0x28, 0xB5, 0x2F, 0xFD};  // 0xFD2FB528 little-endian
+  bool magic = frame.size() > kMagic.size();
+  for (std::size_t i = 0; magic && i < kMagic.size(); ++i) magic = std::to_integer<std::uint8_t>(frame[i]) == kMagic[i];
+  if (!magic) throw structure("the zstd frame does not decompress (it does not start with a zstd frame's magic number)");
+  const unsigned long long size = ZSTD_getFrameContentSize(frame.data(), frame.size());
+  if (size == ZSTD_CONTENTSIZE_ERROR) throw structure("the zstd frame does not decompress (no valid frame header)");
+  if (size == ZSTD_CONTENTSIZE_UNKNOWN) throw structure("the zstd frame does not state its content size");
+  if (size > most)
+    throw structure("the zstd frame's header states " + std::to_string(size) + " bytes, more than the " +
+                    std::to_string(most) + " that the row's count of updates can take");
+  // Frame_Header_Descriptor bit 2: Content_Checksum_flag.
+  if (need_checksum && (std::to_integer<std::uint8_t>(frame[4]) & 0x04) == 0)
+    throw structure("the zstd frame carries no content checksum (format 3 frames must)");
+  const std::size_t compressed = ZSTD_findFrameCompressedSize(frame.data(), frame.size());
+  if (ZSTD_isError(compressed))
+    throw structure(std::string("the zstd frame does not decompress: ") + ZSTD_getErrorName(compressed));
+  if (compressed != frame.size())
+    throw structure(std::to_string(frame.size() - compressed) +
+                    " bytes follow the zstd frame (a chunk holds exactly one frame)");
+  return static_cast<std::size_t>(size);
+}
+
+// The checked frame decompressed into `out` (its content checksum, when it
+// has one, verified by zstd).
+void decompress(std::span<const std::byte> frame, std::size_t size, std::vector<std::byte>& out) {
+  if (tls_zstd.d == nullptr && (tls_zstd.d = ZSTD_createDCtx()) == nullptr) throw std::bad_alloc();
+  out.resize(size);
+  const std::size_t got = ZSTD_decompressDCtx(tls_zstd.d, out.data(), out.size(), frame.data(), frame.size());
+  if (ZSTD_isError(got) || got != size)
+    throw structure(std::string("the zstd frame does not decompress: ") +
+                    (ZSTD_isError(got) ? ZSTD_getErrorName(got) : "shorter than its header says"));
+}
+
+void check_count(std::uint64_t count) {
+  if (count == 0 || count > kMaxChunkUpdates)
+    throw structure("count is " + std::to_string(count) + ", must be 1.." + std::to_string(kMaxChunkUpdates));
+}
+
+void check_header_size(std::span<const std::byte> blob) {
+  if (blob.size() < kChunkHeaderBytes)
+    throw structure(std::to_string(blob.size()) + "-byte blob, shorter than the " +
+                    std::to_string(kChunkHeaderBytes) + "-byte header");
+}
+
+[[noreturn]] void checksum_mismatch(std::uint32_t want, std::uint32_t got, const char* scheme = "") {
+  throw ChunkError(ChunkError::Kind::kChecksum, std::string("checksum mismatch (stored CRC-32C ") + scheme +
+                                                    hex32(want) + ", the data gives " + hex32(got) +
+                                                    "): the chunk is damaged");
+}
+
+// A format-1 body of `n` updates that holds exactly its channels. Returns
+// the channels' layout; throws ChunkError (kStructure) otherwise.
+std::array<Segment, kChunkChannels> exact_segments(std::span<std::byte> body, std::size_t n) {
+  std::size_t end = 0;
+  const std::array<Segment, kChunkChannels> seg = segments(body, n, &end);
+  if (end != body.size())
+    throw structure(std::to_string(body.size()) + " bytes, more than " + std::to_string(n) + " samples use");
+  return seg;
+}
+
+// Format 0's body: the old blob whole, its own format byte (1) first.
+std::span<const std::byte> legacy_body(std::span<const std::byte> payload) {
+  const int legacy = payload.empty() ? -1 : std::to_integer<int>(payload[0]);
+  if (legacy != 1) throw structure("migrated chunk starts with format " + std::to_string(legacy) + ", expected 1");
+  return payload.subspan(1);
+}
+
+template <typename U>
+U le(const std::byte* p) noexcept {
+  return load<U>(p);
+}
+
+// One channel's values for updates begin .. begin + n - 1: a constant
+// (`tag` 1) fills the window, a per-update channel is read at its place.
+template <typename U, typename Set>
+void fill(std::uint8_t tag, const std::byte* values, std::size_t begin, std::size_t n, Set set) {
+  if (tag == kConstant) {
+    const U v = le<U>(values);
+    for (std::size_t i = 0; i < n; ++i) set(i, v);
+  } else {
+    const std::byte* p = values + begin * sizeof(U);
+    for (std::size_t i = 0; i < n; ++i) set(i, le<U>(p + i * sizeof(U)));
+  }
+}
+
 }  // namespace
 
-std::vector<std::byte> encode_chunk(std::span<const StoredSample> s, std::uint8_t format) {
+const char* to_string(ChunkError::Kind kind) noexcept {
+  switch (kind) {
+    case ChunkError::Kind::kChecksum: return "checksum";
+    case ChunkError::Kind::kUnknownFormat: return "format";
+    case ChunkError::Kind::kStructure: return "structure";
+    case ChunkError::Kind::kPlacement: return "placement";
+  }
+  return "structure";
+}
+
+std::vector<std::byte> encode_chunk(std::int64_t trial_id, int instrument, std::span<const StoredSample> s,
+                                    std::uint8_t format) {
   if (format != kChunkFormat && format != kChunkFormatPlain)
     throw std::invalid_argument("encode_chunk(): format " + std::to_string(format) + ", must be " +
                                 std::to_string(kChunkFormatPlain) + " or " + std::to_string(kChunkFormat));
@@ -484,36 +567,104 @@ std::vector<std::byte> encode_chunk(std::span<const StoredSample> s, std::uint8_
     // same 5-byte header.
     const std::span<std::byte> body = std::span(blob).subspan(kChunkHeaderBytes);
     precondition(body, n, true, tls_shuffle);
-    if (tls_zstd.c == nullptr && (tls_zstd.c = ZSTD_createCCtx()) == nullptr) throw std::bad_alloc();
-    std::vector<std::byte> packed(kChunkHeaderBytes + ZSTD_compressBound(body.size()));
-    const std::size_t size = ZSTD_compressCCtx(tls_zstd.c, packed.data() + kChunkHeaderBytes,
-                                               packed.size() - kChunkHeaderBytes, body.data(), body.size(), kZstdLevel);
-    if (ZSTD_isError(size))
-      throw std::runtime_error(std::string("zstd could not compress a sample chunk: ") + ZSTD_getErrorName(size));
-    packed.resize(kChunkHeaderBytes + size);
+    std::vector<std::byte> packed = compress_body(body);
     packed[0] = std::byte{kChunkFormat};
     blob = std::move(packed);
   }
-  put_crc(blob, chunk_crc(s[0].tick, n, blob[0], std::span(blob).subspan(kChunkHeaderBytes)));
+  const ChunkPlace place{trial_id, instrument, s[0].tick, n};
+  put_crc(blob, chunk_crc(place, blob[0], std::span(blob).subspan(kChunkHeaderBytes)));
   return blob;
 }
 
-std::uint8_t verify_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob) {
-  if (blob.size() < kChunkHeaderBytes)
-    throw ChunkError(ChunkError::Kind::kStructure, std::to_string(blob.size()) + "-byte blob, shorter than the " +
-                                                       std::to_string(kChunkHeaderBytes) + "-byte header");
+std::uint8_t verify_chunk(const ChunkPlace& place, std::span<const std::byte> blob) {
+  check_header_size(blob);
   const std::uint32_t want = stored_crc(blob);
-  const std::uint32_t got = chunk_crc(first_tick, count, blob[0], blob.subspan(kChunkHeaderBytes));
-  if (got != want)
-    throw ChunkError(ChunkError::Kind::kChecksum, "checksum mismatch (stored CRC-32C " + hex32(want) +
-                                                      ", the data gives " + hex32(got) + "): the chunk is damaged");
+  const std::uint32_t got = chunk_crc(place, blob[0], blob.subspan(kChunkHeaderBytes));
+  if (got != want) checksum_mismatch(want, got);
   const auto format = std::to_integer<std::uint8_t>(blob[0]);
+  if (format == kChunkFormatSchema6)
+    throw structure("chunk format 2 (a zstd frame without its content checksum) belongs to schemas 4..6, and the "
+                    "migration to schema 7 converts every such chunk to format 3; this one was not converted");
   if (format != kChunkFormat && format != kChunkFormatPlain && format != kChunkFormatMigrated)
     throw ChunkError(ChunkError::Kind::kUnknownFormat,
                      "chunk format " + std::to_string(format) + " is not one this HapticLab reads (" +
                          std::to_string(kChunkFormatMigrated) + ", " + std::to_string(kChunkFormatPlain) + ", " +
                          std::to_string(kChunkFormat) + "); it was written by a newer HapticLab");
+  check_count(place.count);
   return format;
+}
+
+void ChunkDecoder::unpack(const ChunkPlace& place, std::span<const std::byte> blob, bool readable) {
+  count_ = 0;
+  const std::uint8_t format = verify_chunk(place, blob);
+  const std::span<const std::byte> payload = blob.subspan(kChunkHeaderBytes);
+  const auto n = static_cast<std::size_t>(place.count);
+  if (format == kChunkFormat) {
+    decompress(payload, check_frame(payload, max_body_bytes(n), true), body_);
+  } else {
+    const std::span<const std::byte> body = format == kChunkFormatMigrated ? legacy_body(payload) : payload;
+    body_.assign(body.begin(), body.end());
+  }
+  const std::array<Segment, kChunkChannels> seg = exact_segments(body_, n);
+  if (!readable) return;
+  if (format == kChunkFormat) precondition(body_, n, false, scratch_);
+  for (std::size_t c = 0; c < kChunkChannels; ++c)
+    channels_[c] = {seg[c].tag, static_cast<std::size_t>(seg[c].values - body_.data())};
+  first_tick_ = place.first_tick;
+  format_ = format;
+  t_next_ = 0;
+  count_ = n;
+}
+
+void ChunkDecoder::load(const ChunkPlace& place, std::span<const std::byte> blob) { unpack(place, blob, true); }
+
+void ChunkDecoder::check(const ChunkPlace& place, std::span<const std::byte> blob) { unpack(place, blob, false); }
+
+void ChunkDecoder::read(std::size_t begin, std::size_t end, StoredSample* s) noexcept {
+  const std::size_t n = end - begin;
+  const std::byte* body = body_.data();
+  const auto at = [&](std::size_t c) { return body + channels_[c].offset; };
+  const auto tag = [&](std::size_t c) { return channels_[c].tag; };
+  for (std::size_t i = 0; i < n; ++i) s[i].tick = first_tick_ + begin + i;
+  fill<std::uint64_t>(tag(0), at(0), begin, n, [&](std::size_t i, std::uint64_t v) { s[i].dt_s = std::bit_cast<double>(v); });
+  if (tag(1) == kRunningSum) {
+    // t[i] = t[i-1] + dt[i] from t[0]: carried over from the previous
+    // window when this one follows it, else summed again from the start.
+    const auto dt = [&](std::size_t k) {
+      return std::bit_cast<double>(le<std::uint64_t>(at(0) + (tag(0) == kConstant ? 0 : k * 8)));
+    };
+    if (t_next_ == 0 || begin < t_next_) {
+      t_prev_ = std::bit_cast<double>(le<std::uint64_t>(at(1)));
+      t_next_ = 1;
+    }
+    for (; t_next_ < begin; ++t_next_) t_prev_ += dt(t_next_);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t k = begin + i;
+      if (k > 0) t_prev_ += s[i].dt_s;
+      s[i].t_s = t_prev_;
+      t_next_ = k + 1;
+    }
+  } else {
+    fill<std::uint64_t>(tag(1), at(1), begin, n, [&](std::size_t i, std::uint64_t v) { s[i].t_s = std::bit_cast<double>(v); });
+  }
+  for (std::size_t c = kFirstFloat; c < kEndFloat; ++c)
+    fill<std::uint32_t>(tag(c), at(c), begin, n, [&](std::size_t i, std::uint32_t v) {
+      *float_channel(s[i].value, c) = double{std::bit_cast<float>(v)};
+    });
+  fill<std::uint32_t>(tag(kEngineStatus), at(kEngineStatus), begin, n,
+                      [&](std::size_t i, std::uint32_t v) { s[i].value.engine_status = v; });
+  fill<std::uint32_t>(tag(kDeviceStatus), at(kDeviceStatus), begin, n,
+                      [&](std::size_t i, std::uint32_t v) { s[i].device_status = std::bit_cast<std::int32_t>(v); });
+  fill<std::uint8_t>(tag(kInContact), at(kInContact), begin, n,
+                     [&](std::size_t i, std::uint8_t v) { s[i].value.in_contact = v != 0; });
+}
+
+void decode_chunk(const ChunkPlace& place, std::span<const std::byte> blob, std::vector<StoredSample>& out) {
+  thread_local ChunkDecoder decoder;
+  decoder.load(place, blob);
+  const std::size_t base = out.size();
+  out.resize(base + decoder.size());
+  decoder.read(0, decoder.size(), out.data() + base);
 }
 
 std::vector<std::byte> checksum_legacy_chunk(std::uint64_t first_tick, std::size_t count,
@@ -521,60 +672,42 @@ std::vector<std::byte> checksum_legacy_chunk(std::uint64_t first_tick, std::size
   std::vector<std::byte> blob(kChunkHeaderBytes + legacy_blob.size());
   blob[0] = std::byte{kChunkFormatMigrated};
   std::copy(legacy_blob.begin(), legacy_blob.end(), blob.begin() + kChunkHeaderBytes);
-  put_crc(blob, chunk_crc(first_tick, count, blob[0], legacy_blob));
+  put_crc(blob, schema6_crc(first_tick, count, blob[0], legacy_blob));
   return blob;
 }
 
-void decode_chunk(std::uint64_t first_tick, std::size_t count, std::span<const std::byte> blob,
-                  std::vector<StoredSample>& out) {
-  const std::uint8_t format = verify_chunk(first_tick, count, blob);
-  if (count == 0 || count > kMaxChunkUpdates)
-    throw ChunkError(ChunkError::Kind::kStructure,
-                     "count is " + std::to_string(count) + ", must be 1.." + std::to_string(kMaxChunkUpdates));
-  std::span<const std::byte> body = blob.subspan(kChunkHeaderBytes);
-  if (format == kChunkFormat) {
-    // A frame that does not decompress, or not to a body of this count,
-    // passed its checksum: it was written wrong, not damaged later. Either
-    // way the chunk is unusable and reported like damage.
-    const unsigned long long plain = ZSTD_getFrameContentSize(body.data(), body.size());
-    if (plain == ZSTD_CONTENTSIZE_ERROR || plain == ZSTD_CONTENTSIZE_UNKNOWN || plain > max_body_bytes(count))
-      throw ChunkError(ChunkError::Kind::kStructure,
-                       "the zstd frame does not decompress (no valid frame header for " + std::to_string(count) +
-                           " updates)");
-    if (tls_zstd.d == nullptr && (tls_zstd.d = ZSTD_createDCtx()) == nullptr) throw std::bad_alloc();
-    tls_plain.resize(static_cast<std::size_t>(plain));
-    const std::size_t got = ZSTD_decompressDCtx(tls_zstd.d, tls_plain.data(), tls_plain.size(), body.data(), body.size());
-    if (ZSTD_isError(got) || got != plain)
-      throw ChunkError(ChunkError::Kind::kStructure,
-                       std::string("the zstd frame does not decompress: ") +
-                           (ZSTD_isError(got) ? ZSTD_getErrorName(got) : "shorter than its header says"));
-    precondition(tls_plain, count, false, tls_shuffle);
-    body = tls_plain;
+std::vector<std::byte> upgrade_schema6_chunk(const ChunkPlace& place, std::span<const std::byte> blob) {
+  check_header_size(blob);
+  const std::span<const std::byte> payload = blob.subspan(kChunkHeaderBytes);
+  const std::uint32_t want = stored_crc(blob);
+  const std::uint32_t got = schema6_crc(place.first_tick, place.count, blob[0], payload);
+  if (got != want) checksum_mismatch(want, got, "of schema 6 ");
+  const auto format = std::to_integer<std::uint8_t>(blob[0]);
+  if (format != kChunkFormatSchema6 && format != kChunkFormatPlain && format != kChunkFormatMigrated)
+    throw ChunkError(ChunkError::Kind::kUnknownFormat,
+                     "chunk format " + std::to_string(format) + " is not one schema 6 had (0, 1, 2)");
+  check_count(place.count);
+  const auto n = static_cast<std::size_t>(place.count);
+  // Decoded in full, as schema 6 read it, before it gets a checksum that
+  // vouches for it: format 2's frame decompresses to a body of exactly n
+  // updates (still preconditioned: format 3 holds the same body).
+  std::vector<std::byte> plain;
+  if (format == kChunkFormatSchema6) {
+    decompress(payload, check_frame(payload, max_body_bytes(n), false), plain);
+  } else {
+    const std::span<const std::byte> body = format == kChunkFormatMigrated ? legacy_body(payload) : payload;
+    plain.assign(body.begin(), body.end());
   }
-  Reader r(body);
-  // Format 0 holds the old blob whole, its own format byte (1) first.
-  if (format == kChunkFormatMigrated) {
-    const auto legacy = r.get<1>();
-    if (legacy != 1)
-      throw ChunkError(ChunkError::Kind::kStructure,
-                       "migrated chunk starts with format " + std::to_string(legacy) + ", expected 1");
+  exact_segments(plain, n);
+  std::vector<std::byte> out;
+  if (format == kChunkFormatSchema6) {
+    out = compress_body(plain);
+    out[0] = std::byte{kChunkFormat};
+  } else {
+    out.assign(blob.begin(), blob.end());
   }
-  const std::size_t base = out.size();
-  out.resize(base + count);
-  StoredSample* s = out.data() + base;
-  for (std::size_t i = 0; i < count; ++i) s[i].tick = first_tick + i;
-
-  try {
-    decode_into(r, count, s);
-  } catch (...) {
-    out.resize(base);
-    throw;
-  }
-  if (!r.at_end()) {
-    out.resize(base);
-    throw ChunkError(ChunkError::Kind::kStructure, std::to_string(body.size()) + " bytes, more than " +
-                                                       std::to_string(count) + " samples use");
-  }
+  put_crc(out, chunk_crc(place, out[0], std::span(out).subspan(kChunkHeaderBytes)));
+  return out;
 }
 
 }  // namespace hapticlab::db

@@ -184,7 +184,7 @@ void SampleWriter::write_chunk(OpenChunk& c) {
     c.row_id = db_->insert_chunk(trial_id_, c.instrument, c.samples);
     uncommitted_rows_.push_back(&c);
   } else {
-    db_->update_chunk(c.row_id, c.samples);
+    db_->update_chunk(c.row_id, trial_id_, c.instrument, c.samples);
   }
 }
 

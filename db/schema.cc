@@ -205,12 +205,51 @@ CREATE TABLE operator_action (
 CREATE INDEX operator_action_by_session ON operator_action (session_id, id);
 )sql";
 
-// Version 7: a practice trial that ended before its task was complete (a
+// Version 7: a chunk's checksum covers where it belongs -- trial,
+// instrument, first tick, count -- and format 3's zstd frame carries its
+// content checksum (sample_codec.h). Every chunk is rewritten: its schema-6
+// checksum verified and the chunk decoded in full, then format 2 becomes
+// format 3 (the same body, recompressed with the frame checksum; formats 0
+// and 1 keep their bytes) and the new checksum is computed over its row.
+// A chunk that fails then is left exactly as it was: under the new scheme
+// it stays damaged (its old checksum does not match), so the damage found
+// now is not certified. No table changes. db/README.md ("Why the migration
+// rewrites the chunks") argues for rewriting over reading both kinds.
+constexpr const char* kV7 = "";
+
+void checksum_chunk_places(Database& db) {
+  // Row by row, as version 4's step: one blob in memory at a time.
+  std::vector<std::int64_t> ids;
+  {
+    Statement s = db.prepare("SELECT id FROM sample_chunk ORDER BY id");
+    while (s.step()) ids.push_back(s.column_int64(0));
+  }
+  Statement read = db.prepare("SELECT trial_id, instrument, first_tick, count, data FROM sample_chunk WHERE id = ?1");
+  Statement write = db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1");
+  for (const std::int64_t id : ids) {
+    read.reset();
+    read.bind(1, id);
+    read.step();
+    const ChunkPlace place{read.column_int64(0), read.column_int64(1), static_cast<std::uint64_t>(read.column_int64(2)),
+                           static_cast<std::uint64_t>(read.column_int64(3))};
+    std::vector<std::byte> blob;
+    try {
+      blob = upgrade_schema6_chunk(place, read.column_blob(4));
+    } catch (const ChunkError&) {
+      continue;  // damaged before the migration: kept as it is, and so still damaged
+    }
+    write.reset();
+    write.bind(1, id).bind_blob(2, blob);
+    write.run();
+  }
+}
+
+// Version 8: a practice trial that ended before its task was complete (a
 // time limit, the watchdog, a device fault) is counted as what it was, not
 // as a training trial done: `trials` counts those done in full, `cut_short`
 // the others, `cut_short_reason` why the last of them ended. Rows recorded
 // before counted both in `trials` (cut_short 0: not known then).
-constexpr const char* kV7 = R"sql(
+constexpr const char* kV8 = R"sql(
 ALTER TABLE training ADD COLUMN cut_short INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE training ADD COLUMN cut_short_reason TEXT;
 )sql";
@@ -224,7 +263,10 @@ constexpr Migration kMigrations[] = {
      checksum_old_chunks},
     {5, "device_counter table: a device's own counts per trial (UDP bridge packet losses, ...)", kV5},
     {6, "operator_action table: the console operator's actions, stored when accepted", kV6},
-    {7, "training: practice trials cut short counted apart (cut_short, cut_short_reason)", kV7},
+    {7, "sample_chunk.data: the checksum covers trial and instrument, zstd frames carry their content checksum "
+        "(format 3); every chunk rewritten",
+     kV7, checksum_chunk_places},
+    {8, "training: practice trials cut short counted apart (cut_short, cut_short_reason)", kV8},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 

@@ -16,7 +16,7 @@
 
 namespace hapticlab::db {
 
-inline constexpr int kSchemaVersion = 7;
+inline constexpr int kSchemaVersion = 8;
 inline constexpr std::int32_t kApplicationId = 0x484C4142;  // "HLAB"
 
 struct Migration {
@@ -24,7 +24,7 @@ struct Migration {
   const char* description;  // one line, for messages and db/README.md
   const char* sql;          // run inside the migration transaction
   // Run after `sql`, in the same transaction, for what SQL cannot do
-  // (version 4 computes every chunk's checksum); may be null.
+  // (versions 4 and 7 rewrite every chunk's checksum); may be null.
   void (*convert)(Database& db) = nullptr;
 };
 

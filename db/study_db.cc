@@ -13,6 +13,7 @@
 #include "db/chunk_reader.h"
 #include "db/schema.h"
 #include "db/session_lock.h"
+#include "db/structure_check.h"
 #include "core/common/sha256.h"
 
 namespace hapticlab::db {
@@ -189,6 +190,9 @@ StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
     db_.exec("PRAGMA journal_mode = WAL");
     db_.exec("PRAGMA synchronous = NORMAL");
   }
+  // Before any query reads a table: each is a table (a view in its place
+  // could hold anything, or never end), of the expected columns when current.
+  refuse_findings(db_, check_tables(db_, check_schema_version(db_)));
   if (options.read_only) {
     version_found_ = check_schema_version(db_);
     if (version_found_ != kSchemaVersion)
@@ -196,8 +200,17 @@ StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
                     std::to_string(kSchemaVersion) + "; open it once read-write to migrate it");
   } else {
     version_found_ = migrate(db_);
-    if (options.recover) recover();
   }
+  // With the integrity check, the rows too: every reference points at a
+  // row (a trial whose participant is gone would vanish from every join)
+  // and every value has its column's type (a TEXT 'nan' reads as 0).
+  if (options.integrity != OpenOptions::Integrity::kSkip) {
+    std::vector<Finding> findings = check_foreign_keys(db_);
+    std::vector<Finding> types = check_value_types(db_);
+    findings.insert(findings.end(), types.begin(), types.end());
+    refuse_findings(db_, findings);
+  }
+  if (!options.read_only && options.recover) recover();
 }
 
 void StudyDb::check_integrity(OpenOptions::Integrity level) {
@@ -623,7 +636,7 @@ std::optional<LoopTimingRow> StudyDb::loop_timing(std::int64_t trial_id) {
 // --- samples
 
 std::int64_t StudyDb::insert_chunk(std::int64_t trial_id, int instrument, std::span<const StoredSample> samples) {
-  const std::vector<std::byte> blob = encode_chunk(samples);
+  const std::vector<std::byte> blob = encode_chunk(trial_id, instrument, samples);
   Statement s = db_.prepare(
       "INSERT INTO sample_chunk (trial_id, instrument, first_tick, count, t0_s, data) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
   s.bind(1, trial_id).bind(2, std::int64_t{instrument}).bind(3, static_cast<std::int64_t>(samples[0].tick))
@@ -632,13 +645,16 @@ std::int64_t StudyDb::insert_chunk(std::int64_t trial_id, int instrument, std::s
   return db_.last_insert_rowid();
 }
 
-void StudyDb::update_chunk(std::int64_t chunk_id, std::span<const StoredSample> samples) {
-  const std::vector<std::byte> blob = encode_chunk(samples);
-  Statement s = db_.prepare("UPDATE sample_chunk SET count = ?2, data = ?3 WHERE id = ?1 AND first_tick = ?4");
+void StudyDb::update_chunk(std::int64_t chunk_id, std::int64_t trial_id, int instrument,
+                           std::span<const StoredSample> samples) {
+  const std::vector<std::byte> blob = encode_chunk(trial_id, instrument, samples);
+  Statement s = db_.prepare(
+      "UPDATE sample_chunk SET count = ?2, data = ?3 WHERE id = ?1 AND first_tick = ?4 AND trial_id = ?5 AND "
+      "instrument = ?6");
   s.bind(1, chunk_id).bind(2, static_cast<std::int64_t>(samples.size())).bind_blob(3, blob)
-      .bind(4, static_cast<std::int64_t>(samples[0].tick));
+      .bind(4, static_cast<std::int64_t>(samples[0].tick)).bind(5, trial_id).bind(6, std::int64_t{instrument});
   s.run();
-  if (db_.changes() == 0) missing(db_, "sample_chunk starting at that tick", chunk_id);
+  if (db_.changes() == 0) missing(db_, "sample_chunk of that trial and instrument starting at that tick", chunk_id);
 }
 
 std::vector<StoredSample> StudyDb::samples(std::int64_t trial_id, int instrument) {

@@ -228,8 +228,10 @@ class StudyDb {
   // --- samples (sample_codec.h)
   // Inserts a chunk; returns its row id. `samples` as for encode_chunk.
   std::int64_t insert_chunk(std::int64_t trial_id, int instrument, std::span<const StoredSample> samples);
-  // Replaces the content of chunk `chunk_id` (it grew); same first tick.
-  void update_chunk(std::int64_t chunk_id, std::span<const StoredSample> samples);
+  // Replaces the content of chunk `chunk_id` (it grew); same trial,
+  // instrument and first tick.
+  void update_chunk(std::int64_t chunk_id, std::int64_t trial_id, int instrument,
+                    std::span<const StoredSample> samples);
   // Every stored update of one instrument in tick order, decoded. Throws
   // DbError naming a damaged chunk (readers that go on without it use
   // chunk_reader.h).

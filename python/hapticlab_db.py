@@ -24,11 +24,19 @@ float64, the physical channels as float32 (the codec stores float32; use
 ``.astype(float)`` before arithmetic that needs float64), ``engine_status``
 uint32, ``device_status`` int32, ``in_contact`` uint8 (0/1).
 
-Every chunk's CRC-32C is checked before it is decoded; a damaged chunk
-raises ``ChunkError`` naming trial, instrument and ticks (as ``hapticlab
-export`` and ``hapticlab study check`` do), never returns wrong numbers.
+Opening checks the file's structure (the tables are tables of the
+schema's columns, every reference points at a row, every value has its
+column's type) and raises ``StructureError`` naming what is wrong. Before a
+trial's samples are decoded, its chunks' places are checked (instrument 0
+or 1, ticks from 0, none overlapping), then every chunk's CRC-32C (which
+covers its trial, instrument and ticks) and its zstd frame (content size
+against the chunk's count before anything is decompressed, content
+checksum, nothing after the frame). A damaged or misplaced chunk raises
+``ChunkError`` naming trial, instrument and ticks (as ``hapticlab export``
+and ``hapticlab study check`` do), never returns wrong numbers.
 """
 
+import contextlib
 import sqlite3
 import struct
 import urllib.parse
@@ -36,23 +44,59 @@ import urllib.parse
 import numpy as np
 
 __all__ = [
-    "CHANNELS", "ChunkError", "StudyDatabase", "open_study", "decode_chunk", "verify_chunk", "crc32c",
-    "SCHEMA_VERSION",
+    "CHANNELS", "ChunkError", "StructureError", "StudyDatabase", "open_study", "decode_chunk", "verify_chunk",
+    "crc32c", "SCHEMA_VERSION",
 ]
 
-# The schemas whose chunks this module reads: the 5-byte chunk header exists
-# from version 4 on, unchanged up to db/schema.h's kSchemaVersion (version 5
-# added the device_counter table, 6 the operator_action table).
-OLDEST_SCHEMA_VERSION = 4
-SCHEMA_VERSION = 6
+# The schema this module reads: version 8 (db/schema.h); since version 7 its chunk
+# checksums cover their trial and instrument. Older files are migrated by
+# any HapticLab command that opens them read-write (`hapticlab analyze`).
+SCHEMA_VERSION = 8
 APPLICATION_ID = 0x484C4142  # "HLAB"
 
 # Chunk formats (byte 0 of the blob).
 FORMAT_MIGRATED = 0  # written before schema 4, checksummed by the migration
 FORMAT_PLAIN = 1     # the uncompressed body
-FORMAT_CURRENT = 2   # the plain body preconditioned and zstd-compressed
+FORMAT_SCHEMA6 = 2   # a zstd frame without content checksum: schemas 4..6, converted by the migration to 7
+FORMAT_CURRENT = 3   # the plain body preconditioned, one zstd frame with its content checksum
 HEADER_BYTES = 5
 MAX_CHUNK_UPDATES = 1 << 20
+
+# The current schema's tables: (name, ((column, declared type, NOT NULL), ...)),
+# as PRAGMA table_info reports them (db/schema_shape.cc holds the same).
+TABLES = (
+    ("study", (("id", "INTEGER", False), ("name", "TEXT", True), ("protocol_json", "TEXT", True),
+               ("protocol_sha256", "TEXT", True), ("seed", "TEXT", True), ("software_version", "TEXT", True),
+               ("created_utc", "TEXT", True))),
+    ("participant", (("id", "INTEGER", False), ("study_id", "INTEGER", True), ("code", "TEXT", True))),
+    ("setting", (("id", "INTEGER", False), ("study_id", "INTEGER", True), ("name", "TEXT", True),
+                 ("parameters_json", "TEXT", True))),
+    ("session", (("id", "INTEGER", False), ("participant_id", "INTEGER", True), ("started_unix_s", "REAL", True),
+                 ("ended_unix_s", "REAL", False), ("device", "TEXT", True), ("clock", "TEXT", True),
+                 ("status", "TEXT", True))),
+    ("training", (("id", "INTEGER", False), ("session_id", "INTEGER", True), ("task", "TEXT", True),
+                  ("started_unix_s", "REAL", True), ("ended_unix_s", "REAL", False), ("duration_s", "REAL", False),
+                  ("trials", "INTEGER", True))),
+    ("trial", (("id", "INTEGER", False), ("participant_id", "INTEGER", True), ("task", "TEXT", True),
+               ("setting_id", "INTEGER", True), ("repetition", "INTEGER", True), ("block", "INTEGER", True),
+               ("position", "INTEGER", True), ("status", "TEXT", True), ("session_id", "INTEGER", False),
+               ("started_unix_s", "REAL", False), ("ended_unix_s", "REAL", False), ("abort_reason", "TEXT", False))),
+    ("sample_chunk", (("id", "INTEGER", False), ("trial_id", "INTEGER", True), ("instrument", "INTEGER", True),
+                      ("first_tick", "INTEGER", True), ("count", "INTEGER", True), ("t0_s", "REAL", True),
+                      ("data", "BLOB", True))),
+    ("event", (("id", "INTEGER", False), ("trial_id", "INTEGER", True), ("t_s", "REAL", True),
+               ("type", "TEXT", True), ("instrument", "INTEGER", True), ("item_index", "INTEGER", True),
+               ("detail", "TEXT", False))),
+    ("loop_timing", (("trial_id", "INTEGER", False), ("count", "INTEGER", False), ("p50_period_s", "REAL", False),
+                     ("p99_period_s", "REAL", False), ("max_period_s", "REAL", False),
+                     ("mean_period_s", "REAL", False), ("overruns", "INTEGER", False),
+                     ("rejected_periods", "INTEGER", False), ("dropped_samples", "INTEGER", True),
+                     ("dropped_events", "INTEGER", True))),
+    ("device_counter", (("trial_id", "INTEGER", True), ("name", "TEXT", True), ("value", "INTEGER", True))),
+    ("operator_action", (("id", "INTEGER", False), ("session_id", "INTEGER", False), ("trial_id", "INTEGER", False),
+                         ("unix_s", "REAL", True), ("t_s", "REAL", False), ("type", "TEXT", True),
+                         ("detail", "TEXT", True))),
+)
 
 # The channels in blob order, which is also the CSV column order, and how
 # each is stored (little-endian). Must match db/sample_codec.cc kChannelNames.
@@ -81,33 +125,56 @@ SAMPLE_DTYPE = np.dtype([("trial_id", "<i8"), ("instrument", "u1"), ("tick", "<u
 INSTRUMENT_NAMES = {0: "left", 1: "right"}
 
 
+class StructureError(ValueError):
+    """The file is not what the schema says: a table missing or not a table
+    (a view), a reference to no row, a value of the wrong type. ``findings``
+    lists every one found (each a message naming table, row and trial)."""
+
+    def __init__(self, path, findings):
+        self.path = path
+        self.findings = list(findings)
+        shown = "; ".join(self.findings[:5]) + ("; ..." if len(self.findings) > 5 else "")
+        super().__init__(f"{path}: the file's structure is damaged, {len(self.findings)} finding(s): {shown}")
+
+
 class ChunkError(ValueError):
     """A stored chunk that cannot be used: ``kind`` is "checksum",
-    "format" (written by a newer HapticLab) or "structure". When raised
-    by ``StudyDatabase``, ``trial_id``, ``instrument``, ``first_tick`` and
+    "format" (written by a newer HapticLab), "structure" or "placement"
+    (its row does not fit with the trial's other chunks). When raised by
+    ``StudyDatabase``, ``trial_id``, ``instrument``, ``first_tick`` and
     ``count`` name the chunk."""
 
-    def __init__(self, kind, problem, trial_id=None, instrument=None, first_tick=None, count=None):
+    def __init__(self, kind, problem, trial_id=None, instrument=None, first_tick=None, count=None, path=None):
         self.kind = kind
         self.problem = problem
         self.trial_id = trial_id
         self.instrument = instrument
         self.first_tick = first_tick
         self.count = count
+        self.path = path
         super().__init__(self._message())
 
     def _message(self):
         if self.trial_id is None:
             return self.problem
-        ticks = str(self.first_tick)
-        if self.count is not None and self.count > 1:
-            ticks += f"..{self.first_tick + self.count - 1}"
-        hand = INSTRUMENT_NAMES.get(self.instrument, "unknown")
-        return (f"damaged sample chunk: trial {self.trial_id}, {hand} instrument ({self.instrument}), "
-                f"ticks {ticks}: {self.problem}")
+        return (f"{self.path}: " if self.path else "") + \
+            f"damaged sample chunk: {chunk_name(self.trial_id, self.instrument, self.first_tick, self.count)}: " \
+            f"{self.problem}"
 
-    def located(self, trial_id, instrument, first_tick, count):
-        return ChunkError(self.kind, self.problem, trial_id, instrument, first_tick, count)
+    def located(self, trial_id, instrument, first_tick, count, path=None):
+        return ChunkError(self.kind, self.problem, trial_id, instrument, first_tick, count, path or self.path)
+
+    def in_file(self, path):
+        return ChunkError(self.kind, self.problem, self.trial_id, self.instrument, self.first_tick, self.count, path)
+
+
+def chunk_name(trial_id, instrument, first_tick, count):
+    """"trial 3, left instrument (0), ticks 1000..1999", as HapticLab names a chunk."""
+    ticks = str(first_tick)
+    if isinstance(count, int) and isinstance(first_tick, int) and count > 1:
+        ticks += f"..{first_tick + count - 1}"
+    hand = INSTRUMENT_NAMES.get(instrument, "unknown")
+    return f"trial {trial_id}, {hand} instrument ({instrument}), ticks {ticks}"
 
 
 # --- CRC-32C (Castagnoli, reflected polynomial 0x82F63B78) ------------------
@@ -211,76 +278,192 @@ def crc32c(data, crc=0):
 
 # --- chunks -----------------------------------------------------------------
 
-def _checked_message(first_tick, count, blob):
-    """The bytes the chunk's checksum covers: first_tick and count as 8-byte
-    little-endian integers (the row's columns), the format byte, the body."""
-    return struct.pack("<QQ", first_tick & 0xFFFFFFFFFFFFFFFF, count & 0xFFFFFFFFFFFFFFFF) + bytes(blob[:1]) + \
-        bytes(blob[HEADER_BYTES:])
+_U64 = 0xFFFFFFFFFFFFFFFF
 
 
-def _check_header(blob, computed):
+def _checked_message(trial_id, instrument, first_tick, count, blob):
+    """The bytes the chunk's checksum covers: where it belongs -- the row's
+    trial_id, instrument, first_tick and count as 8-byte little-endian
+    integers -- then the format byte and the body."""
+    return struct.pack("<QQQQ", trial_id & _U64, instrument & _U64, first_tick & _U64, count & _U64) + \
+        bytes(blob[:1]) + bytes(blob[HEADER_BYTES:])
+
+
+def _check_header(blob, computed, count):
     stored = struct.unpack_from("<I", blob, 1)[0]
     if stored != computed:
         raise ChunkError("checksum", f"checksum mismatch (stored CRC-32C 0x{stored:08x}, the data gives "
                                      f"0x{computed:08x}): the chunk is damaged")
     fmt = blob[0]
+    if fmt == FORMAT_SCHEMA6:
+        raise ChunkError("structure", "chunk format 2 (a zstd frame without its content checksum) belongs to "
+                                      "schemas 4..6, and the migration to schema 7 converts every such chunk to "
+                                      "format 3; this one was not converted")
     if fmt not in (FORMAT_MIGRATED, FORMAT_PLAIN, FORMAT_CURRENT):
         raise ChunkError("format", f"chunk format {fmt} is not one this reader reads "
                                    f"({FORMAT_MIGRATED}, {FORMAT_PLAIN}, {FORMAT_CURRENT}); it was written by a "
                                    f"newer HapticLab")
+    if not isinstance(count, int) or not 1 <= count <= MAX_CHUNK_UPDATES:
+        raise ChunkError("structure", f"count is {count}, must be 1..{MAX_CHUNK_UPDATES}")
     return fmt
 
 
-def verify_chunk(first_tick, count, blob):
+def _blob_bytes(blob):
+    """A chunk's data as bytes; a NULL or TEXT value is a damaged chunk, named."""
+    if isinstance(blob, (bytes, bytearray, memoryview)):
+        return bytes(blob)
+    kind = "NULL" if blob is None else type(blob).__name__
+    raise ChunkError("structure", f"its data is {kind}, not a BLOB")
+
+
+def verify_chunk(trial_id, instrument, first_tick, count, blob):
     """Checks a chunk's header and CRC-32C without decoding; returns its
-    format. Raises ChunkError (a checksum mismatch before an unknown
-    format: a damaged format byte is damage)."""
+    format. The checksum covers where the chunk belongs: `trial_id`,
+    `instrument`, `first_tick` and `count` are its row's columns. Raises
+    ChunkError (a checksum mismatch before an unknown format: a damaged
+    format byte is damage)."""
+    blob = _blob_bytes(blob)
     if len(blob) < HEADER_BYTES:
         raise ChunkError("structure", f"{len(blob)}-byte blob, shorter than the {HEADER_BYTES}-byte header")
-    return _check_header(blob, crc32c(_checked_message(first_tick, count, blob)))
+    return _check_header(blob, crc32c(_checked_message(trial_id, instrument, first_tick, count, blob)), count)
 
 
 _zstd = None
+_BATCH_BYTES = 8 << 20  # compressed chunk bytes read and CRC'd together
+_ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"  # 0xFD2FB528, little-endian
+# At most every channel per update behind its tag (db/sample_codec.cc).
+_BYTES_PER_UPDATE = sum(np.dtype(code).itemsize for _, code in CHANNELS)
 
 
-def _decompress(frame, count):
-    """Format 2's zstd frame -> the preconditioned body (bytes)."""
+def _zstandard():
     global _zstd
     if _zstd is None:
         try:
             import zstandard
         except ImportError:
-            raise ImportError("chunk format 2 (zstd) needs the zstandard module: apt install python3-zstandard "
+            raise ImportError("chunk format 3 (zstd) needs the zstandard module: apt install python3-zstandard "
                               "(or pip install zstandard)") from None
-        _zstd = zstandard.ZstdDecompressor()
-    # At most every channel per update behind its tag (db/sample_codec.cc).
-    limit = len(CHANNELS) + count * sum(np.dtype(code).itemsize for _, code in CHANNELS)
+        _zstd = zstandard
+    return _zstd
+
+
+def _frame_end(frame, header_size, has_checksum):
+    """Where the zstd frame that starts `frame` ends (RFC 8878 section
+    3.1.1): its header, then blocks of 3-byte headers (bit 0: last block;
+    bits 1-2: type raw, RLE, compressed or reserved; bits 3-23: size),
+    then the 4-byte content checksum when the header says so. What
+    ZSTD_findFrameCompressedSize gives in C; python-zstandard has none, and
+    its decompress() ignores whatever follows the first frame."""
+    pos = header_size
+    while True:
+        if pos + 3 > len(frame):
+            raise ChunkError("structure", "the zstd frame does not decompress: it ends inside a block header")
+        header = int.from_bytes(frame[pos:pos + 3], "little")
+        pos += 3
+        kind = (header >> 1) & 3
+        size = header >> 3
+        if kind == 3:
+            raise ChunkError("structure", "the zstd frame does not decompress: a block of the reserved type")
+        pos += 1 if kind == 1 else size
+        if header & 1:
+            break
+    if has_checksum:
+        pos += 4
+    if pos > len(frame):
+        raise ChunkError("structure", "the zstd frame does not decompress: it is cut short")
+    return pos
+
+
+def _decompress(frame, count):
+    """Format 3's zstd frame -> the preconditioned body (bytes), checked as
+    HapticLab checks it before anything is allocated: one frame with its
+    content size stated, no more than `count` updates can take, its content
+    checksum flag set, and nothing after it. zstd then verifies the content
+    checksum and never writes more than the stated size."""
+    zstandard = _zstandard()
+    limit = len(CHANNELS) + count * _BYTES_PER_UPDATE
+    if len(frame) <= 4 or frame[:4] != _ZSTD_MAGIC:
+        raise ChunkError("structure", "the zstd frame does not decompress (it does not start with a zstd frame's "
+                                      "magic number)")
     try:
-        return _zstd.decompress(frame, max_output_size=limit)
-    except Exception as e:  # zstandard.ZstdError
+        params = zstandard.get_frame_parameters(frame)
+        header_size = zstandard.frame_header_size(frame)
+    except zstandard.ZstdError as e:
+        raise ChunkError("structure", f"the zstd frame does not decompress (no valid frame header: {e})") from None
+    if params.content_size == zstandard.CONTENTSIZE_UNKNOWN:
+        raise ChunkError("structure", "the zstd frame does not state its content size")
+    if params.content_size > limit:
+        raise ChunkError("structure", f"the zstd frame's header states {params.content_size} bytes, more than the "
+                                      f"{limit} that the row's count of updates can take")
+    if not params.has_checksum:
+        raise ChunkError("structure", "the zstd frame carries no content checksum (format 3 frames must)")
+    end = _frame_end(frame, header_size, params.has_checksum)
+    if end != len(frame):
+        raise ChunkError("structure", f"{len(frame) - end} bytes follow the zstd frame (a chunk holds exactly one "
+                                      f"frame)")
+    # Straight into a buffer of the stated size (zstd never writes past it),
+    # which the preconditioning is then undone in: one copy of the body.
+    body = bytearray(params.content_size)
+    got = 0
+    try:
+        with zstandard.ZstdDecompressor().stream_reader(frame, read_across_frames=False) as reader:
+            view = memoryview(body)
+            while got < len(body):
+                n = reader.readinto(view[got:])
+                if n == 0:
+                    break
+                got += n
+            more = reader.read(1)  # the frame's end: its content checksum verified
+    except zstandard.ZstdError as e:
         raise ChunkError("structure", f"the zstd frame does not decompress: {e}") from None
+    if got != len(body) or more:
+        raise ChunkError("structure", "the zstd frame does not decompress: not to the size its header states")
+    return body
 
 
-def _from_bit_planes(raw, count, width):
-    """Bit planes (db/sample_codec.cc shuffle()) -> values as unsigned ints:
-    the first count - count % 8 values as 8 * width planes (plane k: bit
-    k % 8 of byte k // 8 of each value, value i at bit i % 8 of byte i // 8),
-    then the last count % 8 values as they are."""
+_U64_7, _U64_14, _U64_28 = np.uint64(7), np.uint64(14), np.uint64(28)
+_MASK_7, _MASK_14, _MASK_28 = np.uint64(0x00AA00AA00AA00AA), np.uint64(0x0000CCCC0000CCCC), np.uint64(0x00000000F0F0F0F0)
+
+
+def _transpose8x8(x):
+    """Each uint64 of `x` as an 8 x 8 bit matrix (row r = byte r, column c
+    = bit c) transposed, as db/sample_codec.cc transpose8x8 does; its own
+    inverse."""
+    t = (x ^ (x >> _U64_7)) & _MASK_7
+    x = x ^ t ^ (t << _U64_7)
+    t = (x ^ (x >> _U64_14)) & _MASK_14
+    x = x ^ t ^ (t << _U64_14)
+    t = (x ^ (x >> _U64_28)) & _MASK_28
+    return x ^ t ^ (t << _U64_28)
+
+
+def _from_bit_planes(raw, count, width, out):
+    """Bit planes (db/sample_codec.cc bit_planes()) -> values as unsigned
+    ints, written to `out` (a little-endian uint array of `count`): the first
+    count - count % 8 values as 8 * width planes (plane k: bit k % 8 of byte
+    k // 8 of each value, value i at bit i % 8 of byte i // 8), then the last
+    count % 8 values as they are. For byte b of the values, the eight planes
+    8b .. 8b + 7 hold, per group of 8 values, an 8 x 8 bit matrix whose
+    transpose is those values' byte b: one uint64 per group."""
     whole = count - count % 8
-    planes = np.frombuffer(raw, dtype=np.uint8, count=whole * width).reshape(8 * width, whole // 8)
-    bits = np.unpackbits(planes, axis=1, bitorder="little")          # (8 * width, whole)
-    head = np.packbits(np.ascontiguousarray(bits.T), axis=1, bitorder="little")  # (whole, width)
-    data = head.tobytes() + bytes(raw[whole * width:count * width])
-    return np.frombuffer(data, dtype="<u%d" % width).copy()
+    groups = whole // 8
+    planes = np.frombuffer(raw, dtype=np.uint8, count=whole * width).reshape(width, 8, groups)
+    # [b, g] as a uint64 whose byte j is plane 8b + j's byte g, for all b at once.
+    rows = np.ascontiguousarray(planes.transpose(0, 2, 1)).view("<u8").reshape(width, groups)
+    # Transposed, its byte r is value 8g + r's byte b.
+    values = _transpose8x8(rows).view(np.uint8).reshape(width, whole)
+    out[:whole].view(np.uint8).reshape(whole, width)[:] = values.T
+    if count > whole:
+        out[whole:] = np.frombuffer(raw, dtype="<u%d" % width, count=count - whole, offset=whole * width)
 
 
 def _unprecondition(body, count):
-    """Undoes format 2's preconditioning (db/sample_codec.h): every channel
-    stored per update with 4- or 8-byte values is bit planes of the
-    differences of consecutive bit patterns; when t_s is stored per update
-    too, dt_s is bit planes of dt's bits XOR those of t's differences.
-    Returns the format-1 body."""
-    out = bytearray(body)
+    """Undoes format 3's preconditioning (db/sample_codec.h), in place in
+    `body` (a bytearray, returned): every channel stored per update with 4-
+    or 8-byte values is bit planes of the differences of consecutive bit
+    patterns; when t_s is stored per update too, dt_s is bit planes of dt's
+    bits XOR those of t's differences. Gives the format-1 body."""
+    out = body
     pos = 0
     places = {}
     for name, code in CHANNELS:
@@ -302,24 +485,23 @@ def _unprecondition(body, count):
         if name not in places or width == 1:
             continue
         at = places[name]
-        values = _from_bit_planes(out[at:at + count * width], count, width)
+        values = np.empty(count, dtype="<u%d" % width)
+        _from_bit_planes(memoryview(out)[at:at + count * width], count, width, values)
         if not (name == "dt_s" and residual_dt):
             # Unsigned sums wrap modulo 2^32 / 2^64, as the encoder's differences did.
-            values = np.cumsum(values, dtype=values.dtype)
+            np.cumsum(values, dtype=values.dtype, out=values)
         out[at:at + count * width] = values.tobytes()
+        del values
     if residual_dt:
-        t = np.frombuffer(bytes(out[places["t_s"]:places["t_s"] + 8 * count]), dtype="<f8")
-        at = places["dt_s"]
-        dt = np.frombuffer(bytes(out[at:at + 8 * count]), dtype="<u8").copy()
+        t = np.frombuffer(out, dtype="<f8", count=count, offset=places["t_s"])
+        dt = np.frombuffer(out, dtype="<u8", count=count, offset=places["dt_s"])
         dt[1:] ^= (t[1:] - t[:-1]).view("<u8")
-        out[at:at + 8 * count] = dt.tobytes()
-    return bytes(out)
+    return out
 
 
 def _decode_body(blob, fmt, count):
     """The channels of a verified chunk as a dict name -> array of `count`."""
     pos = HEADER_BYTES
-    size = len(blob)
 
     def take(nbytes):
         nonlocal pos
@@ -330,9 +512,9 @@ def _decode_body(blob, fmt, count):
         return start
 
     if fmt == FORMAT_CURRENT:
-        plain = _unprecondition(_decompress(bytes(blob[HEADER_BYTES:]), count), count)
-        blob = bytes(HEADER_BYTES) + plain
-        size = len(blob)
+        blob = _unprecondition(_decompress(memoryview(blob)[HEADER_BYTES:], count), count)
+        pos = 0
+    size = len(blob)
     if fmt == FORMAT_MIGRATED:
         # The old blob whole, its own format byte (1) first.
         legacy = blob[take(1)]
@@ -362,24 +544,98 @@ def _decode_body(blob, fmt, count):
     return out
 
 
-def decode_chunk(first_tick, count, blob):
-    """Verifies and decodes one chunk blob of `count` updates starting at
-    tick `first_tick`; returns a dict: "tick" and every channel name -> numpy
-    array of `count` values. Raises ChunkError."""
-    blob = bytes(blob)
-    fmt = verify_chunk(first_tick, count, blob)
-    return _decode_verified(first_tick, count, blob, fmt)
+def decode_chunk(trial_id, instrument, first_tick, count, blob):
+    """Verifies and decodes one chunk blob of `count` updates of `instrument`
+    of trial `trial_id`, starting at tick `first_tick` (the row's columns,
+    which its checksum covers); returns a dict: "tick" and every channel
+    name -> numpy array of `count` values. Raises ChunkError."""
+    fmt = verify_chunk(trial_id, instrument, first_tick, count, blob)
+    return _decode_verified(first_tick, count, _blob_bytes(blob), fmt)
 
 
 def _decode_verified(first_tick, count, blob, fmt):
-    if not 1 <= count <= MAX_CHUNK_UPDATES:
-        raise ChunkError("structure", f"count is {count}, must be 1..{MAX_CHUNK_UPDATES}")
     channels = _decode_body(blob, fmt, count)
     channels["tick"] = np.arange(first_tick, first_tick + count, dtype=np.uint64)
     return channels
 
 
 # --- the database -----------------------------------------------------------
+
+def _sql_name(name):
+    return '"' + name.replace('"', '""') + '"'
+
+
+def _allowed_types(declared, not_null):
+    kind = {"INTEGER": "integer", "REAL": "real", "TEXT": "text"}.get(declared, "blob")
+    return f"'{kind}'" + ("" if not_null else ", 'null'")
+
+
+def _describe_columns(columns):
+    return ", ".join(f"{n} {t or '(no type)'}{' NOT NULL' if nn else ''}" for n, t, nn in columns)
+
+
+def _row_name(table, rowid, trial):
+    if table == "trial":
+        return f"trial {rowid}"
+    return f"{table} row {rowid}" + (f" of trial {trial}" if trial is not None else "")
+
+
+def _layout(rows):
+    """One trial's chunk rows (id, trial_id, instrument, first_tick, count
+    and the typeof() of trial_id, instrument, first_tick, count and data),
+    checked as db/chunk_layout.h does: integer columns and a BLOB, instrument
+    0 or 1, first tick >= 0, count 1..MAX_CHUNK_UPDATES, and no two chunks
+    of one instrument sharing a tick (both of an overlapping pair are bad).
+    Returns (good rows per instrument in tick order, [ChunkError])."""
+    rows = sorted(rows, key=lambda r: (r[2] if isinstance(r[2], int) else 1 << 62,
+                                       r[3] if isinstance(r[3], int) else 1 << 62, r[0]))
+    problem = {}
+    for r in rows:
+        rid, _, instrument, first, count = r[:5]
+        types = r[5:10]
+        wrong = [f"its {col} is {kind}{'' if kind == 'null' else ' ' + repr(value)}, expected "
+                 f"{'a BLOB' if col == 'data' else 'an INTEGER'}"
+                 for col, kind, value, want in zip(("trial_id", "instrument", "first_tick", "count", "data"), types,
+                                                   (r[1], instrument, first, count, None),
+                                                   ("integer",) * 4 + ("blob",)) if kind != want]
+        if wrong:
+            problem[rid] = "; ".join(wrong)
+        elif instrument not in (0, 1):
+            problem[rid] = f"instrument {instrument} is neither 0 (left) nor 1 (right)"
+        elif first < 0:
+            problem[rid] = f"first tick {first} is negative"
+        elif not 1 <= count <= MAX_CHUNK_UPDATES:
+            problem[rid] = f"count is {count}, must be 1..{MAX_CHUNK_UPDATES}"
+    reach = None  # the row whose ticks end furthest in this instrument
+    for r in rows:
+        if r[0] in problem:
+            continue
+        if reach is not None and reach[2] != r[2]:
+            reach = None
+        if reach is not None:
+            end = reach[3] + reach[4]
+            if r[3] < end:
+                problem[r[0]] = f"its ticks overlap those of the chunk with ticks {_ticks(reach[3], reach[4])} " \
+                                f"(a tick stored twice)"
+                problem.setdefault(reach[0], f"its ticks overlap those of the chunk with ticks "
+                                             f"{_ticks(r[3], r[4])} (a tick stored twice)")
+            if r[3] + r[4] <= end:
+                continue
+        reach = r
+    good = ([], [])
+    bad = []
+    for r in rows:
+        if r[0] in problem:
+            bad.append(ChunkError("placement", problem[r[0]], r[1], r[2], r[3], r[4]))
+        else:
+            good[r[2]].append(r)
+    return good, bad
+
+
+def _ticks(first, count):
+    return f"{first}..{first + count - 1}" if count > 1 else str(first)
+
+
 
 class StudyDatabase:
     """A study database opened read-only. Use ``open_study(path)``."""
@@ -390,6 +646,9 @@ class StudyDatabase:
         self._conn = sqlite3.connect(uri, uri=True)
         try:
             self._check_schema()
+            findings = self.check_structure()
+            if findings:
+                raise StructureError(self.path, findings)
         except Exception:
             self._conn.close()
             raise
@@ -414,13 +673,80 @@ class StudyDatabase:
         if app_id != APPLICATION_ID:
             raise ValueError(f"{self.path}: not a HapticLab study database (application_id {app_id}, "
                              f"expected {APPLICATION_ID})")
-        if version < OLDEST_SCHEMA_VERSION:
-            raise ValueError(f"{self.path}: schema version {version}; this reader reads {OLDEST_SCHEMA_VERSION}.."
-                             f"{SCHEMA_VERSION}. Open the "
-                             f"file once with `hapticlab analyze`, which migrates it")
+        if version < SCHEMA_VERSION:
+            raise ValueError(f"{self.path}: schema version {version}; this reader reads version {SCHEMA_VERSION}. "
+                             f"Open the file once with `hapticlab analyze`, which migrates it")
         if version > SCHEMA_VERSION:
             raise ValueError(f"{self.path}: schema version {version} is newer than this reader ({SCHEMA_VERSION}); "
                              f"use hapticlab_db.py from a newer HapticLab")
+
+    def check_structure(self):
+        """The file's structure, as `hapticlab study check` checks it besides
+        SQLite's integrity_check and the chunks: every table of the schema is
+        a table (not a view, which could hold anything or never end) of the
+        expected columns; then every reference points at a row (PRAGMA
+        foreign_key_check) and every value has its column's type (an event
+        time is a REAL, never the TEXT 'nan'). Returns the findings as
+        messages naming table, row and trial; [] when sound. Opening runs it
+        and raises StructureError when it finds anything."""
+        findings = []
+        for table, columns in TABLES:
+            row = self._conn.execute("SELECT type FROM main.sqlite_schema WHERE name = ?1 COLLATE NOCASE AND "
+                                     "type IN ('table', 'view') LIMIT 1", (table,)).fetchone()
+            if row is None:
+                findings.append(f"table {table} is missing")
+                continue
+            if row[0] != "table":
+                findings.append(f"table {table} is a {row[0]}, not a table: it is refused before any query reads it "
+                                f"(a view can hold anything, or never end)")
+                continue
+            found = [(name, declared, bool(notnull)) for name, declared, notnull in self._conn.execute(
+                "SELECT name, type, \"notnull\" FROM pragma_table_info(?1, 'main') ORDER BY cid", (table,))]
+            want = list(columns)
+            if [(n.lower(), t.upper(), nn) for n, t, nn in found] != [(n, t, nn) for n, t, nn in want]:
+                findings.append(f"table {table} has columns ({_describe_columns(found)}); expected "
+                                f"({_describe_columns(want)})")
+        if findings:
+            return findings  # nothing reads tables that are not what they should be
+        for table, rowid, parent, fk in self._conn.execute("PRAGMA main.foreign_key_check").fetchmany(100):
+            column = self._conn.execute("SELECT \"from\" FROM pragma_foreign_key_list(?1, 'main') WHERE id = ?2",
+                                        (table, fk)).fetchone()
+            column = column[0] if column else "?"
+            has_trial = any(c == "trial_id" for c, _, _ in dict(TABLES).get(table, ()))
+            value, trial = self._conn.execute(
+                f"SELECT quote({_sql_name(column)}), {'trial_id' if has_trial else 'NULL'} FROM main.{_sql_name(table)} "
+                f"WHERE rowid = ?1", (rowid,)).fetchone() or ("?", None)
+            if table == "trial":
+                trial = rowid
+            findings.append(f"{_row_name(table, rowid, trial)}: {column} {value} refers to no {parent} row")
+        for table, columns in TABLES:
+            findings.extend(self._mistyped_rows(table, columns))
+        return findings
+
+    def _mistyped_rows(self, table, columns, where="", params=(), limit=20):
+        """Messages for the rows of `table` whose values do not have their
+        column's type (INTEGER an integer, REAL a real, TEXT text, BLOB a
+        blob, NULL only where allowed), as db/schema_shape.cc words them."""
+        trial = "rowid" if table == "trial" else \
+            "CASE typeof(trial_id) WHEN 'integer' THEN trial_id END" if any(c == "trial_id" for c, _, _ in columns) \
+            else "NULL"
+        select = [f"typeof({_sql_name(c)}), substr(quote({_sql_name(c)}), 1, 40)" for c, _, _ in columns]
+        bad = " OR ".join(f"typeof({_sql_name(c)}) NOT IN ({_allowed_types(t, nn)})" for c, t, nn in columns)
+        sql = f"SELECT rowid, {trial}, {', '.join(select)} FROM main.{_sql_name(table)} WHERE "
+        sql += (f"({where}) AND " if where else "") + f"({bad}) ORDER BY rowid LIMIT {limit}"
+        out = []
+        for row in self._conn.execute(sql, params):
+            rowid, row_trial = row[0], row[1]
+            what = []
+            for k, (column, declared, not_null) in enumerate(columns):
+                kind, value = row[2 + 2 * k], row[3 + 2 * k]
+                if kind in _allowed_types(declared, not_null):
+                    continue
+                article = "an" if declared == "INTEGER" else "a"
+                what.append(f"{column} is {kind}{'' if kind == 'null' else ' ' + value}, expected {article} "
+                            f"{declared}{'' if not_null else ' or NULL'}")
+            out.append(f"{_row_name(table, rowid, row_trial)}: {'; '.join(what)}")
+        return out
 
     def _rows(self, sql, params=()):
         cur = self._conn.execute(sql, params)
@@ -457,68 +783,149 @@ class StudyDatabase:
             "WHERE (?1 IS NULL OR p.study_id = ?1) AND (?2 IS NULL OR p.code = ?2) AND (?3 IS NULL OR t.status = ?3) "
             "ORDER BY p.study_id, p.code, t.position, t.id", (study_id, participant, status))
 
-    def _chunks(self, trial_id, instrument):
+    @contextlib.contextmanager
+    def _snapshot(self):
+        """A read transaction, so a trial's chunk rows and the blobs read
+        after them are one snapshot, even while a session appends."""
+        own = not self._conn.in_transaction
+        if own:
+            self._conn.execute("BEGIN")
+        try:
+            yield
+        finally:
+            if own:
+                self._conn.rollback()
+
+    def _chunk_rows(self, trial_id):
         return self._conn.execute(
-            "SELECT instrument, first_tick, count, data FROM sample_chunk "
-            "WHERE trial_id = ?1 AND (?2 IS NULL OR instrument = ?2) ORDER BY instrument, first_tick",
-            (trial_id, instrument)).fetchall()
+            "SELECT id, trial_id, instrument, first_tick, count, typeof(trial_id), typeof(instrument), "
+            "typeof(first_tick), typeof(count), typeof(data) FROM main.sample_chunk WHERE trial_id = ?1",
+            (trial_id,)).fetchall()
+
+    def _verified(self, rows):
+        """Yields (row, (format, blob)) or (row, ChunkError) for each of the
+        layout's good `rows`, in order: blobs read a batch of at most 8 MB at
+        a time, their CRC-32C computed together (numpy)."""
+        batch = []
+        size = 0
+
+        def flush():
+            checkable = [(r, b) for r, b in batch if not isinstance(b, ChunkError)]
+            crcs = iter(_crc32c_many([_checked_message(r[1], r[2], r[3], r[4], b) for r, b in checkable]))
+            for r, b in batch:
+                if isinstance(b, ChunkError):
+                    yield r, b
+                    continue
+                try:
+                    yield r, (_check_header(b, int(next(crcs)), r[4]), b)
+                except ChunkError as e:
+                    yield r, e
+
+        for r in rows:
+            found = self._conn.execute("SELECT data FROM main.sample_chunk WHERE id = ?1", (r[0],)).fetchone()
+            try:
+                blob = _blob_bytes(found[0] if found else None)
+                if len(blob) < HEADER_BYTES:
+                    raise ChunkError("structure", f"{len(blob)}-byte blob, shorter than the {HEADER_BYTES}-byte "
+                                                  f"header")
+            except ChunkError as e:
+                blob = e
+            batch.append((r, blob))
+            size += 0 if isinstance(blob, ChunkError) else len(blob)
+            if size >= _BATCH_BYTES:
+                yield from flush()
+                batch, size = [], 0
+        yield from flush()
 
     def check_chunks(self, trial_id=None):
-        """Verifies (checksum, format, structure) every chunk, of one trial
-        if given; returns the ChunkErrors of the damaged ones (empty: no
-        damage), like `hapticlab study check`."""
-        rows = self._conn.execute(
-            "SELECT trial_id, instrument, first_tick, count, data FROM sample_chunk "
-            "WHERE ?1 IS NULL OR trial_id = ?1 ORDER BY trial_id, instrument, first_tick", (trial_id,)).fetchall()
+        """Verifies every chunk, of one trial if given: its place among the
+        trial's chunks (instrument, ticks, no overlap), checksum, format and
+        structure (decoded, then discarded); returns the ChunkErrors of the
+        bad ones (empty: no damage), like `hapticlab study check`."""
+        if trial_id is None:
+            trials = [t for (t,) in self._conn.execute(
+                "SELECT DISTINCT trial_id FROM main.sample_chunk WHERE typeof(trial_id) = 'integer' "
+                "ORDER BY trial_id")]
+        else:
+            trials = [trial_id]
         bad = []
-        for trial, instrument, first, count, blob in rows:
-            try:
-                decode_chunk(first, count, blob)
-            except ChunkError as e:
-                bad.append(e.located(trial, instrument, first, count))
+        for trial in trials:
+            with self._snapshot():
+                good, misplaced = _layout(self._chunk_rows(trial))
+                bad.extend(e.in_file(self.path) for e in misplaced)
+                for r, result in self._verified(good[0] + good[1]):
+                    try:
+                        if isinstance(result, ChunkError):
+                            raise result
+                        _decode_verified(r[3], r[4], result[1], result[0])
+                    except ChunkError as e:
+                        bad.append(e.located(r[1], r[2], r[3], r[4], self.path))
         return bad
 
     def samples(self, trial_id, instrument=None):
         """Every stored update of a trial as a numpy structured array
         (SAMPLE_DTYPE), of one instrument (0 left, 1 right) or both, in the
         row order of `hapticlab export` (tick, then left before right).
-        Raises ChunkError naming the first damaged chunk; no data is
-        returned for a trial with one."""
+        Raises ChunkError naming the first misplaced or damaged chunk; no
+        data is returned for a trial with one. Holds the result and one
+        chunk at a time (and the compressed blobs of at most 8 MB of chunks)."""
         if instrument not in (None, 0, 1):
             raise ValueError(f"instrument is {instrument!r}; it must be 0 (left), 1 (right) or None (both)")
         if self._conn.execute("SELECT count(*) FROM trial WHERE id = ?1", (trial_id,)).fetchone()[0] == 0:
             raise KeyError(f"{self.path}: no trial {trial_id}")
-        rows = self._chunks(trial_id, instrument)
-        # Every checksum at once (numpy), then decoding chunk by chunk.
-        blobs = []
-        for hand, first, count, blob in rows:
-            if len(blob) < HEADER_BYTES:
-                raise ChunkError("structure", f"{len(blob)}-byte blob, shorter than the {HEADER_BYTES}-byte header"
-                                 ).located(trial_id, hand, first, count)
-            blobs.append(bytes(blob))
-        crcs = _crc32c_many([_checked_message(r[1], r[2], b) for r, b in zip(rows, blobs)])
-        columns = {name: [] for name in SAMPLE_DTYPE.names}
-        for (hand, first, count, _), blob, crc in zip(rows, blobs, crcs):
-            try:
-                fmt = _check_header(blob, int(crc))
-                channels = _decode_verified(first, count, blob, fmt)
-            except ChunkError as e:
-                raise e.located(trial_id, hand, first, count) from None
-            channels["instrument"] = np.full(count, hand, dtype=np.uint8)
-            for name, values in channels.items():
-                columns[name].append(values)
-        total = sum(r[2] for r in rows)
-        out = np.empty(total, dtype=SAMPLE_DTYPE)
-        if total == 0:
-            return out
-        out["trial_id"] = trial_id
-        del columns["trial_id"]
-        joined = {name: np.concatenate(parts) for name, parts in columns.items()}
-        # Rows by tick, left before right within a tick (chunks were read in
-        # (instrument, tick) order; lexsort is stable).
-        order = np.lexsort((joined["instrument"], joined["tick"]))
-        for name, values in joined.items():
-            out[name] = values[order]
+        with self._snapshot():
+            rows = self._chunk_rows(trial_id)
+            if instrument is not None:
+                rows = [r for r in rows if r[2] == instrument]
+            good, bad = _layout(rows)
+            if bad:
+                raise bad[0].in_file(self.path)
+            wanted = (0, 1) if instrument is None else (instrument,)
+            total = sum(r[4] for k in wanted for r in good[k])
+            out = np.empty(total, dtype=SAMPLE_DTYPE)
+            out["trial_id"] = trial_id
+            # Where each chunk's updates go: by tick, left before right
+            # within a tick (db/README.md, "Row order").
+            starts = [np.array([r[3] for r in good[k]], dtype=np.int64) for k in (0, 1)]
+            counts = [np.array([r[4] for r in good[k]], dtype=np.int64) for k in (0, 1)]
+            before = [np.concatenate(([0], np.cumsum(c)[:-1])).astype(np.int64) for c in counts]
+            index = {r[0]: i for k in (0, 1) for i, r in enumerate(good[k])}
+
+            def destination(hand, first, count, offset):
+                """Rows of out for the chunk's updates; `offset`: the hand's
+                updates before the chunk."""
+                if instrument is not None:
+                    return slice(offset, offset + count)
+                t = np.arange(first, first + count, dtype=np.int64)
+                other = 1 - hand
+                if starts[other].size == 0:
+                    return offset + (t - first)
+                q = t if hand == 1 else t - 1  # the other hand's updates at ticks <= q come first
+                j = np.searchsorted(starts[other], q, side="right") - 1
+                jj = np.maximum(j, 0)
+                n = np.where(j >= 0, before[other][jj] + np.minimum(q - starts[other][jj] + 1, counts[other][jj]), 0)
+                rows = offset + (t - first) + n
+                # Both hands at every tick (the usual case): every other row, a
+                # strided slice, far cheaper to fill than a list of rows.
+                step = int(rows[1] - rows[0]) if count > 1 else 1
+                if step > 0 and int(rows[-1] - rows[0]) == step * (count - 1) and \
+                        bool(np.all(np.diff(rows) == step)):
+                    return slice(int(rows[0]), int(rows[-1]) + 1, step)
+                return rows
+
+            for r, result in self._verified([r for k in wanted for r in good[k]]):
+                rid, _, hand, first, count = r[:5]
+                try:
+                    if isinstance(result, ChunkError):
+                        raise result
+                    channels = _decode_verified(first, count, result[1], result[0])
+                except ChunkError as e:
+                    raise e.located(trial_id, hand, first, count, self.path) from None
+                where = destination(hand, first, count, int(before[hand][index[rid]]))
+                out["instrument"][where] = hand
+                for name, values in channels.items():
+                    out[name][where] = values
+                del channels
         return out
 
     def samples_dict(self, trial_id, instrument=None):

@@ -39,8 +39,6 @@ void mark_missing(TrialRecord& record) {
 
 // Per thread, reused from trial to trial (a trial-hand is ~10^5 samples).
 struct Buffers {
-  std::vector<db::StoredSample> chunk;
-  std::vector<db::BadChunk> bad;
   TrialAccumulator trial;
 };
 
@@ -62,20 +60,19 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
     }
   }
   buf.trial.start(events, options);
-  buf.bad.clear();
+  // A window of samples at a time, each hand's in tick order; misplaced
+  // and damaged chunks are left out and named.
+  db::TrialChunks chunks(db.connection(), row.id);
   for (std::size_t hand = 0; hand < 2; ++hand) {
-    db::for_each_chunk(db.connection(), row.id, static_cast<int>(hand), buf.chunk,
-                       [&](std::span<const db::StoredSample> chunk) {
-                         for (const db::StoredSample& x : chunk) {
-                           buf.trial.add(hand, x.t_s, x.value.tip_position_m, x.value.tip_velocity_m_per_s,
-                                         x.value.ve_force_N);
-                           buf.trial.add_device(hand, x.value.raw_position, x.value.joint_force, x.value.ve_force_N);
-                         }
-                       },
-                       buf.bad);
+    for (auto window = chunks.next(static_cast<int>(hand)); !window.empty(); window = chunks.next(static_cast<int>(hand))) {
+      for (const db::StoredSample& x : window) {
+        buf.trial.add(hand, x.t_s, x.value.tip_position_m, x.value.tip_velocity_m_per_s, x.value.ve_force_N);
+        buf.trial.add_device(hand, x.value.raw_position, x.value.joint_force, x.value.ve_force_N);
+      }
+    }
   }
   std::vector<std::string> damaged;
-  for (const db::BadChunk& c : buf.bad) {
+  for (const db::BadChunk& c : chunks.bad()) {
     // Damage is left out and counted; a chunk of a format this HapticLab
     // does not know is not damage but data it cannot read, and analysing
     // the study without it would quietly answer another question.

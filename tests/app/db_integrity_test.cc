@@ -76,7 +76,7 @@ TEST_F(DbIntegrityTest, CheckNamesAFlippedByteInAChunkAndExitsOne) {
   EXPECT_EQ(code, 1) << out;
   EXPECT_THAT(out, AllOf(HasSubstr("integrity_check: ok"), HasSubstr("22 checked, 1 damaged"),
                          HasSubstr("damaged: trial 1, left instrument (0), ticks 0..9: checksum mismatch"),
-                         HasSubstr("0 integrity_check finding(s), 1 damaged sample chunk(s)")));
+                         HasSubstr("0 integrity_check finding(s), 0 structure finding(s), 1 damaged sample chunk(s)")));
   const auto [json_code, json] = cli("study check --json --db " + db_.string() + " 2>/dev/null");
   EXPECT_EQ(json_code, 1);
   EXPECT_THAT(json, AllOf(HasSubstr("\"ok\": false"), HasSubstr("\"chunks_checked\": 22"), HasSubstr("\"trial_id\": 1"),
@@ -154,7 +154,7 @@ TEST_F(DbIntegrityTest, AChunkOfAnUnknownFormatIsRefusedWithItsVersionAndTrial) 
       cli("analyze --db " + db_.string() + " --out " + (dir_.path() / "analysis").string() + " --no-plots --no-ks");
   EXPECT_EQ(code, 1) << out;
   EXPECT_THAT(out, AllOf(HasSubstr("cannot analyse this study: trial 1, left instrument (0), ticks 0..9"),
-                         HasSubstr("chunk format 9 is not one this HapticLab reads (0, 1, 2)")));
+                         HasSubstr("chunk format 9 is not one this HapticLab reads (0, 1, 3)")));
   const auto [checked, check_out] = cli("study check --db " + db_.string());
   EXPECT_EQ(checked, 1) << check_out;
   EXPECT_THAT(check_out, HasSubstr("trial 1, left instrument (0), ticks 0..9: chunk format 9"));

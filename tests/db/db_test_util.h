@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <zstd.h>
 
 #include "core/loop/loop_sample.h"
 #include "db/sample_codec.h"
@@ -25,7 +26,7 @@ namespace hapticlab::db::testing {
 // byte 1, then the body that today follows the 5-byte header. For making
 // old files; the golden test in sample_codec_test.cc pins it to the old bytes.
 inline std::vector<std::byte> legacy_blob(std::span<const StoredSample> samples) {
-  const std::vector<std::byte> blob = encode_chunk(samples, kChunkFormatPlain);
+  const std::vector<std::byte> blob = encode_chunk(0, 0, samples, kChunkFormatPlain);
   std::vector<std::byte> out(1 + blob.size() - kChunkHeaderBytes);
   out[0] = std::byte{1};
   std::copy(blob.begin() + static_cast<std::ptrdiff_t>(kChunkHeaderBytes), blob.end(), out.begin() + 1);
@@ -55,30 +56,71 @@ inline void flip_chunk_byte(Database& db, std::int64_t chunk_id, std::size_t off
   db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1").bind(1, chunk_id).bind_blob(2, blob).run();
 }
 
+// `blob` with its checksum recomputed for `place` as sample_codec.h defines
+// it (trial, instrument, first tick, count as 8 bytes each, little-endian,
+// then the format byte and the body), written out here apart from the
+// codec: what an attack, or a writer that got the body wrong, would store.
+inline std::vector<std::byte> resign_blob(std::vector<std::byte> blob, const ChunkPlace& place) {
+  std::array<std::byte, 33> head{};
+  const auto put = [&](std::size_t at, std::uint64_t v) {
+    for (std::size_t i = 0; i < 8; ++i) head[at + i] = static_cast<std::byte>(v >> (8 * i));
+  };
+  put(0, static_cast<std::uint64_t>(place.trial_id));
+  put(8, static_cast<std::uint64_t>(place.instrument));
+  put(16, place.first_tick);
+  put(24, place.count);
+  head[32] = blob.at(0);
+  const std::uint32_t crc = crc32c(crc32c(0, head), std::span(blob).subspan(kChunkHeaderBytes));
+  for (std::size_t i = 0; i < 4; ++i) blob[1 + i] = static_cast<std::byte>(crc >> (8 * i));
+  return blob;
+}
+
+// The place of chunk `chunk_id` as its row says.
+inline ChunkPlace chunk_place(Database& db, std::int64_t chunk_id) {
+  Statement read = db.prepare("SELECT trial_id, instrument, first_tick, count FROM sample_chunk WHERE id = ?1");
+  read.bind(1, chunk_id);
+  if (!read.step()) throw DbError("chunk_place: no chunk " + std::to_string(chunk_id));
+  return {read.column_int64(0), read.column_int64(1), static_cast<std::uint64_t>(read.column_int64(2)),
+          static_cast<std::uint64_t>(read.column_int64(3))};
+}
+
 // The blob a writer that got it wrong would store, correctly signed: chunk
-// `chunk_id`'s data replaced by `format`, a CRC-32C over its row's
-// first_tick and count, the format and `body` (sample_codec.h), then `body`.
-// Only the format's own checks can refuse it, not the checksum.
+// `chunk_id`'s data replaced by `format`, a CRC-32C over its row's place,
+// the format and `body` (sample_codec.h), then `body`. Only the format's
+// own checks can refuse it, not the checksum.
 inline void resign_chunk(Database& db, std::int64_t chunk_id, std::uint8_t format, std::span<const std::byte> body) {
-  std::uint64_t first = 0, count = 0;
-  {
-    Statement read = db.prepare("SELECT first_tick, count FROM sample_chunk WHERE id = ?1");
-    read.bind(1, chunk_id);
-    if (!read.step()) throw DbError("resign_chunk: no chunk " + std::to_string(chunk_id));
-    first = static_cast<std::uint64_t>(read.column_int64(0));
-    count = static_cast<std::uint64_t>(read.column_int64(1));
+  std::vector<std::byte> blob{std::byte{format}, std::byte{0}, std::byte{0}, std::byte{0}, std::byte{0}};
+  blob.insert(blob.end(), body.begin(), body.end());
+  blob = resign_blob(std::move(blob), chunk_place(db, chunk_id));
+  db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1").bind(1, chunk_id).bind_blob(2, blob).run();
+}
+
+// A chunk as schemas 4..6 stored it, for files made as the previous
+// HapticLab made them: format 2 (the same preconditioned body in a zstd
+// frame without its content checksum) or 1 (`plain`), its checksum over
+// first tick, count, format and body only. Built here from today's
+// encoder and zstd, not by the library.
+inline std::vector<std::byte> schema6_blob(std::span<const StoredSample> samples, bool plain = false) {
+  std::vector<std::byte> blob = encode_chunk(0, 0, samples, plain ? kChunkFormatPlain : kChunkFormat);
+  if (!plain) {
+    const auto frame = std::span(blob).subspan(kChunkHeaderBytes);
+    std::vector<std::byte> body(ZSTD_getFrameContentSize(frame.data(), frame.size()));
+    ZSTD_decompress(body.data(), body.size(), frame.data(), frame.size());
+    std::vector<std::byte> packed(ZSTD_compressBound(body.size()));
+    packed.resize(ZSTD_compress(packed.data(), packed.size(), body.data(), body.size(), 1));  // no checksum
+    blob.resize(kChunkHeaderBytes);
+    blob[0] = std::byte{2};
+    blob.insert(blob.end(), packed.begin(), packed.end());
   }
   std::array<std::byte, 17> head{};
-  for (int i = 0; i < 8; ++i) {
-    head[static_cast<std::size_t>(i)] = static_cast<std::byte>(first >> (8 * i));
-    head[static_cast<std::size_t>(8 + i)] = static_cast<std::byte>(count >> (8 * i));
+  for (std::size_t i = 0; i < 8; ++i) {
+    head[i] = static_cast<std::byte>(samples[0].tick >> (8 * i));
+    head[8 + i] = static_cast<std::byte>(static_cast<std::uint64_t>(samples.size()) >> (8 * i));
   }
-  head[16] = std::byte{format};
-  const std::uint32_t crc = crc32c(crc32c(0, head), body);
-  std::vector<std::byte> blob{std::byte{format}};
-  for (int i = 0; i < 4; ++i) blob.push_back(static_cast<std::byte>(crc >> (8 * i)));
-  blob.insert(blob.end(), body.begin(), body.end());
-  db.prepare("UPDATE sample_chunk SET data = ?2 WHERE id = ?1").bind(1, chunk_id).bind_blob(2, blob).run();
+  head[16] = blob[0];
+  const std::uint32_t crc = crc32c(crc32c(0, head), std::span(blob).subspan(kChunkHeaderBytes));
+  for (std::size_t i = 0; i < 4; ++i) blob[1 + i] = static_cast<std::byte>(crc >> (8 * i));
+  return blob;
 }
 
 // Every channel distinct and varying with the tick, so a swapped channel,

@@ -353,6 +353,70 @@ TEST(Schema, MigratesAVersion3DatabaseChecksummingItsChunks) {
   }
 }
 
+// Version 6 (the previous HapticLab) built by running migrations 1..6, with
+// chunks as it stored them (db_test_util.h schema6_blob: format 2 without a
+// frame checksum, format 1, and a format 0 chunk from the version 4 step),
+// plus one damaged then. The migration to 7 rewrites every chunk: the same
+// samples, format 2 become 3, every checksum now covering trial and
+// instrument; the damaged one stays as it was, and so stays damaged.
+TEST(Schema, MigratesAVersion6DatabaseRewritingEveryChunk) {
+  testing::TempDir dir;
+  const auto path = dir.file("v6.db");
+  const std::vector<StoredSample> samples = some_samples();  // ticks 10..59
+  std::vector<std::byte> damaged = testing::schema6_blob(samples);
+  damaged.back() ^= std::byte{0x40};
+  {
+    Database db(path);
+    for (const Migration& m : migrations().first(6)) db.exec(m.sql);
+    db.exec("PRAGMA user_version = 6; PRAGMA application_id = 1212956994;");
+    db.exec(R"sql(
+      INSERT INTO study VALUES (1, 's', '{}', ')sql" + sha256_hex("{}") + R"sql(', '5', '0.3.0', '2024-01-01T00:00:00.000Z');
+      INSERT INTO participant VALUES (1, 1, 'P01');
+      INSERT INTO setting VALUES (1, 1, 'No FFB', '{}');
+      INSERT INTO session VALUES (1, 1, 1.7e9, 1.7e9 + 60, 'sim', 'virtual', 'closed');
+      INSERT INTO trial VALUES (1, 1, 'clip', 1, 1, 1, 1, 'complete', 1, 1.7e9, 1.7e9 + 60, NULL);
+      INSERT INTO trial VALUES (2, 1, 'clip', 1, 2, 1, 2, 'complete', 1, 1.7e9, 1.7e9 + 60, NULL);
+    )sql");
+    Statement insert = db.prepare("INSERT INTO sample_chunk VALUES (?1, ?2, ?3, 10, 50, ?4, ?5)");
+    const auto add = [&](std::int64_t id, std::int64_t trial, std::int64_t instrument, std::span<const std::byte> blob) {
+      insert.reset();
+      insert.bind(1, id).bind(2, trial).bind(3, instrument).bind(4, samples[0].t_s).bind_blob(5, blob).run();
+    };
+    add(1, 1, 0, testing::schema6_blob(samples));
+    add(2, 1, 1, testing::schema6_blob(samples, /*plain=*/true));
+    add(3, 2, 0, checksum_legacy_chunk(10, 50, testing::legacy_blob(samples)));
+    add(4, 2, 1, damaged);
+  }
+  StudyDb db(path);
+  EXPECT_EQ(db.schema_version_found(), 6);
+  EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
+  Statement formats = db.connection().prepare("SELECT id, hex(substr(data, 1, 1)), data FROM sample_chunk ORDER BY id");
+  std::vector<std::string> got;
+  while (formats.step()) got.push_back(formats.column_text(1));
+  EXPECT_EQ(got, (std::vector<std::string>{"03", "01", "00", "02"}));
+  for (const auto& [trial, instrument] : {std::pair{1, 0}, {1, 1}, {2, 0}}) {
+    const std::vector<StoredSample> read = db.samples(trial, instrument);
+    ASSERT_EQ(read.size(), samples.size());
+    for (std::size_t i = 0; i < read.size(); ++i) {
+      EXPECT_EQ(read[i].tick, samples[i].tick);
+      EXPECT_EQ(read[i].t_s, samples[i].t_s);
+      EXPECT_EQ(read[i].value.ve_force_N[1], static_cast<double>(to_stored_float(samples[i].value.ve_force_N[1])));
+    }
+  }
+  ChunkCheck check = check_all_chunks(db.connection());
+  EXPECT_EQ(check.chunks, 4u);
+  EXPECT_EQ(check.migrated_chunks, 1u);
+  ASSERT_EQ(check.bad.size(), 1u);
+  EXPECT_EQ(check.bad[0].trial_id, 2);
+  EXPECT_EQ(check.bad[0].instrument, 1);
+  EXPECT_EQ(check.bad[0].kind, ChunkError::Kind::kChecksum);
+  // From now on a chunk moved to the other trial is caught.
+  db.connection().exec("DELETE FROM sample_chunk WHERE id = 4; UPDATE sample_chunk SET trial_id = 2 WHERE id = 2");
+  check = check_all_chunks(db.connection());
+  ASSERT_EQ(check.bad.size(), 1u);
+  EXPECT_EQ(describe(check.bad[0]).substr(0, 57), "trial 2, right instrument (1), ticks 10..59: checksum mis");
+}
+
 TEST(Schema, FailedMigrationLeavesTheFileAsItWas) {
   testing::TempDir dir;
   const auto path = dir.file("broken_v1.db");

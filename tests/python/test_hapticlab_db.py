@@ -149,7 +149,7 @@ class SamplesEqualExportTest(unittest.TestCase):
 
 
 class WallClockSamplesTest(unittest.TestCase):
-    """A trial on the wall clock: every dt_s differs, so format 2 stores dt
+    """A trial on the wall clock: every dt_s differs, so format 3 stores dt
     per update as differences in bit planes (on the virtual clock it is one
     constant); the reader must give the export's values to the bit."""
 
@@ -202,7 +202,7 @@ class DamageTest(unittest.TestCase):
     def test_a_damaged_format_byte_or_moved_chunk_is_damage_too(self):
         path = STUDY.copy("format.db")
         chunk_id, first, count = self.chunk(path, 0, 0)
-        flip_byte(path, chunk_id, 0)  # format 2 -> 0xFD: damage, not "a newer format"
+        flip_byte(path, chunk_id, 0)  # format 3 -> 0xFC: damage, not "a newer format"
         with h.open_study(path) as db:
             with self.assertRaises(h.ChunkError) as caught:
                 db.samples(1, instrument=0)
@@ -221,37 +221,119 @@ class DamageTest(unittest.TestCase):
 
     def test_a_migrated_chunk_decodes_and_an_unknown_format_is_named(self):
         with h.open_study(STUDY.db) as db:
-            first, count, blob = db.connection.execute(
-                "SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = 1 ORDER BY id LIMIT 1").fetchone()
+            cid, trial, hand, first, count, blob = db.connection.execute(
+                "SELECT id, trial_id, instrument, first_tick, count, data FROM sample_chunk WHERE trial_id = 1 "
+                "ORDER BY id LIMIT 1").fetchone()
         self.assertEqual(blob[0], h.FORMAT_CURRENT)
-        current = h.decode_chunk(first, count, blob)
+        current = h.decode_chunk(trial, hand, first, count, blob)
+
+        def signed(fmt, body):
+            crc = h.crc32c(struct.pack("<QQQQ", trial, hand, first, count) + bytes([fmt]) + body)
+            return bytes([fmt]) + struct.pack("<I", crc) + body
+
         # Format 1: the same body uncompressed (the frame decompressed and its
         # differences summed), as HapticLab wrote it before format 2.
         body = h._unprecondition(h._decompress(blob[h.HEADER_BYTES:], count), count)
         self.assertGreater(len(body), 2 * len(blob))
-        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x01" + body)
-        plain = h.decode_chunk(first, count, b"\x01" + struct.pack("<I", crc) + body)
+        plain = h.decode_chunk(trial, hand, first, count, signed(1, body))
         for name in current:
             self.assertTrue(fx.same_bits(current[name], plain[name]), name)
         # Format 0 (db/README.md, "Damage"): the pre-version-4 blob (byte 1,
-        # then the body) behind a header whose checksum the migration made.
-        legacy = b"\x01" + body
-        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x00" + legacy)
-        migrated = h.decode_chunk(first, count, b"\x00" + struct.pack("<I", crc) + legacy)
+        # then the body) behind a header whose checksum the migrations made.
+        migrated = h.decode_chunk(trial, hand, first, count, signed(0, b"\x01" + body))
         for name in current:
             self.assertTrue(fx.same_bits(current[name], migrated[name]), name)
         # A format from a newer HapticLab, correctly checksummed, is named as such.
-        crc = h.crc32c(struct.pack("<QQ", first, count) + b"\x03" + body)
-        with self.assertRaisesRegex(h.ChunkError, "chunk format 3 is not one this reader reads") as caught:
-            h.decode_chunk(first, count, b"\x03" + struct.pack("<I", crc) + body)
+        with self.assertRaisesRegex(h.ChunkError, "chunk format 4 is not one this reader reads") as caught:
+            h.decode_chunk(trial, hand, first, count, signed(4, body))
         self.assertEqual(caught.exception.kind, "format")
+        # The checksum covers where the chunk belongs: another trial or the
+        # other instrument does not verify.
+        for place in ((trial + 1, hand), (trial, 1 - hand)):
+            with self.assertRaisesRegex(h.ChunkError, "checksum mismatch"):
+                h.verify_chunk(*place, first, count, blob)
 
     def test_an_old_schema_is_refused_with_what_to_do(self):
         path = STUDY.copy("old.db")
         conn = sqlite3.connect(path)
-        conn.execute("PRAGMA user_version = 3")
+        conn.execute("PRAGMA user_version = 6")
         conn.close()
-        with self.assertRaisesRegex(ValueError, "schema version 3; this reader reads 4..6.*hapticlab analyze"):
+        with self.assertRaisesRegex(ValueError, "schema version 6; this reader reads version 8.*hapticlab analyze"):
+            h.open_study(path)
+
+
+class FrameTest(unittest.TestCase):
+    """The zstd frame is checked as the C++ decoder checks it, before
+    anything is allocated for it."""
+
+    def setUp(self):
+        import zstandard
+        self.zstd = zstandard
+        with h.open_study(STUDY.db) as db:
+            self.trial, self.hand, self.first, self.count, self.blob = db.connection.execute(
+                "SELECT trial_id, instrument, first_tick, count, data FROM sample_chunk WHERE trial_id = 1 "
+                "ORDER BY id LIMIT 1").fetchone()
+        self.frame = bytes(self.blob[h.HEADER_BYTES:])
+        self.body = self.zstd.ZstdDecompressor().decompress(self.frame)
+
+    def signed(self, frame, fmt=h.FORMAT_CURRENT):
+        crc = h.crc32c(struct.pack("<QQQQ", self.trial, self.hand, self.first, self.count) + bytes([fmt]) + frame)
+        return bytes([fmt]) + struct.pack("<I", crc) + frame
+
+    def decode(self, frame):
+        return h.decode_chunk(self.trial, self.hand, self.first, self.count, self.signed(frame))
+
+    def test_a_bomb_is_refused_before_it_is_decompressed(self):
+        import resource
+        # 512 MiB of zeros in a frame of a few kB, stated in its header, for
+        # a chunk of `count` updates (at most 28 + 117 * count bytes).
+        zeros = bytes(1 << 20)
+        writer = self.zstd.ZstdCompressor(level=1, write_checksum=True).compressobj(size=512 << 20)
+        bomb = b"".join(writer.compress(zeros) for _ in range(512)) + writer.flush()
+        self.assertLess(len(bomb), 64 << 10)
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        with self.assertRaisesRegex(h.ChunkError, "the zstd frame's header states 536870912 bytes, more than the"):
+            self.decode(bomb)
+        grown_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+        self.assertLess(grown_kb, 64 << 10, "the reader held the bomb's content")
+
+    def test_a_frame_followed_by_another_or_without_checksum_is_refused(self):
+        self.assertEqual(self.decode(self.frame)["tick"].size, self.count)
+        second = self.zstd.ZstdCompressor(write_checksum=True).compress(b"")
+        with self.assertRaisesRegex(h.ChunkError, "bytes follow the zstd frame"):
+            self.decode(self.frame + second)
+        with self.assertRaisesRegex(h.ChunkError, "carries no content checksum"):
+            self.decode(self.zstd.ZstdCompressor(level=1, write_checksum=False).compress(self.body))
+        # A byte changed inside the frame, with the chunk's CRC recomputed:
+        # the frame's content checksum (or the decoder) refuses it, or the
+        # byte was one zstd ignores and the values are the same.
+        want = self.decode(self.frame)
+        refused = 0
+        for i in range(4, len(self.frame), max(1, len(self.frame) // 40)):
+            bad = bytearray(self.frame)
+            bad[i] ^= 0x10
+            try:
+                got = self.decode(bytes(bad))
+            except h.ChunkError as e:
+                self.assertEqual(e.kind, "structure")
+                refused += 1
+                continue
+            for name in want:
+                self.assertTrue(fx.same_bits(got[name], want[name]), f"byte {i}: {name} decoded to other values")
+        self.assertGreater(refused, 30)
+
+    def test_a_null_or_text_chunk_is_named(self):
+        for value, kind in ((None, "NULL"), ("not a blob", "str")):
+            with self.assertRaisesRegex(h.ChunkError, f"its data is {kind}, not a BLOB"):
+                h.decode_chunk(self.trial, self.hand, self.first, self.count, value)
+        path = STUDY.copy("text_chunk.db")
+        conn = sqlite3.connect(path)
+        conn.execute("UPDATE sample_chunk SET data = 'not a blob' WHERE trial_id = 1 AND instrument = 1 "
+                     "AND first_tick = 0")
+        conn.commit()
+        conn.close()
+        with self.assertRaisesRegex(h.StructureError, "sample_chunk row [0-9]+ of trial 1: data is text 'not a blob', "
+                                                      "expected a BLOB"):
             h.open_study(path)
 
 

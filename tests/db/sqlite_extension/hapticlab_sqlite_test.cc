@@ -219,11 +219,41 @@ TEST_F(SqliteExtensionTest, ADamagedChunkIsAnErrorNamingTrialInstrumentAndTicksA
   EXPECT_EQ(out, "1\n");
 }
 
+// A chunk whose checksum is right but that does not decode (its frame
+// changed and the CRC recomputed, or written wrong), late in the trial:
+// every chunk is verified and decompressed before the trial's first row, so
+// the query fails with no row at all (it used to print the rows before it).
+TEST_F(SqliteExtensionTest, AChunkThatDoesNotDecodeLateInTheTrialGivesNoRow) {
+  const std::string copy = copy_of_study("undecodable.db");
+  std::int64_t first = 0, count = 0;
+  {
+    Database conn(copy);
+    Statement s = conn.prepare(
+        "SELECT id, first_tick, count FROM sample_chunk WHERE trial_id = 1 AND instrument = 1 "
+        "ORDER BY first_tick DESC LIMIT 1");
+    ASSERT_TRUE(s.step());
+    first = s.column_int64(1);
+    count = s.column_int64(2);
+    const std::string garbage = "not a zstd frame";
+    testing::resign_chunk(conn, s.column_int64(0), kChunkFormat, std::as_bytes(std::span(garbage)));
+  }
+  for (const char* query : {"SELECT tick FROM samples(1)", "SELECT tick FROM samples(1, 1)"}) {
+    const auto [status, out] = sql(copy, {".headers off", query});
+    EXPECT_NE(status, 0) << query;
+    EXPECT_THAT(out, AllOf(HasSubstr(copy + ": damaged sample chunk: trial 1, right instrument (1), ticks " +
+                                     std::to_string(first) + ".." + std::to_string(first + count - 1) +
+                                     ": the zstd frame does not decompress"),
+                           HasSubstr("no row of the trial is returned")))
+        << query;
+    EXPECT_THAT(out, Not(::testing::ContainsRegex("^[0-9]"))) << query << "\n" << out.substr(0, 200);
+  }
+}
+
 TEST_F(SqliteExtensionTest, WrongArgumentsAndForeignFilesAreNamedErrors) {
   {
     const auto [status, out] = sql(*db_, {"SELECT * FROM samples(99)"});
     EXPECT_NE(status, 0);
-    EXPECT_THAT(out, HasSubstr("samples(): trial_id is 99, but the study database has no such trial"));
+    EXPECT_THAT(out, HasSubstr("samples(): trial_id is 99, but the study database " + *db_ + " has no such trial"));
   }
   {
     const auto [status, out] = sql(*db_, {"SELECT * FROM samples(1, 2)"});
@@ -241,14 +271,14 @@ TEST_F(SqliteExtensionTest, WrongArgumentsAndForeignFilesAreNamedErrors) {
     Database(other).exec("CREATE TABLE IF NOT EXISTS t(x)");
     const auto [status, out] = sql(other, {"SELECT * FROM samples(1)"});
     EXPECT_NE(status, 0);
-    EXPECT_THAT(out, HasSubstr("samples: this is not a HapticLab study database (application_id 0"));
+    EXPECT_THAT(out, HasSubstr("samples: " + other + " is not a HapticLab study database (application_id 0"));
   }
   {
     const std::string old = copy_of_study("old.db");
-    Database(old).exec("PRAGMA user_version = 3");
+    Database(old).exec("PRAGMA user_version = 6");
     const auto [status, out] = sql(old, {"SELECT * FROM samples(1)"});
     EXPECT_NE(status, 0);
-    EXPECT_THAT(out, AllOf(HasSubstr("schema version 3, this extension reads 4..6"), HasSubstr("hapticlab analyze")));
+    EXPECT_THAT(out, AllOf(HasSubstr("schema version 6, this extension reads version 8"), HasSubstr("hapticlab analyze")));
   }
 }
 

@@ -1,0 +1,127 @@
+#include "db/structure_check.h"
+
+#include <string>
+
+#include "db/schema.h"
+#include "db/schema_shape.h"
+
+namespace hapticlab::db {
+namespace {
+
+Finding finding(const char* check, std::string table, std::optional<std::int64_t> row,
+                std::optional<std::int64_t> trial, std::string message) {
+  Finding f;
+  f.check = check;
+  f.table = std::move(table);
+  f.row = row;
+  f.trial_id = trial;
+  f.message = std::move(message);
+  return f;
+}
+
+std::optional<std::int64_t> opt_int(const Statement& s, int c) {
+  if (s.is_null(c)) return std::nullopt;
+  return s.column_int64(c);
+}
+
+// "x" as an SQL identifier.
+std::string sql_name(const std::string& name) {
+  std::string out = "\"";
+  for (char c : name) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+}  // namespace
+
+std::vector<Finding> check_tables(Database& db, int version) {
+  std::vector<Finding> out;
+  Statement kind = db.prepare(
+      "SELECT type FROM main.sqlite_schema WHERE name = ?1 COLLATE NOCASE AND type IN ('table', 'view') LIMIT 1");
+  Statement columns = db.prepare("SELECT name, type, \"notnull\" FROM pragma_table_info(?1, 'main') ORDER BY cid");
+  for (const TableShape& table : schema_tables()) {
+    if (table.since_version > version) continue;
+    kind.reset();
+    kind.bind(1, table.name);
+    const std::string type = kind.step() ? kind.column_text(0) : std::string();
+    std::vector<FoundColumn> found;
+    if (type == "table") {
+      columns.reset();
+      columns.bind(1, table.name);
+      while (columns.step()) found.push_back({columns.column_text(0), columns.column_text(1), columns.column_int64(2) != 0});
+    }
+    std::string problem = shape_problem(table, type, found);
+    // Older schemas had other columns (the migrations change them), and a
+    // table missing there fails its migration, naming the step: only that
+    // what is there is a table is checked, before any migration reads it.
+    const bool current = version == kSchemaVersion;
+    if (!problem.empty() && (current || (!type.empty() && type != "table")))
+      out.push_back(finding("schema", table.name, std::nullopt, std::nullopt, std::move(problem)));
+  }
+  return out;
+}
+
+std::vector<Finding> check_foreign_keys(Database& db, std::size_t limit) {
+  std::vector<Finding> out;
+  Statement check = db.prepare("PRAGMA main.foreign_key_check");
+  while (out.size() < limit && check.step()) {
+    const std::string table = check.column_text(0);
+    const std::optional<std::int64_t> rowid = opt_int(check, 1);
+    const std::string parent = check.column_text(2);
+    const std::int64_t fk = check.column_int64(3);
+    std::string column = "?";
+    {
+      Statement from = db.prepare("SELECT \"from\" FROM pragma_foreign_key_list(?1, 'main') WHERE id = ?2 LIMIT 1");
+      from.bind(1, table).bind(2, fk);
+      if (from.step()) column = from.column_text(0);
+    }
+    std::string value = "?";
+    std::optional<std::int64_t> trial;
+    if (rowid) {
+      const TableShape* shape = find_schema_table(table);
+      bool has_trial = false;
+      if (shape != nullptr)
+        for (const ColumnShape& c : shape->columns) has_trial = has_trial || std::string(c.name) == "trial_id";
+      Statement row = db.prepare("SELECT quote(" + sql_name(column) + "), " + (has_trial ? "trial_id" : "NULL") +
+                                 " FROM main." + sql_name(table) + " WHERE rowid = ?1");
+      row.bind(1, *rowid);
+      if (row.step()) {
+        value = row.column_text(0);
+        if (shape != nullptr && std::string(shape->name) == "trial") trial = *rowid;
+        else if (!row.is_null(1)) trial = row.column_int64(1);
+      }
+    }
+    out.push_back(finding("foreign_key", table, rowid, trial,
+                          broken_reference_message(table, rowid.value_or(0), trial, column, value, parent)));
+  }
+  return out;
+}
+
+std::vector<Finding> check_value_types(Database& db, std::size_t limit) {
+  std::vector<Finding> out;
+  for (const TableShape& table : schema_tables()) {
+    Statement s = db.prepare(mistyped_rows_sql(table, {}, limit));
+    std::vector<std::string> types(table.columns.size()), values(table.columns.size());
+    while (s.step()) {
+      const std::int64_t rowid = s.column_int64(0);
+      const std::optional<std::int64_t> trial = opt_int(s, 1);
+      for (std::size_t c = 0; c < table.columns.size(); ++c) {
+        types[c] = s.column_text(static_cast<int>(2 + 2 * c));
+        values[c] = s.column_text(static_cast<int>(3 + 2 * c));
+      }
+      out.push_back(finding("type", table.name, rowid, trial, mistyped_row_message(table, rowid, trial, types, values)));
+    }
+  }
+  return out;
+}
+
+void refuse_findings(const Database& db, const std::vector<Finding>& findings) {
+  if (findings.empty()) return;
+  constexpr std::size_t kShown = 5;
+  std::string list;
+  for (std::size_t i = 0; i < findings.size() && i < kShown; ++i) list += "; " + findings[i].message;
+  if (findings.size() > kShown) list += "; ... (`hapticlab study check` lists them all)";
+  throw DbError(db.path() + ": the file's structure is damaged, " + std::to_string(findings.size()) +
+                " finding(s)" + list);
+}
+
+}  // namespace hapticlab::db
