@@ -76,7 +76,7 @@ TABLES = (
                  ("status", "TEXT", True))),
     ("training", (("id", "INTEGER", False), ("session_id", "INTEGER", True), ("task", "TEXT", True),
                   ("started_unix_s", "REAL", True), ("ended_unix_s", "REAL", False), ("duration_s", "REAL", False),
-                  ("trials", "INTEGER", True))),
+                  ("trials", "INTEGER", True), ("cut_short", "INTEGER", True), ("cut_short_reason", "TEXT", False))),
     ("trial", (("id", "INTEGER", False), ("participant_id", "INTEGER", True), ("task", "TEXT", True),
                ("setting_id", "INTEGER", True), ("repetition", "INTEGER", True), ("block", "INTEGER", True),
                ("position", "INTEGER", True), ("status", "TEXT", True), ("session_id", "INTEGER", False),

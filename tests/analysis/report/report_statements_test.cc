@@ -183,7 +183,9 @@ TEST_F(ReportStatementsTest, TheDoseMediansBoldWhatTheFixedSequenceAccepts) {
   const nlohmann::json& rows = j.at("dose_response").at("rows");
   ASSERT_EQ(rows.size(), 5u);
   for (const auto& r : rows)
-    if (r.at("measure") == "force_p95_N") EXPECT_TRUE(r.at("smallest_significant_strength").is_null()) << r.dump();
+    if (r.at("measure") == "force_p95_N") {
+      EXPECT_TRUE(r.at("smallest_significant_strength").is_null()) << r.dump();
+    }
   EXPECT_THAT(md, HasSubstr("bold: the strengths the fixed-sequence procedure accepts"));
   EXPECT_THAT(md, HasSubstr("(p 0.031)"));  // 0.2 N against the control, unadjusted
   EXPECT_THAT(md, Not(HasSubstr("(p 0.031)**")));
