@@ -212,7 +212,10 @@ TEST(SafetyTest, ALoopThatKeepsItsScheduleIsNoRateViolation) {
   WallClock clock;
   LoopConfig c = config(0.6);
   c.safety.rate.window_s = 0.2;
-  c.safety.rate.tolerance_fraction = 0.2;  // a loaded CI host: this test is about the schedule, not the host
+  // A loaded CI host: this test is about the schedule, not the host. 0.35
+  // still fails a loop that counted the 3 ms write into its period (143 Hz,
+  // 43 % below 250 Hz).
+  c.safety.rate.tolerance_fraction = 0.35;
   HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(250.0), c);
   ASSERT_TRUE(loop.start());
   loop.join();
