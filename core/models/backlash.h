@@ -13,6 +13,8 @@
 // walls are infinitely stiff. Karnopp friction on the free mass keeps it from
 // rattling between the walls.
 
+#include <algorithm>
+
 #include "core/models/linearized_force.h"
 #include "core/models/moving_average.h"
 #include "core/models/virtual_mass.h"
@@ -29,13 +31,8 @@ class Backlash {
   // Mass position limited to x_hi ± gap/2: the position the VE sees and the
   // input of the VE, cogging and friction models.
   double limited_position(double x_hi, double gap) const noexcept {
-    // std::clamp(x, lo, hi) = x < lo ? lo : (hi < x ? hi : x), written as two
-    // selections the compiler makes without branches (minsd, maxsd-like
-    // blends): which wall, if any, is as unpredictable as the hand.
-    const double x = mass_.position();
-    const double lo = x_hi - 0.5 * gap, hi = x_hi + 0.5 * gap;
-    const double below_hi = hi < x ? hi : x;
-    return x < lo ? lo : below_hi;
+    // std::clamp is min(max(x, lo), hi): maxsd and minsd, no branch.
+    return std::clamp(mass_.position(), x_hi - 0.5 * gap, x_hi + 0.5 * gap);
   }
   // True when the mass is held at a gap wall (the instrument pushes it).
   bool at_wall(double x_hi, double gap) const noexcept {
