@@ -27,7 +27,7 @@ bool same_bits(double a, double b) noexcept {
   return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
 }
 
-Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept {
+[[gnu::always_inline]] inline Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept {
   // Scaled by the largest component first: the norm of a finite force near
   // 1e308 N overflows (norm() already at 1e154 N, hypot() at 1.3e308 N), and
   // limit/inf would zero the force instead of clipping it.
@@ -186,7 +186,7 @@ void Instrument::internal_fault(const JointVector& q, InstrumentOutput& out) noe
   refreshable_ = false;
 }
 
-bool Instrument::finish_forces(JointVector command, InstrumentOutput& out) const noexcept {
+inline bool Instrument::finish_forces(JointVector command, InstrumentOutput& out) const noexcept {
   // Checked before the limit, which would turn an infinity into a full-scale
   // command.
   if (!finite(command)) return false;

@@ -86,8 +86,8 @@ class Instrument {
   void resync(const JointVector& q) noexcept;
   // Device limit per axis, then the displayed tip force those limited
   // commands make (eq. 2.19). False, and `out` untouched, if a command is
-  // not finite.
-  bool finish_forces(JointVector command, InstrumentOutput& out) const noexcept;
+  // not finite. Always inlined (4 % of an update as a call).
+  [[gnu::always_inline]] bool finish_forces(JointVector command, InstrumentOutput& out) const noexcept;
   // A non-finite intermediate value: zero force, state reset at q, status bit 2.
   void internal_fault(const JointVector& q, InstrumentOutput& out) noexcept;
 
