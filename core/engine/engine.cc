@@ -33,7 +33,7 @@ InstrumentOutput Engine::update(int instrument, const InstrumentInput& in) noexc
     instruments_[instrument].apply_settings(exchange_.current());
     applied_generation_[instrument] = generation_;
   }
-  return instruments_[instrument].step(in);
+  return instruments_[instrument].step(in, filters_);
 }
 
 void Engine::refresh_forces(int instrument, const Eigen::Vector3d& ve_force_N, InstrumentOutput& out) noexcept {

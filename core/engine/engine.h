@@ -44,6 +44,8 @@ class Engine {
  private:
   TripleBuffer<EngineSettings> exchange_;
   std::array<Instrument, kNumInstruments> instruments_;
+  // Shared: both instruments of one loop update see the same dt.
+  ButterworthCache filters_;
   std::uint64_t generation_ = 0;
   std::array<std::uint64_t, kNumInstruments> applied_generation_{};
 };

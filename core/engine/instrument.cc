@@ -1,6 +1,8 @@
 #include "core/engine/instrument.h"
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 #include "core/engine/status.h"
 #include "core/models/saturation.h"
@@ -8,14 +10,24 @@
 namespace hapticlab {
 namespace {
 
-// Eigen's allFinite() gives the same answer through (v - v).hasNaN(), an
-// expression the sanitizer build does not inline: 5 % of `demo --quick`'s
-// time there, for the five checks of every update.
+// x·0 is ±0 for a finite x and NaN for an infinite or NaN one, so one
+// comparison checks several values without a branch for each (Eigen's
+// allFinite(), (v - v).hasNaN(), was 5 % of `demo --quick`'s time in the
+// sanitizer build, which does not inline it).
 bool finite(const Eigen::Vector3d& v) noexcept {
-  return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
+  return v.x() * 0.0 + v.y() * 0.0 + v.z() * 0.0 == 0.0;
+}
+bool finite(double dt, const Eigen::Vector3d& a, const Eigen::Vector3d& b) noexcept {
+  return dt * 0.0 + (a.x() * 0.0 + a.y() * 0.0 + a.z() * 0.0) + (b.x() * 0.0 + b.y() * 0.0 + b.z() * 0.0) == 0.0;
 }
 
-Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept {
+// Whether two doubles have the same bits, so that a function of one is,
+// exactly, the function of the other (0.0 == −0.0, but their sines differ).
+bool same_bits(double a, double b) noexcept {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
+
+[[gnu::always_inline]] inline Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept {
   // Scaled by the largest component first: the norm of a finite force near
   // 1e308 N overflows (norm() already at 1e154 N, hypot() at 1.3e308 N), and
   // limit/inf would zero the force instead of clipping it.
@@ -29,7 +41,7 @@ Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept 
 }  // namespace
 
 Instrument::Instrument(const EngineSettings& settings, const JointVector& start) noexcept
-    : settings_(settings) {
+    : settings_(settings), terms_{AxisTerms(settings.translation), AxisTerms(settings.rotation)} {
   for (int a = 0; a < kNumAxes; ++a) chains_[a].reset(settings_.axis(a), start[a]);
   ve_force_delay_.reset(Eigen::Vector3d::Zero());
   position_delay_.reset(start);
@@ -42,6 +54,7 @@ void Instrument::apply_settings(const EngineSettings& settings) noexcept {
     chains_[a].on_settings_change(settings_.axis(a), settings.axis(a));
   }
   settings_ = settings;
+  terms_ = {AxisTerms(settings_.translation), AxisTerms(settings_.rotation)};
 }
 
 void Instrument::resync(const JointVector& q) noexcept {
@@ -49,11 +62,11 @@ void Instrument::resync(const JointVector& q) noexcept {
   last_position_ = q;
 }
 
-InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
+InstrumentOutput Instrument::step(const InstrumentInput& in, ButterworthCache& filters) noexcept {
   InstrumentOutput out;
   refreshable_ = false;
   // guard: a non-finite value never reaches a motor
-  if (!std::isfinite(in.dt_s) || !finite(in.position) || !finite(in.ve_force_N)) {
+  if (!finite(in.dt_s, in.position, in.ve_force_N)) {
     out.status = kFaultNonFiniteInput;
     out.degraded_position = finite(in.position) ? JointVector(in.position) : last_degraded_;
     needs_resync_ = true;
@@ -67,7 +80,9 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   }
   const LoopEmulation& loop = settings_.loop;
   ve = ve_force_delay_.step(ve, in.dt_s, loop.force_latency_s, loop.hold_rate_Hz);
-  out.measured_pose = tool_pose(in.position);
+  const SinCos pitch = measured_pitch_(in.position[kPitch]);
+  const SinCos yaw = measured_yaw_(in.position[kYaw]);
+  out.measured_pose = tool_pose(in.position[kInsertion], pitch, yaw);
   const ToolPose& pose = out.measured_pose;
   const JointVector ve_joint = world_to_joint(pose, ve);
   if (!finite(ve_joint)) {
@@ -109,11 +124,7 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
 
   // per DOF chains, sub-stepped along the straight line from the last position
   const double sub_dt = dt / substeps;
-  if (sub_dt > 0.0 && sub_dt != filter_dt_s_) {
-    filter_ = butterworth_lowpass_1st(kVelocityCutoff_Hz, sub_dt);
-    filter_dt_s_ = sub_dt;
-  }
-  const ButterworthCoefficients filter = sub_dt > 0.0 ? filter_ : ButterworthCoefficients{};
+  const ButterworthCoefficients filter = sub_dt > 0.0 ? filters.at(sub_dt) : ButterworthCoefficients{};
   JointVector command = JointVector::Zero();
   JointVector degraded = in.position;
   for (int i = 1; i <= substeps; ++i) {
@@ -122,7 +133,8 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
       // The last sub-step lands exactly on the measured position.
       const double x = i == substeps ? in.position[a]
                                      : (1.0 - w) * last_position_[a] + w * in.position[a];
-      const DofOutput d = chains_[a].step(settings_.axis(a), x, ve_joint[a], sub_dt, filter);
+      const DofOutput d =
+          chains_[a].step(settings_.axis(a), terms_[a == kInsertion ? 0 : 1], x, ve_joint[a], sub_dt, filter);
       command[a] = d.force;
       degraded[a] = d.position;
       last_dof_[static_cast<std::size_t>(a)] = d;
@@ -136,7 +148,12 @@ InstrumentOutput Instrument::step(const InstrumentInput& in) noexcept {
   out.degraded_position =
       position_delay_.step(degraded, in.dt_s, loop.position_latency_s, loop.hold_rate_Hz);
   if (out.degraded_position != in.position) {  // backlash or latency on: the VE sees elsewhere
-    const ToolPose shown = tool_pose(out.degraded_position);
+    // An angle the VE sees unchanged (an axis without backlash) shares the
+    // measured one's sine and cosine.
+    const JointVector& q_ve = out.degraded_position;
+    const ToolPose shown =
+        tool_pose(q_ve[kInsertion], same_bits(q_ve[kPitch], in.position[kPitch]) ? pitch : shown_pitch_(q_ve[kPitch]),
+                  same_bits(q_ve[kYaw], in.position[kYaw]) ? yaw : shown_yaw_(q_ve[kYaw]));
     out.tip_offset_m = tip_offset(pose, shown);
     out.orientation_offset = orientation_offset(pose, shown);
     out.degraded_tip_m = tip_position(shown);
@@ -169,7 +186,7 @@ void Instrument::internal_fault(const JointVector& q, InstrumentOutput& out) noe
   refreshable_ = false;
 }
 
-bool Instrument::finish_forces(JointVector command, InstrumentOutput& out) const noexcept {
+inline bool Instrument::finish_forces(JointVector command, InstrumentOutput& out) const noexcept {
   // Checked before the limit, which would turn an infinity into a full-scale
   // command.
   if (!finite(command)) return false;

@@ -22,7 +22,12 @@
 // sin/cos typo, which would make the two directions disagree (not round-trip).
 // See docs/engine.md.
 
+#include <algorithm>
+#include <cmath>
+
 #include <Eigen/Core>
+
+#include "core/models/sin_cos.h"
 
 namespace hapticlab {
 
@@ -36,9 +41,29 @@ struct ToolPose {
   double insertion_m;
   double cos_pitch;
 };
-ToolPose tool_pose(const JointVector& q) noexcept;
+// R_w from the sines and cosines of pitch and yaw.
+inline Eigen::Matrix3d tool_orientation(SinCos pitch, SinCos yaw) noexcept {
+  const double sp = pitch.sin, cp = pitch.cos;
+  const double sy = yaw.sin, cy = yaw.cos;
+  Eigen::Matrix3d r;
+  // Columns: e_yaw, e_pitch, −d_in (eq. 2.20 with sin(−y) = −sin y).
+  r << cy, -sy * sp, -sy * cp,
+       0.0, cp, -sp,
+       sy, cy * sp, cy * cp;
+  return r;
+}
+inline Eigen::Matrix3d tool_orientation(double pitch_rad, double yaw_rad) noexcept {
+  return tool_orientation(sin_cos(pitch_rad), sin_cos(yaw_rad));
+}
+// The pose of joints (insertion, pitch, yaw) whose angles' sines and cosines
+// are given: the engine takes them from memos.
+inline ToolPose tool_pose(double insertion_m, SinCos pitch, SinCos yaw) noexcept {
+  return {tool_orientation(pitch, yaw), insertion_m, pitch.cos};
+}
+inline ToolPose tool_pose(const JointVector& q) noexcept {
+  return tool_pose(q[0], sin_cos(q[1]), sin_cos(q[2]));
+}
 
-Eigen::Matrix3d tool_orientation(double pitch_rad, double yaw_rad) noexcept;
 Eigen::Vector3d insertion_direction(double pitch_rad, double yaw_rad) noexcept;
 Eigen::Vector3d tip_position(const JointVector& q) noexcept;
 // insertion·d_in from a pose already computed.
@@ -47,7 +72,15 @@ inline Eigen::Vector3d tip_position(const ToolPose& pose) noexcept {
 }
 
 // World tip force [N] => (insertion force N, pitch torque N·m, yaw torque N·m).
-JointVector world_to_joint(const ToolPose& pose, const Eigen::Vector3d& force_N) noexcept;
+inline JointVector world_to_joint(const ToolPose& pose, const Eigen::Vector3d& f) noexcept {
+  const Eigen::Matrix3d& r = pose.orientation;
+  const double arm_pitch = pose.insertion_m;
+  const double arm_yaw = pose.insertion_m * pose.cos_pitch;
+  // The columns' dot products with f written out, summed in Eigen's order
+  // (bit for bit), for the sanitizer build, which did not inline them.
+  const auto dot = [&](int column) { return r(0, column) * f[0] + r(1, column) * f[1] + r(2, column) * f[2]; };
+  return {-dot(2), arm_pitch * dot(1), arm_yaw * dot(0)};
+}
 inline JointVector world_to_joint(const JointVector& q, const Eigen::Vector3d& force_N) noexcept {
   return world_to_joint(tool_pose(q), force_N);
 }
@@ -55,8 +88,25 @@ inline JointVector world_to_joint(const JointVector& q, const Eigen::Vector3d& f
 // Joint forces => world tip force [N]. The moment arms' magnitudes are
 // floored at min_moment_arm_m (signs kept) so a tool at the trocar
 // (insertion 0) gives finite forces.
-Eigen::Vector3d joint_to_world(const ToolPose& pose, const JointVector& joint_force,
-                               double min_moment_arm_m) noexcept;
+inline Eigen::Vector3d joint_to_world(const ToolPose& pose, const JointVector& tau,
+                                      double min_moment_arm_m) noexcept {
+  // |arm| floored, sign kept: a tip behind the pivot (negative insertion) has
+  // its lateral directions reversed, and a floor must not flip them back.
+  const auto floored_arm = [min_moment_arm_m](double arm_m) {
+    return std::copysign(std::max(std::abs(arm_m), min_moment_arm_m), arm_m);
+  };
+  const Eigen::Matrix3d& r = pose.orientation;
+  const double arm_pitch = floored_arm(pose.insertion_m);
+  const double arm_yaw = floored_arm(pose.insertion_m * pose.cos_pitch);
+  // -tau0·(third column) + (tau1/arm)·(second) + (tau2/arm)·(first), one
+  // component at a time: the same sums in the same order as the Eigen
+  // expression it replaces (bit for bit), which the sanitizer build did not
+  // inline (6 % of `demo --quick`'s time there).
+  const double along_in = -tau[0], pitch = tau[1] / arm_pitch, yaw = tau[2] / arm_yaw;
+  return {along_in * r(0, 2) + pitch * r(0, 1) + yaw * r(0, 0),
+          along_in * r(1, 2) + pitch * r(1, 1) + yaw * r(1, 0),
+          along_in * r(2, 2) + pitch * r(2, 1) + yaw * r(2, 0)};
+}
 inline Eigen::Vector3d joint_to_world(const JointVector& q, const JointVector& joint_force,
                                       double min_moment_arm_m) noexcept {
   return joint_to_world(tool_pose(q), joint_force, min_moment_arm_m);
@@ -66,13 +116,19 @@ inline Eigen::Vector3d joint_to_world(const JointVector& q, const JointVector& j
 // and how it should rotate the tool, given the instrument's measured joints q
 // and the degraded joints q_ve. The tip offset is the exact difference of tip
 // positions; eq. 2.20 is its first-order form J(q)·(q_ve − q).
-Eigen::Vector3d tip_offset(const ToolPose& measured, const ToolPose& shown) noexcept;
+inline Eigen::Vector3d tip_offset(const ToolPose& measured, const ToolPose& shown) noexcept {
+  // tip = insertion·d_in = −insertion·(third column of R_w)
+  return measured.insertion_m * measured.orientation.col(2) -
+         shown.insertion_m * shown.orientation.col(2);
+}
 inline Eigen::Vector3d tip_offset(const JointVector& q, const JointVector& q_ve) noexcept {
   return tip_offset(tool_pose(q), tool_pose(q_ve));
 }
 // World-frame rotation taking the measured tool orientation to the degraded
 // one: R_w(q_ve)·R_w(q)ᵀ (eq. 2.21 with R_offset,t expressed in the world).
-Eigen::Matrix3d orientation_offset(const ToolPose& measured, const ToolPose& shown) noexcept;
+inline Eigen::Matrix3d orientation_offset(const ToolPose& measured, const ToolPose& shown) noexcept {
+  return shown.orientation * measured.orientation.transpose();
+}
 inline Eigen::Matrix3d orientation_offset(const JointVector& q, const JointVector& q_ve) noexcept {
   return orientation_offset(tool_pose(q), tool_pose(q_ve));
 }

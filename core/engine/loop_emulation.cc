@@ -12,25 +12,14 @@ void SignalDelayHold::reset(const Eigen::Vector3d& value) noexcept {
   held_ = value;
 }
 
-Eigen::Vector3d SignalDelayHold::step(const Eigen::Vector3d& value, double dt_s,
-                                      double latency_s, double hold_rate_Hz) noexcept {
-  now_s_ += dt_s > 0.0 ? dt_s : 0.0;
-  newest_ = (newest_ + 1) % kCapacity;
-  ring_[newest_] = {now_s_, value};
-  if (count_ < kCapacity) {
-    ++count_;
-  } else if (cursor_ == newest_) {
-    // Overwritten: the oldest stored sample is the best we have.
-    cursor_ = (newest_ + 1) % kCapacity;
-  }
-
+Eigen::Vector3d SignalDelayHold::delay_and_hold(const Eigen::Vector3d& value, double latency_s,
+                                                double hold_rate_Hz) noexcept {
   Eigen::Vector3d delayed = value;
   if (latency_s > 0.0) {
     // The target time only moves forward, so the cursor does too.
     const double target_s = now_s_ - latency_s;
-    for (int next = (cursor_ + 1) % kCapacity; cursor_ != newest_ && ring_[next].t_s <= target_s;
-         next = (cursor_ + 1) % kCapacity) {
-      cursor_ = next;
+    for (int n = next(cursor_); cursor_ != newest_ && ring_[n].t_s <= target_s; n = next(cursor_)) {
+      cursor_ = n;
     }
     delayed = ring_[cursor_].value;
   } else {

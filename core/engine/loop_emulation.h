@@ -23,11 +23,31 @@ class SignalDelayHold {
   void reset(const Eigen::Vector3d& value) noexcept;
 
   // Adds `value` observed dt_s after the previous one; returns the delayed,
-  // held value.
+  // held value. Inline for the common case (no latency, no hold), which
+  // every update of both instruments goes through twice.
   Eigen::Vector3d step(const Eigen::Vector3d& value, double dt_s, double latency_s,
-                       double hold_rate_Hz) noexcept;
+                       double hold_rate_Hz) noexcept {
+    now_s_ += dt_s > 0.0 ? dt_s : 0.0;
+    newest_ = next(newest_);
+    ring_[newest_] = {now_s_, value};
+    if (count_ < kCapacity) {
+      ++count_;
+    } else if (cursor_ == newest_) {
+      // Overwritten: the oldest stored sample is the best we have.
+      cursor_ = next(newest_);
+    }
+    if (latency_s <= 0.0 && hold_rate_Hz <= 0.0) {
+      cursor_ = newest_;
+      return held_ = value;
+    }
+    return delay_and_hold(value, latency_s, hold_rate_Hz);
+  }
 
  private:
+  static_assert((kCapacity & (kCapacity - 1)) == 0, "a power of two: the ring's index wraps by a mask");
+  static int next(int index) noexcept { return (index + 1) & (kCapacity - 1); }
+  Eigen::Vector3d delay_and_hold(const Eigen::Vector3d& value, double latency_s, double hold_rate_Hz) noexcept;
+
   struct Sample {
     double t_s;
     Eigen::Vector3d value;

@@ -12,6 +12,11 @@
 // drags the stick centre and the force stays at μ_d. The force never exceeds
 // μ_d. Units: [F] force or torque, [X] position (see axis_settings.h).
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/common/sign.h"
 #include "core/models/linearized_force.h"
 #include "core/settings/axis_settings.h"
 
@@ -23,7 +28,54 @@ class Friction {
   void reset(double position) noexcept;
 
   // Friction force on the moving body at position x with velocity v.
-  LinearizedForce step(const FrictionParams& p, double x, double v) noexcept;
+  LinearizedForce step(const FrictionParams& p, double x, double v) noexcept {
+    return step(p, presliding_stiffness(p), x, v);
+  }
+  // The same with k = presliding_stiffness(p) computed beforehand (once per
+  // settings change rather than once per update). Inline: it runs on every
+  // axis with friction, every update.
+  LinearizedForce step(const FrictionParams& p, double k, double x, double v) noexcept {
+    const double mu = p.dynamic_level;
+    const double dp = p.presliding_displacement;
+    if (!sticking_ && std::abs(v) < p.stick_velocity) {
+      // Slip -> stick. Attach so that the spring force equals the slip force
+      // (eq. 2.12); with v == 0 keep the direction of the last slip force.
+      const double dir = v != 0.0 ? sign(v) : -sign(last_force_);
+      stick_centre_ = x - dp * dir;
+      sticking_ = true;
+    }
+    if (sticking_) {
+      const double stretch = x - stick_centre_;
+      if (std::abs(stretch) <= dp) {
+        last_force_ = -mu * (stretch / dp);
+        return {last_force_, k};
+      }
+      // Breakaway: the pre-sliding spring ruptures.
+      sticking_ = false;
+      if (std::abs(v) < p.stick_velocity) {
+        // Still slow: re-attach at the edge of the pre-sliding range, which
+        // drags the stick centre along with the motion.
+        stick_centre_ = x - dp * sign(stretch);
+        sticking_ = true;
+        last_force_ = -mu * sign(stretch);
+        return {last_force_, k};
+      }
+      last_force_ = -mu * sign(v);
+      return {last_force_, 0.0};
+    }
+    last_force_ = -mu * sign(v);
+    return {last_force_, 0.0};
+  }
+
+  // K_f = μ_d/d_p, the stiffness handed to an implicit integrator while
+  // sticking. The pre-sliding range d_p may be any positive number,
+  // subnormals included: μ_d/d_p then overflows to infinity, and −K_f·0 at
+  // rest would be NaN. So the force is −μ_d·(stretch/d_p) (|stretch/d_p| <= 1),
+  // and this stiffness is capped at the largest double: dt²·K_f stays
+  // finite, and the mass is held just as firmly.
+  static double presliding_stiffness(const FrictionParams& p) noexcept {
+    return std::min(p.dynamic_level / p.presliding_displacement, std::numeric_limits<double>::max());
+  }
 
   bool sticking() const noexcept { return sticking_; }
   double stick_centre() const noexcept { return stick_centre_; }

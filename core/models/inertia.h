@@ -18,7 +18,20 @@ class Inertia {
  public:
   void reset(double x_hi, double v_hi) noexcept;
   // Returns the force on the instrument [F].
-  double step(const InertiaParams& p, double x_hi, double v_hi, double dt_s) noexcept;
+  double step(const InertiaParams& p, double x_hi, double v_hi, double dt_s) noexcept {
+    return step(p, coupling_damping(p), x_hi, v_hi, dt_s);
+  }
+  // The same with b = coupling_damping(p) computed beforehand (once per
+  // settings change). Inline: it runs on every axis with inertia, every update.
+  double step(const InertiaParams& p, double b, double x_hi, double v_hi, double dt_s) noexcept {
+    // (x_hi, v_hi) => coupling on the mass, implicit in (x_vm', v_vm')
+    const MassForces on_mass{p.stiffness * (x_hi - mass_.position()) + b * v_hi, p.stiffness, b};
+    mass_.step(on_mass, p.mass, KarnoppFriction{}, dt_s);
+    // (x_vm', v_vm') => reaction on the instrument => short average
+    const double on_instrument =
+        -(p.stiffness * (x_hi - mass_.position()) + b * (v_hi - mass_.velocity()));
+    return average_.add(on_instrument, dt_s);
+  }
 
   const VirtualMass& mass() const noexcept { return mass_; }
 

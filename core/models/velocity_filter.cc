@@ -16,19 +16,4 @@ void VelocityFilter::reset(double position, double velocity) noexcept {
   filtered_ = velocity;
 }
 
-double VelocityFilter::update(double position, double dt_s,
-                              const ButterworthCoefficients& c) noexcept {
-  if (!(dt_s > 0.0)) {
-    // No time passed: a difference quotient is undefined. Keep the estimate
-    // and the reference position, so the next update sees the whole motion
-    // over the whole time.
-    return filtered_;
-  }
-  const double raw = (position - last_position_) / dt_s;
-  filtered_ = c.b * (raw + last_raw_) - c.a1 * filtered_;
-  last_raw_ = raw;
-  last_position_ = position;
-  return filtered_;
-}
-
 }  // namespace hapticlab

@@ -22,6 +22,25 @@ struct ButterworthCoefficients {
 // Valid for 0 < dt_s < 1/(2·cutoff_Hz); callers keep dt_s <= 1/150 s.
 ButterworthCoefficients butterworth_lowpass_1st(double cutoff_Hz, double dt_s) noexcept;
 
+// The coefficients for the last dt asked for. At a steady rate dt repeats
+// exactly, and the two instruments of one loop update share their dt, while
+// tan() costs as much as a few models. Gives bit for bit what
+// butterworth_lowpass_1st gives. For 0 < dt_s < 1/(2·kVelocityCutoff_Hz).
+class ButterworthCache {
+ public:
+  const ButterworthCoefficients& at(double dt_s) noexcept {
+    if (dt_s != dt_s_) {
+      coefficients_ = butterworth_lowpass_1st(kVelocityCutoff_Hz, dt_s);
+      dt_s_ = dt_s;
+    }
+    return coefficients_;
+  }
+
+ private:
+  double dt_s_ = 0.0;  // no coefficients yet
+  ButterworthCoefficients coefficients_;
+};
+
 class VelocityFilter {
  public:
   // Forgets history: the next update starts from `position` at velocity
@@ -31,7 +50,20 @@ class VelocityFilter {
   // Feeds a new position measured dt_s after the previous one and returns the
   // filtered velocity. dt_s == 0 holds the previous estimate and reference
   // position (the motion is counted at the next update with time).
-  double update(double position, double dt_s, const ButterworthCoefficients& c) noexcept;
+  // Inline: it runs three times per update of every instrument.
+  double update(double position, double dt_s, const ButterworthCoefficients& c) noexcept {
+    if (!(dt_s > 0.0)) {
+      // No time passed: a difference quotient is undefined. Keep the estimate
+      // and the reference position, so the next update sees the whole motion
+      // over the whole time.
+      return filtered_;
+    }
+    const double raw = (position - last_position_) / dt_s;
+    filtered_ = c.b * (raw + last_raw_) - c.a1 * filtered_;
+    last_raw_ = raw;
+    last_position_ = position;
+    return filtered_;
+  }
 
   double velocity() const noexcept { return filtered_; }
 
