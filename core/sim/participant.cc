@@ -32,25 +32,29 @@ constexpr double kDragSpeed_m_per_s = 0.006;
 
 }  // namespace
 
-ParticipantTraits ParticipantTraits::sample(std::uint64_t seed) noexcept {
+ParticipantTraits ParticipantTraits::sample(std::uint64_t seed, const PopulationParams& population) noexcept {
   Random r = Random::derive(seed, 0x747261697473ull);
   ParticipantTraits t;
   t.speed = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
-  t.force_level = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
-  t.consistency = r.uniform(0.15, 0.35);
+  // Drawn now, placed once novice is known (the last draw, so that a
+  // population without novices draws everything else the same).
+  const double u_force = r.uniform();
+  // The fitted traits (population.h): trial-to-trial consistency, the
+  // visual force gain, the force level.
+  t.consistency = draw_consistency(r.uniform(), population);
   // Arm endpoint stiffness with the co-contraction of precise work
   // (several hundred N/m up to ~1 kN/m).
   t.hand_stiffness_N_per_m = r.uniform(450.0, 800.0);
-  // Seen/true force. Wagner et al. 2002 (blunt dissection, no force
-  // feedback): average force up at least 50 %, so vision alone reads about
-  // 1/1.5 of the force; the spread keeps some participants near 0.85.
-  t.visual_force_gain = std::clamp(r.normal(0.65, 0.1), 0.45, 0.9);
+  t.visual_force_gain = draw_visual_gain(r.uniform(), population);
   t.haptic_delay_s = r.uniform(0.03, 0.06);
   t.visual_delay_s = r.uniform(0.13, 0.20);
   t.right_handed = r.uniform() >= 0.1;
   t.nondominant_factor = r.uniform(1.1, 1.4);
   t.learning_gain = r.uniform(0.3, 0.7);
   t.learning_trials = r.uniform(4.0, 10.0);
+  t.visual_noise_log_sd = population.visual_noise_log_sd;
+  t.novice = r.uniform() < population.novice_share;
+  t.force_level = draw_force_level(u_force, t.novice, population);
   return t;
 }
 
@@ -145,6 +149,7 @@ void Participant::act(const LoopTickView& view) noexcept {
       p.haptic_delay_s = traits_.haptic_delay_s;
       p.visual_delay_s = traits_.visual_delay_s;
       p.visual_force_gain = traits_.visual_force_gain;
+      p.visual_noise = traits_.visual_noise_log_sd;
       p.motor_noise_m = 0.0003 * other;
       p.regulation_time_s = 0.15 * other;
       hands_[static_cast<std::size_t>(h)].init(h, p, tip_[static_cast<std::size_t>(h)], rng_.next_u64());

@@ -20,6 +20,7 @@
 #include "core/sim/clip_task.h"
 #include "core/sim/dissection_task.h"
 #include "core/sim/hand.h"
+#include "core/sim/population.h"
 
 namespace hapticlab {
 
@@ -35,9 +36,13 @@ struct ParticipantTraits {
   double nondominant_factor = 1.25;    // the other hand: this much slower and noisier
   double learning_gain = 0.5;          // the first trial takes (1 + gain) times longer...
   double learning_trials = 6.0;        // ...and the excess decays over this many trials
+  double visual_noise_log_sd = 0.2;    // slow drift of the visual force estimate (log-sd)
+  bool novice = false;                 // force level drawn around the population's novice factor
 
-  // Draws a participant; the same seed gives the same person.
-  static ParticipantTraits sample(std::uint64_t seed) noexcept;
+  // Draws a participant of `population` (validated by the caller); the same
+  // seed gives the same person, and the same quantiles of the fitted traits
+  // under any population (population.h).
+  static ParticipantTraits sample(std::uint64_t seed, const PopulationParams& population = {}) noexcept;
 };
 
 struct ParticipantTrial {

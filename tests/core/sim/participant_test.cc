@@ -50,19 +50,20 @@ TEST(ParticipantTraitsTest, TraitsStayInTheirRangesAndOneInTenIsLeftHanded) {
     const ParticipantTraits t = ParticipantTraits::sample(static_cast<std::uint64_t>(seed));
     EXPECT_GE(t.speed, 0.65);
     EXPECT_LE(t.speed, 1.5);
-    EXPECT_GE(t.force_level, 0.65);
-    EXPECT_LE(t.force_level, 1.5);
+    // The force level within its population's truncation range (population.h).
+    EXPECT_GE(t.force_level, kForceLevelRange.first);
+    EXPECT_LE(t.force_level, kForceLevelRange.second);
     // The rest within physiological bounds (participant.h, hand.h) rather
-    // than the exact sampling ranges, which are being tuned: trial-to-trial
-    // log-sd below 50 %, arm stiffness of several hundred N/m up to ~1 kN/m,
+    // than the exact sampling ranges: trial-to-trial log-sd within the
+    // population's range (at most 0.6), arm stiffness of several hundred N/m up to ~1 kN/m,
     // forces seen as smaller than they are, haptic and visual delays of
     // 20-80 ms and 100-300 ms.
-    EXPECT_GT(t.consistency, 0.0);
-    EXPECT_LT(t.consistency, 0.5);
+    EXPECT_GE(t.consistency, kConsistencyRange.first);
+    EXPECT_LE(t.consistency, kConsistencyRange.second);
     EXPECT_GE(t.hand_stiffness_N_per_m, 300.0);
     EXPECT_LE(t.hand_stiffness_N_per_m, 1000.0);
-    EXPECT_GT(t.visual_force_gain, 0.3);
-    EXPECT_LE(t.visual_force_gain, 1.0);
+    EXPECT_GE(t.visual_force_gain, kVisualGainRange.first);
+    EXPECT_LE(t.visual_force_gain, kVisualGainRange.second);
     EXPECT_GE(t.haptic_delay_s, 0.02);
     EXPECT_LE(t.haptic_delay_s, 0.08);
     EXPECT_GE(t.visual_delay_s, 0.10);
