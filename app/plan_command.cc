@@ -450,7 +450,7 @@ struct PlanCalibrateOptions {
   bool json = false;
   std::string population;  // --population (app/population_option.h)
   bool fit = false;
-  int fit_studies = 16;
+  int fit_studies = 48;  // as PopulationFitOptions
   std::string command;  // the command line, for the fitted file
 };
 

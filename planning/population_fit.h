@@ -49,7 +49,7 @@
 namespace hapticlab::planning {
 
 struct PopulationFitOptions {
-  int studies_per_design_point = 16;  // 1..1000; the bank has 9 times as many studies
+  int studies_per_design_point = 48;  // 1..1000; the bank has 9 times as many studies (48: the posterior covered, docs/simulation.md)
   std::uint64_t seed = 1;
   double rate_Hz = 250.0;             // of the bank's trials (the rate check compares 1 kHz)
   double max_trial_s = 300.0;

@@ -2,7 +2,7 @@
 // binary: the machinery runs end to end (bank, checks, posterior,
 // diagnostics with every calibration target and its source), and a fit that
 // does not converge is named with its values and writes no population file.
-// The full fit (9 x 16 thesis studies) is not a CI test; its figures are in
+// The full fit (9 x 48 thesis studies) is not a CI test; its figures are in
 // docs/simulation.md.
 #include <unistd.h>
 
