@@ -106,11 +106,16 @@ std::vector<FixedParameter> fixed_parameters() {
 
 // The design populations of the bank: a 3 x 3 grid over the prior of
 // (visual_gain_mean, consistency_median), each with its spreads widened so
-// that their mixture covers the prior box; every force level 1.
+// that their mixture covers the prior box; every force level 1. They only
+// decide where the bank's studies lie (the importance proposal), not the
+// model: with consistency designs at 0.07, 0.14 and 0.28 the fit at 48
+// studies each said that 8.2 % of the posterior's mass, piled towards the
+// prior's upper bound of 0.4, lay where 14 % of a population's synthetic
+// studies fell outside the bank; the top design is now at 0.36.
 std::vector<PopulationParams> design_populations() {
   std::vector<PopulationParams> out;
   for (const double gain : {0.45, 0.65, 0.85})
-    for (const double consistency : {0.07, 0.14, 0.28}) {
+    for (const double consistency : {0.08, 0.17, 0.36}) {
       PopulationParams p = fixed_population();
       p.visual_gain_mean = gain;
       p.visual_gain_sd = 0.15;
