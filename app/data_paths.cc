@@ -45,4 +45,6 @@ fs::path default_settings_dir() { return find_data_dir("settings", "high_fidelit
 
 fs::path default_protocols_dir() { return find_data_dir("protocols", "thesis_as_run.json"); }
 
+fs::path default_population_file() { return find_data_dir("population", "fitted.json") / "fitted.json"; }
+
 }  // namespace hapticlab::app

@@ -8,4 +8,6 @@
 namespace hapticlab::app {
 std::filesystem::path default_settings_dir();
 std::filesystem::path default_protocols_dir();
+// The shipped fitted population (examples/population/fitted.json).
+std::filesystem::path default_population_file();
 }  // namespace hapticlab::app

@@ -26,15 +26,18 @@
 #include "analysis/report/gnuplot.h"
 #include "app/cli_checks.h"
 #include "app/interrupt_flag.h"
+#include "app/population_option.h"
 #include "app/progress_line.h"
 #include "core/common/csv_format.h"
 #include "core/settings/settings_json.h"
 #include "core/io/output_file.h"
+#include "app/data_paths.h"
 #include "planning/calibration.h"
 #include "planning/change_summary.h"
 #include "planning/comparison_report.h"
 #include "planning/plan_inputs.h"
 #include "planning/plan_lock.h"
+#include "planning/population_fit.h"
 #include "planning/power.h"
 #include "planning/power_store.h"
 #include "protocols/protocol_json.h"
@@ -58,6 +61,8 @@ struct PlanPowerOptions {
   bool json = false;
   int shard = 0;   // --shard I/N
   int shards = 1;
+  std::string population;                 // --population (app/population_option.h)
+  std::string model_uncertainty = "auto";  // on, off; auto: on when the population has posterior draws
 };
 
 // The --out folder, made now and proven writable, before anything is
@@ -89,11 +94,16 @@ void write_power_csv(const fs::path& path, const std::vector<planning::PowerRow>
   {
     std::ofstream out(tmp);
     // tests: studies (pairwise) or participants' Table 3.4 tests (participant).
-    out << "participants,method,task,setting,measure,tests,significant,rate,wilson_low,wilson_high\n";
+    // wilson_*: the simulation's sampling only; model_*: with the fitted
+    // population's uncertainty (empty without it).
+    out << "participants,method,task,setting,measure,tests,significant,rate,wilson_low,wilson_high,model_low,"
+           "model_high\n";
     for (const auto& r : rows) {
       out << r.participants << ',' << r.method << ',' << csv_text(r.task) << ',' << csv_text(r.setting) << ','
           << r.measure << ',' << r.tests << ',' << r.significant << ',' << format_number(r.rate) << ','
-          << format_number(r.wilson_low) << ',' << format_number(r.wilson_high) << '\n';
+          << format_number(r.wilson_low) << ',' << format_number(r.wilson_high) << ','
+          << (std::isfinite(r.model_low) ? format_number(r.model_low) : "") << ','
+          << (std::isfinite(r.model_high) ? format_number(r.model_high) : "") << '\n';
     }
     out.flush();
     if (!out) throw std::runtime_error(tmp.string() + ": cannot write (disk full?)");
@@ -231,6 +241,7 @@ struct PlanResults {
   std::string did;  // "12 studies simulated in 3.1 s (...)", or the merge's
   double seconds_this_run = 0.0;
   std::size_t studies_this_run = 0;
+  std::string population;  // whom the studies simulated, in words
 };
 int write_plan_results(const PlanResults& p);
 
@@ -249,13 +260,28 @@ planning::SimulatedStudyOptions plan_simulation(double rate_Hz, double max_trial
   return sim;
 }
 
+// What a plan records of its population: the file's SHA-256, or the
+// unfitted model's version.
+std::string population_key(const ChosenPopulation& p) {
+  return p.file ? "sha256 " + p.file->sha256 : "unfitted model " + std::to_string(kParticipantModelVersion);
+}
+
 int run_plan_power(const PlanPowerOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
   const std::string protocol_text = protocols::read_protocol_text(o.protocol);
-  const planning::SimulatedStudyOptions sim = plan_simulation(o.rate_Hz, o.max_trial_s);
+  const ChosenPopulation population = choose_population(o.population);
+  const bool has_draws = population.file && !population.file->draws.empty();
+  if (o.model_uncertainty == "on" && !has_draws)
+    throw std::runtime_error("--model-uncertainty on: " + population.describe +
+                             " has no posterior draws to draw from; use a fitted population file");
+  const bool model_uncertainty = o.model_uncertainty == "on" || (o.model_uncertainty == "auto" && has_draws);
+  planning::SimulatedStudyOptions sim = plan_simulation(o.rate_Hz, o.max_trial_s);
+  sim.population = population.point;
   const std::vector<int> counts = plan_counts(o, protocol);
   const PlanDesign design = check_design(protocol, o.protocol, counts, o.seed, sim);
   planning::PlanInputs inputs = planning::plan_inputs(protocol, o.protocol, protocol_text, o.seed, counts, o.studies, sim);
+  inputs.population = population_key(population);
+  inputs.model_uncertainty = model_uncertainty;
   inputs.shard = o.shard;
   inputs.shards = o.shards;
   const std::size_t plan_size = inputs.studies_of_plan().size();
@@ -291,7 +317,10 @@ int run_plan_power(const PlanPowerOptions& o) {
              (o.shards > 1 ? " (shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + " of the plan's " +
                                  std::to_string(plan_size) + ")"
                            : std::string()) +
-             " on " + std::to_string(jobs) + " thread(s), no samples stored");
+             " on " + std::to_string(jobs) + " thread(s), no samples stored; simulated participants from the " +
+             population.describe +
+             (model_uncertainty ? ", each study's population drawn from its posterior (model uncertainty on)"
+                                : ", its point estimate (model uncertainty off)"));
 
   InterruptFlag interrupt;
   std::atomic<std::size_t> next{0};
@@ -308,8 +337,12 @@ int run_plan_power(const PlanPowerOptions& o) {
         while (!interrupt.raised() && !failed) {
           const std::size_t k = next++;
           if (k >= todo.size()) break;
+          planning::SimulatedStudyOptions study_sim = sim;
+          if (model_uncertainty)
+            study_sim.population = population.file->draws[planning::draw_of_group(
+                planning::draw_group(todo[k].second), population.file->draws.size())];
           planning::StudyOutcome outcome =
-              planning::run_power_study(protocol, todo[k].first, todo[k].second, o.seed, sim);
+              planning::run_power_study(protocol, todo[k].first, todo[k].second, o.seed, study_sim);
           const std::lock_guard<std::mutex> lock(m);
           finished.push_back(std::move(outcome));
           cv.notify_one();
@@ -379,7 +412,7 @@ int run_plan_power(const PlanPowerOptions& o) {
   std::snprintf(did, sizeof did, "%zu studies simulated in %.1f s (%.1f million loop updates, none stored)", stored,
                 elapsed_s, static_cast<double>(updates) / 1e6);
   PlanResults results{protocol, inputs, design, store.load(/*complete=*/true), o.out, o.measure, o.plots, o.json,
-                      did, elapsed_s, stored};
+                      did, elapsed_s, stored, population.describe};
   if (o.shards > 1) {
     // A shard's studies alone are no plan: `plan merge` makes one of all of them.
     const std::string line_out = "shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + ": " + did +
@@ -415,7 +448,9 @@ int write_plan_results(const PlanResults& p) {
   std::vector<std::string> setting_order;
   for (const auto& s : protocol.settings) setting_order.push_back(s.settings.name);
   const std::vector<planning::StudyOutcome>& wanted = p.outcomes;
-  const std::vector<planning::PowerRow> rows = planning::summarize_power(wanted, setting_order);
+  const bool model_uncertainty = p.inputs.model_uncertainty;
+  const std::vector<planning::PowerRow> rows =
+      planning::summarize_power(wanted, setting_order, model_uncertainty ? planning::kDrawGroups : 1);
   const std::vector<planning::FalsePositiveRow> fp = planning::false_positive_rates(wanted, null_settings);
   const std::vector<planning::StaircaseSummaryRow> stairs = planning::summarize_staircases(wanted);
   const auto number_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
@@ -447,12 +482,15 @@ int write_plan_results(const PlanResults& p) {
     j["studies_this_run"] = p.studies_this_run;
     j["csv"] = csv.string();
     j["figures"] = figures;
+    j["population"] = p.population;
+    j["model_uncertainty"] = model_uncertainty;
     nlohmann::json list = nlohmann::json::array();
     for (const auto& r : rows) {
       list.push_back({{"participants", r.participants}, {"method", r.method}, {"task", r.task},
                       {"setting", r.setting}, {"measure", r.measure}, {"significant", r.significant},
                       {"tests", r.tests}, {"rate", r.rate}, {"wilson_low", r.wilson_low},
-                      {"wilson_high", r.wilson_high}});
+                      {"wilson_high", r.wilson_high}, {"model_low", number_or_null(r.model_low)},
+                      {"model_high", number_or_null(r.model_high)}});
     }
     j["rows"] = list;
     j["null_settings"] = null_settings;
@@ -491,9 +529,11 @@ int write_plan_results(const PlanResults& p) {
     // A staircase protocol's baseline alone has nothing to compare.
     if (std::none_of(rows.begin(), rows.end(), [&](const planning::PowerRow& r) { return r.method == method; })) return;
     std::printf("\n%s, %s: share of simulated studies in which the setting differs significantly from the "
-                "control (Šidák level), Wilson 95 %% interval\n", title, o.measure.c_str());
+                "control (Šidák level), Wilson 95 %% interval (simulation only)%s\n", title, o.measure.c_str(),
+                model_uncertainty ? " and, after 'model', the 95 % interval with the model's uncertainty" : "");
+    const int width = model_uncertainty ? 32 : 16;
     std::printf("%-12s %-32s", "task", "setting");
-    for (int n : counts) std::printf("  %16s", (std::to_string(n) + " participants").c_str());
+    for (int n : counts) std::printf("  %*s", width, (std::to_string(n) + " participants").c_str());
     std::printf("\n");
     std::vector<std::pair<std::string, std::string>> lines;
     for (const auto& r : rows)
@@ -508,11 +548,14 @@ int write_plan_results(const PlanResults& p) {
           return r.method == method && r.measure == o.measure && r.task == task && r.setting == setting &&
                  r.participants == n;
         });
-        char cell[64] = "";
-        if (it != rows.end())
+        char cell[96] = "";
+        if (it != rows.end() && std::isfinite(it->model_low))
+          std::snprintf(cell, sizeof cell, "%3.0f%% [%2.0f,%3.0f] model [%2.0f,%3.0f]", 100 * it->rate,
+                        100 * it->wilson_low, 100 * it->wilson_high, 100 * it->model_low, 100 * it->model_high);
+        else if (it != rows.end())
           std::snprintf(cell, sizeof cell, "%3.0f%% [%2.0f,%3.0f]", 100 * it->rate, 100 * it->wilson_low,
                         100 * it->wilson_high);
-        std::printf("  %16s", cell);
+        std::printf("  %*s", width, cell);
       }
       std::printf("\n");
     }
@@ -632,6 +675,9 @@ int run_plan_merge(const PlanMergeOptions& o) {
   const planning::SimulatedStudyOptions sim = plan_simulation(first.rate_Hz, first.max_trial_s);
   planning::PlanInputs whole = planning::plan_inputs(protocol, first.protocol_file, protocol_text, first.seed,
                                                      first.participants, first.studies, sim);
+  // The population is the shards' (merging simulates nothing).
+  whole.population = first.population;
+  whole.model_uncertainty = first.model_uncertainty;
   if (const std::vector<std::string> d = planning::plan_differences(first.whole(), whole); !d.empty()) {
     std::string list;
     for (const std::string& x : d) list += (list.empty() ? "" : "; ") + x;
@@ -672,7 +718,7 @@ int run_plan_merge(const PlanMergeOptions& o) {
   std::snprintf(did, sizeof did, "%zu shards merged: %zu studies (%zu added now, %zu already in %s)", plans.size(),
                 studies.size(), added, done.size(), (fs::path(o.out) / "plan_power.db").c_str());
   return write_plan_results({protocol, whole, design, merged.load(/*complete=*/true), o.out, o.measure, o.plots, o.json,
-                             did, 0.0, 0});
+                             did, 0.0, 0, "population " + whole.population});
 }
 
 struct PlanCalibrateOptions {
@@ -681,16 +727,151 @@ struct PlanCalibrateOptions {
   std::uint64_t seed = 1;
   std::size_t jobs = 0;
   std::string out = "plan-calibrate";
-  double rate_Hz = 1000.0;
+  double rate_Hz = 0.0;  // 0: 1000 Hz, or 250 Hz with --fit
   double max_trial_s = 300.0;
   bool json = false;
+  std::string population;  // --population (app/population_option.h)
+  bool fit = false;
+  int fit_studies = 48;  // as PopulationFitOptions
+  std::string command;  // the command line, for the fitted file
 };
 
+void write_text_file(const fs::path& path, const std::string& text) {
+  try {
+    write_file_atomically(path, text);
+  } catch (const OutputFileError& e) {
+    throw std::runtime_error(std::string(e.what()) + " (disk full?)");
+  }
+}
+
+// `plan calibrate --fit`: the population fitted to the calibration set
+// (planning/population_fit.h). Writes DIR/population.json (only when the fit
+// converged), DIR/fit_targets.csv, DIR/fit_parameters.csv and
+// DIR/fit_summary.json.
+int run_plan_calibrate_fit(const PlanCalibrateOptions& o) {
+  const fs::path protocol_path =
+      o.protocol.empty() ? default_protocols_dir() / "thesis_as_run.json" : fs::path(o.protocol);
+  const protocols::Protocol protocol = protocols::load_protocol_file(protocol_path.string());
+  planning::PopulationFitOptions fit;
+  fit.studies_per_design_point = o.fit_studies;
+  fit.seed = o.seed;
+  fit.rate_Hz = o.rate_Hz > 0.0 ? o.rate_Hz : 250.0;
+  fit.max_trial_s = o.max_trial_s;
+  fit.jobs = o.jobs;
+  fit.command = o.command;
+  fs::create_directories(o.out);
+  ProgressLine line(o.json ? stderr : stdout);
+  line.print("fitting the simulated population to the calibration set (docs/simulation.md): " +
+             std::to_string(9 * o.fit_studies) + " simulated 3-surgeon studies of " + protocol.study + " at " +
+             format_number(fit.rate_Hz) + " Hz, then the posterior on a grid");
+  InterruptFlag interrupt;
+  const auto started = std::chrono::steady_clock::now();
+  std::string stage;
+  double stage_started_s = 0.0;
+  const planning::PopulationFitResult r = planning::fit_population(
+      protocol, fit,
+      [&](const std::string& what, int done, int total) {
+        const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+        if (what != stage) {
+          if (!stage.empty()) line.finish();
+          stage = what;
+          stage_started_s = elapsed_s;
+        }
+        std::optional<double> eta;
+        if (done > 0) eta = (elapsed_s - stage_started_s) / done * (total - done);
+        line.update(total > 0 ? static_cast<double>(done) / total : 0.0,
+                    what + ": " + std::to_string(done) + "/" + std::to_string(total), elapsed_s, eta);
+      },
+      [&] { return interrupt.raised(); });
+  line.finish();
+
+  // Diagnostics, whatever the outcome.
+  std::ostringstream targets;
+  targets << "id,source,where,kind,published_value,published_sd,model_mean,model_low95,model_high95,met,note\n";
+  for (const auto& d : r.targets) {
+    const bool event = d.target.kind == planning::CalibrationTarget::Kind::kEvent;
+    targets << d.target.id << ',' << d.target.source << ',' << csv_text(d.target.where) << ','
+            << (event ? "event (probability of the published outcome)" : "value") << ','
+            << (event ? "" : format_number(d.target.value)) << ',' << (event ? "" : format_number(d.target.sd))
+            << ',' << format_number(d.mean) << ',' << format_number(d.low95) << ',' << format_number(d.high95)
+            << ',' << (d.met ? "yes" : "no") << ',' << csv_text(d.note) << '\n';
+  }
+  write_text_file(fs::path(o.out) / "fit_targets.csv", targets.str());
+  std::ostringstream parameters;
+  parameters << "name,free,prior_low,prior_high,prior_scale,posterior_mean,posterior_sd,low95,high95,why,source\n";
+  for (const auto& p : r.file.free)
+    parameters << p.name << ",yes," << format_number(p.prior_low) << ',' << format_number(p.prior_high) << ','
+               << (p.prior_log ? "log" : "linear") << ',' << format_number(p.mean) << ',' << format_number(p.sd)
+               << ',' << format_number(p.low95) << ',' << format_number(p.high95) << ',' << csv_text(p.why) << ','
+               << csv_text(p.prior_source) << '\n';
+  for (const auto& p : r.file.fixed)
+    parameters << p.name << ",no,,,," << format_number(p.value) << ",,,,," << csv_text(p.source) << '\n';
+  write_text_file(fs::path(o.out) / "fit_parameters.csv", parameters.str());
+  nlohmann::json summary = r.summary;
+  summary["converged"] = r.converged;
+  summary["problems"] = r.problems;
+  summary["notes"] = r.notes;
+  write_text_file(fs::path(o.out) / "fit_summary.json", summary.dump(2) + "\n");
+  const fs::path population_path = fs::path(o.out) / "population.json";
+  if (r.converged) {
+    planning::PopulationFile file = r.file;
+    write_text_file(population_path, planning::population_file_text(file));
+  }
+
+  if (o.json) {
+    nlohmann::json j = summary;
+    j["population_file"] = r.converged ? nlohmann::json(population_path.string()) : nlohmann::json();
+    nlohmann::json t = nlohmann::json::array();
+    for (const auto& d : r.targets)
+      t.push_back({{"id", d.target.id}, {"mean", d.mean}, {"low95", d.low95}, {"high95", d.high95}, {"met", d.met},
+                   {"note", d.note}});
+    j["targets"] = t;
+    nlohmann::json p = nlohmann::json::array();
+    for (const auto& f : r.file.free)
+      p.push_back({{"name", f.name}, {"mean", f.mean}, {"sd", f.sd}, {"low95", f.low95}, {"high95", f.high95}});
+    j["parameters"] = p;
+    std::printf("%s\n", j.dump(2).c_str());
+  } else {
+    std::printf("\nFree parameters (posterior mean, SD, 95 %% interval; prior):\n");
+    for (const auto& p : r.file.free)
+      std::printf("  %-20s %.4g (SD %.2g) [%.4g, %.4g]; prior %s %g..%g\n", p.name.c_str(), p.mean, p.sd, p.low95,
+                  p.high95, p.prior_log ? "log-uniform" : "uniform", p.prior_low, p.prior_high);
+    std::printf("\nCalibration targets under the fitted population (event: probability that a study of the "
+                "source's design has the published outcome; value: the model's value), posterior mean [95 %%]:\n");
+    for (const auto& d : r.targets) {
+      const bool event = d.target.kind == planning::CalibrationTarget::Kind::kEvent;
+      std::printf("  %-28s %s %.3g [%.3g, %.3g]%s  %s\n", d.target.id.c_str(), event ? "P =" : "  ", d.mean, d.low95,
+                  d.high95,
+                  event ? "" : (" vs " + format_number(d.target.value) + " +- 1.96 x " + format_number(d.target.sd)).c_str(),
+                  d.met ? "met" : "MISSED");
+    }
+    for (const auto& n : r.notes) std::printf("note: %s\n", n.c_str());
+    std::printf("\nFit: %.0f s; %s\n", r.summary.value("seconds", 0.0),
+                r.converged ? ("population written to " + population_path.string()).c_str()
+                            : "did not converge (below)");
+    std::printf("Diagnostics: %s, %s, %s\n", (fs::path(o.out) / "fit_targets.csv").c_str(),
+                (fs::path(o.out) / "fit_parameters.csv").c_str(), (fs::path(o.out) / "fit_summary.json").c_str());
+  }
+  if (!r.converged) {
+    std::string why;
+    for (const auto& p : r.problems) why += "\n  - " + p;
+    throw std::runtime_error("the fit did not converge; no population.json was written (diagnostics are in " +
+                             o.out + "):" + why);
+  }
+  return 0;
+}
+
 int run_plan_calibrate(const PlanCalibrateOptions& o) {
+  if (o.fit) return run_plan_calibrate_fit(o);
+  if (o.protocol.empty())
+    throw std::runtime_error("plan calibrate: --protocol is required without --fit "
+                             "(examples/protocols/calibration.json)");
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
+  const ChosenPopulation chosen = choose_population(o.population);
   planning::SimulatedStudyOptions sim;
-  sim.rate_Hz = o.rate_Hz;
+  sim.rate_Hz = o.rate_Hz > 0.0 ? o.rate_Hz : 1000.0;
   sim.max_trial_s = o.max_trial_s;
+  sim.population = chosen.point;
   analysis::StudyAnalysis names;
   for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
   try {
@@ -717,7 +898,7 @@ int run_plan_calibrate(const PlanCalibrateOptions& o) {
 
   ProgressLine line(o.json ? stderr : stdout);
   line.print("simulating " + std::to_string(o.participants) + " participants of " + protocol.study + " (" +
-             no_feedback + " against " + names.control + ")");
+             no_feedback + " against " + names.control + ") from the " + chosen.describe);
   InterruptFlag interrupt;
   const auto started = std::chrono::steady_clock::now();
   const planning::SimulatedPopulation population = planning::simulate_population(
@@ -839,6 +1020,13 @@ void add_plan_command(CLI::App& app) {
          "same ones a one-machine run simulates, into this --out; `plan merge` joins the N folders. For a Slurm job "
          "array (scripts/slurm/)")
       ->type_name("I/N");
+  add_population_option(cmd, opt->population);
+  cmd->add_option("--model-uncertainty", opt->model_uncertainty,
+                  "on: each study draws its participants' population from the fitted population's posterior, and "
+                  "power gets a 95 % interval that includes the model's uncertainty beside the simulation-only one; "
+                  "off: every study uses the point estimate (default: on when the population is a fitted file)")
+      ->check(CLI::IsMember({"on", "off", "auto"}))
+      ->capture_default_str();
   cmd->callback([opt] {
     const int status = run_plan_power(*opt);
     if (status != 0) throw CLI::RuntimeError(status);
@@ -873,9 +1061,19 @@ void add_plan_command(CLI::App& app) {
       "Does the simulated population show the published effects of force feedback? Runs the protocol (with "
       "High Fidelity and a No Force Feedback setting) for many simulated participants and prints each effect "
       "(Wagner et al. 2002, the thesis) beside the measured one; writes calibration.csv");
-  calibrate->add_option("--protocol", cal->protocol, "Protocol file (examples/protocols/calibration.json)")
-      ->required()
+  calibrate->add_option("--protocol", cal->protocol,
+                        "Protocol file (examples/protocols/calibration.json); with --fit, the thesis design "
+                        "(default: the shipped examples/protocols/thesis_as_run.json)")
       ->check(CLI::ExistingFile);
+  calibrate->add_flag("--fit", cal->fit,
+                      "Fit the population to the calibration set instead (docs/simulation.md, \"Fitting the "
+                      "population\"): writes population.json (when the fit converged), fit_targets.csv, "
+                      "fit_parameters.csv and fit_summary.json to --out");
+  calibrate->add_option("--fit-studies", cal->fit_studies,
+                        "With --fit: simulated 3-surgeon studies per design population (9 of them), 1..1000")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  add_population_option(calibrate, cal->population);
   calibrate->add_option("--participants", cal->participants, "Simulated participants, 2..100000")
       ->capture_default_str()
       ->check(whole_number_in(2, 100000));
@@ -885,14 +1083,21 @@ void add_plan_command(CLI::App& app) {
   calibrate->add_option("--jobs,-j", cal->jobs, "Groups of 10 participants simulated at once (0: two per core)")
       ->check(whole_number_in(0, 256));
   calibrate->add_option("--out", cal->out, "Folder for calibration.csv")->capture_default_str();
-  calibrate->add_option("--rate-hz", cal->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000")
-      ->check(number_in(150.0, 2000.0))
-      ->capture_default_str();
+  calibrate->add_option("--rate-hz", cal->rate_Hz,
+                        "Haptic loop rate of the simulated trials [Hz], 150..2000 (default 1000; 250 with --fit, "
+                        "whose rate check compares 1 kHz)")
+      ->check(number_in(150.0, 2000.0));
   calibrate->add_option("--max-trial-s", cal->max_trial_s, "Per-trial time limit [s], as session run's")
       ->capture_default_str()
       ->check(number_in(1.0, 3600.0));
   calibrate->add_flag("--json", cal->json, "Print the table as JSON (progress goes to stderr)");
-  calibrate->callback([cal] { (void)run_plan_calibrate(*cal); });
+  calibrate->callback([cal] {
+    cal->command = "hapticlab plan calibrate --fit --fit-studies " + std::to_string(cal->fit_studies) + " --seed " +
+                   std::to_string(cal->seed) +
+                   (cal->rate_Hz > 0.0 ? " --rate-hz " + format_number(cal->rate_Hz) : std::string()) +
+                   (cal->protocol.empty() ? std::string() : " --protocol " + cal->protocol) + " --out " + cal->out;
+    (void)run_plan_calibrate(*cal);
+  });
 }
 
 }  // namespace hapticlab::app

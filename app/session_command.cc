@@ -1,3 +1,4 @@
+#include "app/population_option.h"
 #include "app/session_command.h"
 
 #include <atomic>
@@ -39,6 +40,7 @@ struct SessionCommandOptions {
   bool training_until_enter = false;
   RealtimeOptions realtime;
   bool json = false;
+  std::string population;  // --population (app/population_option.h)
 };
 
 // Counts the operator's Enter presses on stdin, for training the operator
@@ -68,6 +70,9 @@ int run(const SessionCommandOptions& opt) {
   options.clock = parse_clock_kind(opt.clock);
   options.rate_Hz = opt.rate_Hz;
   options.max_trial_s = opt.max_trial_s;
+  // Used when a simulated participant holds the device (sim, or the
+  // simulated workstation behind a plugin or the bridge).
+  options.population = choose_population(opt.population).point;
   if (opt.training_trials >= 0) options.training_trials = opt.training_trials;
   if (opt.max_trials >= 0) options.max_trials = opt.max_trials;
   options.realtime = opt.realtime;
@@ -212,6 +217,7 @@ void add_session_command(CLI::App& app) {
       "or a device that is not calibrated.");
   cmd->add_option("--db", opt->db, "Study database (from `hapticlab study create`)")->required();
   cmd->add_option("--participant", opt->participant, "Participant code, as in the protocol")->required();
+  add_population_option(cmd, opt->population);
   cmd->add_option("--device", opt->device,
                   "Device: sim (the simulated workstation and participant), plugin:PATH.so (a device plugin, "
                   "docs/devices.md), plugin-isolated:PATH.so (the plugin in a process of its own: a crash or hang "

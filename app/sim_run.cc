@@ -4,6 +4,7 @@
 #include <string>
 
 #include "app/cli_checks.h"
+#include "app/population_option.h"
 #include "app/renamed_option.h"
 #include "core/io/loop_sample_csv.h"
 #include "core/io/output_file.h"
@@ -24,6 +25,7 @@ struct SimRunOptions {
   bool thesis_rate = false;
   double max_duration_s = 300.0;
   std::string output;
+  std::string population;  // --population (app/population_option.h)
 };
 
 }  // namespace
@@ -48,6 +50,8 @@ int run(const SimRunOptions& opt) {
   const NamedSettings settings = load_settings_file(opt.settings);
   config.settings = settings.engine;
   config.participant_seed = opt.participant_seed;
+  const ChosenPopulation population = choose_population(opt.population);
+  config.population = population.point;
   config.trial_seed = opt.trial_seed;
   config.practice_trials = opt.practice;
   config.clock = parse_clock_kind(opt.clock);
@@ -57,10 +61,13 @@ int run(const SimRunOptions& opt) {
 
   const SimTrialResult r = run_sim_trial_to_csv(config, opt.output);
 
-  std::printf("%s, %s, participant %llu: %s after %.2f s (%s clock), %llu samples, "
+  const std::string who = !population.file ? " (unfitted participant model)"
+                          : opt.population.empty() ? " (fitted population)"
+                                                   : " (population " + opt.population + ")";
+  std::printf("%s, %s, participant %llu%s: %s after %.2f s (%s clock), %llu samples, "
               "peak force left %.2f N right %.2f N%s -> %s\n",
               opt.task.c_str(), settings.name.c_str(),
-              static_cast<unsigned long long>(opt.participant_seed),
+              static_cast<unsigned long long>(opt.participant_seed), who.c_str(),
               r.task_complete ? "complete" : to_string(r.stop_reason), r.duration_s,
               opt.clock.c_str(), static_cast<unsigned long long>(r.samples), r.peak_ve_force_N[0],
               r.peak_ve_force_N[1], r.dropped_samples > 0 ? " (SAMPLES DROPPED)" : "",
@@ -93,6 +100,7 @@ void add_sim_run_command(CLI::App& sim) {
   cmd->add_option("--settings", opt->settings, "Engine settings file (examples/settings/*.json)")
       ->required()
       ->check(CLI::ExistingFile);
+  add_population_option(cmd, opt->population);
   cmd->add_option("--participant-seed", opt->participant_seed,
                   "Seed of the simulated participant's traits (who performs)")
       ->capture_default_str()

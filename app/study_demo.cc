@@ -14,6 +14,7 @@
 #include "analysis/study/study_analysis.h"
 #include "app/data_paths.h"
 #include "app/interrupt_flag.h"
+#include "app/population_option.h"
 #include "app/progress_line.h"
 #include "core/io/input_file.h"
 #include "core/common/sha256.h"
@@ -32,6 +33,7 @@ struct DemoOptions {
   bool quick = false;
   std::string protocol;  // empty: the shipped thesis protocol
   bool plots = true;
+  std::string population;  // --population (app/population_option.h)
 };
 
 std::string read_text(const fs::path& path) {
@@ -71,9 +73,10 @@ int run(const DemoOptions& opt) {
   if (!fs::exists(protocol)) throw std::runtime_error(protocol.string() + ": protocol file not found");
   const fs::path db_path = out / "study.db";
 
+  const ChosenPopulation population = choose_population(opt.population);
   ProgressLine line;
   line.print("HapticLab demo: the thesis study (" + protocol.string() +
-             ") on the simulated rig, virtual clock");
+             ") on the simulated rig, virtual clock; simulated surgeons from the " + population.describe);
   create_or_resume(db_path, protocol, line);
 
   // Where the study stands: the bar runs over every scheduled trial.
@@ -101,6 +104,7 @@ int run(const DemoOptions& opt) {
   for (const std::string& code : codes) {
     sessions::SessionOptions options;
     options.participant = code;
+    options.population = population.point;
     options.clock = ClockKind::kVirtual;
     options.stop = &interrupt.flag();
     options.on_progress = [&](const sessions::SessionProgress& p) {
@@ -172,6 +176,7 @@ void add_study_demo_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; },
                 "Tables only (no gnuplot needed)");
+  add_population_option(cmd, opt->population);
   cmd->callback([opt] {
     const int status = run(*opt);
     if (status != 0) throw CLI::RuntimeError(status);

@@ -72,7 +72,9 @@ json PlanInputs::to_json() const {
           {"rate_Hz", rate_Hz},
           {"max_trial_s", max_trial_s},
           {"alpha", alpha},
-          {"percentiles", percentiles}};
+          {"percentiles", percentiles},
+          {"population", population},
+          {"model_uncertainty", model_uncertainty}};
   // The whole plan's record has no "shard": a merged plan is the same as one
   // made on one machine.
   if (shards > 1) j["shard"] = {shard, shards};
@@ -126,6 +128,8 @@ PlanInputs PlanInputs::from_json(const json& j) {
     p.max_trial_s = j.at("max_trial_s").get<double>();
     p.alpha = j.at("alpha").get<double>();
     p.percentiles = j.at("percentiles").get<std::string>();
+    p.population = j.at("population").get<std::string>();
+    p.model_uncertainty = j.at("model_uncertainty").get<bool>();
     if (j.contains("shard")) {
       const auto shard = j.at("shard").get<std::vector<int>>();
       if (shard.size() != 2 || shard[1] < 2 || shard[0] < 0 || shard[0] >= shard[1])
@@ -146,7 +150,8 @@ std::string PlanInputs::describe() const {
          (staircase.empty() ? "" : " and a staircase on '" + staircase.front().name + "'") + ", --seed " +
          std::to_string(seed) + ", --participants " + joined_counts(participants) + ", --studies " +
          std::to_string(studies) + ", --rate-hz " + format_number(rate_Hz) + ", --max-trial-s " +
-         format_number(max_trial_s) + (shards > 1 ? ", --shard " + std::to_string(shard) + "/" + std::to_string(shards) : "") +
+         format_number(max_trial_s) + ", population " + population +
+         (model_uncertainty ? " with the model's uncertainty" : "") + (shards > 1 ? ", --shard " + std::to_string(shard) + "/" + std::to_string(shards) : "") +
          ", by " + software;
 }
 
@@ -189,6 +194,8 @@ std::vector<std::string> plan_differences(const PlanInputs& was, const PlanInput
   option("--max-trial-s", format_number(was.max_trial_s), format_number(now.max_trial_s));
   option("alpha", format_number(was.alpha), format_number(now.alpha));
   option("the percentile method", was.percentiles, now.percentiles);
+  option("the population (--population)", was.population, now.population);
+  option("--model-uncertainty", was.model_uncertainty ? "on" : "off", now.model_uncertainty ? "on" : "off");
   option("--shard", std::to_string(was.shard) + "/" + std::to_string(was.shards),
          std::to_string(now.shard) + "/" + std::to_string(now.shards));
   return out;

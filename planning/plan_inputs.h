@@ -38,6 +38,11 @@ struct PlanInputs {
   double max_trial_s = 0.0;
   double alpha = 0.0;
   std::string percentiles;
+  // The simulated participants' population: "sha256 <hex>" of its file, or
+  // "unfitted model <version>"; and whether each study draws its population
+  // from the file's posterior (the model's uncertainty) or takes its point.
+  std::string population;
+  bool model_uncertainty = false;
   // --shard I/N: this run simulates the plan's studies k (in the order of
   // studies(), counting from 0) with k mod N = I; N = 1 is the whole plan.
   int shard = 0;

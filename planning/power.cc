@@ -99,14 +99,21 @@ StudyOutcome run_power_study(const protocols::Protocol& protocol, int participan
   return o;
 }
 
+int draw_group(int index) { return index % kDrawGroups; }
+
+std::size_t draw_of_group(int group, std::size_t draws) {
+  return draws == 0 ? 0 : static_cast<std::size_t>(group) * draws / static_cast<std::size_t>(kDrawGroups) % draws;
+}
+
 std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
-                                      const std::vector<std::string>& setting_order) {
+                                      const std::vector<std::string>& setting_order, int draw_groups) {
   auto rank = [&](const std::string& setting) {
     const auto it = std::find(setting_order.begin(), setting_order.end(), setting);
     return static_cast<std::size_t>(it - setting_order.begin());
   };
   using Key = std::tuple<int, std::string, std::string, std::size_t, std::string, std::string>;
   std::map<Key, PowerRow> rows;
+  std::map<Key, std::map<int, std::pair<int, int>>> groups;  // group -> (significant, tests)
   for (const StudyOutcome& o : outcomes) {
     for (const Finding& f : o.findings) {
       if (std::isnan(f.p)) continue;  // not computable: not a test (see findings_of)
@@ -118,9 +125,37 @@ std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
       r.measure = f.measure;
       ++r.tests;
       if (f.significant) ++r.significant;
+      if (draw_groups > 1) {
+        auto& [hits, tests] = groups[{o.participants, f.method, f.task, rank(f.setting), f.setting, f.measure}]
+                                    [draw_group(o.index) % draw_groups];
+        ++tests;
+        if (f.significant) ++hits;
+      }
     }
   }
-  return with_rates(rows, &PowerRow::significant, &PowerRow::tests);
+  std::vector<PowerRow> out = with_rates(rows, &PowerRow::significant, &PowerRow::tests);
+  if (draw_groups <= 1) return out;
+  for (PowerRow& r : out) {
+    const auto& g = groups[{r.participants, r.method, r.task, rank(r.setting), r.setting, r.measure}];
+    const double p = r.rate;
+    // Between-group variance of the rates, less their sampling variance.
+    double between = 0.0, sampling = 0.0;
+    int used = 0;
+    for (const auto& [group, counts] : g) {
+      const auto [hits, tests] = counts;
+      if (tests == 0) continue;
+      const double rate = static_cast<double>(hits) / tests;
+      between += (rate - p) * (rate - p);
+      sampling += p * (1.0 - p) / tests;
+      ++used;
+    }
+    double tau2 = 0.0;
+    if (used > 1) tau2 = std::max(0.0, between / (used - 1) - sampling / used);
+    const double sd = std::sqrt(tau2 + p * (1.0 - p) / std::max(1, r.tests));
+    r.model_low = std::max(0.0, p - 1.96 * sd);
+    r.model_high = std::min(1.0, p + 1.96 * sd);
+  }
+  return out;
 }
 
 std::vector<FalsePositiveRow> false_positive_rates(const std::vector<StudyOutcome>& outcomes,

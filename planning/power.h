@@ -5,7 +5,9 @@
 // way; the share of studies in which a comparison reaches significance is
 // its power (or, for a setting that changes nothing, its false-positive
 // rate), with a Wilson 95 % interval.
+#include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <set>
 #include <string>
@@ -69,6 +71,17 @@ std::vector<Finding> findings_of(const analysis::StudyAnalysis& analysis);
 StudyOutcome run_power_study(const protocols::Protocol& protocol, int participants, int index, std::uint64_t seed,
                              const SimulatedStudyOptions& options);
 
+// With the model's uncertainty, studies are dealt to this many groups
+// (study index mod kDrawGroups), and every study of a group draws its
+// participants from one posterior draw of the fitted population: the
+// spread of the groups' power estimates, beyond what their sampling
+// explains, is the spread of the power over what is not known about the
+// model.
+inline constexpr int kDrawGroups = 20;
+int draw_group(int index);
+// The posterior draw (of `draws`) a group uses.
+std::size_t draw_of_group(int group, std::size_t draws);
+
 // One line of the power table: the share of studies (or, for
 // "participant", of participant tests) that reached significance.
 struct PowerRow {
@@ -80,13 +93,23 @@ struct PowerRow {
   int significant = 0;
   int tests = 0;
   double rate = 0.0;
-  double wilson_low = 0.0;  // 95 % Wilson score interval
+  double wilson_low = 0.0;  // 95 % Wilson score interval: the simulation's sampling only
   double wilson_high = 0.0;
+  // With the model's uncertainty (summarize_power's draw_groups > 1): a
+  // 95 % interval of the power over the fitted population's posterior,
+  // sampling included. NaN otherwise.
+  double model_low = std::numeric_limits<double>::quiet_NaN();
+  double model_high = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Rows sorted by participants, method, task, setting (protocol order), measure.
+// draw_groups > 1: the studies were dealt to that many posterior draws by
+// draw_group(index); each row gets the model-uncertainty interval: the
+// between-group variance of the groups' rates, less what their binomial
+// sampling explains (method of moments, at least 0), added to the overall
+// rate's sampling variance, +-1.96 SD, clipped to [0, 1].
 std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
-                                      const std::vector<std::string>& setting_order);
+                                      const std::vector<std::string>& setting_order, int draw_groups = 1);
 
 // The family-wise false-positive rate of each method: the share of studies
 // in which at least one comparison of a null setting (a copy of the control

@@ -1,6 +1,8 @@
 #include "planning/simulated_study.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <cstdio>
 #include <map>
 #include <optional>
@@ -145,6 +147,7 @@ SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participa
       c.task = parse_task_kind(task);
       c.settings = settings;
       c.participant_seed = who;
+      c.population = options.population;
       c.trial_seed = trial_seed;
       c.practice_trials = practice;
       c.clock = ClockKind::kVirtual;
@@ -199,6 +202,25 @@ SimulatedStudy simulate_study(const protocols::Protocol& protocol, int participa
         for (const KeptSample& k : kept[hand]) accumulator.add(hand, k.t_s, k.position_m, k.velocity_m_per_s, k.force_N);
       }
       accumulator.finish(rec);
+      if (options.force_extremes && r.task_complete && rec.window) {
+        TrialForceExtremes x;
+        for (std::size_t hand = 0; hand < 2; ++hand) {
+          double sum = 0.0, largest = 0.0;
+          std::size_t n = 0;
+          for (const KeptSample& k : kept[hand]) {
+            if (k.t_s < rec.window->start_s || k.t_s > rec.window->end_s) continue;
+            const double f = std::sqrt(k.force_N[0] * k.force_N[0] + k.force_N[1] * k.force_N[1] +
+                                       k.force_N[2] * k.force_N[2]);
+            if (f < options.analysis.min_force_N) continue;
+            sum += f;
+            largest = std::max(largest, f);
+            ++n;
+          }
+          x.mean_N[hand] = n > 0 ? sum / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
+          x.max_N[hand] = n > 0 ? largest : std::numeric_limits<double>::quiet_NaN();
+        }
+        out.force_extremes[id] = x;
+      }
       return rec;
     };
     for (const protocols::PlannedTrial& t : pp.trials) {

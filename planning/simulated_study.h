@@ -6,11 +6,15 @@
 // measures as they would be read back from the database, then the study's
 // statistics. No sample is stored: a thesis-sized study runs in seconds, so
 // thousands of them can say what a design can detect (planning/power.h).
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include <map>
+
 #include "analysis/study/study_analysis.h"
+#include "core/sim/population.h"
 #include "protocols/protocol.h"
 
 namespace hapticlab::planning {
@@ -18,6 +22,10 @@ namespace hapticlab::planning {
 struct SimulatedStudyOptions {
   double rate_Hz = 1000.0;     // the loop rate of every trial, 150..2000
   double max_trial_s = 300.0;  // per-trial time limit, as session run's --max-trial-s
+  // The population the participants are drawn from (core/sim/population.h).
+  PopulationParams population;
+  // Also measure each trial's mean and largest tip force (force_extremes).
+  bool force_extremes = false;
   // The analysis (thesis procedure). Default: no KS bootstrap and no CDF
   // quantiles, which a power estimate does not use.
   analysis::AnalysisOptions analysis = default_analysis();
@@ -49,8 +57,19 @@ struct SettingTrials {
   int timed_out = 0;
 };
 
+// A trial's mean and largest |tip force| per hand [N] over its task window,
+// samples in contact only (>= 1 mN, as the thesis' force measures): what
+// Wagner et al. (2002) call the average and the peak force. NaN for a hand
+// without contact.
+struct TrialForceExtremes {
+  std::array<double, 2> mean_N{0.0, 0.0};
+  std::array<double, 2> max_N{0.0, 0.0};
+};
+
 struct SimulatedStudy {
   analysis::StudyAnalysis analysis;  // trials (their measures) and every statistics table
+  // With options.force_extremes: by trial id, complete trials only.
+  std::map<std::int64_t, TrialForceExtremes> force_extremes;
   int trials_run = 0;
   int trials_timed_out = 0;      // reached max_trial_s: aborted, left out as session run would
   int training_trials = 0;

@@ -184,6 +184,7 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
     c.device = options.device;
     c.settings = settings.engine;
     c.participant_seed = who;
+    c.population = options.population;
     c.trial_seed = seed;
     c.practice_trials = practice;
     c.clock = options.clock;

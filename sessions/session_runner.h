@@ -123,6 +123,9 @@ struct SessionOptions {
   // How long a device call that does not return is waited for after the
   // alert before the session gives up on it (DeviceHungError) [s], > 0.
   double device_hang_grace_s = 2.0;
+  // The population a simulated participant is drawn from (the commands read
+  // the fitted population file; core/sim/population.h).
+  PopulationParams population;
   // For tests: adjusts a trial's rig configuration (e.g. injects a fault).
   std::function<void(SimTrialConfig&, const db::TrialRow&)> configure_trial;
   db::SampleWriterConfig writer;

@@ -37,9 +37,10 @@ DeviceRatings workstation_ratings() noexcept {
   // simulated participant moves faster than a surgeon, and its trials must
   // not trip the guard: over the thesis demo's 135 trials plus the quick
   // demo's 50 it peaked at 1.5 m/s insertion, 4.2 rad/s pitch, 9.8 rad/s
-  // grip, and 20.6 rad/s yaw (the left yaw swings to its end stop in the
-  // first 0.15 s of a trial), so insertion, pitch and yaw have about twice
-  // that.
+  // grip, and 20.6 rad/s yaw, so insertion, pitch and yaw have about twice
+  // that. (The yaw was a fault of participant model 1, whose left hand swung
+  // into its end stop in the first 0.15 s of a trial; model 2 turns the
+  // shaft at under 2 rad/s. The limits stay: they guard against runaways.)
   static constexpr std::array<double, kNumDeviceJoints> kMaxVelocity = {
       4.0,   // insertion [m/s]
       40.0,  // pitch [rad/s]: 4 m/s at 0.1 m from the pivot

@@ -21,8 +21,8 @@ constexpr double kGripShut_rad = 0.0;
 constexpr double kCauteryForce_N = 0.45;
 constexpr double kTouchForce_N = 0.15;
 constexpr double kTensionForce_N = 0.6;
-constexpr double kSeatForce_N = 0.3;
-constexpr double kLiftForce_N = 0.25;
+constexpr double kSeatForce_N = Participant::kClipSeatForce_N;
+constexpr double kLiftForce_N = Participant::kClipLiftForce_N;
 
 // Fitts' law for laparoscopic reaching, T = a + b·log2(D/W + 1).
 constexpr double kFittsA_s = 0.20;
@@ -32,25 +32,29 @@ constexpr double kDragSpeed_m_per_s = 0.006;
 
 }  // namespace
 
-ParticipantTraits ParticipantTraits::sample(std::uint64_t seed) noexcept {
+ParticipantTraits ParticipantTraits::sample(std::uint64_t seed, const PopulationParams& population) noexcept {
   Random r = Random::derive(seed, 0x747261697473ull);
   ParticipantTraits t;
   t.speed = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
-  t.force_level = std::clamp(r.lognormal_factor(0.2), 0.65, 1.5);
-  t.consistency = r.uniform(0.15, 0.35);
+  // Drawn now, placed once novice is known (the last draw, so that a
+  // population without novices draws everything else the same).
+  const double u_force = r.uniform();
+  // The fitted traits (population.h): trial-to-trial consistency, the
+  // visual force gain, the force level.
+  t.consistency = draw_consistency(r.uniform(), population);
   // Arm endpoint stiffness with the co-contraction of precise work
   // (several hundred N/m up to ~1 kN/m).
   t.hand_stiffness_N_per_m = r.uniform(450.0, 800.0);
-  // Seen/true force. Wagner et al. 2002 (blunt dissection, no force
-  // feedback): average force up at least 50 %, so vision alone reads about
-  // 1/1.5 of the force; the spread keeps some participants near 0.85.
-  t.visual_force_gain = std::clamp(r.normal(0.65, 0.1), 0.45, 0.9);
+  t.visual_force_gain = draw_visual_gain(r.uniform(), population);
   t.haptic_delay_s = r.uniform(0.03, 0.06);
   t.visual_delay_s = r.uniform(0.13, 0.20);
   t.right_handed = r.uniform() >= 0.1;
   t.nondominant_factor = r.uniform(1.1, 1.4);
   t.learning_gain = r.uniform(0.3, 0.7);
   t.learning_trials = r.uniform(4.0, 10.0);
+  t.visual_noise_log_sd = population.visual_noise_log_sd;
+  t.novice = r.uniform() < population.novice_share;
+  t.force_level = draw_force_level(u_force, t.novice, population);
   return t;
 }
 
@@ -118,8 +122,14 @@ double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexc
   }
   const auto& g = clip_->grasp();
   if (hand == kLeft && g.holding()) return (tip - g.anchor()).z();
-  const Eigen::Vector3d radial(0.0, tip.y() - clip_->duct_y_m(), tip.z() - clip_->params().duct_z_m);
-  return clip_->params().duct_radius_m - radial.norm();
+  // The deeper of the two surfaces the tool can be seen to press: the duct
+  // wall, or the structures below it once the tool has gone past the duct.
+  // (Seeing only the duct, a tool pressing the structures read as a visible
+  // gap, so the hand took the force it felt for no contact and pressed on.)
+  const ClipParams& p = clip_->params();
+  const Eigen::Vector3d radial(0.0, tip.y() - clip_->duct_y_m(), tip.z() - p.duct_z_m);
+  const double duct_m = std::abs(tip.x()) <= p.duct_half_length_m ? p.duct_radius_m - radial.norm() : -1.0;
+  return std::max(duct_m, p.base_z_m - tip.z());
 }
 
 void Participant::act(const LoopTickView& view) noexcept {
@@ -139,11 +149,15 @@ void Participant::act(const LoopTickView& view) noexcept {
       p.haptic_delay_s = traits_.haptic_delay_s;
       p.visual_delay_s = traits_.visual_delay_s;
       p.visual_force_gain = traits_.visual_force_gain;
+      p.visual_noise = traits_.visual_noise_log_sd;
       p.motor_noise_m = 0.0003 * other;
       p.regulation_time_s = 0.15 * other;
       hands_[static_cast<std::size_t>(h)].init(h, p, tip_[static_cast<std::size_t>(h)], rng_.next_u64());
       hands_[static_cast<std::size_t>(h)].grip_to(kGripOpenTarget_rad, t, 0.05);
-      phase_start_s_[static_cast<std::size_t>(h)] = t;
+      // Not yet entered: the first phase issues its intent on this update.
+      // (Marking it entered here left the first reach unset: the left hand
+      // went for the world origin between the trocars, yaw into its end stop.)
+      phase_start_s_[static_cast<std::size_t>(h)] = -1.0;
     }
   }
 
@@ -206,7 +220,7 @@ void Participant::act_dissection(double t) noexcept {
         if (entering) {
           const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(burn_index_)]);
           hand.reach(spot, t, 0.35 * time_factor_[kRight]);
-          hand.press(-Eigen::Vector3d::UnitZ(), cautery_N * rng_.lognormal_factor(traits_.consistency),
+          hand.press(-Eigen::Vector3d::UnitZ(), cautery_N * rng_.lognormal_factor(kForceReproductionLogSd),
                      task.params().tissue.stiffness_N_per_m);
         } else if (hand.reach_done(t)) {
           HL_ENTER(kRight, Phase::kWork);
@@ -238,7 +252,7 @@ void Participant::act_dissection(double t) noexcept {
         if (dist > 0.005) { HL_ENTER(kRight, Phase::kRelease); break; }
         hand.reach(spot, t, std::max(0.12, dist / kDragSpeed_m_per_s) * time_factor_[kRight]);
         if (rng_.uniform() < 0.15)  // now and then the surgeon re-sets the pressure
-          hand.set_target_force(cautery_N * rng_.lognormal_factor(traits_.consistency));
+          hand.set_target_force(cautery_N * rng_.lognormal_factor(kForceReproductionLogSd));
         break;
       }
       case Phase::kRelease:
@@ -302,7 +316,7 @@ void Participant::act_dissection(double t) noexcept {
       case Phase::kWork:
         if (entering) {
           hand.stop_press();
-          hand.press(pull_dir_, tension_N * rng_.lognormal_factor(traits_.consistency),
+          hand.press(pull_dir_, tension_N * rng_.lognormal_factor(kForceReproductionLogSd),
                      task.params().grasp.stiffness_N_per_m);
         }
         if (done || !grasp.holding() || (target - grasp.anchor()).norm() > 0.014)
@@ -361,7 +375,7 @@ void Participant::act_clip(double t) noexcept {
       case Phase::kWork:
         if (entering) {
           pull_dir_ = Eigen::Vector3d::UnitZ();
-          hand.press(pull_dir_, kLiftForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency),
+          hand.press(pull_dir_, kLiftForce_N * force_factor_ * rng_.lognormal_factor(kForceReproductionLogSd),
                      p.grasp.stiffness_N_per_m);
         }
         if (done || !grasp.holding() || std::abs(grasp.anchor().x() - marker) > 0.014)
@@ -409,7 +423,7 @@ void Participant::act_clip(double t) noexcept {
         if (entering) {
           hand.reach(top, t, 0.4 * time_factor_[kRight]);
           hand.press(-Eigen::Vector3d::UnitZ(),
-                     kSeatForce_N * force_factor_ * rng_.lognormal_factor(traits_.consistency),
+                     kSeatForce_N * force_factor_ * rng_.lognormal_factor(kForceReproductionLogSd),
                      p.duct.stiffness_N_per_m);
         } else if (hand.reach_done(t) &&
                    ((hand.seen_depth_m() > 0.0003 && hand.estimated_force_N() >= 0.5 * hand.target_force_N()) ||

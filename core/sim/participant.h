@@ -20,6 +20,7 @@
 #include "core/sim/clip_task.h"
 #include "core/sim/dissection_task.h"
 #include "core/sim/hand.h"
+#include "core/sim/population.h"
 
 namespace hapticlab {
 
@@ -35,9 +36,13 @@ struct ParticipantTraits {
   double nondominant_factor = 1.25;    // the other hand: this much slower and noisier
   double learning_gain = 0.5;          // the first trial takes (1 + gain) times longer...
   double learning_trials = 6.0;        // ...and the excess decays over this many trials
+  double visual_noise_log_sd = 0.2;    // slow drift of the visual force estimate (log-sd)
+  bool novice = false;                 // force level drawn around the population's novice factor
 
-  // Draws a participant; the same seed gives the same person.
-  static ParticipantTraits sample(std::uint64_t seed) noexcept;
+  // Draws a participant of `population` (validated by the caller); the same
+  // seed gives the same person, and the same quantiles of the fitted traits
+  // under any population (population.h).
+  static ParticipantTraits sample(std::uint64_t seed, const PopulationParams& population = {}) noexcept;
 };
 
 struct ParticipantTrial {
@@ -59,6 +64,15 @@ class Participant final : public LoopAgent {
   // hand's reference with its velocity, and the hand's spring–damper keeps
   // acting at every device sub-step.
   static constexpr double kControlPeriod_s = CueDelay::kPeriod_s;
+  // Within a trial, each press aims at the trial's force with this log-sd:
+  // how well a person reproduces a force it feels. The force JND is about
+  // 7 % (Pang, Tan & Durlach 1991). Trial to trial the aim varies by the
+  // consistency trait.
+  static constexpr double kForceReproductionLogSd = 0.07;
+  // Forces aimed for in the clip task at a trial force factor of 1 [N]: the
+  // applier's seating on the duct, the grasper's lift of it.
+  static constexpr double kClipSeatForce_N = 0.3;
+  static constexpr double kClipLiftForce_N = 0.25;
   void act(const LoopTickView& view) noexcept override;
 
   // The start pose of both instruments: tools retracted in their trocars,
@@ -67,6 +81,9 @@ class Participant final : public LoopAgent {
 
   // For inspection and tests.
   const Hand& hand(int instrument) const noexcept { return hands_[static_cast<std::size_t>(instrument)]; }
+  // This trial's factor on every force aimed for (force level times the
+  // trial's variation).
+  double trial_force_factor() const noexcept { return force_factor_; }
   int phase(int instrument) const noexcept { return static_cast<int>(phase_[static_cast<std::size_t>(instrument)]); }
 
  private:
@@ -94,7 +111,7 @@ class Participant final : public LoopAgent {
   std::array<double, 2> time_factor_{1.0, 1.0};  // this trial's movement-time factor per hand
   double force_factor_ = 1.0;
   std::array<Phase, 2> phase_{Phase::kApproach, Phase::kApproach};
-  std::array<double, 2> phase_start_s_{0.0, 0.0};
+  std::array<double, 2> phase_start_s_{-1.0, -1.0};  // < 0: the phase is not entered yet
   std::array<Eigen::Vector3d, 2> tip_{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   // dissection
   int burn_index_ = -1;         // position in line_path() being exposed

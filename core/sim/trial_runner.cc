@@ -71,7 +71,8 @@ SimRig::SimRig(const SimTrialConfig& config) {
   else ve_ = std::make_unique<ClipTask>(config.trial_seed);
 
   if (hand_ != nullptr) {
-    const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed);
+    config.population.validate();
+    const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed, config.population);
     participant_ = std::make_unique<Participant>(
         traits, ParticipantTrial{config.trial_seed, config.practice_trials}, *hand_, *ve_);
   }

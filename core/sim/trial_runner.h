@@ -21,6 +21,7 @@
 #include "core/loop/haptic_loop.h"
 #include "core/settings/settings.h"
 #include "core/sim/participant.h"
+#include "core/sim/population.h"
 #include "core/sim/virtual_environment.h"
 
 namespace hapticlab {
@@ -36,7 +37,10 @@ struct SimTrialConfig {
   // simulated participant; any other is held by a person.
   DeviceSpec device;
   EngineSettings settings;
-  std::uint64_t participant_seed = 1;  // who: the traits
+  std::uint64_t participant_seed = 1;  // who: the traits, drawn from `population`
+  // The population simulated participants come from (population.h); the
+  // default is the unfitted model, the commands read the fitted file.
+  PopulationParams population;
   std::uint64_t trial_seed = 1;        // this trial: task layout and execution variation
   int practice_trials = 0;             // trials the participant already did
   ClockKind clock = ClockKind::kVirtual;
@@ -88,7 +92,7 @@ struct SimTrialResult {
 // writer). Not movable: the parts point at each other.
 class SimRig {
  public:
-  // Throws std::invalid_argument (rate, durations) or SettingsError.
+  // Throws std::invalid_argument (rate, durations, population) or SettingsError.
   explicit SimRig(const SimTrialConfig& config);
   SimRig(const SimRig&) = delete;
   SimRig& operator=(const SimRig&) = delete;

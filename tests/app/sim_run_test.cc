@@ -151,7 +151,7 @@ TEST_F(SimRunTest, WritesOneRowPerUpdateWithTheDocumentedColumnsAndPrintsTheSumm
   const double last_t = csv.number(csv.rows.size() - 1, "t_s");
   char expected[512];
   std::snprintf(expected, sizeof expected,
-                "dissection, High Fidelity, participant 2: complete after %.2f s (virtual clock), %zu "
+                "dissection, High Fidelity, participant 2 (fitted population): complete after %.2f s (virtual clock), %zu "
                 "samples, peak force left %.2f N right %.2f N -> %s\n",
                 last_t, csv.rows.size() / 2, peak_N[0], peak_N[1], out.string().c_str());
   EXPECT_EQ(printed, expected);
@@ -181,7 +181,7 @@ TEST_F(SimRunTest, RateAndMaxDurationShapeTheFileAndATimeoutExitsWithTwo) {
   }
   const std::string printed = ::testing::internal::GetCapturedStdout();
   EXPECT_EQ(exit_code, 4);  // timed out: 2 is for usage errors
-  EXPECT_NE(printed.find("clip, Friction, participant 1: max_duration after 1.50 s"), std::string::npos)
+  EXPECT_NE(printed.find("clip, Friction, participant 1 (fitted population): max_duration after 1.50 s"), std::string::npos)
       << printed;
   const SampleCsv csv = read_sample_csv(out);
   ASSERT_EQ(csv.rows.size(), 2u * 769u);

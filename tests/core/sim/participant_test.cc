@@ -3,13 +3,18 @@
 // practice that makes the same person on the same task faster.
 #include "core/sim/participant.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "core/device/workstation_spec.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/dissection_task.h"
 #include "core/sim/trial_runner.h"
@@ -45,19 +50,20 @@ TEST(ParticipantTraitsTest, TraitsStayInTheirRangesAndOneInTenIsLeftHanded) {
     const ParticipantTraits t = ParticipantTraits::sample(static_cast<std::uint64_t>(seed));
     EXPECT_GE(t.speed, 0.65);
     EXPECT_LE(t.speed, 1.5);
-    EXPECT_GE(t.force_level, 0.65);
-    EXPECT_LE(t.force_level, 1.5);
+    // The force level within its population's truncation range (population.h).
+    EXPECT_GE(t.force_level, kForceLevelRange.first);
+    EXPECT_LE(t.force_level, kForceLevelRange.second);
     // The rest within physiological bounds (participant.h, hand.h) rather
-    // than the exact sampling ranges, which are being tuned: trial-to-trial
-    // log-sd below 50 %, arm stiffness of several hundred N/m up to ~1 kN/m,
+    // than the exact sampling ranges: trial-to-trial log-sd within the
+    // population's range (at most 0.6), arm stiffness of several hundred N/m up to ~1 kN/m,
     // forces seen as smaller than they are, haptic and visual delays of
     // 20-80 ms and 100-300 ms.
-    EXPECT_GT(t.consistency, 0.0);
-    EXPECT_LT(t.consistency, 0.5);
+    EXPECT_GE(t.consistency, kConsistencyRange.first);
+    EXPECT_LE(t.consistency, kConsistencyRange.second);
     EXPECT_GE(t.hand_stiffness_N_per_m, 300.0);
     EXPECT_LE(t.hand_stiffness_N_per_m, 1000.0);
-    EXPECT_GT(t.visual_force_gain, 0.3);
-    EXPECT_LE(t.visual_force_gain, 1.0);
+    EXPECT_GE(t.visual_force_gain, kVisualGainRange.first);
+    EXPECT_LE(t.visual_force_gain, kVisualGainRange.second);
     EXPECT_GE(t.haptic_delay_s, 0.02);
     EXPECT_LE(t.haptic_delay_s, 0.08);
     EXPECT_GE(t.visual_delay_s, 0.10);
@@ -121,6 +127,136 @@ TEST(ParticipantTest, PracticeMakesTheSamePersonFasterOnTheSameTrial) {
     ratio_sum += duration_s[1] / duration_s[0];
   }
   EXPECT_LT(ratio_sum / kPeople, 0.9);
+}
+
+TEST(ParticipantTest, TheFirstMovesOfATrialTakeBothToolsIntoTheWorkAreaWithoutFlingingThem) {
+  // A trial starts with both tools 5 mm inside their trocars (start_pose).
+  // Each hand's first move is its task's first reach into the work area
+  // some 110 mm below, mostly along the shaft. Physical bounds (not this
+  // model's output): a surgeon's hand moves the handle at well under 1 m/s
+  // and the handle sits a few tenths of a metre from the pivot, so the
+  // shaft turns at a few rad/s; 5 rad/s is required. And nothing in the
+  // first second of a task drives a tool into its ±50° pitch or yaw end
+  // stop (workstation_spec.h): 5° of margin are required.
+  // (Before model 2 the left hand's first phase was never entered: it
+  // reached for the world origin between the trocars, swinging its yaw
+  // into the end stop at 9-20 rad/s within 0.15 s in every trial.)
+  const EngineSettings hf =
+      load_settings_file(std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/high_fidelity.json").engine;
+  constexpr double kMaxShaftRate_rad_per_s = 5.0;
+  constexpr double kEndStopMargin_rad = 5.0 * kDegree_rad;
+  for (const TaskKind task : {TaskKind::kDissection, TaskKind::kClip}) {
+    for (std::uint64_t person = 1; person <= 3; ++person) {
+      SimTrialConfig c;
+      c.task = task;
+      c.settings = hf;
+      c.participant_seed = person;
+      c.trial_seed = 5;
+      c.practice_trials = 10;
+      c.max_duration_s = 1.0;
+      std::array<double, 2> max_rate{0.0, 0.0}, max_angle{0.0, 0.0};
+      std::array<DeviceJoints, 2> last{};
+      double last_t_s = -1.0;
+      SimTrialSink sink;
+      sink.on_sample = [&](const LoopSample& s) {
+        for (std::size_t i = 0; i < 2; ++i) {
+          const DeviceJoints& q = s.instrument[i].raw_position;
+          for (const int j : {kJointPitch, kJointYaw}) {
+            const auto uj = static_cast<std::size_t>(j);
+            max_angle[i] = std::max(max_angle[i], std::abs(q[uj]));
+            if (last_t_s >= 0.0)
+              max_rate[i] = std::max(max_rate[i], std::abs(q[uj] - last[i][uj]) / (s.t_s - last_t_s));
+          }
+          last[i] = q;
+        }
+        last_t_s = s.t_s;
+      };
+      (void)run_sim_trial(c, sink);
+      for (std::size_t i = 0; i < 2; ++i) {
+        std::printf("  %s, participant %llu, %s hand: pitch/yaw up to %.2f rad, %.2f rad/s\n", to_string(task),
+                    static_cast<unsigned long long>(person), i == 0 ? "left" : "right", max_angle[i], max_rate[i]);
+        EXPECT_LT(max_rate[i], kMaxShaftRate_rad_per_s) << to_string(task) << ", participant " << person << ", instrument " << i;
+        EXPECT_LT(max_angle[i], kLswPitchYawHalfRange_rad - kEndStopMargin_rad)
+            << to_string(task) << ", participant " << person << ", instrument " << i;
+      }
+    }
+  }
+}
+
+TEST(ParticipantTest, WithForceFeedbackNoPressStaysFarAboveWhatTheHandAimsFor) {
+  // How far one participant's single-trial peak forces spread at one
+  // setting is bounded by what it aims for. A trial scales every aimed
+  // force by its force factor (force level times the trial's variation,
+  // the consistency trait); within the trial each press aims at that with
+  // the error of reproducing a felt force, whose JND is about 7 % (Pang,
+  // Tan & Durlach 1991, Percept. Psychophys. 49:531:
+  // Participant::kForceReproductionLogSd), so no press aims above
+  // e^(3 x 0.07) = 1.23 times the trial's aim. With force feedback the hand
+  // corrects a felt excess through its force regulation (0.15 s; with the
+  // arm braced and the tissue in series about 1 s). Required, in every
+  // High Fidelity clip trial: no hand holds more than twice its largest
+  // aim for 1 s or longer. The clip task's forces have no other source:
+  // the applier seats on the duct, the grasper lifts it.
+  // The person is the friction staircase example's P02
+  // (examples/protocols/friction_staircase.json; participant seed
+  // sessions::participant_seed(23, "P02")), whose single-trial 95th
+  // percentile ranged 0.31-1.34 N against a 0.99 N baseline before model 2:
+  // each press drew its own aim with the full trial-to-trial log-sd (0.33
+  // for P02: presses up to 2.7x the trial's aim), and a hand pressing the
+  // structures beside the duct saw a gap to the duct, took the force it
+  // felt for no contact and pressed on for seconds, to 3x its aim.
+  const EngineSettings hf =
+      load_settings_file(std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/high_fidelity.json").engine;
+  const double largest_aim = std::exp(3.0 * Participant::kForceReproductionLogSd);
+  constexpr double kExcess = 2.0;
+  constexpr double kMaxExcess_s = 1.0;
+  double longest_s = 0.0;
+  for (int k = 0; k < 16; ++k) {
+    SimTrialConfig c;
+    c.task = TaskKind::kClip;
+    c.settings = hf;
+    c.participant_seed = 11821501510795444466ull;
+    c.trial_seed = 100 + static_cast<std::uint64_t>(k);
+    c.practice_trials = 10;
+    c.max_duration_s = 120.0;
+    SimRig rig(c);
+    // Aims are known once the participant exists: its trial factor is
+    // drawn when it is made.
+    const double factor = rig.participant()->trial_force_factor();
+    const std::array<double, 2> limit_N = {kExcess * largest_aim * Participant::kClipLiftForce_N * factor,
+                                           kExcess * largest_aim * Participant::kClipSeatForce_N * factor};
+    std::array<double, 2> above_since{-1.0, -1.0}, longest{0.0, 0.0};
+    std::vector<LoopSample> batch(256);
+    auto drain = [&] {
+      while (const std::size_t n = rig.loop().samples().pop_bulk(batch.data(), batch.size()))
+        for (std::size_t j = 0; j < n; ++j)
+          for (std::size_t i = 0; i < 2; ++i) {
+            const Vec3& f = batch[j].instrument[i].ve_force_N;
+            const double t_s = batch[j].t_s;
+            if (std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) > limit_N[i]) {
+              if (above_since[i] < 0.0) above_since[i] = t_s;
+              longest[i] = std::max(longest[i], t_s - above_since[i]);
+            } else {
+              above_since[i] = -1.0;
+            }
+          }
+    };
+    ASSERT_TRUE(rig.loop().start());
+    while (rig.loop().running()) {
+      drain();
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    rig.loop().join();
+    drain();
+    for (std::size_t i = 0; i < 2; ++i) {
+      if (longest[i] > 0.2)
+        std::printf("  trial %d, %s hand: above %.3f N for %.2f s\n", k, i == 0 ? "left" : "right", limit_N[i],
+                    longest[i]);
+      EXPECT_LT(longest[i], kMaxExcess_s) << "trial " << k << ", instrument " << i;
+      longest_s = std::max(longest_s, longest[i]);
+    }
+  }
+  std::printf("  longest stretch above twice the largest aim: %.2f s\n", longest_s);
 }
 
 TEST(ParticipantTest, ControlUpdatesEvery5MillisecondsWhateverTheLoopRate) {

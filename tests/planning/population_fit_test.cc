@@ -1,0 +1,89 @@
+// `hapticlab plan calibrate --fit` on a tiny budget, through the real
+// binary: the machinery runs end to end (bank, checks, posterior,
+// diagnostics with every calibration target and its source), and a fit that
+// does not converge is named with its values and writes no population file.
+// The full fit (9 x 48 thesis studies) is not a CI test; its figures are in
+// docs/simulation.md.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "app/cli_process.h"
+#include "planning/calibration_set.h"
+#include "testing/test_paths.h"
+
+namespace hapticlab::planning {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(PopulationFitTest, ATinyFitRunsEveryStepAndNamesWhyItDidNotConverge) {
+  const fs::path dir = fs::temp_directory_path() / ("hapticlab_fit_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path settings = fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
+  // Both tasks, High Fidelity and No Force Feedback, one repetition, two
+  // participants: 4 trials a participant, 18 of them in the bank.
+  const fs::path protocol = dir / "tiny.json";
+  std::ofstream(protocol) << R"({"study": "tiny fit", "tasks": ["dissection", "clip"],
+    "repetitions": {"dissection": 1, "clip": 1}, "settings": [")"
+                          << (settings / "high_fidelity.json").string() << R"(", ")"
+                          << (settings / "no_force_feedback.json").string()
+                          << R"("], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 3})";
+  const fs::path out = dir / "fit";
+  const auto [status, printed] = testing::run_cli(
+      HAPTICLAB_CLI_PATH, "plan calibrate --fit --fit-studies 1 --rate-hz 150 --protocol " + protocol.string() +
+                              " --out " + out.string());
+  EXPECT_EQ(status, 1) << printed;
+  EXPECT_THAT(printed, HasSubstr("the fit did not converge; no population.json was written"));
+  // Named with its values: too few participants, the bank's coverage.
+  EXPECT_THAT(printed, HasSubstr("only 18 simulated participants completed both High Fidelity and No Force "
+                                 "Feedback dissection trials (at least 30 are needed)"));
+  EXPECT_THAT(printed, HasSubstr("the bank does not cover the posterior"));
+  EXPECT_FALSE(fs::exists(out / "population.json"));
+  // Diagnostics: every target with its source, every free parameter with its
+  // prior's source, the summary with the checks.
+  const std::string targets = slurp(out / "fit_targets.csv");
+  for (const CalibrationTarget& t : calibration_targets())
+    EXPECT_THAT(targets, HasSubstr(t.id + "," + t.source + ",")) << t.id;
+  const std::string parameters = slurp(out / "fit_parameters.csv");
+  for (const char* name : {"visual_gain_mean,yes", "consistency_median,yes", "force_level_log_sd,yes",
+                           "novice_force_factor,yes", "visual_noise_log_sd,no"})
+    EXPECT_THAT(parameters, HasSubstr(name));
+  const nlohmann::json summary = nlohmann::json::parse(slurp(out / "fit_summary.json"));
+  EXPECT_FALSE(summary["converged"].get<bool>());
+  EXPECT_EQ(summary["studies"], 9);
+  EXPECT_EQ(summary["participants"], 18);
+  EXPECT_EQ(summary["rate_check"]["participants"], 2);
+  EXPECT_TRUE(summary.contains("kappa_force_level_exponent"));
+  // A protocol without the dissection is refused before anything runs.
+  const fs::path clip_only = dir / "clip.json";
+  std::ofstream(clip_only) << R"({"study": "clip only", "tasks": ["clip"], "repetitions": {"clip": 1},
+    "settings": [")" << (settings / "high_fidelity.json").string() << R"(", ")"
+                           << (settings / "no_force_feedback.json").string()
+                           << R"("], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 3})";
+  const auto [refused, why] = testing::run_cli(
+      HAPTICLAB_CLI_PATH, "plan calibrate --fit --fit-studies 1 --protocol " + clip_only.string() + " --out " +
+                              (dir / "none").string());
+  EXPECT_EQ(refused, 1);
+  EXPECT_THAT(why, HasSubstr("clip only: has no dissection task; the fit needs both tasks"));
+  std::error_code ignored;
+  fs::remove_all(dir, ignored);
+}
+
+}  // namespace
+}  // namespace hapticlab::planning
