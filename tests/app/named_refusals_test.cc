@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/app/cli_process.h"
+#include "tests/testing/sqlite_edit.h"
 #include "tests/testing/scratch_dir.h"
 
 namespace hapticlab::app {
@@ -46,16 +47,7 @@ class NamedRefusalsTest : public ::testing::Test {
   const fs::path dir_ = scratch_.path();
 };
 
-void edit_study_db(const fs::path& db, const std::string& sql) {
-  sqlite3* c = nullptr;
-  ASSERT_EQ(sqlite3_open(db.c_str(), &c), SQLITE_OK);
-  char* error = nullptr;
-  const int rc = sqlite3_exec(c, sql.c_str(), nullptr, nullptr, &error);
-  const std::string message = error ? error : "";
-  sqlite3_free(error);
-  sqlite3_close(c);
-  ASSERT_EQ(rc, SQLITE_OK) << sql << ": " << message;
-}
+void edit_study_db(const fs::path& db, const std::string& sql) { testing::edit_with_sqlite(db, sql); }
 
 TEST_F(NamedRefusalsTest, OptionValuesAreNamedWithWhatIsAllowed) {
   // --studies 1 and an --out of its own: had a value slipped through, the run would be short and kept here.

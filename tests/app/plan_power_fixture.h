@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/app/cli_process.h"
+#include "tests/testing/sqlite_edit.h"
 
 namespace hapticlab::app {
 
@@ -42,16 +43,7 @@ inline int stored_studies(const fs::path& db) {
 
 // Runs `sql` on a plan_power.db as any SQLite client could (checksums and
 // constraints are the file's own business): how the damaged copies are made.
-inline void edit_plan_db(const fs::path& db, const std::string& sql) {
-  sqlite3* c = nullptr;
-  ASSERT_EQ(sqlite3_open(db.c_str(), &c), SQLITE_OK);
-  char* error = nullptr;
-  const int rc = sqlite3_exec(c, sql.c_str(), nullptr, nullptr, &error);
-  const std::string message = error ? error : "";
-  sqlite3_free(error);
-  sqlite3_close(c);
-  ASSERT_EQ(rc, SQLITE_OK) << sql << ": " << message;
-}
+inline void edit_plan_db(const fs::path& db, const std::string& sql) { testing::edit_with_sqlite(db, sql); }
 
 class PlanPowerTest : public ::testing::Test {
  protected:

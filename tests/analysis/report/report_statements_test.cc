@@ -18,6 +18,7 @@
 
 #include "core/settings/settings_json.h"
 #include "db/study_db.h"
+#include "tests/analysis/study/synthetic_study_db.h"
 #include "tests/app/cli_process.h"
 #include "tests/testing/files.h"
 #include "tests/testing/scratch_dir.h"
@@ -30,41 +31,10 @@ using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-// One dissection trial of both hands whose forces in the task window are
-// f, 2f, ... 5f (left) and half of that (right), as in
-// tests/analysis/study/synthetic_study_db.h: its measures scale with f.
+// The synthetic study's trial (tests/analysis/study/synthetic_study_db.h),
+// the tip's path scaled with the force too.
 void log_trial_of_force(db::StudyDb& db, std::int64_t trial, double f) {
-  for (int hand = 0; hand < 2; ++hand) {
-    std::vector<db::StoredSample> samples;
-    for (int i = 0; i < 10; ++i) {
-      db::StoredSample s;
-      s.tick = static_cast<std::uint64_t>(i);
-      s.t_s = i / 8.0;
-      s.dt_s = 1.0 / 8.0;
-      const bool inside = i >= 2 && i <= 7;
-      const double magnitude = !inside ? 100.0 : i == 2 ? 0.0005 : f * (i - 2) * (hand == 0 ? 1.0 : 0.5);
-      s.value.ve_force_N = {0.0, 0.0, magnitude};
-      s.value.tip_velocity_m_per_s = {0.0, i / 64.0, 0.0};
-      s.value.tip_position_m = {f * i * i / 1024.0, 0.0, 0.0};
-      s.value.in_contact = inside && i > 2;
-      s.value.raw_position = {0.125 + i / 64.0, 0.0, 0.0, 0.0, 0.0};
-      samples.push_back(s);
-    }
-    db.insert_chunk(trial, hand, samples);
-  }
-  const auto event = [&](double t, const char* type, int instrument) {
-    db::EventRow e;
-    e.trial_id = trial;
-    e.t_s = t;
-    e.type = type;
-    e.instrument = instrument;
-    db.add_event(e);
-  };
-  event(0.0, "contact_start", 0);
-  event(0.125, "contact_end", 0);
-  event(0.25, "insertion_passed_20mm", 0);
-  event(0.375, "contact_start", 1);
-  event(0.875, "contact_end", 1);
+  testing::log_trial_of_force(db, trial, f, f);
 }
 
 struct Setting {

@@ -45,8 +45,10 @@ inline double trial_force_N(int participant, int setting, int rep) {
   return setting_base_N(setting) + rep / 8.0 + participant / 16.0;
 }
 
-inline void log_trial(db::StudyDb& db, std::int64_t trial, int participant, int setting, int rep) {
-  const double f = trial_force_N(participant, setting, rep);
+// One dissection trial of both hands whose forces in the task window are
+// f, 2f, ... 5f (left) and half of that (right), the tip's path scaled by
+// `path_scale`: its measures scale with f.
+inline void log_trial_of_force(db::StudyDb& db, std::int64_t trial, double f, double path_scale) {
   for (int hand = 0; hand < 2; ++hand) {
     std::vector<db::StoredSample> samples;
     for (int i = 0; i < 10; ++i) {
@@ -58,7 +60,7 @@ inline void log_trial(db::StudyDb& db, std::int64_t trial, int participant, int 
       const double magnitude = !inside ? 100.0 : i == 2 ? 0.0005 : f * (i - 2) * (hand == 0 ? 1.0 : 0.5);
       s.value.ve_force_N = {0.0, 0.0, magnitude};
       s.value.tip_velocity_m_per_s = {0.0, i / 64.0, 0.0};
-      s.value.tip_position_m = {(setting + 1) * i * i / 1024.0, 0.0, 0.0};
+      s.value.tip_position_m = {path_scale * i * i / 1024.0, 0.0, 0.0};
       s.value.in_contact = inside && i > 2;
       s.value.raw_position = {0.125 + i / 64.0, 0.0, 0.0, 0.0, 0.0};
       s.value.joint_force = {hand == 0 ? 0.5 : 0.25, 0.0, 0.0};
@@ -80,6 +82,10 @@ inline void log_trial(db::StudyDb& db, std::int64_t trial, int participant, int 
   event(0.375, "contact_start", 1);
   event(0.875, "contact_end", 1);
   event(0.875, "samples_dropped", -1);  // a writer's event: ignored by the window
+}
+
+inline void log_trial(db::StudyDb& db, std::int64_t trial, int participant, int setting, int rep) {
+  log_trial_of_force(db, trial, trial_force_N(participant, setting, rep), setting + 1);
 }
 
 // Builds the database at `path`; returns nothing, the layout is fixed above.

@@ -216,6 +216,9 @@ TEST(SafetyTest, ALoopThatKeepsItsScheduleIsNoRateViolation) {
   // still fails a loop that counted the 3 ms write into its period (143 Hz,
   // 43 % below 250 Hz).
   c.safety.rate.tolerance_fraction = 0.35;
+  // Nor about lateness: one host hiccup (22 ms seen in CI) is not what this test judges.
+  c.safety.max_lateness_s = 0.5;
+  c.safety.watchdog_timeout_s = 1.0;
   HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(250.0), c);
   ASSERT_TRUE(loop.start());
   loop.join();
