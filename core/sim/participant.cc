@@ -232,10 +232,16 @@ void Participant::act_dissection(double t) noexcept {
         if (done) { HL_ENTER(kRight, Phase::kRelease); break; }
         const int cell = path[static_cast<std::size_t>(burn_index_)];
         if (!task.removed(cell)) {
-          // No visible progress: press a little harder, within reason.
+          // No visible progress: press a little harder, within reason. The
+          // bound is three times the person's own force, but never below
+          // three times the average person's: a light hand that feels a
+          // device's force (a cogging detent, friction) as the tissue's, and
+          // sees nothing burn, presses on like anyone else rather than
+          // holding the tool off the tissue until the time limit.
           if (t - burn_progress_s_ > 1.0 * time_factor_[kRight]) {
             burn_progress_s_ = t;
-            hand.set_target_force(std::min(3.0 * cautery_N, hand.target_force_N() * 1.15));
+            const double bound_N = 3.0 * kCauteryForce_N * std::max(force_factor_, 1.0);
+            hand.set_target_force(std::min(bound_N, hand.target_force_N() * 1.15));
           }
           break;
         }
@@ -402,6 +408,14 @@ void Participant::act_clip(double t) noexcept {
     // The applier slipped down beside the duct instead of sitting on it.
     const bool slid_off = tip_[kRight].z() < p.duct_z_m &&
                           std::abs(tip_[kRight].y() - task.duct_y_m()) > 0.8 * p.duct_radius_m;
+    // The applier pressed through the duct and is below it. The duct wall
+    // is a spring that gives at most stiffness x radius (0.375 N unheld), so
+    // a hand that reads the force low by eye presses on and pops through. A
+    // person who sees that lifts, aims again and presses more gently; one
+    // who presses as hard again pops through on every attempt, and the
+    // trial runs into its time limit.
+    const bool pushed_through = std::abs(tip_[kRight].x()) <= p.duct_half_length_m &&
+                                tip_[kRight].z() < p.duct_z_m - p.duct_radius_m;
     switch (phase_[kRight]) {
       case Phase::kApproach:
         if (done) { HL_ENTER(kRight, Phase::kRetract); break; }
@@ -416,14 +430,16 @@ void Participant::act_clip(double t) noexcept {
         }
         break;
       case Phase::kDescend:
-        if (!entering && slid_off) {
-          HL_ENTER(kRight, Phase::kRelease);  // slid off the duct: lift and aim again
+        if (!entering && (slid_off || pushed_through)) {
+          if (pushed_through) seat_force_scale_ *= kGentlerAfterPushThrough;
+          HL_ENTER(kRight, Phase::kRelease);  // off the duct: lift and aim again
           break;
         }
         if (entering) {
           hand.reach(top, t, 0.4 * time_factor_[kRight]);
           hand.press(-Eigen::Vector3d::UnitZ(),
-                     kSeatForce_N * force_factor_ * rng_.lognormal_factor(kForceReproductionLogSd),
+                     kSeatForce_N * seat_force_scale_ * force_factor_ *
+                         rng_.lognormal_factor(kForceReproductionLogSd),
                      p.duct.stiffness_N_per_m);
         } else if (hand.reach_done(t) &&
                    ((hand.seen_depth_m() > 0.0003 && hand.estimated_force_N() >= 0.5 * hand.target_force_N()) ||

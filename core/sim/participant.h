@@ -73,6 +73,10 @@ class Participant final : public LoopAgent {
   // applier's seating on the duct, the grasper's lift of it.
   static constexpr double kClipSeatForce_N = 0.3;
   static constexpr double kClipLiftForce_N = 0.25;
+  // After pressing the applier through the duct, the next seating aims at
+  // this fraction of the force before (no unit): a clear, visible failure
+  // is corrected at once, not by the force JND's small steps.
+  static constexpr double kGentlerAfterPushThrough = 0.7;
   void act(const LoopTickView& view) noexcept override;
 
   // The start pose of both instruments: tools retracted in their trocars,
@@ -84,6 +88,9 @@ class Participant final : public LoopAgent {
   // This trial's factor on every force aimed for (force level times the
   // trial's variation).
   double trial_force_factor() const noexcept { return force_factor_; }
+  // The clip applier's seating force over its first (kGentlerAfterPushThrough
+  // per push through the duct so far, 1 before any).
+  double seat_force_scale() const noexcept { return seat_force_scale_; }
   int phase(int instrument) const noexcept { return static_cast<int>(phase_[static_cast<std::size_t>(instrument)]); }
 
  private:
@@ -122,6 +129,7 @@ class Participant final : public LoopAgent {
   // clip
   int clip_index_ = 0;
   int clips_seen_missed_ = 0;
+  double seat_force_scale_ = 1.0;  // kGentlerAfterPushThrough per push-through so far
   bool started_ = false;
   double last_control_s_ = 0.0;  // loop time of the last control update
   ControlGrid control_{kControlPeriod_s};
