@@ -457,10 +457,12 @@ int write_plan_results(const PlanResults& p) {
   const fs::path csv = fs::path(o.out) / "power.csv";
   write_power_csv(csv, rows);
   // Each setting's predicted change against the control beside the power
-  // to detect it (issue 35 §4). One variant: the model as it is; a fitted
-  // population's uncertainty would be a second, beside it.
+  // to detect it (issue 35 §4). One variant, named by how the studies drew
+  // their populations: the fit's point estimate, or a posterior draw per
+  // group of studies (then the power cells carry the model interval).
   const std::vector<planning::ReportVariant> variants = {
-      {"model fixed", planning::summarize_changes(wanted, setting_order), rows,
+      {model_uncertainty ? "with model uncertainty" : "model fixed",
+       planning::summarize_changes(wanted, setting_order), rows,
        planning::summarize_timeouts(wanted, setting_order)}};
   planning::ComparisonReportOptions report;
   report.control = control_name;

@@ -1,6 +1,7 @@
 #include "planning/comparison_report.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <set>
 #include <tuple>
@@ -48,8 +49,14 @@ std::string change_cell(const ChangeRow* r) {
 
 std::string power_cell(const PowerRow* r) {
   if (r == nullptr) return "—";
-  char cell[48];
-  std::snprintf(cell, sizeof cell, "%.0f %% [%.0f, %.0f]", 100 * r->rate, 100 * r->wilson_low, 100 * r->wilson_high);
+  char cell[96];
+  int n = std::snprintf(cell, sizeof cell, "%.0f %% [%.0f, %.0f]", 100 * r->rate, 100 * r->wilson_low,
+                        100 * r->wilson_high);
+  // Studies drawn from a fit's posterior: the interval that adds the
+  // model's uncertainty (power.h) beside the sampling-only one.
+  if (std::isfinite(r->model_low) && std::isfinite(r->model_high) && n > 0)
+    std::snprintf(cell + n, sizeof cell - static_cast<std::size_t>(n), " model [%.0f, %.0f]", 100 * r->model_low,
+                  100 * r->model_high);
   return cell;
 }
 
@@ -93,7 +100,9 @@ std::string comparison_markdown(const std::vector<ReportVariant>& variants, cons
       "median over its participants of their median under the setting over their median under " + o.control +
       ", minus 1; the cell is the median simulated study [the 2.5th and 97.5th percentiles of studies]. Power: "
       "the share of simulated studies in which " + method + " finds the setting different from " + o.control +
-      " at the Šidák level [Wilson 95 % interval].";
+      " at the Šidák level [Wilson 95 % interval: the simulation's sampling only]; where the studies drew their "
+      "populations from a fit's posterior, \"model [ ]\" is the 95 % interval with the model's uncertainty added, "
+      "and the predicted change's percentiles include it.";
   for (const ReportVariant& v : variants)
     md += (&v == &variants.front() ? " Variants: " : ", ") + std::string("*") + v.label + "*";
   md += variants.empty() ? "\n" : ".\n";
@@ -148,7 +157,8 @@ std::string comparison_csv(const std::vector<ReportVariant>& variants, const Com
   std::string csv =
       "variant,participants,task,setting,measure,studies,predicted_change_median,predicted_change_low,"
       "predicted_change_high,participant_power,participant_power_low,participant_power_high,thesis_power,"
-      "thesis_power_low,thesis_power_high,trials_run,trials_timed_out\n";
+      "thesis_power_low,thesis_power_high,trials_run,trials_timed_out,participant_power_model_low,"
+      "participant_power_model_high\n";
   auto number = [](double v) { return format_number(v); };
   const auto lines = lines_of(variants, o.settings);  // task, measure, setting
   std::set<int> sizes;
@@ -170,7 +180,9 @@ std::string comparison_csv(const std::vector<ReportVariant>& variants, const Com
                (p ? number(p->wilson_low) : "") + ',' + (p ? number(p->wilson_high) : "") + ',' +
                (t ? number(t->rate) : "") + ',' + (t ? number(t->wilson_low) : "") + ',' +
                (t ? number(t->wilson_high) : "") + ',' + (out ? std::to_string(out->trials) : "") + ',' +
-               (out ? std::to_string(out->timed_out) : "") + '\n';
+               (out ? std::to_string(out->timed_out) : "") + ',' +
+               (p && std::isfinite(p->model_low) ? number(p->model_low) : "") + ',' +
+               (p && std::isfinite(p->model_high) ? number(p->model_high) : "") + '\n';
       }
     }
   }

@@ -108,8 +108,8 @@ ReportVariant report_variant(const std::string& label, double change, double low
   return v;
 }
 
-// One variant today; a fitted population's uncertainty is a second one,
-// whose columns sit beside the first's. Every table says whose predictions
+// A fitted population's uncertainty is a second variant, whose columns
+// sit beside the first's, its power cells with the model interval. Every table says whose predictions
 // these are.
 TEST(ComparisonReportTest, TheTablesSayTheyAreTheModelsAndTakeASecondVariantBeside) {
   ComparisonReportOptions o;
@@ -117,7 +117,11 @@ TEST(ComparisonReportTest, TheTablesSayTheyAreTheModelsAndTakeASecondVariantBesi
   o.participants = {8};
   o.settings = {"High Fidelity", "Falcon"};
   const ReportVariant fixed = report_variant("model fixed", 0.35, 0.25, 0.45, 0.88, 0.83, 0.93);
-  const ReportVariant uncertain = report_variant("with model uncertainty", 0.3, 0.2, 0.4, 0.7, 0.65, 0.75);
+  ReportVariant uncertain = report_variant("with model uncertainty", 0.3, 0.2, 0.4, 0.7, 0.65, 0.75);
+  // Studies drawn from a fit's posterior carry the interval with the
+  // model's uncertainty (power.h) beside Wilson's.
+  uncertain.power.front().model_low = 0.52;
+  uncertain.power.front().model_high = 0.86;
   const std::string one = comparison_markdown({fixed}, o);
   EXPECT_THAT(one, HasSubstr("**These are the model's predictions**"));
   EXPECT_THAT(one, HasSubstr("| measure | setting | 8 participants: predicted change | 8 participants: power |"));
@@ -130,14 +134,18 @@ TEST(ComparisonReportTest, TheTablesSayTheyAreTheModelsAndTakeASecondVariantBesi
                              "8 participants, with model uncertainty: predicted change | 8 participants, with model "
                              "uncertainty: power |"));
   EXPECT_THAT(two, HasSubstr("| force_p95_N | Falcon | +35 % [+25, +45] | 88 % [83, 93] | +30 % [+20, +40] | "
-                             "70 % [65, 75] |"));
+                             "70 % [65, 75] model [52, 86] |"));
+  EXPECT_THAT(two, HasSubstr("\"model [ ]\" is the 95 % interval with the model's uncertainty added"));
   // The thesis procedure's power when asked for.
   o.method = "pairwise";
   EXPECT_THAT(comparison_markdown({fixed}, o), HasSubstr("| +35 % [+25, +45] | 99 % ["));
   const std::string csv = comparison_csv({fixed, uncertain}, o);
   EXPECT_THAT(csv, HasSubstr("variant,participants,task,setting,measure,studies,predicted_change_median,"));
   EXPECT_THAT(csv, HasSubstr("\nmodel fixed,8,clip,Falcon,force_p95_N,200,0.35,0.25,0.45,0.88,0.83,0.93,0.99,"));
-  EXPECT_THAT(csv, HasSubstr(",1600,16\nwith model uncertainty,8,clip,Falcon,force_p95_N,200,0.3,"));
+  EXPECT_THAT(csv, HasSubstr(",trials_run,trials_timed_out,participant_power_model_low,participant_power_model_high\n"));
+  EXPECT_THAT(csv, HasSubstr(",1600,16,,\nwith model uncertainty,8,clip,Falcon,force_p95_N,200,0.3,"));
+  EXPECT_THAT(csv, HasSubstr(",0.7,0.65,0.75,0.99,"));
+  EXPECT_THAT(csv, HasSubstr(",1600,16,0.52,0.86\n"));
 }
 
 }  // namespace
