@@ -1173,7 +1173,7 @@ PopulationFitResult fit_population(const protocols::Protocol& protocol, const Po
   fit["max_trial_s"] = o.max_trial_s;
   fit["studies_per_design_point"] = K;
   fit["protocol"] = protocol.study;
-  fit["software"] = std::string(software_version()) + " (commit " + software_commit() + ")";
+  fit["software"] = software_version();  // "hapticlab X (commit Y)"
   fit["converged"] = result.converged;
   fit["problems"] = result.problems;
   fit["notes"] = result.notes;
