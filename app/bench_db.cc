@@ -162,7 +162,7 @@ SizeResult bench_size(std::vector<LoopSample> source, const fs::path& path, bool
   if (wall_timing) {
     // ±20 µs of scheduling jitter, deterministic (a 64-bit LCG), on a clock
     // that counts nanoseconds, with the loop's own arithmetic
-    // (core/loop/clock.h WallClock::now_s, core/loop/haptic_loop.cc):
+    // (core/common/clock.h WallClock::now_s, core/loop/haptic_loop.cc):
     // now_s = ns / 1e9 since the clock's start, t_s = now_s - t0_s,
     // dt_s = now_s - the previous update's now_s.
     std::uint64_t state = 12345;

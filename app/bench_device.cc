@@ -22,7 +22,7 @@
 #include "core/device/device_factory.h"
 #include "core/device/hand_attachment.h"
 #include "core/device/isolated_plugin_device.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 #include "core/sim/participant.h"
 
 namespace hapticlab::app {

@@ -16,7 +16,7 @@
 #include "app/insecure_flag.h"
 #include "core/device/udp_device.h"
 #include "core/device/udp_sim_server.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab::app {
 namespace {

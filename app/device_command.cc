@@ -18,7 +18,7 @@
 #include "core/device/hand_attachment.h"
 #include "core/device/isolated_plugin_device.h"
 #include "core/device/plugin_device.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 #include "core/loop/rate_monitor.h"
 #include "core/sim/participant.h"
 

@@ -12,8 +12,8 @@
 #include "core/engine/engine.h"
 #include "core/engine/status.h"
 #include "app/renamed_option.h"
-#include "core/io/output_file.h"
-#include "core/io/trajectory_csv.h"
+#include "core/common/output_file.h"
+#include "core/device/trajectory_csv.h"
 #include "core/settings/settings_json.h"
 
 namespace hapticlab::app {

@@ -30,7 +30,7 @@
 #include "app/progress_line.h"
 #include "core/common/csv_format.h"
 #include "core/settings/settings_json.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 #include "app/data_paths.h"
 #include "planning/calibration.h"
 #include "planning/change_summary.h"

@@ -14,7 +14,7 @@
 #include "app/cli_checks.h"
 #include "app/renamed_option.h"
 #include "app/sim_run.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
 #include "db/replay_frames.h"

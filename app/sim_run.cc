@@ -6,8 +6,8 @@
 #include "app/cli_checks.h"
 #include "app/population_option.h"
 #include "app/renamed_option.h"
-#include "core/io/loop_sample_csv.h"
-#include "core/io/output_file.h"
+#include "core/loop/loop_sample_csv.h"
+#include "core/common/output_file.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/trial_runner.h"
 

@@ -7,7 +7,7 @@
 
 namespace hapticlab::app {
 // Runs the trial and writes every loop update with its events to `output`
-// (the `sim run` columns, core/io/loop_sample_csv.h). The file appears only
+// (the `sim run` columns, core/loop/loop_sample_csv.h). The file appears only
 // once complete. Throws what run_sim_trial throws, or for a file that cannot
 // be written.
 SimTrialResult run_sim_trial_to_csv(const SimTrialConfig& config, const std::filesystem::path& output);

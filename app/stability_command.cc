@@ -15,7 +15,7 @@
 #include "app/data_paths.h"
 #include "app/progress_line.h"
 #include "core/common/csv_format.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/stability_map.h"
 

@@ -16,7 +16,7 @@
 #include "app/interrupt_flag.h"
 #include "app/population_option.h"
 #include "app/progress_line.h"
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 #include "core/common/sha256.h"
 #include "db/study_db.h"
 #include "sessions/session_runner.h"

@@ -14,7 +14,7 @@
 #include "console/control_fields.h"
 #include "console/http/http_server.h"
 #include "console/operator_actions.h"
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 #include "db/study_db.h"
 #include "protocols/safety_json.h"
 #include "sessions/study_progress.h"

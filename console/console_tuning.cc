@@ -10,7 +10,7 @@
 
 #include "console/served_file.h"
 #include "core/common/utc_time.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 
 namespace hapticlab::console {
 namespace {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "core/common/csv_format.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 #include "db/sample_codec.h"
 
 #include <zlib.h>
@@ -25,7 +25,7 @@ std::string slug(std::string_view text) {
   return out.empty() ? "_" : out;
 }
 
-// One export file, complete or absent (core/io/output_file.h): a full disk
+// One export file, complete or absent (core/common/output_file.h): a full disk
 // names the file and the cause, and leaves no truncated CSV.
 // With gzip, the text goes through zlib's deflate (gzip header, level 6)
 // on its way into the file.

@@ -51,7 +51,7 @@
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
 #include "core/loop/spsc_queue.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 #include "db/study_db.h"
 
 namespace hapticlab::db {

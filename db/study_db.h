@@ -109,7 +109,7 @@ struct TrialRow : TrialPlan {
 struct EventRow {
   std::int64_t trial_id = 0;
   double t_s = 0.0;  // loop clock
-  // TaskEventType names (core/sim/task_event.h) for the VE's events;
+  // TaskEventType names (core/loop/task_event.h) for the VE's events;
   // others come from the runner and the writer: "samples_dropped",
   // "events_dropped", "samples_missing", "operator_note", ...
   std::string type;

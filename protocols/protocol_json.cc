@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/common/csv_format.h"
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 #include "protocols/protocol_error.h"
 #include "protocols/safety_json.h"
 #include "protocols/shown_json.h"

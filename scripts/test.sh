@@ -5,6 +5,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 scripts/setup.sh build
+# The dependency rule (LAYERS, docs/architecture.md): names the file and
+# line of an include against it. ctest runs it too, as layer_rule.
+python3 scripts/check_layers.py
 echo "==> tests (RelWithDebInfo)"
 ctest --test-dir build --output-on-failure -j "$(nproc)"
 

@@ -11,7 +11,7 @@
 #include "core/common/csv_format.h"
 #include "core/common/random.h"
 #include "core/device/device_factory.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 #include "sessions/crash_note.h"
 #include "sessions/staircase_planner.h"
 #include "sessions/study_session.h"

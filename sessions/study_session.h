@@ -37,7 +37,7 @@
 
 #include "core/loop/loop_sample.h"
 #include "core/loop/spsc_queue.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 #include "db/sample_writer.h"
 #include "db/session_lock.h"
 #include "db/study_db.h"

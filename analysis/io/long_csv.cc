@@ -5,7 +5,7 @@
 #include <set>
 
 #include "analysis/stats/data_error.h"
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 
 namespace hapticlab::analysis {
 namespace {

@@ -8,7 +8,7 @@
 // Fields are separated by commas; a field may be double-quoted ("a,b", with
 // "" for a quote). Blank lines are skipped; lines may end in LF, CRLF or a
 // lone CR; a UTF-8 byte order mark before the header is ignored. A file
-// larger than kMaxCsvFileBytes (core/io/input_file.h) is refused. Messages
+// larger than kMaxCsvFileBytes (core/common/input_file.h) is refused. Messages
 // show invisible characters in names and values (<U+FEFF>, \r, \t).
 // Every error is a DataError naming the file and, where it applies, the
 // line, the column and the offending value.

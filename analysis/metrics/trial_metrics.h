@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "analysis/stats/percentile.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 
 namespace hapticlab::analysis {
 

@@ -16,7 +16,7 @@
 #include <thread>
 
 #include "analysis/stats/data_error.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 
 extern char** environ;
 

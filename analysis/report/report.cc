@@ -17,7 +17,7 @@
 #include "analysis/stats/data_error.h"
 #include "analysis/stats/sign_flip.h"
 #include "core/common/build_info.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 
 namespace hapticlab::analysis {
 namespace {

@@ -6,7 +6,7 @@
 
 #include "analysis/stats/data_error.h"
 #include "core/common/csv_format.h"
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 
 namespace hapticlab::analysis {
 namespace {

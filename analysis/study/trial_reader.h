@@ -18,7 +18,7 @@
 #include "analysis/metrics/trial_metrics.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/study/study_analysis.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 #include "db/study_db.h"
 
 namespace hapticlab::analysis {

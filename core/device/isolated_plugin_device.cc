@@ -18,7 +18,7 @@
 
 #include "core/common/signal_name.h"
 #include "core/device/plugin_device.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 extern char** environ;
 

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "core/common/signal_name.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 

@@ -22,7 +22,7 @@
 
 #include "core/device/plugin_channel.h"
 #include "core/device/plugin_device.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 namespace {

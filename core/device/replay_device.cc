@@ -9,8 +9,8 @@
 #include <utility>
 
 #include "core/common/csv_format.h"
-#include "core/io/trajectory_csv.h"
-#include "core/loop/clock.h"
+#include "core/device/trajectory_csv.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 

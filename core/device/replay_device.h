@@ -71,7 +71,7 @@ class ReplayDevice final : public Device {
   DeviceCommand last_command_{};
 };
 
-// Reads an engine trajectory CSV (core/io/trajectory_csv.h) — one row per
+// Reads an engine trajectory CSV (core/device/trajectory_csv.h) — one row per
 // instrument update, the two instruments interleaved — into frames: one per
 // distinct t_s, holding each instrument's latest insertion, pitch and yaw
 // (twist and grip 0). Before an instrument's first row it holds its first

@@ -8,7 +8,7 @@
 
 #include "core/common/csv_format.h"
 #include "core/device/workstation_spec.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 namespace {

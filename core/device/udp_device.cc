@@ -15,7 +15,7 @@
 #include <stdexcept>
 
 #include "core/common/steady_ns.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 namespace {

@@ -21,7 +21,7 @@
 
 #include "core/device/sim_device.h"
 #include "core/device/udp_protocol.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 

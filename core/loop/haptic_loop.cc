@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 

@@ -46,7 +46,7 @@
 
 #include "core/device/device.h"
 #include "core/engine/engine.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 #include "core/loop/force_guard.h"
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
@@ -57,8 +57,8 @@
 #include "core/loop/safety_trip.h"
 #include "core/loop/spsc_queue.h"
 #include "core/loop/watchdog.h"
-#include "core/sim/task_event.h"
-#include "core/sim/virtual_environment.h"
+#include "core/loop/task_event.h"
+#include "core/loop/virtual_environment.h"
 
 namespace hapticlab {
 

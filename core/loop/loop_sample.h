@@ -3,7 +3,7 @@
 // trivially copyable data so it can travel through the lock-free queue.
 //
 // Frames and units: positions of the tool tip and forces are in the VE world
-// frame (core/sim/workspace.h) [m, m/s, N]; joints follow DeviceJoint order
+// frame (core/loop/workspace.h) [m, m/s, N]; joints follow DeviceJoint order
 // (insertion m, pitch/yaw/twist/grip rad); joint forces are insertion N,
 // pitch/yaw N·m.
 

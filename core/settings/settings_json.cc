@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/common/csv_format.h"
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 
 namespace hapticlab {
 namespace {

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 

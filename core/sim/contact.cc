@@ -2,7 +2,7 @@
 
 #include <numbers>
 
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 
 namespace hapticlab {
 

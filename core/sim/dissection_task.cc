@@ -5,7 +5,7 @@
 #include <numbers>
 
 #include "core/common/random.h"
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 

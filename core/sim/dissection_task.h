@@ -19,7 +19,7 @@
 
 #include "core/sim/contact.h"
 #include "core/sim/grasp.h"
-#include "core/sim/virtual_environment.h"
+#include "core/loop/virtual_environment.h"
 
 namespace hapticlab {
 

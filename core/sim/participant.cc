@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "core/engine/status.h"
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 

@@ -11,7 +11,7 @@
 #include "core/engine/instrument.h"
 #include "core/engine/joint_transform.h"
 #include "core/engine/status.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 namespace {

@@ -13,7 +13,7 @@
 #include "core/device/device_factory.h"
 #include "core/device/sim_device.h"
 #include "core/engine/engine.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 #include "core/sim/clip_task.h"
 #include "core/sim/dissection_task.h"
 

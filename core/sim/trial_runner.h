@@ -22,7 +22,7 @@
 #include "core/settings/settings.h"
 #include "core/sim/participant.h"
 #include "core/sim/population.h"
-#include "core/sim/virtual_environment.h"
+#include "core/loop/virtual_environment.h"
 
 namespace hapticlab {
 

@@ -20,7 +20,7 @@
 #include "core/capi/hapticlab/device_plugin.h"
 #include "core/device/device_factory.h"
 #include "core/device/sim_device.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace {
 

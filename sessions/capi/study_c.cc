@@ -17,7 +17,7 @@
 #include "core/loop/loop_sample.h"
 #include "core/loop/loop_timing.h"
 #include "core/loop/spsc_queue.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 #include "db/session_lock.h"
 #include "db/study_db.h"
 #include "sessions/study_session.h"

@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/io/trajectory_csv.h"
+#include "core/device/trajectory_csv.h"
 #include "tests/testing/files.h"
 
 namespace hapticlab::app {

@@ -26,7 +26,7 @@ fs::path shipped_settings(const std::string& name) {
   return fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings" / (name + ".json");
 }
 
-// The columns core/io/loop_sample_csv.h documents, written out by hand:
+// The columns core/loop/loop_sample_csv.h documents, written out by hand:
 // the long layout of every sample table (export's, after its trial key).
 std::vector<std::string> documented_columns() {
   return {"instrument", "tick", "dt_s", "t_s", "raw_insertion_m", "raw_pitch_rad", "raw_yaw_rad", "raw_twist_rad",

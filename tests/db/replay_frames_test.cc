@@ -6,7 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 #include "core/sim/trial_runner.h"
 #include "db/sample_writer.h"
 #include "db_test_util.h"

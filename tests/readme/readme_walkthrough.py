@@ -49,6 +49,11 @@ def rewrites():
          "one study of 2 at a quarter of the rate shows it runs"),
         ("--participants 100 --out calibration/", "--participants 2 --out calibration/",
          "plan calibrate's 100 participants take about two minutes on 2 cores; 2 show it runs"),
+        ("plan calibrate --fit --out calibration/",
+         "plan calibrate --fit --fit-studies 1 --rate-hz 150 --out calibration-fit/; "
+         "test $? -eq 1 && test -f calibration-fit/fit_summary.json && test ! -e calibration-fit/population.json",
+         "the fit's 432 studies take about 8 minutes on 2 cores; 9 studies at 150 Hz run every step in about "
+         "10 s and must refuse to converge (exit 1, diagnostics written, no population)"),
         ("stability map --out stability-map",
          "stability map --rates 1000 --stiffness 2000 --effects translation.inertia.mass_kg --out stability-map",
          "the whole map takes about 20 s, minutes under the sanitizers; one parameter shows it runs"),

@@ -17,7 +17,7 @@ inline std::string slurp(const std::filesystem::path& path) {
 }
 
 // Whether `dir` holds a temporary output file, "<name>.<pid>.tmp"
-// (core/io/output_file.h): left behind, it would mean a write was not
+// (core/common/output_file.h): left behind, it would mean a write was not
 // finished or not cleaned up.
 inline bool has_temp_file(const std::filesystem::path& dir) {
   for (const auto& e : std::filesystem::directory_iterator(dir))

@@ -17,7 +17,7 @@
 
 #include "core/device/device_factory.h"
 #include "core/device/sim_device.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 #include "tests/testing/test_paths.h"
 #include "tests/testing/thrown.h"
 #include "tests/testing/files.h"

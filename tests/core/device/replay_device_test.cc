@@ -12,8 +12,8 @@
 #include <gtest/gtest.h>
 
 #include "core/common/random.h"
-#include "core/io/trajectory_csv.h"
-#include "core/loop/clock.h"
+#include "core/device/trajectory_csv.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 namespace {

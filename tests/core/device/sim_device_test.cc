@@ -9,7 +9,7 @@
 
 #include "core/common/random.h"
 #include "core/device/workstation_spec.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 namespace hapticlab {
 namespace {

@@ -26,7 +26,7 @@
 
 #include "core/common/secret_file.h"
 #include "core/device/udp_protocol.h"
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 #include "testing/scratch_dir.h"
 
 namespace hapticlab {

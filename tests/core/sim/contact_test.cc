@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 namespace {

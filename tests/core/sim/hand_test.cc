@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "core/engine/joint_transform.h"
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 namespace {

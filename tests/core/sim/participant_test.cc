@@ -18,7 +18,7 @@
 #include "core/settings/settings_json.h"
 #include "core/sim/dissection_task.h"
 #include "core/sim/trial_runner.h"
-#include "core/sim/workspace.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab {
 namespace {

@@ -6,8 +6,8 @@
 
 #include <Eigen/Core>
 
-#include "core/sim/virtual_environment.h"
-#include "core/sim/workspace.h"
+#include "core/loop/virtual_environment.h"
+#include "core/loop/workspace.h"
 
 namespace hapticlab::testing_sim {
 

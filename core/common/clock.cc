@@ -1,4 +1,4 @@
-#include "core/loop/clock.h"
+#include "core/common/clock.h"
 
 #include <ctime>
 

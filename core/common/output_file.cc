@@ -1,4 +1,4 @@
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>

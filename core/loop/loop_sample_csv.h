@@ -20,7 +20,7 @@
 #include <string>
 
 #include "core/loop/loop_sample.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 
 namespace hapticlab {
 

@@ -1,6 +1,6 @@
 // Output files are complete or absent: real files, a real full device
 // (/dev/full) and a real file size limit in a child process.
-#include "core/io/output_file.h"
+#include "core/common/output_file.h"
 
 #include <sys/resource.h>
 #include <sys/wait.h>

@@ -1,4 +1,4 @@
-#include "core/io/loop_sample_csv.h"
+#include "core/loop/loop_sample_csv.h"
 
 #include "core/common/csv_format.h"
 #include "core/loop/sample_channels.h"

@@ -1,4 +1,4 @@
-#include "core/io/trajectory_csv.h"
+#include "core/device/trajectory_csv.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 
 namespace hapticlab {
 namespace {

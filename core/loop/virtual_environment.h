@@ -16,7 +16,7 @@
 #include <Eigen/Core>
 
 #include "core/device/device.h"
-#include "core/sim/task_event.h"
+#include "core/loop/task_event.h"
 
 namespace hapticlab {
 

@@ -1,4 +1,4 @@
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -1,6 +1,6 @@
-#include "core/io/trajectory_csv.h"
+#include "core/device/trajectory_csv.h"
 
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 
 #include <cerrno>
 #include <charconv>

@@ -1,5 +1,5 @@
 // Bounded reads and the strict JSON parser shared by settings and protocols.
-#include "core/io/input_file.h"
+#include "core/common/input_file.h"
 
 #include <filesystem>
 #include <fstream>

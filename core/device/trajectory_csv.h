@@ -27,7 +27,7 @@
 //
 // Lines may end in LF, CRLF or a lone CR; empty lines are skipped; a UTF-8
 // byte order mark before the header is ignored. A line longer than
-// kMaxCsvLineBytes (core/io/input_file.h) is refused, so a file of any length
+// kMaxCsvLineBytes (core/common/input_file.h) is refused, so a file of any length
 // is read in bounded memory. Every error is a TrajectoryCsvError whose
 // message names the source, the line and, where one is at fault, the column;
 // invisible characters in column names are shown (<U+FEFF>, \r, \t).
