@@ -63,9 +63,15 @@ class StudyMergeTest : public ::testing::Test {
   // A1 killed during its first trial, B1 run in full, at once (each on the
   // file given), then A1 resumed: the history of one site's crash.
   void run_sites(const std::string& db_a, const std::string& db_b, const std::string& tag) {
-    // The killed session runs on the wall clock, so that it is still in its
-    // trial when killed (a virtual-clock trial lasts milliseconds).
-    testing::ChildProcess a(run_args(db_a, "A1", "wall"), (dir_.path() / (tag + "_a.log")).string());
+    // The killed session runs on the virtual clock through a device whose
+    // every write takes 5 ms (the fake plugin's slow_write), so that it is
+    // still in its trial when killed: a simulated trial lasts milliseconds,
+    // and a wall-clock one can be ended first by the watchdog on a loaded
+    // machine, which would make another history than the one-file run's.
+    std::vector<std::string> killed = run_args(db_a, "A1", "virtual");
+    for (const char* arg : {"--device", "", "--device-option", "fault=slow_write"}) killed.emplace_back(arg);
+    killed[killed.size() - 3] = "plugin-inprocess:" + kFake;
+    testing::ChildProcess a(killed, (dir_.path() / (tag + "_a.log")).string());
     testing::ChildProcess b(run_args(db_b, "B1", "virtual"), (dir_.path() / (tag + "_b.log")).string());
     const bool running = testing::wait_until(
         [&] {
