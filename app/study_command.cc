@@ -231,8 +231,9 @@ void merge(const StudyOptions& opt) {
   for (const std::string& note : r.notes) std::printf("note: %s\n", note.c_str());
   for (const db::SiteSummary& s : r.sites)
     if (!s.skipped)
-      std::printf("  %s: site '%s', %d participant(s) with sessions, %d session(s)%s\n", s.path.string().c_str(),
-                  s.site.c_str(), s.participants, s.sessions,
+      std::printf("  %s: %s, %d participant(s) with sessions, %d session(s)%s\n", s.path.string().c_str(),
+                  s.site.empty() ? "an earlier merge (its sessions keep their sites)" : ("site '" + s.site + "'").c_str(),
+                  s.participants, s.sessions,
                   s.trials_renumbered > 0
                       ? (", " + std::to_string(s.trials_renumbered) + " trial(s) renumbered, their chunks re-checksummed")
                             .c_str()
@@ -284,7 +285,7 @@ void add_study_command(CLI::App& app) {
 
   CLI::App* m = study->add_subcommand(
       "merge",
-      "Merge the site files of one multi-site study into one study file (docs/multi_site.md): the same protocol "
+      "Merge the site files of one multi-site study into one study file (docs/protocols.md, \"Multi-site studies\"): the same protocol "
       "(by its SHA-256), each participant's sessions from one file, every sample chunk verified before it is "
       "copied, each session stamped with its site. The merged file is an ordinary study (analyze, export, study "
       "check, sim replay, the Python reader and the SQL extension read it). Written to a temporary file next to "

@@ -773,7 +773,9 @@ MergeResult merge_sites(const MergeOptions& options) {
       in.ino = id->second;
       seen.push_back(*id);
     }
-    summary.site = in.site;
+    bool any_session = false;
+    for (const Participant& p : in.participants) any_session = any_session || p.sessions > 0;
+    if (in.has_unsited_sessions || !any_session) summary.site = in.site;
     result.sites.push_back(summary);
     inputs.push_back(std::move(in));
   }

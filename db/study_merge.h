@@ -56,7 +56,7 @@ struct MergeOptions {
 
 struct SiteSummary {
   std::filesystem::path path;
-  std::string site;          // the name given to its unsited sessions
+  std::string site;          // the name given to its sessions without one; empty when all had one (a merge)
   int participants = 0;      // participants whose sessions come from it
   int sessions = 0;
   int trials_renumbered = 0;  // trials given a new id (their chunks re-checksummed)
