@@ -20,6 +20,7 @@
 #include "db/chunk_layout.h"
 #include "db/chunk_reader.h"
 #include "db/schema.h"
+#include "db/schema_shape.h"
 #include "db/structure_check.h"
 
 namespace hapticlab::db {
