@@ -256,6 +256,18 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   const std::string newer = (dir_.path() / "newer.db").string();
   testing::edit_with_sqlite(newer, "PRAGMA user_version = 99");
   refused(a + " " + newer + " --out " + out_db, {newer, "schema version 99", "newer than this HapticLab supports"});
+  // A file of schema 8 (before sites) merges as it is, unchanged.
+  fs::copy_file(b, dir_.path() / "v8.db");
+  const std::string v8 = (dir_.path() / "v8.db").string();
+  testing::edit_with_sqlite(v8, "ALTER TABLE session DROP COLUMN site; PRAGMA user_version = 8");
+  const std::string v8_bytes = testing::slurp(v8);
+  {
+    const auto [rc, text] = merge(a + " " + v8 + " --out " + out_db);
+    EXPECT_EQ(rc, 0) << text;
+    EXPECT_THAT(text, HasSubstr("v8.db: site 'v8', 1 participant(s) with sessions, 1 session(s)"));
+    EXPECT_EQ(testing::slurp(v8), v8_bytes);
+    fs::remove(out_db);
+  }
   // A session still open at a site (running, or killed and not recovered).
   fs::copy_file(b, dir_.path() / "open.db");
   const std::string open = (dir_.path() / "open.db").string();
