@@ -1,6 +1,7 @@
 #include "db/study_merge.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sqlite3.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -292,6 +293,24 @@ void fsync_path(const fs::path& p, bool directory) {
 void remove_temp(const fs::path& temp) {
   std::error_code ignored;
   for (const char* suffix : {"", "-journal", "-wal", "-shm"}) fs::remove(temp.string() + suffix, ignored);
+}
+
+// Temporary files of earlier merges into the same --out whose process is
+// gone (killed mid-merge): never renamed, so nobody will; removed.
+void remove_stale_temps(const fs::path& dir, const std::string& out_name) {
+  const std::string prefix = "." + out_name + ".merge-";
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (!name.starts_with(prefix)) continue;
+    const std::size_t end = name.find(".tmp", prefix.size());
+    if (end == std::string::npos) continue;
+    long pid = 0;
+    const auto [ptr, err] = std::from_chars(name.data() + prefix.size(), name.data() + end, pid);
+    if (err != std::errc() || ptr != name.data() + end || pid <= 0) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
+    fs::remove(e.path(), ec);
+  }
 }
 
 // Where a trial of the output comes from.
@@ -742,6 +761,8 @@ void check_site_name(const std::string& name, const std::string& what) {
 MergeResult merge_sites(const MergeOptions& options) {
   if (options.inputs.empty()) throw MergeError("study merge: give at least one site file");
   if (options.out.empty()) throw MergeError("study merge: --out is required");
+  if (const fs::path parent = options.out.parent_path(); !parent.empty() && !fs::is_directory(parent))
+    throw MergeError("--out " + quoted(options.out) + ": the folder " + quoted(parent) + " does not exist");
   const bool out_exists = fs::exists(options.out);
   const std::optional<std::pair<dev_t, ino_t>> out_id = out_exists ? file_id(options.out) : std::nullopt;
   if (out_exists && !fs::is_regular_file(options.out))
@@ -835,6 +856,7 @@ MergeResult merge_sites(const MergeOptions& options) {
   // Built next to --out (the same file system, so the rename is atomic).
   const fs::path dir = options.out.has_parent_path() ? options.out.parent_path() : fs::path(".");
   const fs::path temp = dir / ("." + options.out.filename().string() + ".merge-" + std::to_string(::getpid()) + ".tmp");
+  remove_stale_temps(dir, options.out.filename().string());
   remove_temp(temp);
   try {
     {

@@ -318,9 +318,13 @@ TEST_F(StudyMergeTest, ATrialRenumberedKeepsItsSamplesUnderItsNewId) {
     db.end_session(session);
   }
   const std::string all = (dir_.path() / "all.db").string();
+  // What a merge killed mid-way left (its process gone): removed by the next.
+  const fs::path stale = dir_.path() / ".all.db.merge-2147483646.tmp";
+  std::ofstream(stale) << "half a merge";
   auto [rc, out] = merge(a + " " + b + " --out " + all);
   ASSERT_EQ(rc, 0) << out;
   EXPECT_THAT(out, HasSubstr("b.db: site 'b', 1 participant(s) with sessions, 1 session(s), 1 trial(s) renumbered"));
+  EXPECT_FALSE(fs::exists(stale)) << "a dead merge's temporary file was left";
   std::tie(rc, out) = testing::run_cli(kBinary, "study check --db " + all);
   EXPECT_EQ(rc, 0) << out;
   db::OpenOptions open;
