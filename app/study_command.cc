@@ -251,7 +251,7 @@ void merge(const StudyOptions& opt) {
 }  // namespace
 
 void add_study_command(CLI::App& app) {
-  CLI::App* study = app.add_subcommand("study", "Create a study from a protocol file and show its progress");
+  CLI::App* study = app.add_subcommand("study", "Create a study from a protocol file, show its progress, check it for damage, merge the site files of a multi-site study");
   study->require_subcommand(1);
   auto opt = std::make_shared<StudyOptions>();
 
