@@ -42,6 +42,21 @@ struct AnalyzeOptions {
   bool json = false;
 };
 
+// A merged multi-site study's participants by site and each task's verdict
+// (analysis/study/site_balance.h); null for a study never merged.
+nlohmann::json sites_json(const an::StudyAnalysis& a) {
+  if (a.participant_sites.empty()) return nullptr;
+  nlohmann::json tasks = nlohmann::json::array();
+  for (const an::SiteBalance& b : a.site_balance) {
+    nlohmann::json confounded = nlohmann::json::array();
+    for (const auto& [setting, site] : b.confounded) confounded.push_back({{"setting", setting}, {"site", site}});
+    tasks.push_back({{"task", b.task}, {"sites", b.sites}, {"settings", b.settings}, {"participants", b.counts},
+                     {"balanced", b.balanced()}, {"confounded", confounded}, {"unbalanced", b.unbalanced},
+                     {"verdict", b.verdict()}});
+  }
+  return {{"participants", a.participant_sites}, {"tasks", tasks}};
+}
+
 // The summary a script needs: what was analysed, the whole-design and
 // pairwise results, and where the files are. The report has everything.
 nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::path& out,
@@ -106,6 +121,7 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
           {"participant_pairwise", by_participant},
           {"dose_response", dose},
           {"staircase", staircases},
+          {"sites", sites_json(a)},
           {"files", {{"metrics_csv", (out / "metrics.csv").string()}, {"html", files.html.string()},
                      {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};
 }
@@ -154,6 +170,10 @@ void run_analyze(const AnalyzeOptions& o) {
     return;
   }
   if (!o.quiet) std::fputs(an::format_headline_tables(analysis).c_str(), stdout);
+  // A merged multi-site study: whether its sites are confounded with its
+  // settings, said even with --quiet (it changes what the results mean).
+  for (const an::SiteBalance& b : analysis.site_balance)
+    std::printf("%s%s: sites %s\n", b.balanced() ? "" : "warning: ", b.task.c_str(), b.verdict().c_str());
   std::printf("\nwrote %s, %s, %s and %zu figure(s) in %s\n", (out / "metrics.csv").c_str(), files.html.c_str(),
               files.markdown.c_str(), files.figures.size(), (out / "figures").c_str());
 }

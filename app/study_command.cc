@@ -14,6 +14,7 @@
 #include "db/schema.h"
 #include "db/structure_check.h"
 #include "db/study_db.h"
+#include "db/study_merge.h"
 #include "sessions/study_progress.h"
 #include "sessions/study_setup.h"
 
@@ -25,6 +26,9 @@ struct StudyOptions {
   std::string db;
   bool json = false;
   bool summary = false;
+  std::vector<std::string> sites;       // study merge: the site files
+  std::vector<std::string> site_names;  // study merge: FILE=NAME
+  std::string out;
 };
 
 void create(const StudyOptions& opt) {
@@ -199,10 +203,55 @@ void check(const StudyOptions& opt) {
   if (!opt.json) std::printf("no damage found\n");
 }
 
+// `study merge`: the site files of one study into one study file
+// (db/study_merge.h).
+void merge(const StudyOptions& opt) {
+  db::MergeOptions m;
+  m.out = opt.out;
+  std::vector<bool> named(opt.site_names.size(), false);
+  for (const std::string& path : opt.sites) {
+    db::SiteInput in{path, {}};
+    for (std::size_t i = 0; i < opt.site_names.size(); ++i) {
+      const std::string& given = opt.site_names[i];
+      const std::size_t eq = given.rfind('=');
+      if (eq == std::string::npos || eq == 0)
+        throw std::runtime_error("--site: '" + given + "' is not FILE=NAME (e.g. --site " + path + "=Basel)");
+      if (given.substr(0, eq) != path) continue;
+      in.site = given.substr(eq + 1);
+      db::check_site_name(in.site, "--site " + given);
+      named[i] = true;
+    }
+    m.inputs.push_back(std::move(in));
+  }
+  for (std::size_t i = 0; i < named.size(); ++i)
+    if (!named[i])
+      throw std::runtime_error("--site: '" + opt.site_names[i] + "' names no input file (give FILE as in the list of "
+                               "site files)");
+  const db::MergeResult r = db::merge_sites(m);
+  for (const std::string& note : r.notes) std::printf("note: %s\n", note.c_str());
+  for (const db::SiteSummary& s : r.sites)
+    if (!s.skipped)
+      std::printf("  %s: %s, %d participant(s) with sessions, %d session(s)%s\n", s.path.string().c_str(),
+                  s.site.empty() ? "an earlier merge (its sessions keep their sites)" : ("site '" + s.site + "'").c_str(),
+                  s.participants, s.sessions,
+                  s.trials_renumbered > 0
+                      ? (", " + std::to_string(s.trials_renumbered) + " trial(s) renumbered, their chunks re-checksummed")
+                            .c_str()
+                      : "");
+  if (r.unchanged)
+    std::printf("%s already holds this merge (%d participants, %d sessions, %d trials): unchanged\n", opt.out.c_str(),
+                r.participants, r.sessions, r.trials);
+  else
+    std::printf("merged %zu site file(s) into %s: %d participants, %d sessions, %d trials, %llu sample chunks "
+                "verified and copied\n",
+                r.sites.size(), opt.out.c_str(), r.participants, r.sessions, r.trials,
+                static_cast<unsigned long long>(r.chunks));
+}
+
 }  // namespace
 
 void add_study_command(CLI::App& app) {
-  CLI::App* study = app.add_subcommand("study", "Create a study from a protocol file and show its progress");
+  CLI::App* study = app.add_subcommand("study", "Create a study from a protocol file, show its progress, check it for damage, merge the site files of a multi-site study");
   study->require_subcommand(1);
   auto opt = std::make_shared<StudyOptions>();
 
@@ -233,6 +282,23 @@ void add_study_command(CLI::App& app) {
   k->add_option("--db", opt->db, "Study database")->required();
   k->add_flag("--json", opt->json, "Machine-readable summary");
   k->callback([opt] { check(*opt); });
+
+  CLI::App* m = study->add_subcommand(
+      "merge",
+      "Merge the site files of one multi-site study into one study file (docs/protocols.md, \"Multi-site studies\"): the same protocol "
+      "(by its SHA-256), each participant's sessions from one file, every sample chunk verified before it is "
+      "copied, each session stamped with its site. The merged file is an ordinary study (analyze, export, study "
+      "check, sim replay, the Python reader and the SQL extension read it). Written to a temporary file next to "
+      "--out, synced, then renamed: --out is complete or as it was. Merging the same files again changes nothing.");
+  m->add_option("sites", opt->sites, "Site study files (each from `hapticlab study create` with the same protocol)")
+      ->required();
+  m->add_option("--out", opt->out,
+                "The merged study file: new, or an earlier merge of the same study (brought up to date; refused if "
+                "it holds sessions no input has); never one of the inputs")
+      ->required();
+  m->add_option("--site", opt->site_names,
+                "FILE=NAME: the site name for FILE's sessions (repeatable; default: the file name without .db)");
+  m->callback([opt] { merge(*opt); });
 }
 
 }  // namespace hapticlab::app

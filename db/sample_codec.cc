@@ -676,6 +676,17 @@ std::vector<std::byte> checksum_legacy_chunk(std::uint64_t first_tick, std::size
   return blob;
 }
 
+std::vector<std::byte> move_chunk(const ChunkPlace& from, const ChunkPlace& to, std::span<const std::byte> blob) {
+  if (from.first_tick != to.first_tick || from.count != to.count)
+    throw std::invalid_argument("move_chunk: ticks " + std::to_string(from.first_tick) + "+" +
+                                std::to_string(from.count) + " cannot become " + std::to_string(to.first_tick) +
+                                "+" + std::to_string(to.count) + ": only the trial and instrument may change");
+  ChunkDecoder().check(from, blob);
+  std::vector<std::byte> out(blob.begin(), blob.end());
+  put_crc(out, chunk_crc(to, out[0], std::span(out).subspan(kChunkHeaderBytes)));
+  return out;
+}
+
 std::vector<std::byte> upgrade_schema6_chunk(const ChunkPlace& place, std::span<const std::byte> blob) {
   check_header_size(blob);
   const std::span<const std::byte> payload = blob.subspan(kChunkHeaderBytes);

@@ -190,6 +190,15 @@ class ChunkDecoder {
 // (a damaged row is refused, never guessed); `out` is then unchanged.
 void decode_chunk(const ChunkPlace& place, std::span<const std::byte> blob, std::vector<StoredSample>& out);
 
+// The same chunk given a new place (a study merge renumbers trials): first
+// verified in full at `from` (ChunkDecoder::check: checksum, format, frame
+// and its content checksum, exact structure), then its checksum recomputed
+// over `to`; every other byte kept. `to` must hold the same first tick and
+// count (std::invalid_argument otherwise: only trial and instrument may
+// move). Throws ChunkError if the chunk is damaged at `from`: a damaged
+// chunk is never given a checksum that vouches for it.
+std::vector<std::byte> move_chunk(const ChunkPlace& from, const ChunkPlace& to, std::span<const std::byte> blob);
+
 // --- older schemas, for the migrations (schema.cc) and their tests
 
 // A chunk blob of schema versions 1..3 as format 0: its bytes, unchanged,

@@ -254,6 +254,15 @@ ALTER TABLE training ADD COLUMN cut_short INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE training ADD COLUMN cut_short_reason TEXT;
 )sql";
 
+// Version 9: the site (station, hospital) whose file a session was
+// recorded in, for studies merged from several sites' files (`hapticlab
+// study merge`, db/study_merge.h). NULL for a session recorded in the
+// study's own file and never merged: one site, the file's. Old files stay
+// readable: the column is added, every existing session gets NULL.
+constexpr const char* kV9 = R"sql(
+ALTER TABLE session ADD COLUMN site TEXT;
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
@@ -267,6 +276,7 @@ constexpr Migration kMigrations[] = {
         "(format 3); every chunk rewritten",
      kV7, checksum_chunk_places},
     {8, "training: practice trials cut short counted apart (cut_short, cut_short_reason)", kV8},
+    {9, "session.site: the site whose file a session was recorded in (multi-site merges)", kV9},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 

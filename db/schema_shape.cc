@@ -6,7 +6,7 @@
 namespace hapticlab::db {
 namespace {
 
-// Schema version 8 (schema.cc), as PRAGMA table_info reports it after the
+// Schema version 9 (schema.cc), as PRAGMA table_info reports it after the
 // migrations. Order of columns as in the file.
 constexpr ColumnShape kStudy[] = {{"id", "INTEGER", false},           {"name", "TEXT", true},
                                   {"protocol_json", "TEXT", true},    {"protocol_sha256", "TEXT", true},
@@ -20,7 +20,7 @@ constexpr ColumnShape kSetting[] = {{"id", "INTEGER", false},
 constexpr ColumnShape kSession[] = {{"id", "INTEGER", false},       {"participant_id", "INTEGER", true},
                                     {"started_unix_s", "REAL", true}, {"ended_unix_s", "REAL", false},
                                     {"device", "TEXT", true},       {"clock", "TEXT", true},
-                                    {"status", "TEXT", true}};
+                                    {"status", "TEXT", true},       {"site", "TEXT", false}};
 constexpr ColumnShape kTrial[] = {{"id", "INTEGER", false},        {"participant_id", "INTEGER", true},
                                   {"task", "TEXT", true},          {"setting_id", "INTEGER", true},
                                   {"repetition", "INTEGER", true}, {"block", "INTEGER", true},

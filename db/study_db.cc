@@ -378,7 +378,7 @@ void StudyDb::end_session(std::int64_t session_id, SessionStatus status) {
 
 SessionRow StudyDb::session(std::int64_t id) {
   Statement s = db_.prepare(
-      "SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status FROM session WHERE id = ?1");
+      "SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status, site FROM session WHERE id = ?1");
   s.bind(1, id);
   if (!s.step()) missing(db_, "session", id);
   SessionRow r;
@@ -388,6 +388,7 @@ SessionRow StudyDb::session(std::int64_t id) {
   r.ended_unix_s = opt_double(s, 2);
   r.device = s.column_text(3);
   r.clock = s.column_text(4);
+  if (!s.is_null(6)) r.site = s.column_text(6);
   try {
     r.status = parse_session_status(s.column_text(5));
   } catch (const DbError&) {

@@ -70,6 +70,9 @@ struct SessionRow {
   std::string device;  // e.g. "sim", "replay", "lsw"
   std::string clock;   // "virtual" or "wall"
   SessionStatus status = SessionStatus::kOpen;
+  // The site whose file the session was recorded in (`study merge`); empty
+  // for a session of a file never merged (NULL in the file).
+  std::string site;
 };
 
 struct TrainingRow {

@@ -48,10 +48,10 @@ __all__ = [
     "crc32c", "SCHEMA_VERSION",
 ]
 
-# The schema this module reads: version 8 (db/schema.h); since version 7 its chunk
+# The schema this module reads: version 9 (db/schema.h); since version 7 its chunk
 # checksums cover their trial and instrument. Older files are migrated by
 # any HapticLab command that opens them read-write (`hapticlab analyze`).
-SCHEMA_VERSION = 8
+SCHEMA_VERSION = 9
 APPLICATION_ID = 0x484C4142  # "HLAB"
 
 # Chunk formats (byte 0 of the blob).
@@ -73,7 +73,7 @@ TABLES = (
                  ("parameters_json", "TEXT", True))),
     ("session", (("id", "INTEGER", False), ("participant_id", "INTEGER", True), ("started_unix_s", "REAL", True),
                  ("ended_unix_s", "REAL", False), ("device", "TEXT", True), ("clock", "TEXT", True),
-                 ("status", "TEXT", True))),
+                 ("status", "TEXT", True), ("site", "TEXT", False))),
     ("training", (("id", "INTEGER", False), ("session_id", "INTEGER", True), ("task", "TEXT", True),
                   ("started_unix_s", "REAL", True), ("ended_unix_s", "REAL", False), ("duration_s", "REAL", False),
                   ("trials", "INTEGER", True), ("cut_short", "INTEGER", True), ("cut_short_reason", "TEXT", False))),

@@ -656,6 +656,48 @@ Section staircase_section(const StudyAnalysis& a) {
   return s;
 }
 
+// A merged multi-site study: who ran where, and whether the sites are
+// confounded with the settings (site_balance.h; docs/analysis.md).
+Section sites_section(const StudyAnalysis& a) {
+  Section s;
+  s.title = "Sites";
+  std::map<std::string, std::vector<std::string>> by_site;
+  for (const std::string& p : a.participants)
+    if (const auto it = a.participant_sites.find(p); it != a.participant_sites.end()) by_site[it->second].push_back(p);
+  s.intro = "A study merged from " + std::to_string(by_site.size()) +
+            " site file(s) (hapticlab study merge). A setting run at one site only is confounded with that site; "
+            "the site x setting table is balanced when every site ran every setting with the same share of its "
+            "participants (docs/analysis.md, \"Multi-site studies\").";
+  Table who;
+  who.header = {"Site", "Participants"};
+  for (const auto& [site, people] : by_site) {
+    std::string list;
+    for (const std::string& p : people) list += (list.empty() ? "" : ", ") + p;
+    who.rows.push_back({{site}, {list}});
+  }
+  s.tables.push_back(std::move(who));
+  for (const SiteBalance& b : a.site_balance) {
+    Table t;
+    t.title = b.task + ": participants per site and setting";
+    t.header = {"Site (participants)"};
+    for (const std::string& setting : b.settings) t.header.push_back(setting);
+    for (std::size_t i = 0; i < b.sites.size(); ++i) {
+      std::vector<Cell> row = {{b.sites[i] + " (" + std::to_string(b.participants[i]) + ")"}};
+      for (std::size_t j = 0; j < b.settings.size(); ++j) {
+        bool flagged = std::find(b.unbalanced.begin(), b.unbalanced.end(), b.settings[j]) != b.unbalanced.end();
+        for (const auto& c : b.confounded) flagged = flagged || c.first == b.settings[j];
+        row.push_back({std::to_string(b.counts[i][j]), flagged});
+      }
+      t.rows.push_back(std::move(row));
+    }
+    t.note = (b.balanced() ? "" : "Bold: the settings concerned. ") + std::string("Sites are ") + b.verdict() + ".";
+    s.tables.push_back(std::move(t));
+  }
+  if (a.site_balance.empty())
+    s.intro += " No task has analysed trials at two or more sites, so nothing can be confounded.";
+  return s;
+}
+
 Section energy_section(const StudyAnalysis& a) {
   // Bold above this net: more than a passive VE and engine hand back at the
   // end of a trial. What they hold then is small: the demo's High Fidelity
@@ -1167,6 +1209,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
 
   std::vector<Section> sections;
   sections.push_back(summary_section(a));
+  if (!a.participant_sites.empty()) sections.push_back(sites_section(a));
   // The chosen comparison method's tables come first (AnalysisOptions::method).
   const bool participant_first = a.options.method == ComparisonMethod::kParticipant;
   if (participant_first)

@@ -33,7 +33,10 @@ std::string energy_fields(const std::optional<HandEnergy>& e) {
 }  // namespace
 
 void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
-  out << "trial_id,participant,task,setting,repetition,block,trial_number,status,instrument,task_start_s,task_end_s,"
+  // `site` only for a merged multi-site study: a one-site file's CSV keeps
+  // its columns.
+  const bool sites = !a.participant_sites.empty();
+  out << "trial_id,participant," << (sites ? "site," : "") << "task,setting,repetition,block,trial_number,status,instrument,task_start_s,task_end_s,"
          "completion_time_s,samples,force_samples,force_median_N,force_p95_N,speed_median_m_per_s,path_length_m,"
       << energy_header() << "note\n";
   for (const TrialRecord& t : a.trials) {
@@ -42,7 +45,12 @@ void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
       const bool have = t.window.has_value();
       std::string note = t.problem;
       if (have && h.force_samples == 0) note = "no sample reached the contact threshold: force measures missing";
-      out << t.trial_id << ',' << csv_text(t.participant) << ',' << csv_text(t.task) << ',' << csv_text(t.setting) << ','
+      out << t.trial_id << ',' << csv_text(t.participant) << ',';
+      if (sites) {
+        const auto it = a.participant_sites.find(t.participant);
+        out << csv_text(it == a.participant_sites.end() ? std::string() : it->second) << ',';
+      }
+      out << csv_text(t.task) << ',' << csv_text(t.setting) << ','
           << t.repetition << ',' << t.block << ',' << t.position << ',' << t.status << ',' << hand << ','
           << (have ? number(t.window->start_s) : "") << ',' << (have ? number(t.window->end_s) : "") << ','
           << number(t.value(Measure::kCompletionTime, hand)) << ',' << (have ? std::to_string(h.samples) : "")

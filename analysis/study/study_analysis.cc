@@ -186,6 +186,25 @@ void read_staircases(db::StudyDb& db, const db::StudyRow& study, const std::vect
 
 }  // namespace
 
+namespace {
+
+// Each participant's site, from the sites of their sessions (a merge
+// stamps them; one participant's sessions come from one site, and a file
+// edited to say otherwise shows both, "a+b").
+void read_sites(db::StudyDb& db, StudyAnalysis& a) {
+  db::Statement s = db.connection().prepare(
+      "SELECT p.code, s.site FROM session s JOIN participant p ON p.id = s.participant_id "
+      "WHERE p.study_id = ?1 AND s.site IS NOT NULL GROUP BY p.code, s.site ORDER BY p.code, s.site");
+  s.bind(1, a.study_id);
+  while (s.step()) {
+    std::string& site = a.participant_sites[s.column_text(0)];
+    site += (site.empty() ? "" : "+") + s.column_text(1);
+  }
+  if (!a.participant_sites.empty()) a.site_balance = site_balance(a.trials, a.participant_sites, a.tasks, a.settings);
+}
+
+}  // namespace
+
 StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   options.validate();
   StudyAnalysis a;
@@ -268,6 +287,7 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   }
   run_statistics(a);
   read_staircases(db, *study, rows, a);
+  read_sites(db, a);
   return a;
 }
 

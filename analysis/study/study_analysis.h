@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,6 +33,7 @@
 #include "analysis/stats/percentile.h"
 #include "analysis/stats/test_result.h"
 #include "protocols/staircase.h"
+#include "analysis/study/site_balance.h"
 
 namespace hapticlab::db {
 class StudyDb;
@@ -303,6 +305,11 @@ struct StudyAnalysis {
   std::vector<DoseResponseRow> dose_response;   // per task x measure, when `dose` is set
   std::optional<protocols::StaircaseSpec> staircase;  // a staircase study's rule; empty otherwise
   std::vector<StaircaseRow> staircases;               // per participant who has its task
+  // A merged multi-site study (db/study_merge.h): each participant's site,
+  // from their sessions' `site` (empty map for a study never merged), and
+  // per task the site x setting table with its verdict (site_balance.h).
+  std::map<std::string, std::string> participant_sites;
+  std::vector<SiteBalance> site_balance;
 };
 
 // Reads the study (options.study_id, or the only one) and runs everything.

@@ -44,10 +44,10 @@ using hapticlab::db::kChunkChannels;
 using hapticlab::db::StoredSample;
 using hapticlab::db::TableShape;
 
-// The schema this module reads: version 8 (db/schema.h); since version 7 its chunks
+// The schema this module reads: version 9 (db/schema.h); since version 7 its chunks
 // checksums cover their trial and instrument. Older files are migrated by
 // any HapticLab command that opens them read-write (`hapticlab analyze`).
-constexpr int kSchemaVersion = 8;
+constexpr int kSchemaVersion = 9;
 constexpr std::int64_t kApplicationId = 0x484C4142;  // "HLAB"
 
 // Columns: trial_id, instrument, tick, the channels, then the two hidden

@@ -417,6 +417,31 @@ TEST(Schema, MigratesAVersion6DatabaseRewritingEveryChunk) {
   EXPECT_EQ(describe(check.bad[0]).substr(0, 57), "trial 2, right instrument (1), ticks 10..59: checksum mis");
 }
 
+// Version 8 (before multi-site merges) built by running migrations 1..8:
+// its sessions stay readable, with no site (issue 36 §4).
+TEST(Schema, MigratesAVersion8DatabaseGivingSessionsNoSite) {
+  testing::TempDir dir;
+  const auto path = dir.file("v8.db");
+  {
+    Database db(path);
+    for (const Migration& m : migrations().first(8)) db.exec(m.sql);
+    db.exec("PRAGMA user_version = 8; PRAGMA application_id = 1212956994;");
+    db.exec(R"sql(
+      INSERT INTO study VALUES (1, 's', '{}', ')sql" + sha256_hex("{}") + R"sql(', '5', '0.1.0', '2024-01-01T00:00:00.000Z');
+      INSERT INTO participant VALUES (1, 1, 'P01');
+      INSERT INTO session VALUES (1, 1, 1.7e9, 1.7e9 + 60, 'sim', 'virtual', 'closed');
+    )sql");
+  }
+  StudyDb db(path);
+  EXPECT_EQ(db.schema_version_found(), 8);
+  EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
+  EXPECT_EQ(db.session(1).status, SessionStatus::kClosed);
+  EXPECT_EQ(db.session(1).site, "");
+  EXPECT_EQ(columns(db.connection(), "session").back(), "site TEXT");
+  db.connection().exec("UPDATE session SET site = 'Basel'");
+  EXPECT_EQ(db.session(1).site, "Basel");
+}
+
 TEST(Schema, FailedMigrationLeavesTheFileAsItWas) {
   testing::TempDir dir;
   const auto path = dir.file("broken_v1.db");
