@@ -246,8 +246,11 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   // A damaged chunk: named with its trial, instrument and ticks.
   fs::copy_file(b, dir_.path() / "damaged.db");
   const std::string damaged = (dir_.path() / "damaged.db").string();
+  // Byte 21 changed to another value whatever it was (a fixed value is
+  // no damage where the byte already has it).
   testing::edit_with_sqlite(damaged,
-                            "UPDATE sample_chunk SET data = CAST(substr(data, 1, 20) || x'00' || substr(data, 22) AS BLOB) "
+                            "UPDATE sample_chunk SET data = CAST(substr(data, 1, 20) || "
+                            "CASE WHEN substr(data, 21, 1) = x'00' THEN x'01' ELSE x'00' END || substr(data, 22) AS BLOB) "
                             "WHERE id = (SELECT min(id) FROM sample_chunk)");
   refused(a + " " + damaged + " --out " + out_db,
           {damaged + ": damaged sample chunk: trial ", "instrument", "ticks", "checksum mismatch", "study check"});
