@@ -1,0 +1,96 @@
+#include "sessions/trial_end.h"
+
+#include "core/common/csv_format.h"
+#include "core/loop/task_event.h"
+#include "sessions/study_session.h"
+
+namespace hapticlab::sessions {
+namespace {
+
+// The device's own fault, said as specifically as the device can.
+std::string device_fault_reason(const HapticLoop& loop, const Device& device) {
+  if (loop.device_status() == DeviceStatus::kTimeout) {
+    // "device_timeout" first, so a query can match the reason's start.
+    const std::string detail = device.fault_detail();
+    return std::string(to_string(DeviceStatus::kTimeout)) + (detail.empty() ? "" : ": " + detail);
+  }
+  if (const std::string detail = device.fault_detail();
+      !detail.empty() && (loop.device_status() == DeviceStatus::kDeviceCrashed ||
+                          loop.device_status() == DeviceStatus::kDeviceHung)) {
+    // An isolated plugin's process: the device names it in full
+    // ("device_crashed: SIGSEGV in read", "device read hung for 15 ms").
+    return detail;
+  }
+  return std::string("device fault: ") + to_string(loop.device_status());
+}
+
+}  // namespace
+
+TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::int64_t trial_id,
+                            const std::optional<std::string>& operator_abort, double max_trial_s,
+                            int& watchdog_trips_in_a_row, db::TrialOutcome& outcome) {
+  TrialEnd end;
+  const auto fault = [&](std::string reason) {
+    outcome.status = db::TrialStatus::kAborted;
+    outcome.abort_reason = reason;
+    end.device_fault = true;
+    end.device_fault_reason = std::move(reason);
+  };
+  const StopReason stop = loop.stop_reason();
+  if (stop != StopReason::kWatchdog) watchdog_trips_in_a_row = 0;
+  if (stop == StopReason::kStopRequested && operator_abort) {
+    // Ended by the operator's abort (its event is in closing_events);
+    // re-queued, and the session goes on.
+    outcome.status = db::TrialStatus::kAborted;
+    outcome.abort_reason = "operator abort: " + *operator_abort;
+    return end;
+  }
+  switch (stop) {
+    case StopReason::kTaskComplete: outcome.status = db::TrialStatus::kComplete; break;
+    case StopReason::kStopRequested:
+      // The operator's action is part of the trial's record, at the loop
+      // time it took effect, after the VE's events of that update (the
+      // writer may still hold them now).
+      outcome.closing_events.push_back({trial_id, loop.elapsed_s(), to_string(TaskEventType::kOperatorAbort), -1, 0,
+                                        std::string(kOperatorStopReason)});
+      outcome.status = db::TrialStatus::kAborted;
+      outcome.abort_reason = kOperatorStopReason;
+      end.stopped_by_operator = true;
+      break;
+    case StopReason::kMaxDuration:
+      outcome.status = db::TrialStatus::kAborted;
+      outcome.abort_reason = time_limit_reason(format_number(max_trial_s) + " s");
+      break;
+    case StopReason::kSafetyLimit:
+      // Zero force was commanded; re-queued like a device fault.
+      fault("safety limit: " + describe(loop.safety_trip()));
+      break;
+    case StopReason::kRateViolation:
+      // The rate is a controlled variable: the trial measured another
+      // condition. Re-queued; a device that cannot keep the rate will not
+      // keep it in the next trial either, so the session ends.
+      fault("rate_violation: " + describe(loop.safety_trip()));
+      break;
+    case StopReason::kWatchdog:
+      if (loop.safety_trip().kind == SafetyTripKind::kDeviceCallHung) {
+        // The device's own call hung: a device fault, as a timeout is.
+        fault(describe(loop.safety_trip()));
+        break;
+      }
+      // The host fell behind (a late update, a stalled step, a slow
+      // writer): zero force was commanded, the trial is re-queued and the
+      // session goes on, unless it keeps happening.
+      outcome.status = db::TrialStatus::kAborted;
+      outcome.abort_reason = "watchdog: " + describe(loop.safety_trip());
+      if (++watchdog_trips_in_a_row >= kMaxWatchdogTripsInARow) {
+        end.device_fault = true;
+        end.device_fault_reason = outcome.abort_reason + " (" + std::to_string(kMaxWatchdogTripsInARow) +
+                                  " trials in a row; this machine cannot keep the loop's timing now)";
+      }
+      break;
+    default: fault(device_fault_reason(loop, device)); break;
+  }
+  return end;
+}
+
+}  // namespace hapticlab::sessions
