@@ -78,6 +78,93 @@ bool finite(const DeviceReading& r) noexcept {
 
 Vec3 to_vec3(const Eigen::Vector3d& v) noexcept { return {v.x(), v.y(), v.z()}; }
 
+// The steps of one update that only compute (no device call, no exit of
+// the loop); loop_body calls them in order.
+
+// (reading, the VE's last force) => engine => VE => engine again: the force
+// the VE computes for these positions goes to the device in this update,
+// not the next.
+void step_engine_and_ve(Engine& engine, VirtualEnvironment& ve, const DeviceReading& reading, double t_s,
+                        double dt_s, VeInput& ve_in, VeOutput& ve_out, EventBuffer& events,
+                        std::array<InstrumentOutput, 2>& engine_out) noexcept {
+  events.clear();
+  ve_in.t_s = t_s;
+  ve_in.dt_s = dt_s;
+  for (int i = 0; i < 2; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    const auto& raw = reading.position[ui];
+    InstrumentInput in;
+    in.dt_s = dt_s;
+    in.position = JointVector(raw[kJointInsertion], raw[kJointPitch], raw[kJointYaw]);
+    in.ve_force_N = ve_out.tip_force_N[ui];
+    engine_out[ui] = engine.update(i, in);
+    auto& joints = ve_in.joints[ui];
+    const JointVector& q = engine_out[ui].degraded_position;
+    joints = raw;
+    joints[kJointInsertion] = q[0];
+    joints[kJointPitch] = q[1];
+    joints[kJointYaw] = q[2];
+    ve_in.tip_m[ui] = kTrocarPosition_m[ui] + engine_out[ui].degraded_tip_m;
+  }
+  ve.step(ve_in, ve_out, events);
+  for (int i = 0; i < 2; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    engine.refresh_forces(i, ve_out.tip_force_N[ui], engine_out[ui]);
+  }
+}
+
+// The engine's joint forces and the VE's grip torque as the device command
+// (before the force guard).
+void fill_command(const std::array<InstrumentOutput, 2>& engine_out, const VeOutput& ve_out,
+                  DeviceCommand& command) noexcept {
+  for (std::size_t i = 0; i < 2; ++i) {
+    auto& f = command.force[i];
+    const JointVector& jf = engine_out[i].joint_force;
+    f[kJointInsertion] = jf[0];
+    f[kJointPitch] = jf[1];
+    f[kJointYaw] = jf[2];
+    f[kJointTwist] = 0.0;
+    f[kJointGrip] = ve_out.grip_torque_Nm[i];
+  }
+}
+
+// Tool-tip kinematics in the VE, for the logger and the analysis: the
+// position, and its velocity low-passed at kTipVelocityCutoff_Hz.
+void track_tips(const VeInput& ve_in, double dt_s, bool first, std::array<Eigen::Vector3d, 2>& tip_prev,
+                std::array<Eigen::Vector3d, 2>& tip_velocity) noexcept {
+  const double alpha = dt_s / (dt_s + 1.0 / (2.0 * std::numbers::pi * kTipVelocityCutoff_Hz));
+  for (std::size_t i = 0; i < 2; ++i) {
+    const Eigen::Vector3d& tip = ve_in.tip_m[i];
+    if (!first && dt_s > 0.0) tip_velocity[i] += alpha * ((tip - tip_prev[i]) / dt_s - tip_velocity[i]);
+    tip_prev[i] = tip;
+  }
+}
+
+// One update as the logger stores it.
+void fill_sample(LoopSample& sample, std::uint64_t tick, double t_s, double dt_s, DeviceStatus read_status,
+                 const DeviceReading& reading, const std::array<InstrumentOutput, 2>& engine_out,
+                 const std::array<Eigen::Vector3d, 2>& tip, const std::array<Eigen::Vector3d, 2>& tip_velocity,
+                 const VeOutput& ve_out, const DeviceCommand& command) noexcept {
+  sample.tick = tick;
+  sample.t_s = t_s;
+  sample.dt_s = dt_s;
+  sample.device_status = static_cast<std::int32_t>(read_status);
+  for (std::size_t i = 0; i < 2; ++i) {
+    InstrumentSample& s = sample.instrument[i];
+    const InstrumentOutput& o = engine_out[i];
+    s.raw_position = reading.position[i];
+    s.degraded_position = {o.degraded_position[0], o.degraded_position[1], o.degraded_position[2]};
+    s.tip_position_m = to_vec3(tip[i]);
+    s.tip_velocity_m_per_s = to_vec3(tip_velocity[i]);
+    s.ve_force_N = to_vec3(ve_out.tip_force_N[i]);
+    s.displayed_force_N = to_vec3(o.displayed_force_N);
+    // What the motors were commanded, after the ramp and the limits.
+    s.joint_force = {command.force[i][kJointInsertion], command.force[i][kJointPitch], command.force[i][kJointYaw]};
+    s.engine_status = o.status;
+    s.in_contact = ve_out.in_contact[i];
+  }
+}
+
 }  // namespace
 
 template <typename T>
@@ -195,6 +282,12 @@ void HapticLoop::finish(StopReason reason) noexcept {
   running_.store(false, std::memory_order_release);
 }
 
+// One update after another until something ends the loop. Long on
+// purpose: every way out (a stop, a late update, a device fault, a hung
+// call, a safety trip, a stalled writer, the task done, the time limit)
+// returns from this one function, in the order the safety argument needs
+// (docs/safety.md), so a reader sees each exit and that zero force follows
+// it (trip() and finish()). What only computes is in the named steps above.
 StopReason HapticLoop::loop_body() {
   DeviceReading reading;
   DeviceCommand command;
@@ -288,45 +381,11 @@ StopReason HapticLoop::loop_body() {
     if (const SafetyTrip why = reading_guard_.check(reading, dt_s); why.tripped())
       return trip(StopReason::kSafetyLimit, why);
 
-    events.clear();
-    ve_in.t_s = t_s;
-    ve_in.dt_s = dt_s;
-    for (int i = 0; i < 2; ++i) {
-      const auto& raw = reading.position[static_cast<std::size_t>(i)];
-      InstrumentInput in;
-      in.dt_s = dt_s;
-      in.position = JointVector(raw[kJointInsertion], raw[kJointPitch], raw[kJointYaw]);
-      in.ve_force_N = ve_out.tip_force_N[static_cast<std::size_t>(i)];
-      engine_out[static_cast<std::size_t>(i)] = engine_.update(i, in);
-      auto& joints = ve_in.joints[static_cast<std::size_t>(i)];
-      const JointVector& q = engine_out[static_cast<std::size_t>(i)].degraded_position;
-      joints = raw;
-      joints[kJointInsertion] = q[0];
-      joints[kJointPitch] = q[1];
-      joints[kJointYaw] = q[2];
-      ve_in.tip_m[static_cast<std::size_t>(i)] =
-          kTrocarPosition_m[static_cast<std::size_t>(i)] + engine_out[static_cast<std::size_t>(i)].degraded_tip_m;
-    }
-    ve_.step(ve_in, ve_out, events);
-    // engine again: the force the VE just computed for these positions goes
-    // to the device in this update, not the next.
-    for (int i = 0; i < 2; ++i) {
-      const auto ui = static_cast<std::size_t>(i);
-      engine_.refresh_forces(i, ve_out.tip_force_N[ui], engine_out[ui]);
-    }
+    step_engine_and_ve(engine_, ve_, reading, t_s, dt_s, ve_in, ve_out, events, engine_out);
 
     if (agent_ != nullptr) agent_->act(LoopTickView{t_s, dt_s, reading, engine_out, ve_in, ve_out});
 
-    for (int i = 0; i < 2; ++i) {
-      const auto ui = static_cast<std::size_t>(i);
-      auto& f = command.force[ui];
-      const JointVector& jf = engine_out[ui].joint_force;
-      f[kJointInsertion] = jf[0];
-      f[kJointPitch] = jf[1];
-      f[kJointYaw] = jf[2];
-      f[kJointTwist] = 0.0;
-      f[kJointGrip] = ve_out.grip_torque_Nm[ui];
-    }
+    fill_command(engine_out, ve_out, command);
     // A VE or agent that stalled: the watchdog has halted the device, and
     // this update's force is as stale as the stall was long.
     if (watchdog_ && watchdog_->tripped()) return trip(StopReason::kWatchdog, watchdog_trip());
@@ -353,36 +412,10 @@ StopReason HapticLoop::loop_body() {
       return StopReason::kDeviceFault;
     }
 
-    // Tool-tip kinematics in the VE, for the logger and the analysis.
-    const double alpha = dt_s / (dt_s + 1.0 / (2.0 * std::numbers::pi * kTipVelocityCutoff_Hz));
-    for (int i = 0; i < 2; ++i) {
-      const auto ui = static_cast<std::size_t>(i);
-      const Eigen::Vector3d& tip = ve_in.tip_m[ui];
-      if (!first && dt_s > 0.0) tip_velocity[ui] += alpha * ((tip - tip_prev[ui]) / dt_s - tip_velocity[ui]);
-      tip_prev[ui] = tip;
-    }
+    track_tips(ve_in, dt_s, first, tip_prev, tip_velocity);
 
     if (config_.publish_samples) {
-      sample.tick = tick;
-      sample.t_s = t_s;
-      sample.dt_s = dt_s;
-      sample.device_status = static_cast<std::int32_t>(read_status);
-      for (int i = 0; i < 2; ++i) {
-        const auto ui = static_cast<std::size_t>(i);
-        InstrumentSample& s = sample.instrument[ui];
-        const InstrumentOutput& o = engine_out[ui];
-        s.raw_position = reading.position[ui];
-        s.degraded_position = {o.degraded_position[0], o.degraded_position[1], o.degraded_position[2]};
-        s.tip_position_m = to_vec3(tip_prev[ui]);
-        s.tip_velocity_m_per_s = to_vec3(tip_velocity[ui]);
-        s.ve_force_N = to_vec3(ve_out.tip_force_N[ui]);
-        s.displayed_force_N = to_vec3(o.displayed_force_N);
-        // What the motors were commanded, after the ramp and the limits.
-        s.joint_force = {command.force[ui][kJointInsertion], command.force[ui][kJointPitch],
-                         command.force[ui][kJointYaw]};
-        s.engine_status = o.status;
-        s.in_contact = ve_out.in_contact[ui];
-      }
+      fill_sample(sample, tick, t_s, dt_s, read_status, reading, engine_out, tip_prev, tip_velocity, ve_out, command);
       const bool wait = config_.wait_when_full_virtual && clock_.is_virtual();
       for (int e = 0; e < events.size(); ++e) push_or_count(events_, events[e], wait, dropped_events_);
       const std::uint64_t dropped_before = dropped_samples_.load(std::memory_order_relaxed);
