@@ -1,19 +1,15 @@
 #include "app/plan_command.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cerrno>
-#include <condition_variable>
 #include <cstdio>
 #include <cstring>
-#include <deque>
 #include <exception>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -37,6 +33,7 @@
 #include "planning/comparison_report.h"
 #include "planning/plan_inputs.h"
 #include "planning/plan_lock.h"
+#include "planning/plan_runner.h"
 #include "planning/population_fit.h"
 #include "planning/power.h"
 #include "planning/power_store.h"
@@ -323,84 +320,34 @@ int run_plan_power(const PlanPowerOptions& o) {
                                 : ", its point estimate (model uncertainty off)"));
 
   InterruptFlag interrupt;
-  std::atomic<std::size_t> next{0};
-  std::atomic<bool> failed{false};
-  std::mutex m;
-  std::condition_variable cv;
-  std::deque<planning::StudyOutcome> finished;
-  std::exception_ptr error;
-  std::size_t running = jobs;
-  std::vector<std::thread> pool;
-  for (std::size_t t = 0; t < jobs; ++t) {
-    pool.emplace_back([&] {
-      try {
-        while (!interrupt.raised() && !failed) {
-          const std::size_t k = next++;
-          if (k >= todo.size()) break;
-          planning::SimulatedStudyOptions study_sim = sim;
-          if (model_uncertainty)
-            study_sim.population = population.file->draws[planning::draw_of_group(
-                planning::draw_group(todo[k].second), population.file->draws.size())];
-          planning::StudyOutcome outcome =
-              planning::run_power_study(protocol, todo[k].first, todo[k].second, o.seed, study_sim);
-          const std::lock_guard<std::mutex> lock(m);
-          finished.push_back(std::move(outcome));
-          cv.notify_one();
-        }
-      } catch (...) {
-        const std::lock_guard<std::mutex> lock(m);
-        if (!error) error = std::current_exception();
-        failed = true;
-      }
-      const std::lock_guard<std::mutex> lock(m);
-      --running;
-      cv.notify_one();
-    });
-  }
-  const auto started = std::chrono::steady_clock::now();
-  std::size_t stored = 0;
-  std::uint64_t updates = 0;
-  std::exception_ptr store_error;
-  for (;;) {
-    std::unique_lock<std::mutex> lock(m);
-    cv.wait_for(lock, std::chrono::milliseconds(200), [&] { return !finished.empty() || running == 0; });
-    std::deque<planning::StudyOutcome> batch;
-    batch.swap(finished);
-    const bool all_stopped = running == 0;
-    lock.unlock();
-    for (const planning::StudyOutcome& s : batch) {
-      if (store_error) break;
-      try {
-        store.add(s);  // committed: an interrupted run keeps it
-      } catch (...) {
-        store_error = std::current_exception();
-        failed = true;
-        break;
-      }
-      ++stored;
-      updates += s.updates;
-    }
-    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  planning::PlanRunOptions run;
+  run.seed = o.seed;
+  run.sim = sim;
+  if (model_uncertainty) run.draws = population.file->draws;
+  run.jobs = jobs;
+  run.interrupted = [&] { return interrupt.raised(); };
+  run.on_progress = [&](std::size_t stored, double elapsed_s) {
     std::optional<double> eta;
     if (stored > 0) eta = elapsed_s / static_cast<double>(stored) * static_cast<double>(todo.size() - stored);
     line.update(static_cast<double>(already + stored) / static_cast<double>(total),
                 std::to_string(already + stored) + "/" + std::to_string(total) + " studies" +
                     (interrupt.raised() ? " (stopping after the running ones)" : ""),
                 elapsed_s, eta);
-    if (all_stopped && batch.empty()) break;
+  };
+  planning::PlanRunResult ran;
+  try {
+    ran = planning::run_plan_studies(protocol, todo, store, run);
+  } catch (const planning::PlanStoreFailure& e) {
+    line.finish();
+    throw std::runtime_error(std::string(e.what()) + "; the " + std::to_string(already + e.stored) +
+                             " studies stored before are kept: free space, then run the same command to resume");
+  } catch (...) {
+    line.finish();
+    throw;
   }
-  for (std::thread& t : pool) t.join();
   line.finish();
-  if (store_error) {
-    try {
-      std::rethrow_exception(store_error);
-    } catch (const std::exception& e) {
-      throw std::runtime_error(std::string(e.what()) + "; the " + std::to_string(already + stored) +
-                               " studies stored before are kept: free space, then run the same command to resume");
-    }
-  }
-  if (error) std::rethrow_exception(error);
-  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const std::size_t stored = ran.stored;
+  const double elapsed_s = ran.elapsed_s;
   if (interrupt.raised() && already + stored < total) {
     std::fprintf(stderr, "hapticlab plan power: interrupted; %zu of %zu studies are stored in %s. Run the same "
                          "command again to resume.\n", already + stored, total,
@@ -409,8 +356,8 @@ int run_plan_power(const PlanPowerOptions& o) {
   }
 
   char did[160];
-  std::snprintf(did, sizeof did, "%zu studies simulated in %.1f s (%.1f million loop updates, none stored)", stored,
-                elapsed_s, static_cast<double>(updates) / 1e6);
+  std::snprintf(did, sizeof did, "%zu %s simulated in %.1f s (%.1f million loop updates, none stored)", stored,
+                stored == 1 ? "study" : "studies", elapsed_s, static_cast<double>(ran.updates) / 1e6);
   PlanResults results{protocol, inputs, design, store.load(/*complete=*/true), o.out, o.measure, o.plots, o.json,
                       did, elapsed_s, stored, population.describe};
   if (o.shards > 1) {

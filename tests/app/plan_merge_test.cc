@@ -42,7 +42,7 @@ TEST_F(PlanMergeTest, ShardsMergedWriteWhatOneMachineWrites) {
     std::tie(rc, text) =
         plan(std::string(kPlan) + "--shard " + std::to_string(i) + "/3 --out " + (dir_ / ("s" + std::to_string(i))).string());
     ASSERT_EQ(rc, 0) << text;
-    EXPECT_THAT(text, HasSubstr("shard " + std::to_string(i) + "/3: 1 studies simulated"));
+    EXPECT_THAT(text, HasSubstr("shard " + std::to_string(i) + "/3: 1 study simulated"));
     // A shard alone writes no table: its studies are not the plan.
     EXPECT_FALSE(fs::exists(dir_ / ("s" + std::to_string(i)) / "power.csv"));
     EXPECT_EQ(stored_studies(dir_ / ("s" + std::to_string(i)) / "plan_power.db"), 1);

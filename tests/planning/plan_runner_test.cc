@@ -1,0 +1,132 @@
+// The plan's study runner (planning/plan_runner.h), without the CLI: the
+// same studies stored whatever the number of threads, an interruption that
+// stores nothing new, a resumed run that does only what is left, and the
+// model's uncertainty reaching the studies (each group's posterior draw).
+#include "planning/plan_runner.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "planning/plan_inputs.h"
+#include "protocols/protocol_json.h"
+
+namespace hapticlab::planning {
+namespace {
+
+namespace fs = std::filesystem;
+
+class PlanRunnerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("hapticlab_plan_runner_" +
+                                        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
+                                        "_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    const fs::path settings = fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
+    protocol_path_ = dir_ / "protocol.json";
+    std::ofstream(protocol_path_) << R"({"study": "runner test", "tasks": ["clip"], "repetitions": {"clip": 1},
+      "settings": [")" << (settings / "high_fidelity.json").string() << R"(", ")"
+                                  << (settings / "no_force_feedback.json").string() << R"("],
+      "participants": ["P01", "P02"], "design": {"type": "complete"}, "training_trials": 0, "seed": 7})";
+    protocol_ = protocols::load_protocol_file(protocol_path_.string());
+    sim_.rate_Hz = 150.0;
+  }
+  void TearDown() override {
+    std::error_code ignored;
+    fs::remove_all(dir_, ignored);
+  }
+  PlanInputs inputs() const {
+    return plan_inputs(protocol_, protocol_path_.string(), protocols::read_protocol_text(protocol_path_.string()), 3,
+                       {2}, 20, sim_);
+  }
+  // A study as its updates and every finding's p, to the bit.
+  static std::string digest(const StudyOutcome& s) {
+    std::string d = std::to_string(s.index) + ":" + std::to_string(s.updates);
+    char p[32];
+    for (const Finding& f : s.findings) {
+      std::snprintf(p, sizeof p, " %.17g", f.p);
+      d += p;
+    }
+    return d;
+  }
+  // Every stored study's digest, in (participants, index) order.
+  std::vector<std::string> digests(const fs::path& db) const {
+    PowerStore store(db, inputs(), protocol_);
+    std::vector<std::string> out;
+    for (const StudyOutcome& s : store.load()) out.push_back(digest(s));
+    return out;
+  }
+  fs::path dir_, protocol_path_;
+  protocols::Protocol protocol_;
+  SimulatedStudyOptions sim_;
+};
+
+TEST_F(PlanRunnerTest, TheSameStudiesOnAnyNumberOfThreadsAndAResumedRunDoesWhatIsLeft) {
+  const std::vector<std::pair<int, int>> todo = {{2, 0}, {2, 1}, {2, 2}, {2, 3}};
+  PlanRunOptions o;
+  o.seed = 3;
+  o.sim = sim_;
+  std::size_t progress_calls = 0;
+  o.on_progress = [&](std::size_t, double) { ++progress_calls; };
+  {
+    PowerStore store(dir_ / "one.db", inputs(), protocol_);
+    o.jobs = 1;
+    const PlanRunResult r = run_plan_studies(protocol_, todo, store, o);
+    EXPECT_EQ(r.stored, 4u);
+    EXPECT_GT(r.updates, 0u);
+    EXPECT_EQ(store.done().size(), 4u);
+  }
+  EXPECT_GE(progress_calls, 1u);
+  {
+    // Two threads, in two runs: the first interrupted before it takes a
+    // study (nothing stored), the second does the rest.
+    PowerStore store(dir_ / "two.db", inputs(), protocol_);
+    o.jobs = 2;
+    o.interrupted = [] { return true; };
+    EXPECT_EQ(run_plan_studies(protocol_, todo, store, o).stored, 0u);
+    o.interrupted = nullptr;
+    EXPECT_EQ(run_plan_studies(protocol_, {todo[0], todo[1]}, store, o).stored, 2u);
+    EXPECT_EQ(run_plan_studies(protocol_, {todo[2], todo[3]}, store, o).stored, 2u);
+  }
+  EXPECT_EQ(digests(dir_ / "one.db"), digests(dir_ / "two.db"));
+}
+
+TEST_F(PlanRunnerTest, WithTheModelsUncertaintyEachGroupDrawsItsPopulation) {
+  // Two posterior draws far apart: the 20 draw groups are spread over
+  // them (draw_of_group), so studies 0 and 10 (groups 0 and 10) take draws
+  // 0 and 1; each study equals the same study run on its draw as the point
+  // population.
+  PopulationParams low, high;
+  low.visual_gain_mean = 0.3;
+  high.visual_gain_mean = 0.95;
+  PlanRunOptions o;
+  o.seed = 3;
+  o.sim = sim_;
+  o.draws = {low, high};
+  o.jobs = 2;
+  {
+    PowerStore store(dir_ / "uncertain.db", inputs(), protocol_);
+    ASSERT_EQ(run_plan_studies(protocol_, {{2, 0}, {2, 10}}, store, o).stored, 2u);
+  }
+  const std::vector<std::string> stored = digests(dir_ / "uncertain.db");
+  ASSERT_EQ(stored.size(), 2u);
+  std::vector<std::uint64_t> updates;
+  for (int k : {0, 10}) {
+    SimulatedStudyOptions on_draw = sim_;
+    on_draw.population = o.draws[draw_of_group(draw_group(k), o.draws.size())];
+    const StudyOutcome direct = run_power_study(protocol_, 2, k, 3, on_draw);
+    EXPECT_EQ(stored.at(k == 0 ? 0 : 1), digest(direct));
+    updates.push_back(direct.updates);
+  }
+  EXPECT_NE(draw_of_group(draw_group(0), 2), draw_of_group(draw_group(10), 2)) << "both studies took one draw";
+}
+
+}  // namespace
+}  // namespace hapticlab::planning
