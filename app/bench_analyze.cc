@@ -406,7 +406,7 @@ void add_bench_analyze_command(CLI::App& bench) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--rounds", opt->rounds, "Rounds of each with --compare (1..100)")->capture_default_str()
       ->check(whole_number_in(1, 100));
-  cmd->add_option("--python", opt->python, "Python 3 with numpy and scipy, for --compare")->capture_default_str();
+  cmd->add_option("--python", opt->python, "Python 3 with numpy, zstandard and crc32c, for --compare")->capture_default_str();
   cmd->add_flag("--json", opt->json, "Print one JSON object instead of text");
   cmd->callback([opt] { run_bench(*opt); });
 }
