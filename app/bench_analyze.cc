@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <stdexcept>
@@ -94,6 +95,25 @@ double run_timed(const std::vector<std::string>& argv, const std::filesystem::pa
   return wall_s;
 }
 
+// The 1-minute load average (/proc/loadavg), or NaN where there is none:
+// the machine is shared, and a ratio means little without it.
+double load_average_1min() {
+  std::FILE* f = std::fopen("/proc/loadavg", "r");
+  double load = std::numeric_limits<double>::quiet_NaN();
+  if (f != nullptr) {
+    if (std::fscanf(f, "%lf", &load) != 1) load = std::numeric_limits<double>::quiet_NaN();
+    std::fclose(f);
+  }
+  return load;
+}
+
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f", v);
+  return buf;
+}
+
 double median_of(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
@@ -118,6 +138,7 @@ void run_compare(const BenchOptions& o, const std::filesystem::path& db_path, co
   const std::vector<std::string> theirs = {o.python, o.compare, db_path.string()};
   const fs::path err = dir / "compare_stderr.txt";
   std::vector<double> ours_s, theirs_s;
+  const double load_before = load_average_1min();
   if (!o.json) std::printf("alternating %d rounds: hapticlab analyze --no-ks --no-plots, then %s\n", o.rounds,
                            o.compare.c_str());
   for (int round = 0; round < o.rounds; ++round) {
@@ -127,16 +148,23 @@ void run_compare(const BenchOptions& o, const std::filesystem::path& db_path, co
                              theirs_s.back());
     std::fflush(stdout);
   }
+  const double load_after = load_average_1min();
   const double ours_med = median_of(ours_s);
   const double theirs_med = median_of(theirs_s);
   const double ratio = theirs_med / ours_med;
+  const auto [ours_min, ours_max] = std::minmax_element(ours_s.begin(), ours_s.end());
+  const auto [theirs_min, theirs_max] = std::minmax_element(theirs_s.begin(), theirs_s.end());
   if (o.json) {
     std::printf("{\"instrument_samples\": %zu, \"rounds\": %d, \"hapticlab_median_s\": %.4f, "
-                "\"comparator_median_s\": %.4f, \"speedup\": %.3f, \"target_speedup\": 3}\n",
-                instrument_samples, o.rounds, ours_med, theirs_med, ratio);
+                "\"hapticlab_min_s\": %.4f, \"hapticlab_max_s\": %.4f, \"comparator_median_s\": %.4f, "
+                "\"comparator_min_s\": %.4f, \"comparator_max_s\": %.4f, \"speedup\": %.3f, "
+                "\"load_average_before\": %s, \"load_average_after\": %s, \"target_speedup\": 5}\n",
+                instrument_samples, o.rounds, ours_med, *ours_min, *ours_max, theirs_med, *theirs_min, *theirs_max,
+                ratio, json_number(load_before).c_str(), json_number(load_after).c_str());
   } else {
-    std::printf("median: hapticlab %.3f s, comparator %.3f s: hapticlab is %.2fx faster (target >= 3x)\n",
-                ours_med, theirs_med, ratio);
+    std::printf("median (range): hapticlab %.3f s (%.3f-%.3f), comparator %.3f s (%.3f-%.3f): hapticlab is %.2fx "
+                "faster (target >= 5x quiet, >= 3x busy); load average %.2f before, %.2f after\n",
+                ours_med, *ours_min, *ours_max, theirs_med, *theirs_min, *theirs_max, ratio, load_before, load_after);
   }
 }
 
@@ -378,7 +406,7 @@ void add_bench_analyze_command(CLI::App& bench) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--rounds", opt->rounds, "Rounds of each with --compare (1..100)")->capture_default_str()
       ->check(whole_number_in(1, 100));
-  cmd->add_option("--python", opt->python, "Python 3 with numpy and scipy, for --compare")->capture_default_str();
+  cmd->add_option("--python", opt->python, "Python 3 with numpy, zstandard and crc32c, for --compare")->capture_default_str();
   cmd->add_flag("--json", opt->json, "Print one JSON object instead of text");
   cmd->callback([opt] { run_bench(*opt); });
 }

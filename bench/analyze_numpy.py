@@ -1,51 +1,313 @@
 #!/usr/bin/env python3
-"""The comparator for `hapticlab bench analyze --compare`: what a researcher
-would write in an afternoon instead of using `hapticlab analyze`.
+"""The comparator for `hapticlab bench analyze --compare`: the same work as
+`hapticlab analyze --no-ks --no-plots` (without the report), written as fast
+as numpy allows, so that the speed ratio says something about HapticLab.
 
-It reads a study database with Python's sqlite3, decodes every sample chunk
-with numpy (python/hapticlab_db.py's decoder, np.frombuffer per channel,
-without the CRC-32C check that analyze makes), computes the per-trial metrics of `hapticlab analyze` (task
-window, median and 95th-percentile |F| over samples with |F| >= 1 mN,
-median |v|, path length; percentiles as MATLAB's prctile) and runs the
+Work done, as analyze does it: read the complete trials' sample chunks and
+events with Python's sqlite3 (read-only); check every chunk's place (instrument
+0 or 1, ticks from 0, none overlapping), its CRC-32C over where it belongs
+and its bytes, and its zstd frame (content size within the row's count, the
+content-checksum flag, exactly one frame; zstd verifies the content
+checksum); decode the channels the metrics read; compute the per-trial
+metrics (task window, median and 95th-percentile |F| over samples with |F|
+>= 1 mN, median |v|, path length; percentiles as MATLAB's prctile); run the
 Table 3.4 Friedman tests (per participant and task: both hands as blocks,
-then each hand alone; repetitions as replicates, balanced as MATLAB's
-friedman(X, reps) needs), with scipy for ranks and the chi-square tail.
+then each hand alone; repetitions as replicates, as MATLAB's friedman(X,
+reps)). A damaged or misplaced chunk stops it with a message naming the
+chunk (exit 1): its numbers would be wrong.
 
-The same work as `hapticlab analyze --no-ks --no-plots`, without the report.
-Its metrics are checked against analyze's in CI
+How it is made fast (one thread throughout; numpy's own operations are
+single-threaded, and zstd and the CRC are called one chunk at a time):
+- one query for all the chunks of the complete trials, in (trial,
+  instrument, tick) order, one for all their task events; no per-trial
+  queries; the place check is a few vectorised comparisons over all rows;
+- CRC-32C by python3-crc32c (Debian; a C table-driven CRC, 1.7 GB/s here
+  without SSE 4.2), fed the row's 32 bytes and then the blob through a
+  memoryview: no copy; without that module, the numpy CRC of
+  python/hapticlab_db.py, all of a trial's chunks at once (a printed note
+  says which was used);
+- zstd by python3-zstandard's one-shot decompress() into a buffer of the
+  frame's stated size, after its header is checked;
+- column projection: of the 28 channels only those the metrics read are
+  decoded (t_s, tip position, tip velocity, tissue force; dt_s only when
+  t_s is stored as a running sum); the others' tags are walked past, never
+  undone;
+- bit planes undone for all chunks of a batch of trials at once, grouped by
+  (value width, update count): the planes of a group are gathered into one
+  (chunks, width, 8, count/8) array, transposed so that each 64-bit word
+  holds one byte position of 8 consecutive values as an 8 x 8 bit matrix,
+  and every word of the group transposed with three masked shifts and XORs
+  (Hacker's Delight transpose8); the differences are summed with one
+  wrapping cumsum along the group's rows; t_s running sums likewise, one
+  float64 cumsum per group (sequential, as the format defines them);
+- percentiles by np.partition on the two order statistics prctile needs
+  (the same values as sorting, to the bit), not a full sort;
+- no scipy: ranks with ties averaged by one argsort, the chi-square tail
+  in closed form (math.erfc / exp series), since importing scipy.stats
+  alone takes longer than most of the analysis.
+
+Its metrics are checked against analyze's in CI, to the bit
 (tests/python/test_analyze_numpy.py); only its speed is benchmarked.
 
     analyze_numpy.py STUDY.db [--metrics-out CSV] [--friedman-out CSV]
 """
 import argparse
 import csv
+import math
 import os
 import sqlite3
+import struct
 import sys
 
 import numpy as np
-from scipy import stats
+import zstandard
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
-import hapticlab_db  # noqa: E402  (the reader that ships with HapticLab)
+import hapticlab_db  # noqa: E402  (the reader that ships with HapticLab: its format constants and checks)
+
+try:
+    import crc32c as _crc32c_module  # Debian python3-crc32c
+except ImportError:
+    _crc32c_module = None
 
 MIN_CONTACT_FORCE_N = 1e-3
 MEASURES = ("force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s", "path_length_m")
 PER_HAND = {"force_median_N", "force_p95_N", "speed_median_m_per_s", "path_length_m"}
 
+# Channel numbers in the body (db/README.md, "The chunk format").
+DT, T = 0, 1
+FLOAT_CHANNELS = tuple(range(10, 19))  # tip_x..z, tip_vx..vz, ve_force_x..z: rows 0..8 of the float output
+LAST_NEEDED = 18
+WIDTH = [np.dtype(code).itemsize for _, code in hapticlab_db.CHANNELS]
+HEADER = hapticlab_db.HEADER_BYTES
+MAX_BODY_PER_UPDATE = sum(WIDTH)
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+TRIALS_PER_BATCH = 8  # decoded together: ~25 MB of decompressed bodies on the demo study
 
-def prctile(sorted_values, p):
-    """MATLAB's prctile on sorted data: x(i) at 100 (i - 0.5) / n, linear between."""
-    n = sorted_values.size
-    h = n * p / 100.0 + 0.5
-    if h <= 1.0:
-        return float(sorted_values[0])
-    if h >= n:
-        return float(sorted_values[-1])
-    lower = np.floor(h)
-    i = int(lower) - 1
-    a, b = float(sorted_values[i]), float(sorted_values[i + 1])
-    return a + (h - lower) * (b - a)
+_S7, _S14, _S28 = np.uint64(7), np.uint64(14), np.uint64(28)
+_M7, _M14, _M28 = np.uint64(0x00AA00AA00AA00AA), np.uint64(0x0000CCCC0000CCCC), np.uint64(0x00000000F0F0F0F0)
+
+
+class ChunkDamage(Exception):
+    pass
+
+
+def chunk_name(trial, hand, first, count):
+    return hapticlab_db.chunk_name(trial, hand, first, count)
+
+
+def transpose8x8(x):
+    """Every uint64 of x as an 8 x 8 bit matrix (row = byte, column = bit)
+    transposed; in place where numpy allows."""
+    t = x >> _S7
+    t ^= x
+    t &= _M7
+    x ^= t
+    x ^= t << _S7
+    t = x >> _S14
+    t ^= x
+    t &= _M14
+    x ^= t
+    x ^= t << _S14
+    t = x >> _S28
+    t ^= x
+    t &= _M28
+    x ^= t
+    x ^= t << _S28
+    return x
+
+
+def undo_planes(raw, width, count):
+    """raw: (N, width * count) uint8, each row a channel's format-3 values
+    (bit planes of the first count - count % 8 values, then the rest as
+    they are) -> (N, count) unsigned ints of `width` bytes."""
+    n_rows = raw.shape[0]
+    whole = count - count % 8
+    groups = whole // 8
+    out = np.empty((n_rows, count), dtype="<u%d" % width)
+    if groups:
+        planes = raw[:, :whole * width].reshape(n_rows, width, 8, groups)
+        # word [row, g, b]: byte s is plane 8b + s's byte g
+        words = np.ascontiguousarray(planes.transpose(0, 3, 1, 2)).view("<u8").reshape(n_rows, groups, width)
+        transpose8x8(words)  # byte j of word [row, g, b] is now byte b of value 8g + j
+        values = words.view(np.uint8).reshape(n_rows, groups, width, 8).transpose(0, 1, 3, 2)
+        out[:, :whole].view(np.uint8).reshape(n_rows, groups, 8, width)[:] = values
+    if count > whole:
+        out[:, whole:] = raw[:, whole * width:].copy().view("<u%d" % width)
+    return out
+
+
+def crc32c_of(head, body):
+    if _crc32c_module is not None:
+        return _crc32c_module.crc32c(body, _crc32c_module.crc32c(head))
+    return None
+
+
+def check_frame(frame, count):
+    """The checks HapticLab makes on a format-3 frame before decompressing;
+    returns its content size."""
+    if len(frame) <= 4 or frame[:4] != ZSTD_MAGIC:
+        raise ChunkDamage("the zstd frame does not decompress (no zstd magic number)")
+    try:
+        params = zstandard.get_frame_parameters(frame)
+        header_size = zstandard.frame_header_size(frame)
+    except zstandard.ZstdError as e:
+        raise ChunkDamage(f"the zstd frame does not decompress (no valid frame header: {e})") from None
+    limit = len(WIDTH) + count * MAX_BODY_PER_UPDATE
+    if params.content_size == zstandard.CONTENTSIZE_UNKNOWN or params.content_size > limit:
+        raise ChunkDamage(f"the zstd frame states {params.content_size} bytes; at most {limit} allowed")
+    if not params.has_checksum:
+        raise ChunkDamage("the zstd frame carries no content checksum")
+    try:
+        end = hapticlab_db._frame_end(frame, header_size, True)
+    except hapticlab_db.ChunkError as e:
+        raise ChunkDamage(e.problem) from None
+    if end != len(frame):
+        raise ChunkDamage(f"{len(frame) - end} bytes follow the zstd frame")
+    return params.content_size
+
+
+class Batch:
+    """The decoded channels of some trials' chunks, laid end to end in chunk
+    order: t (float64), and the nine float32 channels as float32."""
+
+    def __init__(self, chunks, dctx):
+        self.total = sum(c[3] for c in chunks)
+        self.t = np.empty(self.total, dtype=np.float64)
+        dt = np.empty(self.total, dtype=np.uint64)
+        f32 = np.empty((len(FLOAT_CHANNELS), self.total), dtype=np.uint32)
+        self.starts = []
+        # (width, count) -> [(body, offset, destination array row, start)] of tag-0 channels
+        planes = {}
+        running = []  # (start, count, t0) of t_s stored as a running sum
+        start = 0
+        if _crc32c_module is None:
+            stored = [struct.unpack_from("<I", c[4], 1)[0] for c in chunks]
+            computed = hapticlab_db._crc32c_many([hapticlab_db._checked_message(*c[:4], c[4]) for c in chunks])
+        for k, (trial, hand, first, count, blob) in enumerate(chunks):
+            self.starts.append(start)
+            try:
+                if _crc32c_module is not None:
+                    got = crc32c_of(struct.pack("<qqqqB", trial, hand, first, count, blob[0]),
+                                    memoryview(blob)[HEADER:])
+                    if got != struct.unpack_from("<I", blob, 1)[0]:
+                        raise ChunkDamage("checksum mismatch: the chunk is damaged")
+                elif int(computed[k]) != stored[k]:
+                    raise ChunkDamage("checksum mismatch: the chunk is damaged")
+                if blob[0] == hapticlab_db.FORMAT_CURRENT:
+                    frame = memoryview(blob)[HEADER:]
+                    size = check_frame(frame, count)
+                    try:
+                        body = dctx.decompress(frame)
+                    except zstandard.ZstdError as e:
+                        raise ChunkDamage(f"the zstd frame does not decompress: {e}") from None
+                    if len(body) != size:
+                        raise ChunkDamage("the zstd frame does not decompress to its stated size")
+                    self._walk(body, count, start, planes, running, dt, f32)
+                else:
+                    # Formats 0 and 1 (files from before 0.2): the reference reader.
+                    ch = hapticlab_db._decode_verified(first, count, bytes(blob), blob[0])
+                    self.t[start:start + count] = ch["t_s"]
+                    for row, c in enumerate(FLOAT_CHANNELS):
+                        f32[row, start:start + count] = ch[hapticlab_db.CHANNEL_NAMES[c]].view(np.uint32)
+            except (ChunkDamage, hapticlab_db.ChunkError) as e:
+                raise ChunkDamage(f"damaged sample chunk: {chunk_name(trial, hand, first, count)}: {e}") from None
+            start += count
+        # Undo the bit planes and differences, a group of equal (width, count) at a time.
+        for (width, count), segments in planes.items():
+            raw = np.empty((len(segments), width * count), dtype=np.uint8)
+            for i, (body, offset, _, _) in enumerate(segments):
+                raw[i] = np.frombuffer(body, dtype=np.uint8, count=width * count, offset=offset)
+            values = undo_planes(raw, width, count)
+            np.cumsum(values, axis=1, dtype=values.dtype, out=values)  # wraps modulo 2^32 / 2^64
+            for i, (_, _, dest, at) in enumerate(segments):
+                dest[at:at + count] = values[i]
+        # t_s as a running sum of dt_s (in order, float64, as the format says).
+        by_count = {}
+        for at, count, t0 in running:
+            by_count.setdefault(count, []).append((at, t0))
+        for count, rows in by_count.items():
+            terms = np.empty((len(rows), count), dtype=np.float64)
+            for i, (at, _) in enumerate(rows):
+                terms[i] = dt[at:at + count].view(np.float64)
+            terms[:, 0] = [t0 for _, t0 in rows]
+            np.cumsum(terms, axis=1, out=terms)
+            for i, (at, _) in enumerate(rows):
+                self.t[at:at + count] = terms[i]
+        self.f32 = f32.view(np.float32)
+
+    def _walk(self, body, count, start, planes, running, dt, f32):
+        """Walks the tags of channels 0..18 of a preconditioned body, noting
+        where each needed per-update channel's planes are and filling the
+        constants."""
+        pos = 0
+        t_tag = None
+        size = len(body)
+        for c in range(LAST_NEEDED + 1):
+            if pos >= size:
+                raise ChunkDamage("blob too short for its count")
+            tag = body[pos]
+            pos += 1
+            width = WIDTH[c]
+            if tag == hapticlab_db.TAG_PER_UPDATE:
+                if pos + count * width > size:
+                    raise ChunkDamage("blob too short for its count")
+                if c == T:
+                    planes.setdefault((8, count), []).append((body, pos, self.t.view(np.uint64), start))
+                elif c == DT:
+                    dt_at = pos
+                elif c >= FLOAT_CHANNELS[0]:
+                    planes.setdefault((4, count), []).append((body, pos, f32[c - FLOAT_CHANNELS[0]], start))
+                pos += count * width
+            elif tag == hapticlab_db.TAG_CONSTANT:
+                if pos + width > size:
+                    raise ChunkDamage("blob too short for its count")
+                if c == T:
+                    self.t[start:start + count] = struct.unpack_from("<d", body, pos)[0]
+                elif c == DT:
+                    dt[start:start + count] = struct.unpack_from("<Q", body, pos)[0]
+                elif c >= FLOAT_CHANNELS[0]:
+                    f32[c - FLOAT_CHANNELS[0], start:start + count] = struct.unpack_from("<I", body, pos)[0]
+                pos += width
+            elif tag == hapticlab_db.TAG_RUNNING_SUM and c == T:
+                running.append((start, count, struct.unpack_from("<d", body, pos)[0]))
+                pos += 8
+            else:
+                raise ChunkDamage(f"channel {hapticlab_db.CHANNEL_NAMES[c]} has unknown tag {tag}")
+            if c == DT:
+                dt_tag = tag
+            if c == T:
+                t_tag = tag
+        # dt_s is needed only for a running-sum t_s, and then it is plain differences.
+        if t_tag == hapticlab_db.TAG_RUNNING_SUM and dt_tag == hapticlab_db.TAG_PER_UPDATE:
+            planes.setdefault((8, count), []).append((body, dt_at, dt, start))
+
+
+def prctiles(values, ps):
+    """MATLAB's prctile for each p of `ps` (the unsorted values; at least one):
+    x(i) at 100 (i - 0.5) / n, linear between; order statistics by
+    np.partition, equal to sorting to the bit."""
+    n = values.size
+    picks = []
+    for p in ps:
+        h = n * p / 100.0 + 0.5
+        if h <= 1.0:
+            picks.append((0, 0, 0.0))
+        elif h >= n:
+            picks.append((n - 1, n - 1, 0.0))
+        else:
+            lower = math.floor(h)
+            picks.append((lower - 1, lower, h - lower))
+    kth = sorted({i for a, b, _ in picks for i in (a, b)})
+    part = np.partition(values, kth)
+    out = []
+    for a, b, frac in picks:
+        if a == b:
+            out.append(float(part[a]))
+        else:
+            x, y = float(part[a]), float(part[b])
+            out.append(x + frac * (y - x))
+    return out
 
 
 def task_window(events, trial_end_s):
@@ -68,68 +330,131 @@ def task_window(events, trial_end_s):
     return None if last is None else (start, last)
 
 
-def read_hand(conn, trial_id, hand):
-    """t_s, position (n,3), velocity (n,3), force (n,3) of one hand, float64."""
-    rows = conn.execute("SELECT first_tick, count, data FROM sample_chunk WHERE trial_id = ? AND instrument = ? "
-                        "ORDER BY first_tick", (trial_id, hand)).fetchall()
-    if not rows:
-        return None
-    # No checksum: a researcher's script would not verify one (hapticlab
-    # analyze does, so this favours the script).
-    parts = [hapticlab_db._decode_verified(first, count, blob, blob[0]) for first, count, blob in rows]
-
-    def channel(name):
-        return np.concatenate([p[name] for p in parts]).astype(np.float64)
-
-    def vec(names):
-        return np.column_stack([channel(name) for name in names])
-
-    return channel("t_s"), vec(POSITION), vec(VELOCITY), vec(FORCE)
-
-
-def hand_metrics(t, position, velocity, force, window):
+def hand_metrics(t, f32, window):
     inside = (t >= window[0]) & (t <= window[1])
-    n = int(inside.sum())
-    f = np.sqrt(force[inside, 0] * force[inside, 0] + force[inside, 1] * force[inside, 1]
-                + force[inside, 2] * force[inside, 2])
-    v = np.sqrt(velocity[inside, 0] * velocity[inside, 0] + velocity[inside, 1] * velocity[inside, 1]
-                + velocity[inside, 2] * velocity[inside, 2])
-    f = np.sort(f[f >= MIN_CONTACT_FORCE_N])
-    v = np.sort(v)
-    step = np.diff(position[inside], axis=0)
-    path = float(np.sqrt((step * step).sum(axis=1)).sum()) if n else float("nan")
+    n = int(np.count_nonzero(inside))
+    x, y, z, vx, vy, vz, fx, fy, fz = (f32[row][inside].astype(np.float64) for row in range(9))
+    f = np.sqrt(fx * fx + fy * fy + fz * fz)
+    v = np.sqrt(vx * vx + vy * vy + vz * vz)
+    f = f[f >= MIN_CONTACT_FORCE_N]
     nan = float("nan")
+    if n:
+        dx, dy, dz = np.diff(x), np.diff(y), np.diff(z)
+        path = float(np.sqrt(dx * dx + dy * dy + dz * dz).sum())
+    else:
+        path = nan
+    force = prctiles(f, (50.0, 95.0)) if f.size else (nan, nan)
     return {
         "samples": n, "force_samples": int(f.size),
-        "force_median_N": prctile(f, 50.0) if f.size else nan,
-        "force_p95_N": prctile(f, 95.0) if f.size else nan,
-        "speed_median_m_per_s": prctile(v, 50.0) if v.size else nan,
+        "force_median_N": force[0],
+        "force_p95_N": force[1],
+        "speed_median_m_per_s": prctiles(v, (50.0,))[0] if v.size else nan,
         "path_length_m": path,
     }
 
 
+def check_layout(chunks):
+    """chunks: (trial, instrument, first_tick, count) in (trial, instrument,
+    first_tick) order; raises ChunkDamage for a chunk out of place."""
+    if not chunks:
+        return
+    a = np.array(chunks, dtype=np.int64)
+    trial, hand, first, count = a.T
+    bad = (hand < 0) | (hand > 1) | (first < 0) | (count < 1) | (count > hapticlab_db.MAX_CHUNK_UPDATES)
+    same = (trial[1:] == trial[:-1]) & (hand[1:] == hand[:-1])
+    overlap = np.zeros(len(a), dtype=bool)
+    overlap[1:] = same & (first[1:] < first[:-1] + count[:-1])
+    if bad.any() or overlap.any():
+        k = int(np.flatnonzero(bad | overlap)[0])
+        raise ChunkDamage(f"misplaced sample chunk: {chunk_name(*chunks[k])}: instrument 0 or 1, ticks from 0, "
+                          f"count 1..{hapticlab_db.MAX_CHUNK_UPDATES}, no tick shared by two chunks")
+
+
 def trial_metrics(conn):
     trials = conn.execute(
-        "SELECT t.id, p.code, t.task, s.name, t.repetition, t.status FROM trial t "
+        "SELECT t.id, p.code, t.task, s.name, t.repetition FROM trial t "
         "JOIN participant p ON p.id = t.participant_id JOIN setting s ON s.id = t.setting_id "
         "WHERE t.status = 'complete' ORDER BY t.id").fetchall()
-    rows = []
-    for trial_id, participant, task, setting, repetition, _ in trials:
-        hands = [read_hand(conn, trial_id, h) for h in (0, 1)]
-        ends = [h[0][-1] for h in hands if h is not None and h[0].size]
-        events = conn.execute("SELECT t_s, type, instrument FROM event WHERE trial_id = ? ORDER BY id",
-                              (trial_id,)).fetchall()
-        window = task_window(events, max(ends)) if ends else None
-        for hand in (0, 1):
-            row = {"trial_id": trial_id, "participant": participant, "task": task, "setting": setting,
-                   "repetition": repetition, "instrument": hand}
-            if window is None or hands[hand] is None:
-                row.update({m: float("nan") for m in MEASURES})
-            else:
-                row.update(hand_metrics(*hands[hand], window))
-                row["completion_time_s"] = window[1] - window[0]
-            rows.append(row)
-    return rows
+    events = {}
+    for trial_id, t_s, kind, hand in conn.execute(
+            "SELECT e.trial_id, e.t_s, e.type, e.instrument FROM event e JOIN trial t ON t.id = e.trial_id "
+            "WHERE t.status = 'complete' AND e.type IN ('insertion_passed_20mm', 'contact_start', 'contact_end') "
+            "ORDER BY e.trial_id, e.id"):
+        events.setdefault(trial_id, []).append((t_s, kind, hand))
+    rows = conn.execute(
+        "SELECT c.trial_id, c.instrument, c.first_tick, c.count, c.data FROM sample_chunk c "
+        "JOIN trial t ON t.id = c.trial_id WHERE t.status = 'complete' "
+        "ORDER BY c.trial_id, c.instrument, c.first_tick")
+    check_layout_rows = []
+    by_trial = {}
+    for r in rows:
+        if not (isinstance(r[4], bytes) and len(r[4]) >= HEADER):
+            raise ChunkDamage(f"damaged sample chunk: {chunk_name(*r[:4])}: no blob of at least {HEADER} bytes")
+        check_layout_rows.append(r[:4])
+        by_trial.setdefault(r[0], []).append(r)
+    check_layout(check_layout_rows)
+    dctx = zstandard.ZstdDecompressor()
+    out = []
+    for b in range(0, len(trials), TRIALS_PER_BATCH):
+        mine = trials[b:b + TRIALS_PER_BATCH]
+        chunks = [c for tr in mine for c in by_trial.get(tr[0], ())]
+        batch = Batch(chunks, dctx)
+        k = 0
+        for trial_id, participant, task, setting, repetition in mine:
+            hands = [None, None]
+            for c in by_trial.get(trial_id, ()):
+                at, count = batch.starts[k], c[3]
+                k += 1
+                lo, hi = hands[c[1]] or (at, at)
+                hands[c[1]] = (lo, at + count)
+            ends = [batch.t[h[1] - 1] for h in hands if h is not None]
+            window = task_window(events.get(trial_id, []), max(ends)) if ends else None
+            for hand in (0, 1):
+                row = {"trial_id": trial_id, "participant": participant, "task": task, "setting": setting,
+                       "repetition": repetition, "instrument": hand}
+                if window is None or hands[hand] is None:
+                    row.update({m: float("nan") for m in MEASURES})
+                else:
+                    lo, hi = hands[hand]
+                    row.update(hand_metrics(batch.t[lo:hi], batch.f32[:, lo:hi], window))
+                    row["completion_time_s"] = window[1] - window[0]
+                out.append(row)
+    return out
+
+
+def average_ranks(values):
+    """Ranks 1..n, ties given their average rank (as scipy's rankdata)."""
+    order = np.argsort(values, kind="stable")
+    s = values[order]
+    new = np.concatenate(([True], s[1:] != s[:-1]))
+    group = np.cumsum(new) - 1                                  # tie group of each sorted value
+    first = np.flatnonzero(new)                                 # its first sorted position
+    last = np.concatenate((first[1:], [s.size])) - 1            # its last
+    ranks = np.empty(s.size)
+    ranks[order] = (first[group] + last[group]) / 2.0 + 1.0
+    return ranks, np.diff(np.concatenate((first, [s.size])))
+
+
+def chi2_sf(x, df):
+    """P(X > x) for X chi-square with df (>= 1) degrees of freedom: the
+    closed forms (a finite Poisson sum for even df, erfc plus a finite sum
+    for odd)."""
+    if x <= 0.0:
+        return 1.0
+    half = x / 2.0
+    if df % 2 == 0:
+        term = math.exp(-half)
+        total = term
+        for j in range(1, df // 2):
+            term *= half / j
+            total += term
+        return total
+    total = math.erfc(math.sqrt(half))
+    term = math.exp(-half) * math.sqrt(half) / math.gamma(1.5)
+    for j in range(1, (df - 1) // 2 + 1):
+        total += term
+        term *= half / (j + 0.5)
+    return total
 
 
 def friedman_replicates(cells):
@@ -143,9 +468,8 @@ def friedman_replicates(cells):
     tie_term = 0.0
     for block in cells:
         values = np.concatenate([np.asarray(c, dtype=float) for c in block])
-        ranks = stats.rankdata(values)
+        ranks, counts = average_ranks(values)
         rank_sums += ranks.reshape(k, r).sum(axis=1)
-        _, counts = np.unique(values, return_counts=True)
         tie_term += float((counts ** 3 - counts).sum())
     expected = b * r * (n + 1) / 2.0
     sigma_sq = n * (n + 1) / 12.0 - tie_term / (12.0 * b * (n - 1))
@@ -153,7 +477,7 @@ def friedman_replicates(cells):
         q = 0.0
     else:
         q = float(((rank_sums - expected) ** 2).sum()) / (b * r * sigma_sq)
-    return q, float(stats.chi2.sf(q, k - 1))
+    return q, chi2_sf(q, k - 1)
 
 
 def table_3_4(rows):
@@ -176,7 +500,7 @@ def table_3_4(rows):
                     if hand != "both" and r["instrument"] != hand:
                         continue
                     value = r[m]
-                    if not np.isfinite(value):
+                    if not math.isfinite(value):
                         continue
                     block = r["instrument"] if m in PER_HAND else "trial"
                     cells.setdefault(block, {}).setdefault(r["setting"], []).append(value)
@@ -200,12 +524,6 @@ def write_csv(path, rows):
             writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in r.items()})
 
 
-# The stored channels the metrics read (names as in db/README.md).
-POSITION = ("tip_x_m", "tip_y_m", "tip_z_m")
-VELOCITY = ("tip_vx_m_per_s", "tip_vy_m_per_s", "tip_vz_m_per_s")
-FORCE = ("ve_force_x_N", "ve_force_y_N", "ve_force_z_N")
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("db")
@@ -213,13 +531,18 @@ def main():
     parser.add_argument("--friedman-out")
     args = parser.parse_args()
     conn = sqlite3.connect("file:" + args.db + "?mode=ro", uri=True)
-    rows = trial_metrics(conn)
+    try:
+        rows = trial_metrics(conn)
+    except ChunkDamage as e:
+        print(f"{args.db}: {e}", file=sys.stderr)
+        return 1
     tests = table_3_4(rows)
     if args.metrics_out:
         write_csv(args.metrics_out, rows)
     if args.friedman_out and tests:
         write_csv(args.friedman_out, tests)
-    print(f"{len(rows) // 2} trials, {len(tests)} Friedman tests")
+    crc = "python3-crc32c" if _crc32c_module is not None else "numpy (python3-crc32c not installed: slower)"
+    print(f"{len(rows) // 2} trials, {len(tests)} Friedman tests; CRC-32C by {crc}")
     return 0
 
 

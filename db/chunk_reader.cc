@@ -1,6 +1,7 @@
 #include "db/chunk_reader.h"
 
 #include <algorithm>
+#include <limits>
 #include <memory>
 
 #include <sqlite3.h>
@@ -55,11 +56,25 @@ std::vector<ChunkRow> read_chunk_rows(Database& db, std::int64_t trial_id) {
   return rows;
 }
 
-TrialChunks::TrialChunks(Database& db, std::int64_t trial_id, int only_instrument)
+TrialChunks::TrialChunks(Database& db, std::int64_t trial_id, int only_instrument, ChannelSet channels)
     : db_(db),
       snapshot_(std::make_unique<ReadSnapshot>(db)),
       trial_id_(trial_id),
-      blob_(db.prepare("SELECT data FROM sample_chunk WHERE id = ?1")) {
+      blob_(db.prepare("SELECT data FROM sample_chunk WHERE id = ?1")),
+      channels_(channels) {
+  // A float channel nobody asked for reads NaN, never a plausible 0.
+  for (std::size_t c = kChannelRawFirst; c < kChannelEngineStatus; ++c) {
+    if ((channels & (ChannelSet{1} << c)) != 0) continue;
+    InstrumentSample& v = blank_.value;
+    const std::size_t k = c - kChannelRawFirst;
+    double* field = k < 5 ? &v.raw_position[k] : k < 8 ? &v.degraded_position[k - 5]
+                  : k < 11 ? &v.tip_position_m[k - 8] : k < 14 ? &v.tip_velocity_m_per_s[k - 11]
+                  : k < 17 ? &v.ve_force_N[k - 14] : k < 20 ? &v.displayed_force_N[k - 17]
+                  : &v.joint_force[k - 20];
+    *field = std::numeric_limits<double>::quiet_NaN();
+  }
+  if ((channels & (ChannelSet{1} << kChannelT)) == 0) blank_.t_s = std::numeric_limits<double>::quiet_NaN();
+  if ((channels & (ChannelSet{1} << kChannelDt)) == 0) blank_.dt_s = std::numeric_limits<double>::quiet_NaN();
   std::vector<ChunkRow> rows = read_chunk_rows(db, trial_id);
   if (only_instrument >= 0) std::erase_if(rows, [&](const ChunkRow& r) { return r.instrument != only_instrument; });
   layout_ = layout_chunks(std::move(rows), bad_);
@@ -77,7 +92,7 @@ bool TrialChunks::load_next(int instrument) {
     if (!blob_.step()) throw DbError(db_.path() + ": sample chunk row " + std::to_string(r.id) + " of trial " +
                                      std::to_string(trial_id_) + " vanished while it was read");
     try {
-      st.chunk.load(r.place(), blob_.column_blob(0));
+      st.chunk.load(r.place(), blob_.column_blob(0), channels_);
     } catch (const ChunkError& e) {
       bad_.push_back(bad_chunk(r, e));
       continue;
@@ -92,10 +107,11 @@ std::span<const StoredSample> TrialChunks::next(int instrument) {
   Stream& st = stream_[instrument];
   if (st.pos >= st.chunk.size() && !load_next(instrument)) return {};
   const std::size_t n = std::min(kChunkWindow, st.chunk.size() - st.pos);
-  st.window.resize(n);
+  // read() writes the loaded channels only; the rest keep blank_'s values.
+  if (st.window.size() < n) st.window.resize(n, blank_);
   st.chunk.read(st.pos, st.pos + n, st.window.data());
   st.pos += n;
-  return st.window;
+  return std::span<const StoredSample>(st.window).first(n);
 }
 
 void read_samples(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& out,

@@ -39,8 +39,11 @@ class TrialChunks {
   // of no known instrument. From here to the destructor the connection
   // holds a read transaction (when it held none), so the rows and the blobs
   // read later are one snapshot of the file, even while a session appends.
-  // Throws DbError only for the database itself.
-  TrialChunks(Database& db, std::int64_t trial_id, int only_instrument = -1);
+  // Throws DbError only for the database itself. `channels`: those the
+  // caller reads (ChunkDecoder::load); in the samples next() gives, the
+  // float channels outside the set are NaN, and the integer ones outside it
+  // 0 (every chunk is still verified whole).
+  TrialChunks(Database& db, std::int64_t trial_id, int only_instrument = -1, ChannelSet channels = kAllChannels);
   ~TrialChunks();
   TrialChunks(const TrialChunks&) = delete;
   TrialChunks& operator=(const TrialChunks&) = delete;
@@ -61,7 +64,7 @@ class TrialChunks {
     std::size_t row = 0;  // next row of the layout to load
     std::size_t pos = 0;  // next sample of the loaded chunk
     ChunkDecoder chunk;
-    std::vector<StoredSample> window;
+    std::vector<StoredSample> window;  // never shrinks: fields outside channels_ keep their blank
   };
   bool load_next(int instrument);
 
@@ -71,6 +74,8 @@ class TrialChunks {
   ChunkLayout layout_;
   std::vector<BadChunk> bad_;
   Statement blob_;
+  ChannelSet channels_;
+  StoredSample blank_;  // what a window's fields outside channels_ hold
   Stream stream_[2];
 };
 

@@ -105,6 +105,22 @@ inline constexpr std::size_t kMaxChunkUpdates = std::size_t{1} << 20;
 // Channel names in blob order; also the CSV column names (export_csv.h).
 extern const std::array<const char*, kChunkChannels> kChannelNames;
 
+// A set of channels, bit c for channel c of kChannelNames: what a reader
+// needs of a chunk (column projection). ChunkDecoder then undoes the
+// preconditioning of those channels only and read() writes those only; a
+// chunk is still verified whole (checksum, frame, every channel's layout).
+using ChannelSet = std::uint32_t;
+inline constexpr ChannelSet kAllChannels = (ChannelSet{1} << kChunkChannels) - 1;
+// Channel numbers (kChannelNames' order) of the first of each group.
+inline constexpr std::size_t kChannelDt = 0, kChannelT = 1, kChannelRawFirst = 2, kChannelTipFirst = 10,
+                             kChannelTipVelocityFirst = 13, kChannelVeForceFirst = 16,
+                             kChannelDisplayedForceFirst = 19, kChannelJointForceFirst = 22,
+                             kChannelEngineStatus = 25, kChannelDeviceStatus = 26, kChannelInContact = 27;
+// Channels first .. first + n - 1.
+constexpr ChannelSet channel_range(std::size_t first, std::size_t n) noexcept {
+  return ((ChannelSet{1} << n) - 1) << first;
+}
+
 // Where a chunk belongs: its row's columns, which its checksum covers.
 struct ChunkPlace {
   std::int64_t trial_id = 0;
@@ -157,22 +173,28 @@ class ChunkDecoder {
   // content checksum verified, nothing after it) and checks that the body
   // holds exactly `place.count` updates of every channel. Throws ChunkError;
   // the decoder is then empty (size() 0). `blob` is not kept.
-  void load(const ChunkPlace& place, std::span<const std::byte> blob);
+  // `channels`: those read() will be asked for (t_s's running sum brings
+  // dt_s along, a residual dt_s brings t_s); read() leaves every other field
+  // of its output as it was.
+  void load(const ChunkPlace& place, std::span<const std::byte> blob, ChannelSet channels = kAllChannels);
   // load() without keeping the result in a readable form: every check of
   // load(), for readers that verify a trial's chunks before using any.
   void check(const ChunkPlace& place, std::span<const std::byte> blob);
   std::size_t size() const noexcept { return count_; }
   std::uint8_t format() const noexcept { return format_; }
   // Samples begin .. end - 1 of the chunk (end <= size()) into out[0 ..
-  // end - begin - 1], ticks first_tick + i. Cheapest in increasing order.
+  // end - begin - 1], ticks first_tick + i; only the loaded channels (and
+  // the tick). Cheapest in increasing order.
   void read(std::size_t begin, std::size_t end, StoredSample* out) noexcept;
+  // The channels read() writes (load()'s, with what they depend on).
+  ChannelSet channels() const noexcept { return channels_read_; }
 
  private:
   struct Channel {
     std::uint8_t tag = 0;
     std::size_t offset = 0;  // of the channel's first value in body_
   };
-  void unpack(const ChunkPlace& place, std::span<const std::byte> blob, bool readable);
+  void unpack(const ChunkPlace& place, std::span<const std::byte> blob, bool readable, ChannelSet channels);
 
   std::vector<std::byte> body_;  // the plain layout (format 0: after its legacy byte)
   std::vector<std::byte> scratch_;
@@ -180,6 +202,7 @@ class ChunkDecoder {
   std::uint64_t first_tick_ = 0;
   std::size_t count_ = 0;
   std::uint8_t format_ = 0;
+  ChannelSet channels_read_ = kAllChannels;
   // t_s as a running sum: the next index to sum and the t before it.
   std::size_t t_next_ = 0;
   double t_prev_ = 0.0;

@@ -14,10 +14,13 @@ packages=(g++ make cmake ninja-build pkg-config libeigen3-dev nlohmann-json3-dev
           libgtest-dev libgmock-dev libsqlite3-dev sqlite3 libboost-math-dev
           libbenchmark-dev gnuplot-nox python3 python3-numpy zlib1g-dev libzstd-dev
           libjs-chart.js)
-# Only the test suite needs these (a browser for the report check, scipy for
-# the numpy comparator, zstandard for the Python reader of format-2 chunks).
+# Only the test suite needs these (a browser for the report check,
+# zstandard for the Python reader of format-3 chunks, crc32c for the numpy
+# comparator's CRC-32C: bench/analyze_numpy.py; scipy is used by nothing in
+# the tree since that comparator dropped it, kept so as not to break a
+# user's scripts -- the lead decides).
 if [[ -z ${HAPTICLAB_TARGETS:-} ]]; then
-  packages+=(python3-scipy python3-zstandard chromium chromium-driver python3-selenium)
+  packages+=(python3-scipy python3-zstandard python3-crc32c chromium chromium-driver python3-selenium)
   # clang for the sanitizer build (scripts/test.sh), with its sanitizer runtimes
   # (only recommended by clang, so named here).
   packages+=(clang libclang-rt-dev)

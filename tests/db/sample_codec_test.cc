@@ -411,7 +411,9 @@ std::vector<std::byte> planes_by_definition(const std::byte* values, std::size_t
 // with those two channels' values replaced by their planes.
 TEST(SampleCodec, FormatThreeBitPlanesFollowTheirDefinitionForAnyLength) {
   std::mt19937_64 rng(7);
-  for (std::size_t n : {8u, 9u, 16u, 23u, 1000u, 1003u}) {
+  // 64, 128, 191, 200, 1000: the decoder's 8- and 16-group blocks (SSE2)
+  // with and without groups and values left over.
+  for (std::size_t n : {8u, 9u, 16u, 23u, 64u, 128u, 191u, 200u, 1000u, 1003u}) {
     std::vector<StoredSample> in(n);
     for (std::size_t i = 0; i < n; ++i) {
       in[i].tick = i;
@@ -588,6 +590,61 @@ TEST(SampleCodec, ChunkDecoderReadsAnyWindowAsTheWhole) {
       }
       EXPECT_EQ(std::bit_cast<std::uint64_t>(tail[9].t_s), std::bit_cast<std::uint64_t>(whole[999].t_s));
       EXPECT_EQ(std::bit_cast<std::uint64_t>(head[3].t_s), std::bit_cast<std::uint64_t>(whole[3].t_s));
+    }
+  }
+}
+
+// Column projection: a decoder loaded for some channels gives exactly the
+// whole decode's values of those (and of what they are computed from: the
+// running-sum t_s needs dt_s, a residual dt_s needs t_s), and leaves every
+// other field of its output as it was.
+TEST(SampleCodec, ChunkDecoderDecodesTheChannelsAskedForAndLeavesTheRestAlone) {
+  std::vector<StoredSample> wall = instrument_samples(40, 1000, 0);
+  for (std::size_t i = 0; i < wall.size(); ++i) wall[i].dt_s = 1e-3 * (1.0 + 0.37 * std::sin(static_cast<double>(i)));
+  const std::vector<StoredSample> virtual_clock = instrument_samples(40, 1000, 0, 0x1p-10);
+  constexpr double kUntouched = 12345.0;
+  const ChannelSet t = channel_range(kChannelT, 1), dt = channel_range(kChannelDt, 1);
+  const ChannelSet tip = channel_range(kChannelTipFirst, 3), force = channel_range(kChannelVeForceFirst, 3);
+  for (const bool running_sum : {true, false}) {
+    const std::vector<StoredSample>& in = running_sum ? virtual_clock : wall;
+    const std::vector<std::byte> blob = encode_chunk(kTrial, kHand, in);
+    std::vector<StoredSample> whole;
+    decode_chunk(at(40, 1000), blob, whole);
+    for (const ChannelSet asked : {t, dt, tip | force, force, channel_range(kChannelRawFirst, 3) | t}) {
+      ChunkDecoder decoder;
+      decoder.load(at(40, 1000), blob, asked);
+      // What comes along: dt_s for a running-sum t_s, t_s for a residual dt_s (the wall clock's).
+      const ChannelSet want = asked | ((asked & t) != 0 && running_sum ? dt : 0) |
+                              ((asked & dt) != 0 && !running_sum ? t : 0);
+      EXPECT_EQ(decoder.channels(), want) << running_sum << " " << asked;
+      StoredSample blank;
+      blank.t_s = blank.dt_s = kUntouched;
+      for (double* x : {&blank.value.raw_position[0], &blank.value.raw_position[4], &blank.value.tip_position_m[0],
+                        &blank.value.ve_force_N[2], &blank.value.displayed_force_N[1], &blank.value.joint_force[0]})
+        *x = kUntouched;
+      std::vector<StoredSample> got(1000, blank);
+      decoder.read(0, 1000, got.data());
+      const auto same = [](double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); };
+      const auto check = [&](ChannelSet channel, double got_value, double whole_value, const char* name, std::size_t i) {
+        if ((want & channel) != 0) {
+          ASSERT_TRUE(same(got_value, whole_value)) << name << " update " << i << " asked " << asked;
+        } else {
+          ASSERT_EQ(got_value, kUntouched) << name << " update " << i << " asked " << asked;
+        }
+      };
+      for (std::size_t i = 0; i < 1000; ++i) {
+        ASSERT_EQ(got[i].tick, whole[i].tick);
+        check(t, got[i].t_s, whole[i].t_s, "t_s", i);
+        check(dt, got[i].dt_s, whole[i].dt_s, "dt_s", i);
+        check(channel_range(kChannelRawFirst, 1), got[i].value.raw_position[0], whole[i].value.raw_position[0], "raw 0", i);
+        check(channel_range(kChannelRawFirst + 4, 1), got[i].value.raw_position[4], whole[i].value.raw_position[4], "raw 4", i);
+        check(tip, got[i].value.tip_position_m[0], whole[i].value.tip_position_m[0], "tip x", i);
+        check(force, got[i].value.ve_force_N[2], whole[i].value.ve_force_N[2], "ve force z", i);
+        check(channel_range(kChannelDisplayedForceFirst, 3), got[i].value.displayed_force_N[1],
+              whole[i].value.displayed_force_N[1], "displayed force y", i);
+        check(channel_range(kChannelJointForceFirst, 3), got[i].value.joint_force[0], whole[i].value.joint_force[0],
+              "joint force 0", i);
+      }
     }
   }
 }

@@ -10,6 +10,7 @@ import csv
 import json
 import math
 import shutil
+import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -82,6 +83,27 @@ class ComparatorTest(unittest.TestCase):
                     # The same float64 operations in the same order: equal to the bit.
                     self.assertEqual(a, b, f"{key} {m}")
         self.assertGreater(checked, 150)
+
+    def test_a_chunk_that_fails_its_checksum_stops_it_naming_the_chunk(self):
+        # The stored CRC changed, nothing else: only the CRC-32C check can
+        # see it (the frame still decompresses), and the comparator must make
+        # it, as analyze does, or its speed is not that of the same work.
+        damaged = self.dir / "damaged.db"
+        shutil.copyfile(self.dir / "study.db", damaged)
+        conn = sqlite3.connect(damaged)
+        chunk_id, trial, hand, first, count, blob = conn.execute(
+            "SELECT id, trial_id, instrument, first_tick, count, data FROM sample_chunk ORDER BY id LIMIT 1 OFFSET 5"
+        ).fetchone()
+        blob = bytearray(blob)
+        blob[2] ^= 0x10
+        conn.execute("UPDATE sample_chunk SET data = ? WHERE id = ?", (bytes(blob), chunk_id))
+        conn.commit()
+        conn.close()
+        done = subprocess.run([sys.executable, str(COMPARATOR), str(damaged)], capture_output=True, text=True)
+        self.assertEqual(done.returncode, 1, done.stdout + done.stderr)
+        hand_name = ("left", "right")[hand]
+        self.assertIn(f"damaged sample chunk: trial {trial}, {hand_name} instrument ({hand}), ticks {first}..", done.stderr)
+        self.assertIn("checksum mismatch", done.stderr)
 
     def test_friedman_equals_hapticlab_stats(self):
         both = [r for r in self.friedman if r["instrument"] == "both" and r["measure"] in ("force_p95_N", "path_length_m")]
