@@ -328,9 +328,9 @@ Section friedman_section(const StudyAnalysis& a) {
   return s;
 }
 
-Section pairwise_section(const StudyAnalysis& a, const std::string& task, int number) {
+Section pairwise_section(const StudyAnalysis& a, const std::string& task) {
   Section s;
-  s.title = "Table 3." + std::to_string(number) + ": " + a.control + " compared to each setting, " + task +
+  s.title = thesis_pairwise_table(task) + ": " + a.control + " compared to each setting, " + task +
             " (the thesis' procedure)";
   s.intro = "P values of pairwise Friedman tests between " + a.control +
             " and each other setting over every participant (and hand) who did both; the number in brackets is "
@@ -1215,8 +1215,7 @@ ReportFiles write_report(const StudyAnalysis& a, const std::filesystem::path& ou
   if (participant_first)
     for (const auto& task : a.tasks) sections.push_back(participant_section(a, task));
   sections.push_back(friedman_section(a));
-  int number = 5;
-  for (const auto& task : a.tasks) sections.push_back(pairwise_section(a, task, number++));
+  for (const auto& task : a.tasks) sections.push_back(pairwise_section(a, task));
   if (!participant_first)
     for (const auto& task : a.tasks) sections.push_back(participant_section(a, task));
   sections.push_back(whole_design_section(a));

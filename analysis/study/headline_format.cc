@@ -54,6 +54,12 @@ std::string format_p(double p) {
   return buf;
 }
 
+std::string thesis_pairwise_table(const std::string& task) {
+  if (task == "dissection") return "Table 3.5";
+  if (task == "clip") return "Table 3.6";
+  return "Table (" + task + ")";
+}
+
 std::string format_level(double level) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.4g", level);
@@ -169,9 +175,8 @@ std::string format_headline_tables(const StudyAnalysis& a) {
   // default) and the thesis' procedure, the chosen method first.
   const std::string level = format_level(a.sidak_level);
   std::ostringstream thesis;
-  int table_number = 5;
   for (const auto& task : a.tasks) {
-    thesis << "Table 3." << table_number++ << "  " << task << ": " << a.control
+    thesis << thesis_pairwise_table(task) << "  " << task << ": " << a.control
            << " compared to (participants), the thesis' procedure (repetitions and hands as replicates): p, "
               "significant below the Šidák level "
            << level << " (m = " << a.sidak_m << ")\n";

@@ -14,6 +14,11 @@ namespace hapticlab::analysis {
 // "IFD=0.45"), else the name.
 std::string setting_abbreviation(const std::string& name);
 
+// The label of a task's pairwise table as the thesis numbers them: "Table
+// 3.5" is the dissection's, "Table 3.6" the clip application's (whatever
+// order the study lists its tasks in); another task's is "Table (TASK)".
+std::string thesis_pairwise_table(const std::string& task);
+
 // p-value as the thesis prints it: 2 significant digits, scientific below 1e-3.
 std::string format_p(double p);
 
