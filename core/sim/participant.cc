@@ -69,7 +69,9 @@ Participant::Participant(const ParticipantTraits& traits, const ParticipantTrial
   if (task.kind() == TaskKind::kDissection) dissection_ = static_cast<const DissectionTask*>(&task);
   else clip_ = static_cast<const ClipTask*>(&task);
 
-  const double practice = 1.0 + traits_.learning_gain * std::exp(-trial.practice_trials / traits_.learning_trials);
+  const double practiced =
+      effective_practice_trials({trial.practice_trials, trial.force_informed_trials}, trial.learning);
+  const double practice = 1.0 + traits_.learning_gain * std::exp(-practiced / traits_.learning_trials);
   const double trial_speed = rng_.lognormal_factor(traits_.consistency);
   force_factor_ = traits_.force_level * rng_.lognormal_factor(traits_.consistency);
   const int dominant = traits_.right_handed ? kRight : kLeft;
@@ -133,6 +135,7 @@ double Participant::seen_depth(int hand, const Eigen::Vector3d& tip) const noexc
 }
 
 void Participant::act(const LoopTickView& view) noexcept {
+  for (std::size_t i = 0; i < 2; ++i) force_information_.add(view.engine[i].displayed_force_N, view.ve.tip_force_N[i]);
   const double t = view.t_s;
   if (!control_.due(t)) return;  // the grid starts at 0, so the first update is always due
   control_.advance(t);

@@ -19,8 +19,10 @@
 #include "core/loop/haptic_loop.h"
 #include "core/sim/clip_task.h"
 #include "core/sim/dissection_task.h"
+#include "core/sim/force_information.h"
 #include "core/sim/hand.h"
 #include "core/sim/population.h"
+#include "core/sim/practice.h"
 
 namespace hapticlab {
 
@@ -48,6 +50,11 @@ struct ParticipantTraits {
 struct ParticipantTrial {
   std::uint64_t seed = 0;     // varies this trial's execution
   int practice_trials = 0;    // trials this participant already did (training included)
+  // The same trials weighted by their force information, in [0,
+  // practice_trials] (practice.h); counts only with learning's
+  // force_free_share below 1.
+  double force_informed_trials = 0.0;
+  LearningModel learning;     // validated by the caller
 };
 
 class Participant final : public LoopAgent {
@@ -92,6 +99,10 @@ class Participant final : public LoopAgent {
   // per push through the duct so far, 1 before any).
   double seat_force_scale() const noexcept { return seat_force_scale_; }
   int phase(int instrument) const noexcept { return static_cast<int>(phase_[static_cast<std::size_t>(instrument)]); }
+  // The force information of the trial so far, both instruments, every
+  // loop update (force_information.h): what this trial adds to the
+  // participant's force-informed practice.
+  double force_information() const noexcept { return force_information_.value(); }
 
  private:
   enum class Phase : std::uint8_t { kApproach, kDescend, kWork, kRelease, kRetract, kDone };
@@ -133,6 +144,7 @@ class Participant final : public LoopAgent {
   bool started_ = false;
   double last_control_s_ = 0.0;  // loop time of the last control update
   ControlGrid control_{kControlPeriod_s};
+  ForceInformation force_information_;
 };
 
 }  // namespace hapticlab

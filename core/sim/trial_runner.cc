@@ -29,6 +29,10 @@ SimRig::SimRig(const SimTrialConfig& config) {
   if (!(config.max_duration_s > 0.0) || !std::isfinite(config.max_duration_s))
     throw std::invalid_argument("max_duration_s: " + std::to_string(config.max_duration_s) +
                                 " must be a positive number of seconds");
+  config.learning.validate();
+  if (!(config.force_informed_trials >= 0.0 && config.force_informed_trials <= config.practice_trials))
+    throw std::invalid_argument("force_informed_trials: " + std::to_string(config.force_informed_trials) +
+                                " must be within 0..practice_trials (" + std::to_string(config.practice_trials) + ")");
   RateSchedule schedule = config.thesis_rate ? RateSchedule::thesis_wander(config.trial_seed)
                                              : RateSchedule::fixed(config.rate_Hz);
 
@@ -74,7 +78,7 @@ SimRig::SimRig(const SimTrialConfig& config) {
     config.population.validate();
     const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed, config.population);
     participant_ = std::make_unique<Participant>(
-        traits, ParticipantTrial{config.trial_seed, config.practice_trials}, *hand_, *ve_);
+        traits, ParticipantTrial{config.trial_seed, config.practice_trials, config.force_informed_trials, config.learning}, *hand_, *ve_);
   }
 
   if (config.clock == ClockKind::kVirtual) clock_ = std::make_unique<VirtualClock>();
@@ -171,6 +175,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
   result.device_status = loop.device_status();
   result.safety_trip = loop.safety_trip();
   result.task_complete = rig.ve().complete();
+  if (rig.participant() != nullptr) result.force_information = rig.participant()->force_information();
   result.duration_s = loop.elapsed_s();
   result.dropped_samples = loop.dropped_samples();
   result.dropped_events = loop.dropped_events();

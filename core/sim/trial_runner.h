@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 
@@ -43,6 +44,10 @@ struct SimTrialConfig {
   PopulationParams population;
   std::uint64_t trial_seed = 1;        // this trial: task layout and execution variation
   int practice_trials = 0;             // trials the participant already did
+  // Those trials weighted by their force information, in [0,
+  // practice_trials], and how much that weighting counts (practice.h).
+  double force_informed_trials = 0.0;
+  LearningModel learning;
   ClockKind clock = ClockKind::kVirtual;
   double rate_Hz = 1000.0;             // 150..2000
   bool thesis_rate = false;            // rate wanders 200..2000 Hz like the thesis' VE
@@ -76,6 +81,9 @@ struct SimTrialResult {
   std::uint64_t dropped_samples = 0;
   std::uint64_t dropped_events = 0;
   std::array<double, 2> peak_ve_force_N{0.0, 0.0};  // max |VE force| per instrument
+  // The simulated participant's force information of this trial, in [0, 1]
+  // (force_information.h); NaN without a simulated participant.
+  double force_information = std::numeric_limits<double>::quiet_NaN();
   LoopTimingSummary timing;
   // SimTrialSink::device_hang_grace_s passed with a device call still not
   // returned after the watchdog halted the device: run_sim_trial gave up on

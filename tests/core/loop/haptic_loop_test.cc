@@ -598,7 +598,7 @@ TEST(HapticLoopTest, FullRigNeverAllocatesInsideRun) {
   ASSERT_EQ(device.configure({}), DeviceStatus::kOk);
   Engine engine(load_example("all_degradations"), start);
   DissectionTask task(3);
-  Participant participant(ParticipantTraits::sample(5), ParticipantTrial{3, 2}, device, task);
+  Participant participant(ParticipantTraits::sample(5), ParticipantTrial{3, 2, 0.0, {}}, device, task);
   VirtualClock clock;
   LoopConfig config = short_run(6.0);  // fits the queues: no consumer needed
   HapticLoop loop(device, engine, task, clock, RateSchedule::fixed(1000.0), config, &participant);

@@ -341,7 +341,7 @@ TEST(ParticipantTest, ControlUpdatesEvery5MillisecondsWhateverTheLoopRate) {
     SimDevice device;
     for (int i = 0; i < 2; ++i) device.set_position(i, Participant::start_pose(i));
     const DissectionTask task(7);
-    Participant participant(ParticipantTraits::sample(3), ParticipantTrial{7, 0}, device, task);
+    Participant participant(ParticipantTraits::sample(3), ParticipantTrial{7, 0, 0.0, {}}, device, task);
     const DeviceReading reading{};
     const std::array<InstrumentOutput, 2> engine{};
     VeInput ve_input;
