@@ -16,6 +16,7 @@
 
 #include "app/cli_process.h"
 #include "core/common/sha256.h"
+#include "testing/fitted_point.h"
 #include "testing/test_paths.h"
 
 namespace hapticlab::planning {
@@ -168,6 +169,25 @@ TEST_F(PopulationFileTest, AnotherModelVersionADamagedFileAndMissingSourcesAreRe
     EXPECT_EQ(status, 1) << out;
     EXPECT_THAT(out, HasSubstr("was fitted for participant model 3"));
     EXPECT_FALSE(fs::exists(dir_ / "power" / "plan_power.db"));
+  }
+}
+
+}  // namespace
+}  // namespace hapticlab::planning
+
+namespace hapticlab::planning {
+namespace {
+
+// tests/testing/fitted_point.h writes the shipped fit's point out for core
+// tests; a re-fit must carry it along (within the 4 digits written).
+TEST(FittedPointTest, TheCoreTestsFittedPointIsTheShippedFits) {
+  const PopulationFile shipped =
+      read_population_file(std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples/population/fitted.json");
+  const PopulationParams written = testing::shipped_fitted_point();
+  for (int i = 0; i < PopulationParams::kFields; ++i) {
+    const auto [name, value] = shipped.point.field(i);
+    EXPECT_NEAR(written.field(i).second, value, 5e-4 * std::abs(value) + 1e-12)
+        << name << ": tests/testing/fitted_point.h has " << written.field(i).second << ", fitted.json " << value;
   }
 }
 

@@ -23,6 +23,7 @@
 
 #include "core/device/workstation_spec.h"
 #include "core/settings/settings_json.h"
+#include "testing/fitted_point.h"
 
 namespace hapticlab {
 namespace {
@@ -318,18 +319,8 @@ struct Comparison {
   int higher = 0;           // participants whose p95 rose
 };
 
-// The shipped fit's point estimate (examples/population/fitted.json,
-// "population"): the population the commands simulate by default. Core
-// tests do not read files of the planning layer, so the values are written
-// out; the population's free parameters only, the rest are the defaults.
-PopulationParams fitted_population() {
-  PopulationParams p;
-  p.visual_gain_mean = 0.4678;
-  p.consistency_median = 0.2982;
-  p.force_level_log_sd = 0.5325;
-  p.novice_force_factor = 1.216;
-  return p;
-}
+// The population the commands simulate by default (tests/testing/fitted_point.h).
+PopulationParams fitted_population() { return testing::shipped_fitted_point(); }
 
 double right_hand_p95_N(TaskKind task, const char* setting, std::uint64_t person) {
   double sum = 0.0;
