@@ -9,9 +9,6 @@
 
 #include <array>
 #include <cstdint>
-#include <stdexcept>
-#include <string>
-#include <string_view>
 
 #include <Eigen/Core>
 
@@ -19,12 +16,6 @@
 #include "core/loop/task_event.h"
 
 namespace hapticlab {
-
-enum class TaskKind : std::uint8_t { kDissection = 0, kClip = 1 };
-const char* to_string(TaskKind task) noexcept;
-// "dissection" or "clip"; throws std::invalid_argument naming the value and
-// the choices otherwise.
-TaskKind parse_task_kind(std::string_view name);
 
 struct VeInput {
   double t_s = 0.0;
@@ -51,7 +42,6 @@ class VirtualEnvironment {
   // Real-time thread: no allocation, locks, I/O or exceptions.
   virtual void step(const VeInput& in, VeOutput& out, EventBuffer& events) noexcept = 0;
   virtual bool complete() const noexcept = 0;
-  virtual TaskKind kind() const noexcept = 0;
 };
 
 }  // namespace hapticlab

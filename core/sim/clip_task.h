@@ -20,6 +20,7 @@
 #include "core/sim/contact.h"
 #include "core/sim/grasp.h"
 #include "core/loop/virtual_environment.h"
+#include "core/sim/task_kind.h"
 
 namespace hapticlab {
 
@@ -51,7 +52,7 @@ class ClipTask final : public VirtualEnvironment {
 
   void step(const VeInput& in, VeOutput& out, EventBuffer& events) noexcept override;
   bool complete() const noexcept override { return clips_applied_ >= kClipsPerDuct; }
-  TaskKind kind() const noexcept override { return TaskKind::kClip; }
+  TaskKind kind() const noexcept { return TaskKind::kClip; }
 
   // --- what a participant can see
   const ClipParams& params() const noexcept { return params_; }

@@ -20,6 +20,7 @@
 #include "core/sim/contact.h"
 #include "core/sim/grasp.h"
 #include "core/loop/virtual_environment.h"
+#include "core/sim/task_kind.h"
 
 namespace hapticlab {
 
@@ -46,7 +47,7 @@ class DissectionTask final : public VirtualEnvironment {
 
   void step(const VeInput& in, VeOutput& out, EventBuffer& events) noexcept override;
   bool complete() const noexcept override { return remaining_line_cells_ == 0; }
-  TaskKind kind() const noexcept override { return TaskKind::kDissection; }
+  TaskKind kind() const noexcept { return TaskKind::kDissection; }
 
   // --- what a participant can see
   const DissectionParams& params() const noexcept { return params_; }

@@ -63,11 +63,18 @@ DeviceJoints Participant::start_pose(int instrument) noexcept {
   return {0.005, aim[1], aim[2], 0.0, kGripOpenTarget_rad};
 }
 
-Participant::Participant(const ParticipantTraits& traits, const ParticipantTrial& trial,
-                         HandAttachment& device, const VirtualEnvironment& task)
-    : traits_(traits), device_(device), rng_(Random::derive(trial.seed, 0x747269616cull)) {
-  if (task.kind() == TaskKind::kDissection) dissection_ = static_cast<const DissectionTask*>(&task);
-  else clip_ = static_cast<const ClipTask*>(&task);
+Participant::Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, HandAttachment& device,
+                         const DissectionTask& task)
+    : Participant(traits, trial, device, &task, nullptr) {}
+
+Participant::Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, HandAttachment& device,
+                         const ClipTask& task)
+    : Participant(traits, trial, device, nullptr, &task) {}
+
+Participant::Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, HandAttachment& device,
+                         const DissectionTask* dissection, const ClipTask* clip)
+    : traits_(traits), device_(device), dissection_(dissection), clip_(clip),
+      rng_(Random::derive(trial.seed, 0x747269616cull)) {
 
   const double practiced =
       effective_practice_trials({trial.practice_trials, trial.force_informed_trials}, trial.learning);

@@ -59,9 +59,11 @@ struct ParticipantTrial {
 
 class Participant final : public LoopAgent {
  public:
-  // `task` must be the VE the loop steps (DissectionTask or ClipTask).
+  // `task` must be the VE the loop steps.
   Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, HandAttachment& device,
-              const VirtualEnvironment& task);
+              const DissectionTask& task);
+  Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, HandAttachment& device,
+              const ClipTask& task);
 
   // Runs the participant's sensorimotor control on its own grid, every
   // kControlPeriod_s (the cue sampling period): at the first loop update at
@@ -106,6 +108,10 @@ class Participant final : public LoopAgent {
 
  private:
   enum class Phase : std::uint8_t { kApproach, kDescend, kWork, kRelease, kRetract, kDone };
+
+  // Exactly one of the tasks is set.
+  Participant(const ParticipantTraits& traits, const ParticipantTrial& trial, HandAttachment& device,
+              const DissectionTask* dissection, const ClipTask* clip);
 
   void act_dissection(double t_s) noexcept;
   void act_clip(double t_s) noexcept;

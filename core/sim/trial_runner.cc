@@ -71,14 +71,25 @@ SimRig::SimRig(const SimTrialConfig& config) {
     sim_device_->inject_fault(config.inject_fault->first, config.inject_fault->second);
 
   engine_ = std::make_unique<Engine>(config.settings, start);
-  if (config.task == TaskKind::kDissection) ve_ = std::make_unique<DissectionTask>(config.trial_seed);
-  else ve_ = std::make_unique<ClipTask>(config.trial_seed);
+  const DissectionTask* dissection = nullptr;
+  const ClipTask* clip = nullptr;
+  if (config.task == TaskKind::kDissection) {
+    auto task = std::make_unique<DissectionTask>(config.trial_seed);
+    dissection = task.get();
+    ve_ = std::move(task);
+  } else {
+    auto task = std::make_unique<ClipTask>(config.trial_seed);
+    clip = task.get();
+    ve_ = std::move(task);
+  }
 
   if (hand_ != nullptr) {
     config.population.validate();
     const ParticipantTraits traits = ParticipantTraits::sample(config.participant_seed, config.population);
-    participant_ = std::make_unique<Participant>(
-        traits, ParticipantTrial{config.trial_seed, config.practice_trials, config.force_informed_trials, config.learning}, *hand_, *ve_);
+    const ParticipantTrial trial{config.trial_seed, config.practice_trials, config.force_informed_trials,
+                                 config.learning};
+    participant_ = dissection != nullptr ? std::make_unique<Participant>(traits, trial, *hand_, *dissection)
+                                         : std::make_unique<Participant>(traits, trial, *hand_, *clip);
   }
 
   if (config.clock == ClockKind::kVirtual) clock_ = std::make_unique<VirtualClock>();

@@ -23,6 +23,7 @@
 #include "core/settings/settings.h"
 #include "core/sim/participant.h"
 #include "core/sim/population.h"
+#include "core/sim/task_kind.h"
 #include "core/loop/virtual_environment.h"
 
 namespace hapticlab {

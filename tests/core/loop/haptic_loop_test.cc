@@ -130,7 +130,6 @@ class RecordingVe final : public VirtualEnvironment {
     if (in.t_s >= complete_from_s) complete_ = true;
   }
   bool complete() const noexcept override { return complete_; }
-  TaskKind kind() const noexcept override { return TaskKind::kDissection; }
 
   bool zero_force = false;
   double complete_from_s = std::numeric_limits<double>::infinity();

@@ -44,7 +44,6 @@ class ConstantForceVe final : public VirtualEnvironment {
     }
   }
   bool complete() const noexcept override { return false; }
-  TaskKind kind() const noexcept override { return TaskKind::kDissection; }
 
  private:
   Eigen::Vector3d force_N_;
