@@ -22,15 +22,17 @@ double median_change(std::vector<double> v) {
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-// Each participant's change from the pre-test in `group`, for the post
-// (retention = false) or retention test; participants without a complete
-// trial in either test are left out, as analyze leaves out aborted trials.
-std::vector<double> changes(const TransferStudy& s, int group, bool retention) {
+// Each participant's change from the pre-test in `group` (without one, the
+// test's time), for the post (retention = false) or retention test;
+// participants without a complete trial in either test are left out, as
+// analyze leaves out aborted trials.
+std::vector<double> changes(const TransferStudy& s, int group, bool retention, bool pre_test) {
   std::vector<double> out;
   for (const TransferParticipant& p : s.participants) {
     if (p.group != group) continue;
     const double later = retention ? p.retention_s : p.post_s;
-    if (std::isfinite(later) && std::isfinite(p.pre_s)) out.push_back(later - p.pre_s);
+    const double before = pre_test ? p.pre_s : 0.0;
+    if (std::isfinite(later) && std::isfinite(before)) out.push_back(later - before);
   }
   return out;
 }
@@ -64,7 +66,8 @@ TransferPower transfer_power(const TransferDesign& design, const TransferPowerOp
   if (options.jobs < 1) throw std::invalid_argument("jobs is " + std::to_string(options.jobs) + ", but must be >= 1");
 
   const int groups = static_cast<int>(design.groups.size());
-  const int tests = design.retention ? 2 : 1;
+  const int tests = design.retention_trials > 0 ? 2 : 1;
+  const bool pre_test = design.pre_trials > 0;
   // outcome[size][study][test][group-1]
   const std::size_t per_study = static_cast<std::size_t>(tests * (groups - 1));
   TransferPower out;
@@ -80,9 +83,9 @@ TransferPower transfer_power(const TransferDesign& design, const TransferPowerOp
               simulate_transfer_study(design, n, transfer_study_seed(options.seed, n, k), options.simulation);
           std::vector<Outcome> mine(per_study);
           for (int t = 0; t < tests; ++t) {
-            const std::vector<double> reference = changes(s, 0, t == 1);
+            const std::vector<double> reference = changes(s, 0, t == 1, pre_test);
             for (int g = 1; g < groups; ++g) {
-              const std::vector<double> values = changes(s, g, t == 1);
+              const std::vector<double> values = changes(s, g, t == 1, pre_test);
               const double p = test(values, reference);
               Outcome& o = mine[static_cast<std::size_t>(t * (groups - 1) + g - 1)];
               o.computed = std::isfinite(p);

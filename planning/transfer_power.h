@@ -1,10 +1,11 @@
 #pragma once
 // What a transfer design can detect (issue 38 §4): for each group size,
 // `studies` simulated transfer studies (transfer_study.h) with fresh seeds;
-// in each, every trained group is compared with the reference group (the
+// in each, every other group is compared with the reference group (the
 // design's first) on the post-test and on the retention test, each as the
-// change from the participant's own pre-test; the share of studies in which
-// a comparison is significant is its power, with a Wilson 95 % interval.
+// change from the participant's own pre-test (or, in a design without a
+// pre-test, as the test's time itself); the share of studies in which a
+// comparison is significant is its power, with a Wilson 95 % interval.
 //
 // The test is passed in (`GroupTest`), so planning does not choose the
 // analysis: `hapticlab plan power` passes the transfer analysis' exact
@@ -19,7 +20,8 @@
 namespace hapticlab::planning {
 
 // The p value of a comparison of group `a`'s values with group `b`'s
-// (each participant's post- or retention-minus-pre time [s]); NaN when it
+// (each participant's post- or retention-minus-pre time [s], or the
+// test's time without a pre-test); NaN when it
 // cannot be computed (too few values).
 using GroupTest = std::function<double(const std::vector<double>& a, const std::vector<double>& b)>;
 

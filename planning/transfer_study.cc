@@ -42,7 +42,10 @@ const char* transfer_phase_name(TransferPhase phase) noexcept {
 
 void TransferDesign::validate() const {
   (void)parse_task_kind(task);  // throws, naming the task
-  if (test_trials < 1) refuse("test_trials", std::to_string(test_trials), ">= 1");
+  if (pre_trials < 0 || pre_trials > 100) refuse("pre_trials", std::to_string(pre_trials), "within 0..100");
+  if (post_trials < 1 || post_trials > 100) refuse("post_trials", std::to_string(post_trials), "within 1..100");
+  if (retention_trials < 0 || retention_trials > 100)
+    refuse("retention_trials", std::to_string(retention_trials), "within 0..100");
   if (groups.size() < 2) refuse("groups", std::to_string(groups.size()) + " groups", "at least 2");
   for (std::size_t g = 0; g < groups.size(); ++g) {
     for (std::size_t b = 0; b < groups[g].training.size(); ++b) {
@@ -99,14 +102,12 @@ TransferStudy simulate_transfer_study(const TransferDesign& design, int per_grou
         if (!r.task_complete) ++out.trials_timed_out;
         out.updates += r.samples;
       };
-      for (int k = 0; k < design.test_trials; ++k) run(TransferPhase::kPreTest, design.test_settings);
+      for (int k = 0; k < design.pre_trials; ++k) run(TransferPhase::kPreTest, design.test_settings);
       for (const TrainingBlock& block : design.groups[g].training) {
         for (int k = 0; k < block.trials; ++k) run(TransferPhase::kTraining, block.settings);
       }
-      for (int k = 0; k < design.test_trials; ++k) run(TransferPhase::kPostTest, design.test_settings);
-      if (design.retention) {
-        for (int k = 0; k < design.test_trials; ++k) run(TransferPhase::kRetention, design.test_settings);
-      }
+      for (int k = 0; k < design.post_trials; ++k) run(TransferPhase::kPostTest, design.test_settings);
+      for (int k = 0; k < design.retention_trials; ++k) run(TransferPhase::kRetention, design.test_settings);
       person.pre_s = mean_of_complete(person.trials, TransferPhase::kPreTest);
       person.post_s = mean_of_complete(person.trials, TransferPhase::kPostTest);
       person.retention_s = mean_of_complete(person.trials, TransferPhase::kRetention);

@@ -40,8 +40,11 @@ struct TransferGroup {
 struct TransferDesign {
   std::string task = "dissection";  // "dissection" or "clip"
   EngineSettings test_settings;     // the pre-, post- and retention tests' setting
-  int test_trials = 3;              // trials per test, >= 1
-  bool retention = true;            // a retention test after the post-test
+  // Trials per test: the pre-test and the retention test are optional (0),
+  // the post-test is not (>= 1); each <= 100.
+  int pre_trials = 3;
+  int post_trials = 3;
+  int retention_trials = 3;
   std::vector<TransferGroup> groups;  // >= 2
 
   // Throws std::invalid_argument naming the field, its value and the range.
@@ -70,7 +73,8 @@ struct TransferParticipant {
   std::string code;
   int group = 0;  // index into TransferDesign::groups
   std::vector<TransferTrial> trials;
-  // Mean time of the test's complete trials [s]; NaN when none completed.
+  // Mean time of the test's complete trials [s]; NaN when none completed
+  // or the design has no such test.
   double pre_s = 0.0, post_s = 0.0, retention_s = 0.0;
 };
 

@@ -24,7 +24,7 @@ EngineSettings power_settings(const std::string& name) {
 TransferDesign small_design() {
   TransferDesign d;
   d.test_settings = power_settings("high_fidelity");
-  d.test_trials = 1;
+  d.pre_trials = d.post_trials = d.retention_trials = 1;
   d.groups.push_back({"cheap", {{power_settings("no_force_feedback"), 4}}});
   d.groups.push_back({"haptic", {{power_settings("high_fidelity"), 4}}});
   return d;
@@ -91,6 +91,25 @@ TEST(TransferPowerTest, CountsSignificantStudiesPerTestWithWilsonIntervalsAndThe
   const TransferPower at_alpha = transfer_power(
       small_design(), o, [](const std::vector<double>&, const std::vector<double>&) { return 0.05; });
   EXPECT_EQ(at_alpha.rows[0].significant, 0);
+}
+
+TEST(TransferPowerTest, WithoutAPreTestGroupsAreComparedOnTheTestsTimeItselfAndWithoutRetentionOnlyOnThePostTest) {
+  TransferDesign d = small_design();
+  d.pre_trials = 0;
+  d.retention_trials = 0;
+  TransferPowerOptions o = small_options(1);
+  o.studies = 1;
+  int calls = 0;
+  const TransferPower p = transfer_power(d, o, [&](const std::vector<double>& a, const std::vector<double>& b) {
+    ++calls;
+    for (double v : a) EXPECT_GT(v, 1.0);  // a trial's time [s], not a change
+    for (double v : b) EXPECT_GT(v, 1.0);
+    return 0.5;
+  });
+  EXPECT_EQ(calls, 1);
+  ASSERT_EQ(p.rows.size(), 1u);
+  EXPECT_EQ(p.rows[0].test, "post");
+  EXPECT_EQ(p.trials_run, 2 * 2 * (4 + 1));  // 2 groups x 2 people x (4 training + 1 post)
 }
 
 TEST(TransferPowerTest, RefusesBadOptionsByName) {

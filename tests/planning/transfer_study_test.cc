@@ -31,7 +31,7 @@ TransferDesign design(const std::string& second_group_training) {
   TransferDesign d;
   d.task = "dissection";
   d.test_settings = transfer_settings("high_fidelity");
-  d.test_trials = 2;
+  d.pre_trials = d.post_trials = d.retention_trials = 2;
   d.groups.push_back({"control", {}});
   d.groups.push_back({"trained", {{transfer_settings(second_group_training), 8}}});
   return d;
@@ -114,8 +114,11 @@ TEST(TransferStudyTest, BadDesignsAreRefusedByName) {
   empty_block.groups[1].training[0].trials = 0;
   refused(empty_block, 2, "groups[1] (trained).training[0].trials is 0");
   TransferDesign no_test = design("high_fidelity");
-  no_test.test_trials = 0;
-  refused(no_test, 2, "test_trials is 0");
+  no_test.post_trials = 0;
+  refused(no_test, 2, "post_trials is 0, but must be within 1..100");
+  TransferDesign many = design("high_fidelity");
+  many.pre_trials = 101;
+  refused(many, 2, "pre_trials is 101");
   refused(design("high_fidelity"), 0, "participants per group is 0");
   TransferDesign task = design("high_fidelity");
   task.task = "suturing";
