@@ -3,6 +3,7 @@
 #include <set>
 
 #include "protocols/protocol_error.h"
+#include "protocols/transfer_rules.h"
 
 namespace hapticlab::protocols {
 namespace {
@@ -130,7 +131,7 @@ void validate_protocol(const Protocol& p, const std::string& source) {
       }
     }
     const int reps = p.repetitions_of(p.tasks[i]);
-    if (reps < 1 || reps > kMaxRepetitions) {
+    if (!p.transfer && (reps < 1 || reps > kMaxRepetitions)) {
       throw ProtocolError(source, "repetitions." + std::string(task_name(p.tasks[i])),
                           "is " + std::to_string(reps) + ", but must be >= 1 and <= " +
                               std::to_string(kMaxRepetitions) + " (repetitions of every setting)");
@@ -212,6 +213,12 @@ void validate_protocol(const Protocol& p, const std::string& source) {
                           "is " + std::to_string(ps.training_trials) + ", but must be >= 0 and <= " +
                               std::to_string(kMaxTrainingTrials));
     }
+  }
+
+  // A between-group design has its own rules and no within-participant design.
+  if (p.transfer) {
+    validate_transfer_design(p, source);
+    return;
   }
 
   // design

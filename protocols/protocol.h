@@ -21,6 +21,7 @@
 #include "core/loop/rate_monitor.h"
 #include "core/settings/settings_json.h"
 #include "protocols/staircase.h"
+#include "protocols/transfer_design.h"
 
 namespace hapticlab::protocols {
 
@@ -108,6 +109,10 @@ struct ParticipantSpec {
   // of the schedule and not analysed; simulated participants use them to
   // settle (the thesis' surgeons trained until they stopped improving).
   int training_trials = 0;
+  // Attributes by name (e.g. "experience": "novice"), from the protocol
+  // file; a between-group design may stratify by one (transfer_design.h).
+  // Values are 1..64 bytes of text.
+  std::map<std::string, std::string> attributes = {};  // "= {}": braced lists that stop at training_trials stay warning-free
 };
 
 // The "staircase" block: the settings its strengths are made from, and the
@@ -153,6 +158,10 @@ struct Protocol {
   std::vector<std::string> null_settings;
   // The optional "staircase" (a protocol has it or "dose", not both).
   std::optional<ProtocolStaircase> staircase;
+  // The optional between-group training design ("groups", "stratify_by",
+  // "phases"): when present, `design` and `repetitions` are unused (every
+  // trial comes from a phase) and schedules follow the phases (schedule.h).
+  std::optional<TransferDesign> transfer;
 
   // 0 for a task without repetitions.
   int repetitions_of(const Task& task) const {

@@ -35,7 +35,7 @@ class Reader {
     expect_object(j, "(top level)");
     check_keys(j, "", {"study", "description", "ve", "tasks", "repetitions", "settings", "participants", "design",
                        "seed", "training_trials", "safety", "rate_tolerance_fraction", "null_settings", "dose",
-                       "staircase"});
+                       "staircase", "groups", "stratify_by", "phases"});
     Protocol p;
     p.study = as_string(require(j, "study", ""), "study");
     if (j.contains("description")) p.description = as_string(j["description"], "description");
@@ -48,13 +48,16 @@ class Reader {
     }
     ve_ = p.ve;
     p.tasks = read_tasks(require(j, "tasks", ""), "tasks");
-    read_repetitions(require(j, "repetitions", ""), p);
+    const bool grouped = j.contains("groups") || j.contains("phases");
+    if (grouped) refuse_within_fields(j);
+    else read_repetitions(require(j, "repetitions", ""), p);
     read_settings(require(j, "settings", ""), p);
     if (j.contains("dose")) read_dose(j["dose"], p);
     const int default_training =
         j.contains("training_trials") ? as_int(j["training_trials"], "training_trials", 0, kMaxTrainingTrials) : 0;
     read_participants(require(j, "participants", ""), p, default_training);
-    read_design(require(j, "design", ""), p);
+    if (grouped) read_transfer(j, p);
+    else read_design(require(j, "design", ""), p);
     p.seed = as_seed(require(j, "seed", ""), "seed");
     if (j.contains("safety")) p.safety = safety_from_json(j["safety"], source_);
     if (j.contains("rate_tolerance_fraction"))
@@ -358,7 +361,8 @@ class Reader {
         ps.code = item.get<std::string>();
         if (auto problem = participant_code_problem(ps.code)) fail(path, "is " + shown(item) + ", which " + *problem);
       } else if (item.is_object()) {
-        check_keys(item, path, {"code", "tasks", "training_trials"});
+        check_keys(item, path, {"code", "tasks", "training_trials", "attributes"});
+        if (item.contains("attributes")) ps.attributes = read_attributes(item["attributes"], path + ".attributes");
         ps.code = as_string(require(item, "code", path), path + ".code");
         if (item.contains("tasks")) ps.tasks = read_tasks(item["tasks"], path + ".tasks");
         if (item.contains("training_trials")) {
@@ -369,6 +373,73 @@ class Reader {
       }
       p.participants.push_back(std::move(ps));
     }
+  }
+
+  std::map<std::string, std::string> read_attributes(const json& v, const std::string& path) const {
+    expect_object(v, path);
+    std::map<std::string, std::string> out;
+    for (const auto& [key, value] : v.items()) {
+      const std::string text = as_string(value, path + "." + key);
+      if (text.empty() || text.size() > kMaxGroupNameLength)
+        fail(path + "." + key, "is " + shown(value) + ", but must be 1.." + std::to_string(kMaxGroupNameLength) + " bytes");
+      out[key] = text;
+    }
+    return out;
+  }
+
+  // A between-group design's trials all come from its phases.
+  void refuse_within_fields(const json& j) const {
+    if (!j.contains("groups")) fail("groups", "is missing, but \"phases\" is given: a phased protocol randomizes its "
+                                             "participants to groups (one group is allowed)");
+    if (!j.contains("phases")) fail("phases", "is missing, but \"groups\" is given: a group design needs its phases");
+    for (const char* key : {"design", "repetitions", "dose", "staircase"})
+      if (j.contains(key))
+        fail(key, "is given with \"groups\", but a group design's trials come from its phases; remove \"" +
+                      std::string(key) + "\"");
+  }
+
+  void read_transfer(const json& j, Protocol& p) const {
+    TransferDesign d;
+    const json& groups = as_array(j["groups"], "groups");
+    for (std::size_t i = 0; i < groups.size(); ++i) {
+      const std::string path = index_path("groups", i);
+      expect_object(groups[i], path);
+      check_keys(groups[i], path, {"name", "training", "size"});
+      Group g;
+      g.name = as_string(require(groups[i], "name", path), path + ".name");
+      const json& training = require(groups[i], "training", path);
+      if (!training.is_null()) g.training_setting = as_string(training, path + ".training");
+      if (groups[i].contains("size")) g.size = as_int(groups[i]["size"], path + ".size", 0, 1000000);
+      d.groups.push_back(std::move(g));
+    }
+    if (j.contains("stratify_by")) {
+      d.stratify_by = as_string(j["stratify_by"], "stratify_by");
+      if (d.stratify_by.empty()) fail("stratify_by", "is empty, but must name a participant attribute (or be left out)");
+    }
+    const json& phases = as_array(j["phases"], "phases");
+    for (std::size_t i = 0; i < phases.size(); ++i) {
+      const std::string path = index_path("phases", i);
+      expect_object(phases[i], path);
+      check_keys(phases[i], path, {"phase", "setting", "sessions", "trials", "min_gap_h"});
+      Phase ph;
+      const json& kind = require(phases[i], "phase", path);
+      const auto k = phase_kind_from_name(kind.is_string() ? kind.get<std::string>() : "");
+      if (!k) fail(path + ".phase", "is " + shown(kind) + ", but must be one of \"pre_test\", \"training\", "
+                                    "\"post_test\", \"retention\"");
+      ph.kind = *k;
+      if (phases[i].contains("setting")) ph.setting = as_string(phases[i]["setting"], path + ".setting");
+      if (phases[i].contains("sessions")) ph.sessions = as_int(phases[i]["sessions"], path + ".sessions", 0, 1000000);
+      const json& trials = require(phases[i], "trials", path);
+      expect_object(trials, path + ".trials");
+      for (const auto& [task, n] : trials.items())
+        ph.trials[task] = as_int(n, path + ".trials." + task, 1, kMaxPhaseTrials, " (trials per sitting)");
+      if (phases[i].contains("min_gap_h"))
+        ph.min_gap_h = as_double(phases[i]["min_gap_h"], path + ".min_gap_h", 0.0, kMaxMinGap_h, false);
+      else if (ph.kind == PhaseKind::kRetention)
+        fail(path + ".min_gap_h", "is missing, but the retention test needs its delay (hours after the post-test)");
+      d.phases.push_back(std::move(ph));
+    }
+    p.transfer = std::move(d);
   }
 
   std::vector<std::string> read_names(const json& v, const std::string& path) const {

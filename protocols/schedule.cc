@@ -1,10 +1,13 @@
 #include "protocols/schedule.h"
 
 #include <algorithm>
+#include <map>
 #include <numeric>
 #include <stdexcept>
 
 #include "protocols/design.h"
+#include "protocols/group_assignment.h"
+#include "protocols/sittings.h"
 
 namespace hapticlab::protocols {
 namespace {
@@ -25,6 +28,63 @@ std::string letters(std::size_t i) {
 // counterbalanced (the others do theirs in protocol order).
 bool does_all_tasks(const Protocol& protocol, const ParticipantSpec& ps) {
   return protocol.tasks.size() >= 2 && ps.tasks.size() == protocol.tasks.size();
+}
+
+// Blinding labels: letters handed out in a random order.
+void add_condition_labels(const Protocol& protocol, ParticipantPlan& pp) {
+  Rng label_rng = Rng::for_stream(protocol.seed, "labels/" + pp.code);
+  std::vector<std::size_t> letter_of(pp.setting_indices.size());
+  std::iota(letter_of.begin(), letter_of.end(), 0);
+  shuffle(letter_of, label_rng);
+  for (std::size_t l : letter_of) pp.condition_labels.push_back(letters(l));
+}
+
+StudyPlan make_group_study_plan(const Protocol& protocol) {
+  const std::string source = "protocol \"" + protocol.study + "\"";
+  const auto groups = assign_groups(protocol, source);
+  const auto task_orders = counterbalanced_task_orders(protocol);
+  StudyPlan plan;
+  plan.study = protocol.study;
+  plan.seed = protocol.seed;
+  for (std::size_t p = 0; p < protocol.participants.size(); ++p) {
+    const ParticipantSpec& spec = protocol.participants[p];
+    ParticipantPlan pp;
+    pp.code = spec.code;
+    pp.task_order = task_orders[p];
+    pp.training_trials = spec.training_trials;
+    pp.group = groups[p];
+    pp.group_name = protocol.transfer->groups[groups[p]].name;
+    const std::vector<Sitting> sittings = group_sittings(protocol, groups[p]);
+    for (const Sitting& s : sittings) {
+      const std::size_t index = protocol.find_setting(s.setting).value();
+      if (std::find(pp.setting_indices.begin(), pp.setting_indices.end(), index) == pp.setting_indices.end())
+        pp.setting_indices.push_back(index);
+    }
+    std::sort(pp.setting_indices.begin(), pp.setting_indices.end());
+    for (std::size_t i : pp.setting_indices) pp.settings.push_back(protocol.settings[i].settings);
+    add_condition_labels(protocol, pp);
+    std::map<std::pair<Task, std::size_t>, int> seen;  // (task, setting) -> trials so far
+    int position = 0;
+    for (std::size_t k = 0; k < sittings.size(); ++k) {
+      const std::size_t index = protocol.find_setting(sittings[k].setting).value();
+      for (const Task& task : pp.task_order) {
+        for (int t = 0; t < sittings[k].trials.at(std::string(task_name(task))); ++t) {
+          PlannedTrial trial;
+          trial.participant = spec.code;
+          trial.task = task;
+          trial.setting_index = index;
+          trial.setting = sittings[k].setting;
+          trial.repetition = ++seen[{task, index}];
+          trial.block = static_cast<int>(k) + 1;
+          trial.sitting = static_cast<int>(k) + 1;
+          trial.position = ++position;
+          pp.trials.push_back(std::move(trial));
+        }
+      }
+    }
+    plan.participants.push_back(std::move(pp));
+  }
+  return plan;
 }
 
 }  // namespace
@@ -90,6 +150,7 @@ int longest_run(const std::vector<PlannedTrial>& trials) {
 
 StudyPlan make_study_plan(const Protocol& protocol) {
   validate_protocol(protocol, "protocol \"" + protocol.study + "\"");
+  if (protocol.transfer) return make_group_study_plan(protocol);
   const auto assignments = assign_settings(protocol);
   const auto task_orders = counterbalanced_task_orders(protocol);
 
@@ -105,12 +166,7 @@ StudyPlan make_study_plan(const Protocol& protocol) {
     pp.training_trials = spec.training_trials;
     for (std::size_t i : pp.setting_indices) pp.settings.push_back(protocol.settings[i].settings);
 
-    // Blinding labels: letters handed out in a random order.
-    Rng label_rng = Rng::for_stream(protocol.seed, "labels/" + spec.code);
-    std::vector<std::size_t> letter_of(pp.setting_indices.size());
-    std::iota(letter_of.begin(), letter_of.end(), 0);
-    shuffle(letter_of, label_rng);
-    for (std::size_t l : letter_of) pp.condition_labels.push_back(letters(l));
+    add_condition_labels(protocol, pp);
 
     // Blocks, task by task, in the counterbalanced order.
     Rng rng = Rng::for_stream(protocol.seed, "schedule/" + spec.code);

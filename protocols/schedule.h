@@ -49,6 +49,9 @@ struct PlannedTrial {
   int repetition = 0;  // 1-based: the how-many-th trial at this setting in this task
   int block = 0;       // 1-based block within this task; equals repetition by construction
   int position = 0;    // 1-based position in this participant's whole schedule
+  // A group design's (sittings.h): the 1-based sitting this trial belongs
+  // to, whose number is also its block; 0 in a within-participant design.
+  int sitting = 0;
 };
 
 struct ParticipantPlan {
@@ -65,6 +68,11 @@ struct ParticipantPlan {
   std::vector<std::string> condition_labels;
   int training_trials = 0;            // per task, before its first trial (protocol.h)
   std::vector<PlannedTrial> trials;   // in schedule order; trials[i].position == i + 1
+  // A group design's: the participant's group (index into
+  // TransferDesign::groups) and its name; 0 and empty otherwise. Never
+  // shown to the participant (blinding: the group says the setting).
+  std::size_t group = 0;
+  std::string group_name;
 };
 
 struct StudyPlan {
@@ -73,7 +81,12 @@ struct StudyPlan {
   std::vector<ParticipantPlan> participants;  // in Protocol::participants order
 };
 
-// The whole study: design, task orders and schedules. The protocol is
+// The whole study: design, task orders and schedules. A protocol with
+// groups (transfer_design.h) gets its schedules from its phases instead:
+// each participant's sittings in order (sittings.h), each sitting its tasks
+// in the participant's counterbalanced order, each task its trials at the
+// sitting's setting; the at-most-2-in-a-row rule does not apply (a test is
+// many trials at one setting by design). The protocol is
 // validated first (ProtocolError). Same protocol and seed -> same plan on
 // any platform.
 StudyPlan make_study_plan(const Protocol& protocol);
