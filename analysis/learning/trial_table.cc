@@ -68,7 +68,10 @@ TrialTable read_trial_table(const LongCsv& csv, const TrialColumns& columns) {
   }
   if (table.participants.empty()) throw DataError(csv.source() + ": no trials (allowed: at least one row)");
   for (auto& p : table.participants) {
-    for (auto& [phase, t] : p.phases) {
+    for (auto& entry : p.phases) {
+      // Not a structured binding: clang 14 cannot capture one in the lambda.
+      const Phase phase = entry.first;
+      PhaseTrials& t = entry.second;
       std::vector<std::size_t> order(t.trial.size());
       std::iota(order.begin(), order.end(), 0);
       std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return t.trial[a] < t.trial[b]; });

@@ -4,10 +4,11 @@
 // permutation distribution of the group labels rather than the chi-square
 // approximation. With two groups H is a monotone function of |W - E W|
 // (W the Wilcoxon rank sum), so the test is the two-sided exact
-// Wilcoxon-Mann-Whitney test. Exact enumeration of every distinct
-// assignment of labels when there are at most `max_exact` of them; else a
-// seeded Monte Carlo of `monte_carlo` random assignments, with
-// p = (1 + hits) / (1 + draws) and its Wilson interval.
+// Wilcoxon-Mann-Whitney test, computed exactly at any size by counting the
+// splits per rank sum (ties included). With three or more groups: exact
+// enumeration of every distinct assignment of labels when there are at most
+// `max_exact` of them; else a seeded Monte Carlo of `monte_carlo` random
+// assignments, with p = (1 + hits) / (1 + draws) and its Wilson interval.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -28,7 +29,7 @@ struct PermutationResult {
   double p_value = 1.0;           // P(H* >= H) under random assignment
   bool exact = false;
   double assignments = 0.0;       // distinct assignments (multinomial), exact or not
-  std::size_t evaluated = 0;      // assignments enumerated, or Monte Carlo draws
+  std::size_t evaluated = 0;      // assignments enumerated, Monte Carlo draws, 0 when counted (2 groups)
   ProportionInterval p_interval;  // [p, p] when exact; Wilson 95 % when Monte Carlo
 };
 

@@ -1,6 +1,7 @@
 #include "analysis/transfer/transfer_analysis.h"
 
 #include <algorithm>
+#include <cmath>
 #include <iomanip>
 #include <sstream>
 
@@ -177,7 +178,7 @@ void write_transfer_text(const TransferAnalysis& a, std::ostream& out) {
     }
     const auto& t = *c.test;
     out << "  rank permutation test (Kruskal-Wallis H = " << t.h << "): p = " << t.p_value;
-    if (t.exact) out << " (exact, " << t.evaluated << " assignments)\n";
+    if (t.exact) out << " (exact, " << static_cast<unsigned long long>(std::llround(t.assignments)) << " assignments)\n";
     else out << " (Monte Carlo, " << t.evaluated << " draws of " << t.assignments << " assignments; 95 % interval of p ["
              << t.p_interval.low << ", " << t.p_interval.high << "])\n";
     for (const auto& s : c.shifts) {

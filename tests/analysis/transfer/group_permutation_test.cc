@@ -23,7 +23,7 @@ using ::testing::HasSubstr;
 TEST(GroupPermutation, TwoGroupsExact) {
   const auto r = group_permutation_test({{1, 2, 3}, {4, 5, 6}});
   EXPECT_TRUE(r.exact);
-  EXPECT_EQ(r.evaluated, 20u);
+  EXPECT_NEAR(r.assignments, 20.0, 1e-9);
   EXPECT_DOUBLE_EQ(r.p_value, 0.1);
   EXPECT_NEAR(group_permutation_test({{1, 2, 3, 4}, {5, 6, 7, 8}}).p_value, 2.0 / 70.0, 1e-12);
   // Symmetric: the direction of the shift does not matter.
@@ -42,14 +42,35 @@ TEST(GroupPermutation, ThreeGroupsKruskalWallis) {
   EXPECT_NEAR(r.p_value, 6.0 / 90.0, 1e-12);
 }
 
+// Two groups are counted by rank sum, not enumerated: checked against a
+// brute-force enumeration of all C(8, 4) splits here, with ties.
+TEST(GroupPermutation, TwoGroupCountingMatchesEnumerationWithTies) {
+  const std::vector<double> x{1, 2, 2, 3}, y{2, 3, 3, 4};
+  // Mid-ranks of 1 2 2 2 3 3 3 4: 1, 3, 3, 3, 6, 6, 6, 8 (sum 36, E W = 18).
+  const std::vector<double> ranks{1, 3, 3, 6, 3, 6, 6, 8};  // x then y
+  const double observed = std::abs(1 + 3 + 3 + 6 - 18.0);
+  int hits = 0, all = 0;
+  for (unsigned mask = 0; mask < 256; ++mask) {
+    if (__builtin_popcount(mask) != 4) continue;
+    double w = 0;
+    for (int i = 0; i < 8; ++i)
+      if (mask & (1u << i)) w += ranks[i];
+    ++all;
+    hits += std::abs(w - 18.0) >= observed - 1e-9;
+  }
+  ASSERT_EQ(all, 70);
+  EXPECT_NEAR(group_permutation_test({x, y}).p_value, static_cast<double>(hits) / 70.0, 1e-12);
+  EXPECT_LT(hits, 70);
+}
+
 TEST(GroupPermutation, MonteCarloBracketsTheExactValue) {
   Random rng(7);
-  std::vector<std::vector<double>> g(2);
-  for (int i = 0; i < 7; ++i) g[0].push_back(rng.normal());
-  for (int i = 0; i < 7; ++i) g[1].push_back(rng.normal() + 0.8);
+  std::vector<std::vector<double>> g(3);
+  for (int k = 0; k < 3; ++k)
+    for (int i = 0; i < 4; ++i) g[k].push_back(rng.normal() + 0.6 * k);
   const auto exact = group_permutation_test(g);
   ASSERT_TRUE(exact.exact);
-  EXPECT_EQ(exact.evaluated, 3432u);
+  EXPECT_EQ(exact.evaluated, 34650u);  // 12! / (4!)^3
   PermutationOptions mc;
   mc.max_exact = 0;
   mc.monte_carlo = 20000;

@@ -56,7 +56,7 @@ TEST(TransferAnalysis, ComparesChangesAndComputesTer) {
   EXPECT_EQ(post.outcome, "post-pre");
   ASSERT_TRUE(post.test);
   EXPECT_TRUE(post.test->exact);
-  EXPECT_EQ(post.test->evaluated, 70u);  // C(8, 4)
+  EXPECT_DOUBLE_EQ(post.test->assignments, 70.0);  // C(8, 4)
   // Changes post - pre (medians): control -15, -20.5, -16.5, -24; lofi -21,
   // -21.5, -27, -26: lofi improved more; the 16 differences lofi - control
   // sorted: -12 -11 -10.5 -9.5 -6.5 -6.5 -6 -5.5 | -5 -4.5 -3 -2 -1 -0.5
