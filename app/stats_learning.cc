@@ -33,10 +33,12 @@ void add_table_options(CLI::App& cmd, TableOptions& opt) {
       ->required();
   cmd.add_option("--measure", opt.columns.measure, "Measure column (e.g. completion_time_s, force_p95_N)")
       ->capture_default_str();
-  cmd.add_option("--participant-column", opt.columns.participant)->capture_default_str();
-  cmd.add_option("--group-column", opt.columns.group)->capture_default_str();
-  cmd.add_option("--phase-column", opt.columns.phase)->capture_default_str();
-  cmd.add_option("--trial-column", opt.columns.trial)->capture_default_str();
+  cmd.add_option("--participant-column", opt.columns.participant, "Column naming the participant")->capture_default_str();
+  cmd.add_option("--group-column", opt.columns.group, "Column naming the participant's group")->capture_default_str();
+  cmd.add_option("--phase-column", opt.columns.phase, "Column naming the phase: pre, training, post, retention")
+      ->capture_default_str();
+  cmd.add_option("--trial-column", opt.columns.trial, "Column with the 1-based trial index within the phase")
+      ->capture_default_str();
 }
 
 an::learning::Phase parse_phase(const std::string& name) {

@@ -111,6 +111,13 @@ TEST(TransferAnalysis, RefusesByName) {
   std::string phase = table_text();
   phase.replace(phase.find("C1,control,pre"), 14, "C1,control,mid");
   EXPECT_THAT(message(phase, control), HasSubstr("phase 'mid' (allowed: pre, training, post, retention)"));
+  std::string twice = table_text();
+  twice += "C1,control,post,1,20\n";
+  EXPECT_THAT(message(twice, control), HasSubstr("participant C1 has trial 1 twice in phase post"));
+  std::string moved = table_text() + "C1,lofi,post,9,20\n";
+  EXPECT_THAT(message(moved, control), HasSubstr("participant C1 is in group 'lofi' here and in 'control' earlier"));
+  std::string fraction = table_text() + "C1,control,post,2.5,20\n";
+  EXPECT_THAT(message(fraction, control), HasSubstr("trial index 2.5 (allowed: an integer >= 1)"));
   std::string one_group = "participant,group,phase,trial,completion_time_s\nA,g,pre,1,3\nA,g,post,1,2\n";
   EXPECT_THAT(message(one_group, none), HasSubstr("1 group(s) with participants (allowed: at least 2)"));
 }
