@@ -1,4 +1,5 @@
 #include "app/stats_command.h"
+#include "app/stats_learning.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -470,6 +471,7 @@ void add_stats_command(CLI::App& app) {
   CLI::App* stats = app.add_subcommand(
       "stats", "Rank tests, correlation and KS on long-format CSV study data (thesis 3.3.7)");
   stats->require_subcommand(1);
+  add_stats_learning_commands(*stats);
 
   {
     auto opt = std::make_shared<CommonOptions>();
