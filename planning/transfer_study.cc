@@ -32,6 +32,7 @@ double mean_of_complete(const std::vector<TransferTrial>& trials, TransferPhase 
 
 const char* transfer_phase_name(TransferPhase phase) noexcept {
   switch (phase) {
+    case TransferPhase::kFamiliarization: return "familiarization";
     case TransferPhase::kPreTest: return "pre";
     case TransferPhase::kTraining: return "training";
     case TransferPhase::kPostTest: return "post";
@@ -42,6 +43,8 @@ const char* transfer_phase_name(TransferPhase phase) noexcept {
 
 void TransferDesign::validate() const {
   (void)parse_task_kind(task);  // throws, naming the task
+  if (familiarization_trials < 0 || familiarization_trials > 1000)
+    refuse("familiarization_trials", std::to_string(familiarization_trials), "within 0..1000");
   if (pre_trials < 0 || pre_trials > 100) refuse("pre_trials", std::to_string(pre_trials), "within 0..100");
   if (post_trials < 1 || post_trials > 100) refuse("post_trials", std::to_string(post_trials), "within 1..100");
   if (retention_trials < 0 || retention_trials > 100)
@@ -102,6 +105,8 @@ TransferStudy simulate_transfer_study(const TransferDesign& design, int per_grou
         if (!r.task_complete) ++out.trials_timed_out;
         out.updates += r.samples;
       };
+      for (int k = 0; k < design.familiarization_trials; ++k)
+        run(TransferPhase::kFamiliarization, design.test_settings);
       for (int k = 0; k < design.pre_trials; ++k) run(TransferPhase::kPreTest, design.test_settings);
       for (const TrainingBlock& block : design.groups[g].training) {
         for (int k = 0; k < block.trials; ++k) run(TransferPhase::kTraining, block.settings);

@@ -40,6 +40,9 @@ struct TransferGroup {
 struct TransferDesign {
   std::string task = "dissection";  // "dissection" or "clip"
   EngineSettings test_settings;     // the pre-, post- and retention tests' setting
+  // Practice trials on the test setting before the pre-test (a protocol's
+  // training_trials), 0..1000: counted as practice, never measured.
+  int familiarization_trials = 0;
   // Trials per test: the pre-test and the retention test are optional (0),
   // the post-test is not (>= 1); each <= 100.
   int pre_trials = 3;
@@ -58,8 +61,9 @@ struct TransferOptions {
   LearningModel learning;
 };
 
-enum class TransferPhase : std::uint8_t { kPreTest, kTraining, kPostTest, kRetention };
-const char* transfer_phase_name(TransferPhase phase) noexcept;  // "pre", "training", "post", "retention"
+enum class TransferPhase : std::uint8_t { kFamiliarization, kPreTest, kTraining, kPostTest, kRetention };
+// "familiarization", "pre", "training", "post", "retention"
+const char* transfer_phase_name(TransferPhase phase) noexcept;
 
 struct TransferTrial {
   TransferPhase phase = TransferPhase::kPreTest;
