@@ -6,7 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "app/cli_errors.h"
+#include "app/cli/cli_errors.h"
 #include "app/cli_process.h"
 #include "tests/testing/test_paths.h"
 
