@@ -9,6 +9,7 @@
 
 #include "app/cli/cli_checks.h"
 #include "app/cli/data_paths.h"
+#include "app/cli/option_shapes.h"
 #include "core/loop/realtime.h"
 #include "core/loop/stall_probe.h"
 #include "core/settings/settings_json.h"
@@ -152,8 +153,7 @@ void add_bench_loop_commands(CLI::App& bench) {
   loop->add_option("--seconds", lo->seconds, "How long to run [s]")
       ->check(number_in(0.5, 3600.0))
       ->capture_default_str();
-  loop->add_option("--rate-hz", lo->rate_Hz, "Loop rate [Hz], 150..2000")
-      ->check(number_in(150.0, 2000.0))
+  add_loop_rate_option(*loop, lo->rate_Hz, "Loop rate [Hz], 150..2000")
       ->capture_default_str();
   loop->add_option("--probe-s", lo->probe_s,
                    "Before the loop, spin a bare thread this long [s] and report how often the machine "

@@ -14,6 +14,7 @@
 
 #include "app/cli/cli_checks.h"
 #include "app/cli/insecure_flag.h"
+#include "app/cli/option_shapes.h"
 #include "core/device/udp_device.h"
 #include "core/device/udp_sim_server.h"
 #include "core/common/clock.h"
@@ -132,8 +133,7 @@ void add_bench_udp_command(CLI::App& bench) {
   CLI::App* cmd = bench.add_subcommand("udp", "Measure the UDP bridge's round trip (POLL -> STATE), over loopback "
                                               "or to a driver on the network");
   cmd->add_option("--seconds", o->seconds, "How long to run [s]")->check(number_in(0.1, 3600.0))->capture_default_str();
-  cmd->add_option("--rate-hz", o->rate_Hz, "Poll rate [Hz], 150..2000")
-      ->check(number_in(150.0, 2000.0))
+  add_loop_rate_option(*cmd, o->rate_Hz, "Poll rate [Hz], 150..2000")
       ->capture_default_str();
   cmd->add_option("--port", o->port,
                   "Port of a running `device serve-sim` or driver (0: serve the simulated workstation in this process)")

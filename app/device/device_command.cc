@@ -14,6 +14,7 @@
 
 #include "app/cli/cli_checks.h"
 #include "app/cli/insecure_flag.h"
+#include "app/cli/option_shapes.h"
 #include "core/device/device_factory.h"
 #include "core/device/hand_attachment.h"
 #include "core/device/isolated_plugin_device.h"
@@ -342,8 +343,7 @@ void add_device_check_command(CLI::App& device) {
   cmd->add_option("--seconds", opt->seconds, "How long to read [s], 0.05..3600")
       ->check(number_in(0.05, 3600.0))
       ->capture_default_str();
-  cmd->add_option("--rate-hz", opt->rate_Hz, "Loop rate [Hz], 150..2000")
-      ->check(number_in(150.0, 2000.0))
+  add_loop_rate_option(*cmd, opt->rate_Hz, "Loop rate [Hz], 150..2000")
       ->capture_default_str();
   cmd->add_option("--rate-tolerance", opt->rate_tolerance_fraction,
                   "How far the achieved rate may stray from --rate-hz (fraction, 0.001..0.5; a session takes its "

@@ -6,6 +6,7 @@
 #include "app/cli/cli_checks.h"
 #include "app/cli/population_option.h"
 #include "app/cli/renamed_option.h"
+#include "app/cli/option_shapes.h"
 #include "core/loop/loop_sample_csv.h"
 #include "core/common/output_file.h"
 #include "core/settings/settings_json.h"
@@ -117,8 +118,7 @@ void add_sim_run_command(CLI::App& sim) {
                   "virtual: as fast as the CPU allows, deterministic; wall: real time")
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();
-  cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
-      ->check(number_in(150.0, 2000.0))
+  add_loop_rate_option(*cmd, opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
       ->capture_default_str();
   cmd->add_flag("--thesis-rate", opt->thesis_rate,
                 "Let the rate wander between 200 and 2000 Hz like the thesis' VE (overrides --rate-hz)");

@@ -28,6 +28,7 @@
 #include "core/settings/settings_json.h"
 #include "core/common/output_file.h"
 #include "app/cli/data_paths.h"
+#include "app/cli/option_shapes.h"
 #include "planning/calibration.h"
 #include "planning/change_summary.h"
 #include "planning/comparison_report.h"
@@ -928,20 +929,15 @@ void add_plan_command(CLI::App& app) {
   cmd->add_option("--studies", opt->studies, "Simulated studies per participant count, 1..100000")
       ->capture_default_str()
       ->check(whole_number_in(1, 100000));
-  cmd->add_option("--seed", opt->seed, "Seed of the whole plan: the same seed gives the same studies")
-      ->capture_default_str()
-      ->check(seed_number());
-  cmd->add_option("--jobs,-j", opt->jobs, "Studies simulated at once (0: two per core)")
-      ->capture_default_str()
-      ->check(whole_number_in(0, 256));
+  add_seed_option(*cmd, opt->seed, "Seed of the whole plan: the same seed gives the same studies");
+  add_jobs_option(*cmd, opt->jobs, "Studies simulated at once (0: two per core)")->capture_default_str();
   cmd->add_option("--out", opt->out, "Folder for plan_power.db (the finished studies), power.csv and figures")
       ->capture_default_str();
   cmd->add_option("--measure", opt->measure, "Measure of the printed table and figures (power.csv has all)")
       ->capture_default_str()
       ->check(CLI::IsMember({"force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s",
                              "path_length_m"}));
-  cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000, as session run's")
-      ->check(number_in(150.0, 2000.0))
+  add_loop_rate_option(*cmd, opt->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000, as session run's")
       ->capture_default_str();
   cmd->add_option("--max-trial-s", opt->max_trial_s, "Per-trial time limit [s], as session run's")
       ->capture_default_str()
@@ -1026,16 +1022,12 @@ void add_plan_command(CLI::App& app) {
   calibrate->add_option("--participants", cal->participants, "Simulated participants, 2..100000")
       ->capture_default_str()
       ->check(whole_number_in(2, 100000));
-  calibrate->add_option("--seed", cal->seed, "Seed: the same seed gives the same participants and table")
-      ->capture_default_str()
-      ->check(seed_number());
-  calibrate->add_option("--jobs,-j", cal->jobs, "Groups of 10 participants simulated at once (0: two per core)")
-      ->check(whole_number_in(0, 256));
+  add_seed_option(*calibrate, cal->seed, "Seed: the same seed gives the same participants and table");
+  add_jobs_option(*calibrate, cal->jobs, "Groups of 10 participants simulated at once (0: two per core)");
   calibrate->add_option("--out", cal->out, "Folder for calibration.csv")->capture_default_str();
-  calibrate->add_option("--rate-hz", cal->rate_Hz,
-                        "Haptic loop rate of the simulated trials [Hz], 150..2000 (default 1000; 250 with --fit, "
-                        "whose rate check compares 1 kHz)")
-      ->check(number_in(150.0, 2000.0));
+  add_loop_rate_option(*calibrate, cal->rate_Hz,
+                       "Haptic loop rate of the simulated trials [Hz], 150..2000 (default 1000; 250 with --fit, "
+                       "whose rate check compares 1 kHz)");
   calibrate->add_option("--max-trial-s", cal->max_trial_s, "Per-trial time limit [s], as session run's")
       ->capture_default_str()
       ->check(number_in(1.0, 3600.0));

@@ -14,6 +14,7 @@
 #include "app/cli/cli_checks.h"
 #include "app/cli/data_paths.h"
 #include "app/cli/progress_line.h"
+#include "app/cli/option_shapes.h"
 #include "core/common/csv_format.h"
 #include "core/common/output_file.h"
 #include "core/settings/settings_json.h"
@@ -345,9 +346,7 @@ void add_stability_command(CLI::App& app) {
   cmd->add_option("--steps", opt->steps, "Bisection steps per boundary, 1..40")
       ->capture_default_str()
       ->check(whole_number_in(1, 40));
-  cmd->add_option("--jobs,-j", opt->jobs, "Threads (0: one per core); the map does not depend on it")
-      ->capture_default_str()
-      ->check(whole_number_in(0, 256));
+  add_jobs_option(*cmd, opt->jobs, "Threads (0: one per core); the map does not depend on it")->capture_default_str();
   cmd->add_option("--out", opt->out, "Folder for the tables and figures")->capture_default_str();
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; }, "No figures (no gnuplot needed)");
   cmd->add_flag("--yes", opt->yes, "Run a map estimated to take over 5 minutes without asking");

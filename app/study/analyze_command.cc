@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/cli/cli_checks.h"
+#include "app/cli/option_shapes.h"
 #include "analysis/study/headline_format.h"
 #include "analysis/report/gnuplot.h"
 #include "analysis/report/report.h"
@@ -229,13 +230,11 @@ void add_analyze_command(CLI::App& app) {
                   "Moving block length in kept samples, >= 1 (10 at stride 50 and 1 kHz = 0.5 s); should "
                   "cover the series' autocorrelation")
       ->capture_default_str();
-  cmd->add_option("--seed", opt->seed, "Seed of the KS bootstrap; same seed and data, same result")
-      ->capture_default_str()
-      ->check(seed_number());
+  add_seed_option(*cmd, opt->seed, "Seed of the KS bootstrap; same seed and data, same result");
   cmd->add_flag("--no-plots", opt->no_plots, "Write the report without figures (gnuplot not needed)");
   cmd->add_flag("--pdf", opt->pdf, "Also write each figure as figures/NAME.pdf (vector, for a paper)");
-  cmd->add_option("--jobs,-j", opt->jobs, "Trials read, and figures drawn (gnuplot processes), in parallel (0: one "
-                  "per core); the results do not depend on it")->capture_default_str()->check(whole_number_in(0, 256));
+  add_jobs_option(*cmd, opt->jobs, "Trials read, and figures drawn (gnuplot processes), in parallel (0: one "
+                  "per core); the results do not depend on it")->capture_default_str();
   cmd->add_flag("--json", opt->json,
                 "Print a JSON summary (counts, whole-design and pairwise results, files) instead of the tables");
   cmd->add_flag("--quiet", opt->quiet, "Do not print the headline tables");

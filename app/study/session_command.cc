@@ -16,6 +16,7 @@
 #include "app/cli/insecure_flag.h"
 #include "app/cli/interrupt_flag.h"
 #include "app/cli/progress_line.h"
+#include "app/cli/option_shapes.h"
 #include "core/device/device_spec.h"
 #include "core/loop/realtime.h"
 #include "sessions/session_runner.h"
@@ -237,8 +238,7 @@ void add_session_command(CLI::App& app) {
   cmd->add_option("--clock", opt->clock, "virtual: as fast as the CPU allows; wall: real time")
       ->check(CLI::IsMember({"virtual", "wall"}))
       ->capture_default_str();
-  cmd->add_option("--rate-hz", opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
-      ->check(number_in(150.0, 2000.0))
+  add_loop_rate_option(*cmd, opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
       ->capture_default_str();
   cmd->add_option("--max-trial-s", opt->max_trial_s,
                   "Time limit per trial [s]; a trial that reaches it is aborted and not re-queued")

@@ -26,6 +26,7 @@
 #include "analysis/stats/sign_flip_vs_control.h"
 #include "analysis/stats/skillings_mack.h"
 #include "app/cli/cli_checks.h"
+#include "app/cli/option_shapes.h"
 
 namespace hapticlab::app {
 namespace {
@@ -561,9 +562,7 @@ void add_stats_command(CLI::App& app) {
     cmd->add_option("--block-length", opt->block_length,
                     "Moving block length in samples (>= 1, at most the shortest repetition); "
                     "cover the autocorrelation of the data");
-    cmd->add_option("--seed", opt->seed, "Random seed; the same seed and data give the same ranges")
-        ->capture_default_str()
-        ->check(seed_number());
+    add_seed_option(*cmd, opt->seed, "Random seed; the same seed and data give the same ranges");
     cmd->add_option("--percentile-method", opt->percentile_method,
                     "Percentile definition for the 95% ranges: matlab, r7, r6, nearest")
         ->capture_default_str();
