@@ -32,6 +32,7 @@
 #include "planning/calibration.h"
 #include "planning/change_summary.h"
 #include "planning/comparison_report.h"
+#include "planning/plan_design.h"
 #include "planning/plan_inputs.h"
 #include "planning/plan_lock.h"
 #include "planning/plan_runner.h"
@@ -149,77 +150,13 @@ std::vector<std::string> draw_power(const fs::path& out, const std::vector<plann
   return script.outputs();
 }
 
-// What the report needs of the design beyond the protocol: its control
-// and its null settings (copies of the control under another name).
-struct PlanDesign {
-  std::string control;
-  std::set<std::string> null_settings;
-};
-
-// Refused before any simulation: a protocol without a control, a null
-// setting that is not a copy of the control, or a design that cannot take
-// a participant count.
-PlanDesign check_design(const protocols::Protocol& protocol, const std::string& protocol_path,
-                        const std::vector<int>& counts, std::uint64_t seed, const planning::SimulatedStudyOptions& sim) {
-  const struct {
-    const std::string& protocol;
-    std::uint64_t seed;
-  } o{protocol_path, seed};
-  std::set<std::string> null_settings;
-  std::string control_name;
-  {
-    analysis::StudyAnalysis names;
-    for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
-    try {
-      analysis::choose_control(names, sim.analysis);
-    } catch (const std::exception& e) {
-      throw std::runtime_error(o.protocol + ": " + e.what() +
-                               "; plan power compares every setting with the control");
-    }
-    control_name = names.control;
-    for (int n : counts) (void)planning::resized_protocol(protocol, n, o.seed);
-    // A null setting: the control's parameters under another name. Any
-    // difference found for it is a false positive.
-    auto parameters = [](const NamedSettings& s) {
-      nlohmann::json j = settings_to_json(s);
-      j.erase("name");
-      j.erase("description");
-      return j;
-    };
-    const auto control = std::find_if(protocol.settings.begin(), protocol.settings.end(),
-                                      [&](const auto& s) { return s.settings.name == names.control; });
-    const nlohmann::json control_parameters = parameters(control->settings);
-    // Declared ones ("null_settings") must be copies: a null setting that
-    // differs measures an effect, not the false-positive rate.
-    for (const std::string& name : protocol.null_settings) {
-      if (name == names.control)
-        throw std::runtime_error(o.protocol + ": null_settings names '" + name + "', the control itself; a null "
-                                 "setting is a copy of the control under another name");
-      const nlohmann::json mine = parameters(protocol.settings[*protocol.find_setting(name)].settings);
-      if (mine != control_parameters) {
-        std::string field = "?";
-        const nlohmann::json diff = nlohmann::json::diff(control_parameters, mine);
-        if (!diff.empty()) {
-          field = diff[0].value("path", "?");  // a JSON pointer, /translation/friction/enabled
-          std::replace(field.begin(), field.end(), '/', '.');
-          if (!field.empty() && field.front() == '.') field.erase(0, 1);
-        }
-        throw std::runtime_error(o.protocol + ": null_settings names '" + name + "', but it is not a copy of the "
-                                 "control '" + names.control + "': it differs at " + field +
-                                 " (a null setting has the control's parameters under another name)");
-      }
-      null_settings.insert(name);
-    }
-    // Undeclared copies are null settings too (nothing but the name differs), said so.
-    for (const auto& s : protocol.settings)
-      if (s.settings.name != names.control && !null_settings.count(s.settings.name) &&
-          parameters(s.settings) == control_parameters) {
-        null_settings.insert(s.settings.name);
-        std::fprintf(stderr, "note: '%s' has the control's parameters: counted as a null setting (declare it in "
-                             "the protocol's \"null_settings\" to say it is meant)\n", s.settings.name.c_str());
-      }
-  }
-  return {control_name, null_settings};
+// The design check (planning/plan_design.h), its notes printed on stderr.
+planning::PlanDesign checked_design(const protocols::Protocol& protocol, const std::string& protocol_path,
+                                    const std::vector<int>& counts, std::uint64_t seed,
+                                    const planning::SimulatedStudyOptions& sim) {
+  planning::PlanDesign design = planning::check_plan_design(protocol, protocol_path, counts, seed, sim);
+  for (const std::string& note : design.notes) std::fprintf(stderr, "note: %s\n", note.c_str());
+  return design;
 }
 
 // What a finished plan writes and prints: power.csv, the comparison of each
@@ -229,7 +166,7 @@ PlanDesign check_design(const protocols::Protocol& protocol, const std::string& 
 struct PlanResults {
   const protocols::Protocol& protocol;
   const planning::PlanInputs& inputs;
-  const PlanDesign& design;
+  const planning::PlanDesign& design;
   std::vector<planning::StudyOutcome> outcomes;  // every study of the plan
   fs::path out;
   std::string measure;
@@ -276,7 +213,7 @@ int run_plan_power(const PlanPowerOptions& o) {
   planning::SimulatedStudyOptions sim = plan_simulation(o.rate_Hz, o.max_trial_s);
   sim.population = population.point;
   const std::vector<int> counts = plan_counts(o, protocol);
-  const PlanDesign design = check_design(protocol, o.protocol, counts, o.seed, sim);
+  const planning::PlanDesign design = checked_design(protocol, o.protocol, counts, o.seed, sim);
   planning::PlanInputs inputs = planning::plan_inputs(protocol, o.protocol, protocol_text, o.seed, counts, o.studies, sim);
   inputs.population = population_key(population);
   inputs.model_uncertainty = model_uncertainty;
@@ -634,7 +571,7 @@ int run_plan_merge(const PlanMergeOptions& o) {
     throw std::runtime_error(protocol_path + ": not the protocol the shards were made from: " + list +
                              " (\"then\" is the shards', \"now\" this file's)");
   }
-  const PlanDesign design = check_design(protocol, protocol_path, whole.participants, whole.seed, sim);
+  const planning::PlanDesign design = checked_design(protocol, protocol_path, whole.participants, whole.seed, sim);
   if (o.plots) (void)analysis::find_gnuplot();
 
   // Every shard's rows checked as its own run checks them, complete, while
