@@ -465,6 +465,71 @@ void run_ks(const KsOptions& opt) {
   });
 }
 
+// stats pairwise: its options (the method, the control, alpha).
+void add_pairwise_subcommand(CLI::App* stats) {
+  auto opt = std::make_shared<PairwiseOptions>();
+  CLI::App* cmd = stats->add_subcommand(
+      "pairwise",
+      "A control against each other treatment, judged at the Sidak level 1-(1-alpha)^(1/m): the thesis' "
+      "Friedman test over the blocks holding both (--method thesis), or one value per block, the exact "
+      "sign-flip test of the blocks' median differences (--method participant; blocks are participants)");
+  add_common_options(*cmd, opt->common, true);
+  cmd->add_option("--control", opt->control, "Treatment to compare the others with")
+      ->required();
+  cmd->add_option("--alpha", opt->alpha, "Family-wise significance level, in (0, 1)")
+      ->capture_default_str()
+      ->check(CLI::Validator(
+          [](const std::string& text) {
+            // CLI::Range is closed; 0 and 1 are no significance levels.
+            double a = 0.0;
+            if (!CLI::detail::lexical_cast(text, a) || !(a > 0.0 && a < 1.0))
+              return "alpha is " + text + "; it must lie strictly between 0 and 1";
+            return std::string();
+          },
+          "in (0, 1)"));
+  cmd->add_option("--method", opt->method,
+                  "thesis: pairwise Friedman, replicates as evidence; participant: each block's median, "
+                  "one difference per block, exact sign-flip test (docs/analysis.md, \"Which comparison\")")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"thesis", "participant"}));
+  cmd->add_option("--percentile-method", opt->percentile_method,
+                  "Median definition for --method participant: matlab, r7, r6, nearest")
+      ->capture_default_str();
+  cmd->callback([opt] { run_pairwise(*opt); });
+}
+
+// stats ks: its options (the treatments, the bootstrap).
+void add_ks_subcommand(CLI::App* stats) {
+  auto opt = std::make_shared<KsOptions>();
+  CLI::App* cmd = stats->add_subcommand(
+      "ks",
+      "Two-sample Kolmogorov-Smirnov D of two treatments; with --bootstrap, the thesis' "
+      "Appendix I moving block bootstrap of D_intra and D_inter");
+  add_common_options(*cmd, opt->common, true);
+  cmd->get_option("--block")->description(
+      "Column naming the participant; the pooled test needs none (used only when the file has "
+      "it), --bootstrap does");
+  cmd->add_option("--control", opt->control, "Control treatment (e.g. the High Fidelity setting)")
+      ->required();
+  cmd->add_option("--other", opt->other, "Treatment compared with the control")->required();
+  cmd->add_option("--bootstrap", opt->bootstrap,
+                  "Bootstrap resamples (0: only the pooled D and its p, exact when "
+                  "n_control * n_other < 10000, else asymptotic; the thesis "
+                  "used 1000); needs --replicate and --block-length")
+      ->capture_default_str();
+  cmd->add_option("--block-length", opt->block_length,
+                  "Moving block length in samples (>= 1, at most the shortest repetition); "
+                  "cover the autocorrelation of the data");
+  add_seed_option(*cmd, opt->seed, "Random seed; the same seed and data give the same ranges");
+  cmd->add_option("--percentile-method", opt->percentile_method,
+                  "Percentile definition for the 95% ranges: matlab, r7, r6, nearest")
+      ->capture_default_str();
+  cmd->callback([opt, cmd] {
+    opt->block_given = cmd->count("--block") > 0;
+    run_ks(*opt);
+  });
+}
+
 }  // namespace
 
 void add_stats_command(CLI::App& app) {
@@ -481,37 +546,7 @@ void add_stats_command(CLI::App& app) {
     add_common_options(*cmd, *opt, true);
     cmd->callback([opt] { run_block_test(*opt, "friedman", an::friedman_test); });
   }
-  {
-    auto opt = std::make_shared<PairwiseOptions>();
-    CLI::App* cmd = stats->add_subcommand(
-        "pairwise",
-        "A control against each other treatment, judged at the Sidak level 1-(1-alpha)^(1/m): the thesis' "
-        "Friedman test over the blocks holding both (--method thesis), or one value per block, the exact "
-        "sign-flip test of the blocks' median differences (--method participant; blocks are participants)");
-    add_common_options(*cmd, opt->common, true);
-    cmd->add_option("--control", opt->control, "Treatment to compare the others with")
-        ->required();
-    cmd->add_option("--alpha", opt->alpha, "Family-wise significance level, in (0, 1)")
-        ->capture_default_str()
-        ->check(CLI::Validator(
-            [](const std::string& text) {
-              // CLI::Range is closed; 0 and 1 are no significance levels.
-              double a = 0.0;
-              if (!CLI::detail::lexical_cast(text, a) || !(a > 0.0 && a < 1.0))
-                return "alpha is " + text + "; it must lie strictly between 0 and 1";
-              return std::string();
-            },
-            "in (0, 1)"));
-    cmd->add_option("--method", opt->method,
-                    "thesis: pairwise Friedman, replicates as evidence; participant: each block's median, "
-                    "one difference per block, exact sign-flip test (docs/analysis.md, \"Which comparison\")")
-        ->capture_default_str()
-        ->check(CLI::IsMember({"thesis", "participant"}));
-    cmd->add_option("--percentile-method", opt->percentile_method,
-                    "Median definition for --method participant: matlab, r7, r6, nearest")
-        ->capture_default_str();
-    cmd->callback([opt] { run_pairwise(*opt); });
-  }
+  add_pairwise_subcommand(stats);
   {
     auto opt = std::make_shared<CommonOptions>();
     CLI::App* cmd = stats->add_subcommand(
@@ -541,36 +576,7 @@ void add_stats_command(CLI::App& app) {
     cmd->add_flag("--json", opt->json, "Print one JSON object instead of a table");
     cmd->callback([opt] { run_correlation(*opt); });
   }
-  {
-    auto opt = std::make_shared<KsOptions>();
-    CLI::App* cmd = stats->add_subcommand(
-        "ks",
-        "Two-sample Kolmogorov-Smirnov D of two treatments; with --bootstrap, the thesis' "
-        "Appendix I moving block bootstrap of D_intra and D_inter");
-    add_common_options(*cmd, opt->common, true);
-    cmd->get_option("--block")->description(
-        "Column naming the participant; the pooled test needs none (used only when the file has "
-        "it), --bootstrap does");
-    cmd->add_option("--control", opt->control, "Control treatment (e.g. the High Fidelity setting)")
-        ->required();
-    cmd->add_option("--other", opt->other, "Treatment compared with the control")->required();
-    cmd->add_option("--bootstrap", opt->bootstrap,
-                    "Bootstrap resamples (0: only the pooled D and its p, exact when "
-                    "n_control * n_other < 10000, else asymptotic; the thesis "
-                    "used 1000); needs --replicate and --block-length")
-        ->capture_default_str();
-    cmd->add_option("--block-length", opt->block_length,
-                    "Moving block length in samples (>= 1, at most the shortest repetition); "
-                    "cover the autocorrelation of the data");
-    add_seed_option(*cmd, opt->seed, "Random seed; the same seed and data give the same ranges");
-    cmd->add_option("--percentile-method", opt->percentile_method,
-                    "Percentile definition for the 95% ranges: matlab, r7, r6, nearest")
-        ->capture_default_str();
-    cmd->callback([opt, cmd] {
-      opt->block_given = cmd->count("--block") > 0;
-      run_ks(*opt);
-    });
-  }
+  add_ks_subcommand(stats);
 }
 
 }  // namespace hapticlab::app
