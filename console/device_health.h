@@ -8,7 +8,7 @@
 // plugin), its rig was left to it, and opening the device again could run a
 // second instance of the same hardware beside it. Every later session or
 // free trial is refused, saying so, and the console ends with exit status 3
-// (app/console_command.cc), without waiting for that thread.
+// (app/study/console_command.cc), without waiting for that thread.
 
 #include <mutex>
 #include <optional>

@@ -8,6 +8,9 @@ scripts/setup.sh build
 # The dependency rule (LAYERS, docs/architecture.md): names the file and
 # line of an include against it. ctest runs it too, as layer_rule.
 python3 scripts/check_layers.py
+# The length rule (LENGTHS_ALLOWED, docs/architecture.md): names the file,
+# line and length of a unit over it. ctest runs it too, as length_rule.
+python3 scripts/check_lengths.py
 echo "==> tests (RelWithDebInfo)"
 ctest --test-dir build --output-on-failure -j "$(nproc)"
 

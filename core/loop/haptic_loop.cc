@@ -288,6 +288,7 @@ void HapticLoop::finish(StopReason reason) noexcept {
 // returns from this one function, in the order the safety argument needs
 // (docs/safety.md), so a reader sees each exit and that zero force follows
 // it (trip() and finish()). What only computes is in the named steps above.
+// long-function: every exit of the loop in one place, in the safety order
 StopReason HapticLoop::loop_body() {
   DeviceReading reading;
   DeviceCommand command;

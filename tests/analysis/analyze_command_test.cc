@@ -1,6 +1,6 @@
 // `hapticlab analyze` in process: options reach the analysis, files land in
 // --out, and bad input is an error naming it.
-#include "app/analyze_command.h"
+#include "app/study/analyze_command.h"
 
 #include <fstream>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "app/stats_command.h"
+#include "app/study/stats_command.h"
 
 #include <algorithm>
 #include <cmath>

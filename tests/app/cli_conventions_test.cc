@@ -2,11 +2,12 @@
 // (0, 1 failure, 2 usage), "hapticlab: error: ..." with the --help to read,
 // a suggestion for a mistyped command, `hapticlab help [COMMAND...]`.
 #include <string>
+#include <utility>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "app/cli_errors.h"
+#include "app/cli/cli_errors.h"
 #include "app/cli_process.h"
 #include "tests/testing/test_paths.h"
 
@@ -110,6 +111,38 @@ TEST(CliConventions, NearestNameIsForTyposOnly) {
   EXPECT_EQ(app::nearest_name("sesion", names), "session");
   EXPECT_EQ(app::nearest_name("stat", names), "stats");
   EXPECT_EQ(app::nearest_name("calibrate", names), "");
+}
+
+// The recurring option shapes (app/cli/option_shapes.h) are one
+// definition: every command that takes --rate-hz, --seed or --jobs refuses
+// the same values in the same words, naming the option, the value and the
+// range.
+TEST(CliConventions, TheRecurringOptionShapesAreRefusedAlikeByEveryCommand) {
+  const std::string rate = "is refused: must be a finite number from 150 to 2000";
+  const std::string seed = "'-1' is refused: must be a whole number from 0 to 18446744073709551615";
+  const std::string jobs = "'257' is refused: must be a whole number from 0 to 256";
+  const std::pair<const char*, std::string> cases[] = {
+      {"session run --rate-hz 149", "--rate-hz: '149' " + rate},
+      {"sim run --rate-hz 2001", "--rate-hz: '2001' " + rate},
+      {"plan power --rate-hz 149", "--rate-hz: '149' " + rate},
+      {"plan calibrate --rate-hz 149", "--rate-hz: '149' " + rate},
+      {"device check --rate-hz 149", "--rate-hz: '149' " + rate},
+      {"bench loop --rate-hz 149", "--rate-hz: '149' " + rate},
+      {"bench udp --rate-hz 149", "--rate-hz: '149' " + rate},
+      {"plan power --seed -1", "--seed: " + seed},
+      {"plan calibrate --seed -1", "--seed: " + seed},
+      {"analyze --seed -1", "--seed: " + seed},
+      {"stats ks --seed -1", "--seed: " + seed},
+      {"plan power --jobs 257", "--jobs: " + jobs},
+      {"plan calibrate -j 257", "--jobs: " + jobs},
+      {"analyze --jobs 257", "--jobs: " + jobs},
+      {"stability map --jobs 257", "--jobs: " + jobs},
+  };
+  for (const auto& [args, refusal] : cases) {
+    const auto [status, out] = testing::run_cli(kBinary, args);
+    EXPECT_EQ(status, 2) << args << "\n" << out;
+    EXPECT_THAT(out, StartsWith("hapticlab: error: " + refusal)) << args;
+  }
 }
 
 }  // namespace

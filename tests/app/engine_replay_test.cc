@@ -1,4 +1,4 @@
-#include "app/engine_replay.h"
+#include "app/engine/engine_replay.h"
 
 #include <algorithm>
 #include <cmath>

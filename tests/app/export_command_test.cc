@@ -1,4 +1,4 @@
-#include "app/export_command.h"
+#include "app/study/export_command.h"
 
 #include <algorithm>
 #include <filesystem>

@@ -1,7 +1,7 @@
 // `hapticlab sim run`, in process through CLI11: the CSV it writes (the
 // documented columns, one row per loop update, events in the last column),
 // the one-line summary, the exit status, and errors that name the bad value.
-#include "app/sim_run.h"
+#include "app/engine/sim_run.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,0 +1,140 @@
+#include "app/study/console_command.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "app/cli/cli_checks.h"
+#include "app/cli/insecure_flag.h"
+#include "app/cli/interrupt_flag.h"
+#include "console/console_server.h"
+#include "core/common/secret_file.h"
+#include "core/device/device_factory.h"
+#include "core/device/device_spec.h"
+#include "core/loop/realtime.h"
+#include "core/sim/trial_runner.h"
+
+namespace hapticlab::app {
+namespace {
+
+struct ConsoleOptions {
+  std::string db;
+  std::string bind = "127.0.0.1";
+  int port = 8080;
+  int participant_port = 0;
+  std::string token_file;
+  std::string device = "sim";
+  std::vector<std::string> device_options;
+  bool insecure = false;
+  std::string clock = "virtual";
+  double max_trial_s = 300.0;
+  int training_trials = -1;
+  bool realtime = false;
+};
+
+// The token of `path`, read with the checks every secret file gets
+// (core/common/secret_file.h: mode 600, one line, no spaces or control
+// characters, not one repeated character); a missing file is made with a
+// new token (128 bits from the kernel).
+std::string token_from_file(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) create_secret_file(path, random_hex(16));
+  return read_secret_file(path, "--token-file");
+}
+
+int run(const ConsoleOptions& opt) {
+  console::ConsoleConfig config;
+  config.session.db = opt.db;
+  config.session.device = parse_device_spec(opt.device);
+  add_device_options(config.session.device, opt.device_options);
+  config.session.device.insecure = opt.insecure;
+  // Refused now rather than at the first session (the device itself is
+  // opened only then).
+  check_device_spec(config.session.device);
+  config.session.clock = parse_clock_kind(opt.clock);
+  config.session.max_trial_s = opt.max_trial_s;
+  if (opt.training_trials >= 0) config.session.training_trials = opt.training_trials;
+  config.session.realtime.enabled = opt.realtime;
+  if (opt.realtime) {
+    RealtimeResult granted;
+    std::fprintf(stderr, "%s\n", prepare_realtime(config.session.realtime, &granted).c_str());
+    // Under SCHED_FIFO an isolated plugin costs under 20 µs per update: "plugin:" runs isolated then.
+    config.session.device.realtime_loop = granted.scheduled;
+  }
+  config.bind_address = opt.bind;
+  config.port = opt.port;
+  config.participant_port = opt.participant_port;
+  const bool loopback = opt.bind == "127.0.0.1" || opt.bind == "localhost" || opt.bind == "::1";
+  if (!loopback) {
+    if (opt.token_file.empty())
+      throw std::invalid_argument("--bind " + opt.bind + ": serving beyond this machine needs --token-file FILE");
+    std::fprintf(stderr,
+                 "warning: the console listens on %s: anyone who can reach it sees the study's progress; "
+                 "controls need the token in %s. HTTP is not encrypted: use a trusted network.\n",
+                 opt.bind.c_str(), opt.token_file.c_str());
+  }
+  const std::string token_file = opt.token_file.empty() ? opt.db + ".console-token" : opt.token_file;
+  config.token = token_from_file(token_file);
+  std::printf("console token (controls need it): in %s (readable only by you) and in the address below\n",
+              token_file.c_str());
+  InterruptFlag interrupt;
+  const console::ConsoleOutcome outcome = console::serve_console(config, interrupt.flag());
+  if (outcome.device_hung) {
+    std::fprintf(stderr,
+                 "hapticlab console: the device hung (%s); restart the device before the next session\n",
+                 outcome.device_hung->c_str());
+    std::fflush(nullptr);
+    // A thread is still inside the device's code: ending the process the
+    // usual way would wait for it, or destroy what it is using.
+    std::_Exit(3);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_console_command(CLI::App& app) {
+  auto opt = std::make_shared<ConsoleOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "console", "Operator's web console: study progress, session controls with STOP, live plots and a blinded "
+                 "participant screen, in a browser (docs/console.md)");
+  cmd->add_option("--db", opt->db, "Study database (hapticlab study create)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--port", opt->port, "TCP port, 0..65535 (0: any free one, printed)")
+      ->check(whole_number_in(0, 65535))
+      ->capture_default_str();
+  cmd->add_option("--participant-port", opt->participant_port,
+                  "TCP port of the participant screen, 0..65535 (0: any free one, printed); a port of its own, so "
+                  "the participant's browser cannot read the operator's pages, which name the setting")
+      ->check(whole_number_in(0, 65535))
+      ->capture_default_str();
+  cmd->add_option("--bind", opt->bind, "Address to listen on; anything but 127.0.0.1 needs --token-file")
+      ->capture_default_str();
+  cmd->add_option("--token-file", opt->token_file,
+                  "File with the control token (made with a new one, mode 600, if missing; default: DB.console-token)");
+  cmd->add_option("--device", opt->device, "Device for sessions, as for `session run` (sim, plugin:PATH, udp:HOST:PORT)")
+      ->capture_default_str();
+  cmd->add_option("--device-option", opt->device_options, "key=value for the device, repeatable");
+  add_insecure_flag(cmd, opt->insecure);
+  cmd->add_option("--clock", opt->clock, "virtual (simulated device, as fast as it runs) or wall")
+      ->check(CLI::IsMember({"virtual", "wall"}))
+      ->capture_default_str();
+  cmd->add_option("--max-trial-s", opt->max_trial_s, "Time limit per trial [s]")
+      ->check(positive_number())
+      ->capture_default_str();
+  cmd->add_option("--training-trials", opt->training_trials,
+                  "Simulated training trials per task (default: the protocol's)")
+      ->check(whole_number_in(0, 1000));
+  cmd->add_flag("--realtime", opt->realtime,
+                "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked, as `session run --realtime` "
+                "(recommended when browsers watch on the same machine: BENCHMARKS.md)");
+  cmd->callback([opt] {
+    const int status = run(*opt);
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+}
+
+}  // namespace hapticlab::app

@@ -1,0 +1,186 @@
+#include "app/study/study_demo.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "core/common/build_info.h"
+#include "analysis/study/headline_format.h"
+#include "analysis/report/report.h"
+#include "analysis/study/metrics_csv.h"
+#include "analysis/study/study_analysis.h"
+#include "app/cli/data_paths.h"
+#include "app/cli/interrupt_flag.h"
+#include "app/cli/population_option.h"
+#include "app/cli/progress_line.h"
+#include "core/common/input_file.h"
+#include "core/common/sha256.h"
+#include "db/study_db.h"
+#include "sessions/session_runner.h"
+#include "sessions/study_progress.h"
+#include "sessions/study_setup.h"
+
+namespace hapticlab::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct DemoOptions {
+  std::string out = "demo-output";
+  bool quick = false;
+  std::string protocol;  // empty: the shipped thesis protocol
+  bool plots = true;
+  std::string population;  // --population (app/cli/population_option.h)
+};
+
+std::string read_text(const fs::path& path) {
+  return read_text_file(path, kMaxJsonFileBytes, "protocol file");  // the cap the protocol reader applies
+}
+
+// Creates the study, or checks that the one already in `db_path` came from
+// the same protocol file (then the run resumes it).
+void create_or_resume(const fs::path& db_path, const fs::path& protocol, ProgressLine& line) {
+  const bool existed = fs::exists(db_path);
+  db::StudyDb db(db_path);
+  const auto studies = db.studies();
+  if (!studies.empty()) {
+    const std::string hash = sha256_hex(read_text(protocol));
+    if (studies.front().protocol_sha256 != hash)
+      throw std::runtime_error(db_path.string() + " holds a study from another protocol (" + studies.front().name +
+                               "); choose another --out directory or delete it");
+    line.print("Resuming the study in " + db_path.string());
+    return;
+  }
+  if (existed) line.print("Creating the study in the empty database " + db_path.string());
+  const sessions::CreatedStudy created = sessions::create_study(db, protocol, software_version());
+  line.print("1. Study designed and block-randomized: " + std::to_string(created.participants) +
+             " simulated surgeons, " + std::to_string(created.trials) + " trials -> " + db_path.string());
+}
+
+int run(const DemoOptions& opt) {
+  const auto started = std::chrono::steady_clock::now();
+  auto elapsed_s = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  };
+  const fs::path out(opt.out);
+  fs::create_directories(out);
+  const fs::path protocol = opt.protocol.empty()
+                                ? default_protocols_dir() / (opt.quick ? "thesis_quick.json" : "thesis_as_run.json")
+                                : fs::path(opt.protocol);
+  if (!fs::exists(protocol)) throw std::runtime_error(protocol.string() + ": protocol file not found");
+  const fs::path db_path = out / "study.db";
+
+  const ChosenPopulation population = choose_population(opt.population);
+  ProgressLine line;
+  line.print("HapticLab demo: the thesis study (" + protocol.string() +
+             ") on the simulated rig, virtual clock; simulated surgeons from the " + population.describe);
+  create_or_resume(db_path, protocol, line);
+
+  // Where the study stands: the bar runs over every scheduled trial.
+  std::vector<std::string> codes;
+  int total = 0, done_before = 0;
+  {
+    db::OpenOptions open;
+    open.integrity = db::OpenOptions::Integrity::kQuick;
+    db::StudyDb db(db_path, open);
+    const sessions::StudyProgress progress = sessions::study_progress(db);
+    for (const auto& p : progress.participants) {
+      codes.push_back(p.code);
+      total += p.scheduled;
+      done_before += p.complete;
+    }
+  }
+  if (done_before > 0) line.print("   " + std::to_string(done_before) + " of " + std::to_string(total) +
+                                  " trials already complete; continuing");
+
+  InterruptFlag interrupt;
+  int done = done_before;
+  int timed_out = 0;
+  std::uint64_t updates = 0;
+  const double run_started_s = elapsed_s();
+  for (const std::string& code : codes) {
+    sessions::SessionOptions options;
+    options.participant = code;
+    options.population = population.point;
+    options.clock = ClockKind::kVirtual;
+    options.stop = &interrupt.flag();
+    options.on_progress = [&](const sessions::SessionProgress& p) {
+      if (p.phase != sessions::SessionProgress::Phase::kTrialFinished) return;
+      if (p.status == db::TrialStatus::kComplete) ++done;
+      else if (p.abort_reason.starts_with("time limit")) ++timed_out;
+      const int finished_here = done - done_before;
+      std::optional<double> eta;
+      if (finished_here > 0) eta = (elapsed_s() - run_started_s) / finished_here * (total - done - timed_out);
+      line.update(static_cast<double>(done + timed_out) / total,
+                  "2. sessions: " + code + " " + p.task + " trial " + std::to_string(p.trial_number) + "/" +
+                      std::to_string(p.trial_count),
+                  elapsed_s(), eta);
+    };
+    const sessions::SessionResult r = sessions::run_session(db_path, options);
+    updates += r.samples_logged;
+    if (r.stopped_by_operator) {
+      line.finish();
+      std::fprintf(stderr, "hapticlab demo: interrupted; %d of %d trials are safely stored in %s. Run the same "
+                           "command again to resume.\n", done, total, db_path.c_str());
+      return 130;
+    }
+    if (r.device_fault) throw std::runtime_error(code + ": " + r.device_fault_reason);
+  }
+  line.finish();
+  char text[256];
+  std::snprintf(text, sizeof text, "2. Sessions done: %d of %d trials complete%s, %.1f million loop updates logged "
+                "this run, database %.0f MB",
+                done, total, timed_out > 0 ? (", " + std::to_string(timed_out) + " timed out").c_str() : "",
+                static_cast<double>(updates) / 1e6, static_cast<double>(fs::file_size(db_path)) / 1e6);
+  line.print(text);
+
+  analysis::AnalysisOptions analysis_options;
+  const analysis::StudyAnalysis result = analysis::analyze_study_file(db_path, analysis_options);
+  const fs::path metrics = out / "metrics.csv";
+  analysis::write_metrics_csv(result, metrics);
+  analysis::ReportOptions report_options;
+  report_options.plots = opt.plots;
+  const analysis::ReportFiles report = analysis::write_report(result, out, report_options);
+  std::snprintf(text, sizeof text, "3. Analysis: %zu trials analysed, %zu aborted left out, %zu figures",
+                result.counts.analysed, result.counts.aborted_excluded, report.figures.size());
+  line.print(text);
+
+  std::printf("\n%s\n", analysis::format_headline_tables(result).c_str());
+  std::printf("4. Results in %s:\n", out.c_str());
+  std::printf("   database  %s   (hapticlab study show --db %s; schema: db/README.md)\n", db_path.c_str(),
+              db_path.c_str());
+  std::printf("   metrics   %s   (one row per trial and instrument)\n", metrics.c_str());
+  std::printf("   report    %s   (open in a browser; Markdown: %s)\n", report.html.c_str(), report.markdown.c_str());
+  std::printf("Done in %s.\n", format_duration(elapsed_s()).c_str());
+  return 0;
+}
+
+}  // namespace
+
+void add_study_demo_command(CLI::App& app) {
+  auto opt = std::make_shared<DemoOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "demo",
+      "Run the thesis study end to end on the simulated rig: design and block-randomize it (Table 3.3, "
+      "3 dissection and 9 clip repetitions), run every simulated surgeon's sessions with the virtual clock "
+      "logging every sample into SQLite, analyze, and write the metrics CSV and the HTML/Markdown report. "
+      "Interrupted (Ctrl-C, kill), it resumes where it stopped when run again with the same --out.");
+  cmd->add_option("--out", opt->out, "Directory for study.db, metrics.csv, report.html, report.md, figures/")
+      ->capture_default_str();
+  cmd->add_flag("--quick", opt->quick, "A smaller run (2 repetitions per task) for tests and a first look");
+  cmd->add_option("--protocol", opt->protocol,
+                  "Run another protocol file instead of the shipped thesis study")
+      ->check(CLI::ExistingFile);
+  cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; },
+                "Tables only (no gnuplot needed)");
+  add_population_option(cmd, opt->population);
+  cmd->callback([opt] {
+    const int status = run(*opt);
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+}
+
+}  // namespace hapticlab::app

@@ -1,0 +1,88 @@
+// Plan power's design check (planning/plan_design.h), without the CLI: an
+// undeclared copy of the control is a null setting with a note; a declared
+// null setting that differs from the control is refused naming the field;
+// one that is the control itself is refused.
+#include "planning/plan_design.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "protocols/protocol_json.h"
+
+namespace hapticlab::planning {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+class PlanDesignTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("hapticlab_plan_design_" +
+                                        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
+                                        "_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    std::ofstream(dir_ / "copy.json") << R"({"name": "HF copy", "description": "the control again"})";
+  }
+  void TearDown() override {
+    std::error_code ignored;
+    fs::remove_all(dir_, ignored);
+  }
+  // A protocol of High Fidelity (the control), Friction and "HF copy",
+  // with `null_settings` (a JSON array) declared.
+  std::string protocol(const std::string& null_settings) const {
+    const fs::path settings = fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
+    const fs::path path = dir_ / "protocol.json";
+    std::ofstream(path) << R"({"study": "design test", "tasks": ["clip"], "repetitions": {"clip": 1},
+      "settings": [")" << (settings / "high_fidelity.json").string() << R"(", ")"
+                        << (settings / "friction.json").string() << R"(", ")" << (dir_ / "copy.json").string()
+                        << R"("], "null_settings": )" << null_settings << R"(,
+      "participants": ["P01", "P02", "P03"], "design": {"type": "complete"}, "training_trials": 0, "seed": 7})";
+    return path.string();
+  }
+  fs::path dir_;
+};
+
+TEST_F(PlanDesignTest, AnUndeclaredCopyOfTheControlIsANullSettingWithANote) {
+  const std::string path = protocol("[]");
+  const PlanDesign d = check_plan_design(protocols::load_protocol_file(path), path, {3}, 1, {});
+  EXPECT_EQ(d.control, "High Fidelity");
+  EXPECT_EQ(d.null_settings, (std::set<std::string>{"HF copy"}));
+  ASSERT_EQ(d.notes.size(), 1u);
+  EXPECT_THAT(d.notes[0], HasSubstr("'HF copy' has the control's parameters: counted as a null setting"));
+  // Declared, it is a null setting without a note.
+  const std::string declared = protocol(R"(["HF copy"])");
+  const PlanDesign e = check_plan_design(protocols::load_protocol_file(declared), declared, {3}, 1, {});
+  EXPECT_EQ(e.null_settings, (std::set<std::string>{"HF copy"}));
+  EXPECT_TRUE(e.notes.empty());
+}
+
+TEST_F(PlanDesignTest, ADeclaredNullSettingThatIsNotACopyOrIsTheControlIsRefusedByName) {
+  const std::string differs = protocol(R"(["Friction"])");
+  try {
+    check_plan_design(protocols::load_protocol_file(differs), differs, {3}, 1, {});
+    FAIL() << "a null setting that differs from the control was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr(differs + ": null_settings names 'Friction', but it is not a copy of the control "
+                                               "'High Fidelity': it differs at rotation.friction.enabled (a null setting has "
+                                               "the control's parameters under another name)"));
+  }
+  const std::string control = protocol(R"(["High Fidelity"])");
+  try {
+    check_plan_design(protocols::load_protocol_file(control), control, {3}, 1, {});
+    FAIL() << "the control accepted as its own null setting";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("null_settings names 'High Fidelity', the control itself"));
+  }
+}
+
+}  // namespace
+}  // namespace hapticlab::planning
