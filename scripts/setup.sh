@@ -16,9 +16,8 @@ packages=(g++ make cmake ninja-build pkg-config libeigen3-dev nlohmann-json3-dev
           libjs-chart.js)
 # Only the test suite needs these (a browser for the report check,
 # zstandard for the Python reader of format-3 chunks, crc32c for the numpy
-# comparator's CRC-32C: bench/analyze_numpy.py; scipy is used by nothing in
-# the tree since that comparator dropped it, kept so as not to break a
-# user's scripts -- the lead decides).
+# comparator's CRC-32C: bench/analyze_numpy.py; scipy for the learning-curve
+# fits' reference, tests/analysis/learning/scipy_curve_fit.py).
 if [[ -z ${HAPTICLAB_TARGETS:-} ]]; then
   packages+=(python3-scipy python3-zstandard python3-crc32c chromium chromium-driver python3-selenium)
   # clang for the sanitizer build (scripts/test.sh), with its sanitizer runtimes

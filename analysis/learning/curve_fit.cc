@@ -253,7 +253,8 @@ CurveFit fit_curve(CurveFamily family, const std::vector<double>& n, const std::
   if (!converged) {
     std::ostringstream msg;
     msg << "not_converged: the " << family_name(family) << " fit did not converge in " << iter
-        << " Levenberg-Marquardt iterations (last SSE " << sse << ")";
+        << " Levenberg-Marquardt iterations (last SSE " << sse << ", a = " << p[0] << ", b = " << p[1]
+        << ", rate = " << p[2] << "; parameters still drifting usually mean the trials do not reach a plateau)";
     return refused(family, FitRefusal::kNotConverged, msg.str());
   }
   if (!(p[2] > 0.0) || !std::isfinite(p[0]) || !std::isfinite(p[1])) {

@@ -144,9 +144,10 @@ TransferAnalysis analyze_transfer(const learning::TrialTable& table, const Trans
       x.push_back(training_trials(p));
     }
     if (!control_missing.empty() || !missing.empty()) {
-      t.refusal = "criterion not reached in the post-test by: " + control_missing +
-                  (control_missing.empty() || missing.empty() ? "" : " ") + missing +
-                  " (trials to criterion unknown; not guessed)";
+      std::string who;
+      if (!control_missing.empty()) who += control_missing + " (" + *options.control_group + ")";
+      if (!missing.empty()) who += (who.empty() ? "" : " ") + missing + " (" + g + ")";
+      t.refusal = "criterion not reached in the post-test by: " + who + " (trials to criterion unknown; not guessed)";
     } else {
       try {
         t.ratio = transfer_effectiveness_ratio(control_y, y, x);

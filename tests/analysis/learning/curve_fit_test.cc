@@ -175,5 +175,40 @@ TEST(CurveFit, RefusesByNameInsteadOfGarbage) {
   EXPECT_THROW(fit_curve(CurveFamily::kPower, {1, 2}, {1}), DataError);
 }
 
+// Awkward series (pure noise, a straight decline, a noisy power law, 10 %
+// outliers), 6 to 40 trials, 30 of each: every fit either is refused by
+// name or has finite estimates, standard errors and trials to 90 %.
+TEST(CurveFit, AwkwardSeriesGiveFiniteFitsOrNamedRefusals) {
+  Random rng(42);
+  int fitted = 0, refused = 0;
+  for (int it = 0; it < 120; ++it) {
+    const int count = 6 + static_cast<int>(rng.uniform() * 35);
+    const int kind = it % 4;
+    std::vector<double> n, y;
+    for (int i = 1; i <= count; ++i) {
+      n.push_back(i);
+      y.push_back(kind == 0   ? rng.normal()
+                  : kind == 1 ? 10 - 0.3 * i + rng.normal()
+                  : kind == 2 ? 20 + 40 * std::pow(i, -0.5) + 5 * rng.normal()
+                              : (rng.uniform() < 0.1 ? 1000 : 1) + rng.normal());
+    }
+    for (auto family : {CurveFamily::kPower, CurveFamily::kExponential}) {
+      const CurveFit f = fit_curve(family, n, y);
+      if (!f.ok()) {
+        ++refused;
+        EXPECT_THAT(f.reason, HasSubstr(refusal_name(f.refusal)));
+        continue;
+      }
+      ++fitted;
+      for (double v : {f.a, f.b, f.rate, f.se_a, f.se_b, f.se_rate, f.trials_to_90, f.residual_sd, f.aicc})
+        EXPECT_TRUE(std::isfinite(v)) << family_name(family) << " kind " << kind << " n " << count;
+      EXPECT_GT(f.rate, 0.0);
+    }
+  }
+  std::cout << "awkward series: " << fitted << " fits, " << refused << " named refusals\n";
+  EXPECT_GT(fitted, 0);
+  EXPECT_GT(refused, 0);
+}
+
 }  // namespace
 }  // namespace hapticlab::analysis::learning

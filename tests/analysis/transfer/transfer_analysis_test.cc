@@ -79,7 +79,7 @@ TEST(TransferAnalysis, ComparesChangesAndComputesTer) {
   options.criterion = 26.0;
   const auto strict = analyze_transfer(table(table_text()), options);
   EXPECT_FALSE(strict.transfer[0].ratio);
-  EXPECT_THAT(strict.transfer[0].refusal, HasSubstr("criterion not reached in the post-test by: C1 C2 C3 C4 L1 L2 L4"));
+  EXPECT_THAT(strict.transfer[0].refusal, HasSubstr("criterion not reached in the post-test by: C1 C2 C3 C4 (control) L1 L2 L4 (lofi)"));
 }
 
 TEST(TransferAnalysis, RefusesByName) {
