@@ -51,9 +51,9 @@ std::uint64_t transfer_study_seed(std::uint64_t seed, int per_group, int index) 
       .next_u64();
 }
 
-TransferPower transfer_power(const TransferDesign& design, const TransferPowerOptions& options,
-                             const GroupTest& test) {
-  design.validate();
+namespace {
+
+void check_power_options(const TransferPowerOptions& options) {
   if (options.per_group.empty()) throw std::invalid_argument("participants per group: none given; give 1..999");
   for (int n : options.per_group) {
     if (n < 1 || n > 999)
@@ -64,11 +64,42 @@ TransferPower transfer_power(const TransferDesign& design, const TransferPowerOp
   if (!(options.alpha > 0.0 && options.alpha < 1.0))
     throw std::invalid_argument("alpha is " + std::to_string(options.alpha) + ", but must be in (0, 1)");
   if (options.jobs < 1) throw std::invalid_argument("jobs is " + std::to_string(options.jobs) + ", but must be >= 1");
+}
 
+// One power row from the studies' outcomes of one test and group.
+TransferPowerRow row_of(const std::vector<Outcome>& outcomes, std::size_t stride, std::size_t offset) {
+  TransferPowerRow row;
+  std::vector<double> effects;
+  for (std::size_t k = 0; k * stride < outcomes.size(); ++k) {
+    const Outcome& o = outcomes[k * stride + offset];
+    if (!o.computed) continue;
+    ++row.studies;
+    if (o.significant) ++row.significant;
+    if (std::isfinite(o.effect_s)) effects.push_back(o.effect_s);
+  }
+  if (row.studies > 0) {
+    row.power = static_cast<double>(row.significant) / row.studies;
+    const analysis::ProportionInterval ci =
+        analysis::wilson_interval(static_cast<std::size_t>(row.significant), static_cast<std::size_t>(row.studies));
+    row.power_low = ci.low;
+    row.power_high = ci.high;
+  } else {
+    row.power = row.power_low = row.power_high = std::numeric_limits<double>::quiet_NaN();
+  }
+  row.median_effect_s = median_change(effects);
+  return row;
+}
+
+}  // namespace
+
+TransferPower transfer_power(const TransferDesign& design, const TransferPowerOptions& options,
+                             const GroupTest& test) {
+  design.validate();
+  check_power_options(options);
   const int groups = static_cast<int>(design.groups.size());
   const int tests = design.retention_trials > 0 ? 2 : 1;
   const bool pre_test = design.pre_trials > 0;
-  // outcome[size][study][test][group-1]
+  // outcomes[study * per_study + test * (groups - 1) + group - 1]
   const std::size_t per_study = static_cast<std::size_t>(tests * (groups - 1));
   TransferPower out;
   for (int n : options.per_group) {
@@ -113,29 +144,11 @@ TransferPower transfer_power(const TransferDesign& design, const TransferPowerOp
 
     for (int t = 0; t < tests; ++t) {
       for (int g = 1; g < groups; ++g) {
-        TransferPowerRow row;
+        TransferPowerRow row = row_of(outcomes, per_study, static_cast<std::size_t>(t * (groups - 1) + g - 1));
         row.per_group = n;
         row.test = t == 0 ? "post" : "retention";
         row.group = design.groups[static_cast<std::size_t>(g)].name;
         row.reference = design.groups[0].name;
-        std::vector<double> effects;
-        for (int k = 0; k < options.studies; ++k) {
-          const Outcome& o = outcomes[static_cast<std::size_t>(k) * per_study + static_cast<std::size_t>(t * (groups - 1) + g - 1)];
-          if (!o.computed) continue;
-          ++row.studies;
-          if (o.significant) ++row.significant;
-          if (std::isfinite(o.effect_s)) effects.push_back(o.effect_s);
-        }
-        if (row.studies > 0) {
-          row.power = static_cast<double>(row.significant) / row.studies;
-          const analysis::ProportionInterval ci =
-              analysis::wilson_interval(static_cast<std::size_t>(row.significant), static_cast<std::size_t>(row.studies));
-          row.power_low = ci.low;
-          row.power_high = ci.high;
-        } else {
-          row.power = row.power_low = row.power_high = std::numeric_limits<double>::quiet_NaN();
-        }
-        row.median_effect_s = median_change(effects);
         out.rows.push_back(row);
       }
     }

@@ -136,7 +136,10 @@ double CurveFit::predict(double n) const {
   return a + b * basis(family, n, rate);
 }
 
-CurveFit fit_curve(CurveFamily family, const std::vector<double>& n, const std::vector<double>& y) {
+namespace {
+
+// Refuses (DataError) points the fit cannot take.
+void check_points(const std::vector<double>& n, const std::vector<double>& y) {
   if (n.size() != y.size()) {
     std::ostringstream m;
     m << "learning curve: " << n.size() << " trial indices but " << y.size() << " values";
@@ -150,17 +153,12 @@ CurveFit fit_curve(CurveFamily family, const std::vector<double>& n, const std::
       throw DataError(m.str());
     }
   }
-  if (n.size() < kMinTrialsForFit) {
-    std::ostringstream m;
-    m << "too_few_trials: " << n.size() << " trials, a " << family_name(family)
-      << " fit needs at least " << kMinTrialsForFit << " (3 parameters and the variance; AICc needs n > 5)";
-    return refused(family, FitRefusal::kTooFewTrials, m.str());
-  }
-  if (family == CurveFamily::kConstant) return fit_constant(y);
+}
 
-  // Start: the rate on a log grid, a and b by linear least squares for each
-  // (the model is linear in them); the best grid point starts LM. This finds
-  // the basin without a user-supplied guess.
+// Start: the rate on a log grid, a and b by linear least squares for each
+// (the model is linear in them); the best grid point starts LM. This finds
+// the basin without a user-supplied guess.
+Vec3 grid_start(CurveFamily family, const std::vector<double>& n, const std::vector<double>& y) {
   const double n_max = *std::max_element(n.begin(), n.end());
   const double lo = family == CurveFamily::kPower ? 0.01 : 0.1;
   const double hi = family == CurveFamily::kPower ? 5.0 : 10.0 * n_max;
@@ -176,34 +174,50 @@ CurveFit fit_curve(CurveFamily family, const std::vector<double>& n, const std::
       p = {a, b, rate};
     }
   }
-  double ss_total = 0.0;
-  {
-    double mean = 0.0;
-    for (double v : y) mean += v;
-    mean /= static_cast<double>(y.size());
-    for (double v : y) ss_total += (v - mean) * (v - mean);
-  }
+  return p;
+}
 
-  // Levenberg-Marquardt with Marquardt's diagonal scaling.
-  const std::size_t m = n.size();
+double total_sum_squares(const std::vector<double>& y) {
+  double mean = 0.0;
+  for (double v : y) mean += v;
+  mean /= static_cast<double>(y.size());
+  double ss_total = 0.0;
+  for (double v : y) ss_total += (v - mean) * (v - mean);
+  return ss_total;
+}
+
+// J'J and J'r of the model at q.
+void normal_equations(CurveFamily family, const std::vector<double>& n, const std::vector<double>& y, const Vec3& q,
+                      Mat3& a, Vec3& g) {
+  a = {};
+  g = {};
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    const double bas = basis(family, n[i], q[2]);
+    const Vec3 j{1.0, bas, q[1] * basis_rate_derivative(family, n[i], q[2])};
+    const double r = y[i] - (q[0] + q[1] * bas);
+    for (int u = 0; u < 3; ++u) {
+      g[u] += j[u] * r;
+      for (int v = 0; v < 3; ++v) a[u][v] += j[u] * j[v];
+    }
+  }
+}
+
+struct LmResult {
+  Vec3 p{};
+  double sse = 0.0;
+  std::size_t iter = 0;
+  bool converged = false;
+};
+
+// Levenberg-Marquardt with Marquardt's diagonal scaling, from p.
+LmResult levenberg_marquardt(CurveFamily family, const std::vector<double>& n, const std::vector<double>& y, Vec3 p) {
+  const double ss_total = total_sum_squares(y);
   double sse = sum_squares(family, n, y, p);
   double lambda = 1e-3;
   bool converged = false;
   std::size_t iter = 0;
   Mat3 jtj{};
-  auto normal_equations = [&](const Vec3& q, Mat3& a, Vec3& g) {
-    a = {};
-    g = {};
-    for (std::size_t i = 0; i < m; ++i) {
-      const double bas = basis(family, n[i], q[2]);
-      const Vec3 j{1.0, bas, q[1] * basis_rate_derivative(family, n[i], q[2])};
-      const double r = y[i] - (q[0] + q[1] * bas);
-      for (int u = 0; u < 3; ++u) {
-        g[u] += j[u] * r;
-        for (int v = 0; v < 3; ++v) a[u][v] += j[u] * j[v];
-      }
-    }
-  };
+  auto normal_equations = [&](const Vec3& q, Mat3& a, Vec3& g) { learning::normal_equations(family, n, y, q, a, g); };
   constexpr std::size_t kMaxIterations = 500;
   Vec3 grad{};
   for (iter = 0; iter < kMaxIterations && !converged; ++iter) {
@@ -250,24 +264,20 @@ CurveFit fit_curve(CurveFamily family, const std::vector<double>& n, const std::
     }
     if (lambda > 1e14) break;
   }
-  if (!converged) {
-    std::ostringstream msg;
-    msg << "not_converged: the " << family_name(family) << " fit did not converge in " << iter
-        << " Levenberg-Marquardt iterations (last SSE " << sse << ", a = " << p[0] << ", b = " << p[1]
-        << ", rate = " << p[2] << "; parameters still drifting usually mean the trials do not reach a plateau)";
-    return refused(family, FitRefusal::kNotConverged, msg.str());
-  }
-  if (!(p[2] > 0.0) || !std::isfinite(p[0]) || !std::isfinite(p[1])) {
-    std::ostringstream msg;
-    msg << "rate_not_positive: the " << family_name(family) << " fit's rate is " << p[2]
-        << " (allowed: > 0)";
-    return refused(family, FitRefusal::kRateNotPositive, msg.str());
-  }
+  return {p, sse, iter, converged};
+}
 
+// The fit at the optimum p with its standard errors, or a refusal when the
+// parameters are not identifiable.
+CurveFit fit_with_errors(CurveFamily family, const std::vector<double>& n, const std::vector<double>& y,
+                         const Vec3& p, double sse, std::size_t iter) {
+  const std::size_t m = n.size();
+  const double n_max = *std::max_element(n.begin(), n.end());
+  Mat3 jtj{};
   // Covariance sigma^2 (J'J)^-1 at the optimum (as scipy's curve_fit with
   // absolute_sigma=False). Singular in the correlation scale: refuse.
   Vec3 unused{};
-  normal_equations(p, jtj, unused);
+  normal_equations(family, n, y, p, jtj, unused);
   Mat3 corr{};
   for (int u = 0; u < 3; ++u) {
     if (!(jtj[u][u] > 0.0)) {
@@ -316,6 +326,40 @@ CurveFit fit_curve(CurveFamily family, const std::vector<double>& n, const std::
                                                    : 1.0 + fit.rate * std::log(10.0);
   fit.trials_to_90_beyond_data = !(fit.trials_to_90 <= n_max);
   return fit;
+}
+
+
+}  // namespace
+
+CurveFit fit_curve(CurveFamily family, const std::vector<double>& n, const std::vector<double>& y) {
+  check_points(n, y);
+  if (n.size() < kMinTrialsForFit) {
+    std::ostringstream m;
+    m << "too_few_trials: " << n.size() << " trials, a " << family_name(family)
+      << " fit needs at least " << kMinTrialsForFit << " (3 parameters and the variance; AICc needs n > 5)";
+    return refused(family, FitRefusal::kTooFewTrials, m.str());
+  }
+  if (family == CurveFamily::kConstant) return fit_constant(y);
+  const LmResult lm = levenberg_marquardt(family, n, y, grid_start(family, n, y));
+  const Vec3& p = lm.p;
+  const double sse = lm.sse;
+  const bool converged = lm.converged;
+  const std::size_t iter = lm.iter;
+  if (!converged) {
+    std::ostringstream msg;
+    msg << "not_converged: the " << family_name(family) << " fit did not converge in " << iter
+        << " Levenberg-Marquardt iterations (last SSE " << sse << ", a = " << p[0] << ", b = " << p[1]
+        << ", rate = " << p[2] << "; parameters still drifting usually mean the trials do not reach a plateau)";
+    return refused(family, FitRefusal::kNotConverged, msg.str());
+  }
+  if (!(p[2] > 0.0) || !std::isfinite(p[0]) || !std::isfinite(p[1])) {
+    std::ostringstream msg;
+    msg << "rate_not_positive: the " << family_name(family) << " fit's rate is " << p[2]
+        << " (allowed: > 0)";
+    return refused(family, FitRefusal::kRateNotPositive, msg.str());
+  }
+
+  return fit_with_errors(family, n, y, p, sse, iter);
 }
 
 const CurveFit& LearningCurve::fit(CurveFamily family) const {

@@ -62,49 +62,15 @@ GroupComparison compare(const std::vector<ParticipantChange>& people, const std:
   return c;
 }
 
-}  // namespace
-
-TransferAnalysis analyze_transfer(const learning::TrialTable& table, const TransferOptions& options) {
-  TransferAnalysis out;
-  out.measure = table.measure;
-  if (table.groups.size() < 2) {
-    std::ostringstream m;
-    m << "transfer analysis: " << table.groups.size() << " group(s) with participants (allowed: at least 2)";
-    throw DataError(m.str());
-  }
-  if (options.control_group) require_group(table, *options.control_group, "control");
-  if (options.reference_group) require_group(table, *options.reference_group, "reference");
-  out.reference = options.reference_group ? *options.reference_group
-                  : options.control_group ? *options.control_group
-                                          : table.groups.front();
-  bool any_retention = false;
-  for (const auto& p : table.participants) {
-    ParticipantChange c{p.participant, p.group, 0.0, 0.0, std::nullopt};
-    for (Phase phase : {Phase::kPre, Phase::kPost}) {
-      auto it = p.phases.find(phase);
-      if (it == p.phases.end()) {
-        throw DataError("transfer analysis: participant " + p.participant + " has no " + learning::phase_name(phase) +
-                        "-test trial (allowed: every participant has pre- and post-test trials)");
-      }
-      (phase == Phase::kPre ? c.pre : c.post) = median(it->second.value);
-    }
-    if (auto it = p.phases.find(Phase::kRetention); it != p.phases.end()) {
-      c.retention = median(it->second.value);
-      any_retention = true;
-    }
-    out.participants.push_back(c);
-  }
-  out.comparisons.push_back(compare(out.participants, table.groups, out.reference, false, options));
-  if (any_retention) out.comparisons.push_back(compare(out.participants, table.groups, out.reference, true, options));
-
-  // Roscoe's TER.
+// Roscoe's TER per trained group, or the named reason there is none.
+void add_transfer_ratios(const learning::TrialTable& table, const TransferOptions& options, TransferAnalysis& out) {
   if (!options.control_group) {
     out.transfer_refusal = "no control group declared (TER needs a group trained on no simulator)";
-    return out;
+    return;
   }
   if (!options.criterion) {
     out.transfer_refusal = "no proficiency criterion declared (TER counts post-test trials to criterion)";
-    return out;
+    return;
   }
   auto trials_to_criterion = [&](const learning::ParticipantTrials& p) -> std::optional<double> {
     const auto& post = p.phases.at(Phase::kPost);
@@ -157,6 +123,44 @@ TransferAnalysis analyze_transfer(const learning::TrialTable& table, const Trans
     }
     out.transfer.push_back(t);
   }
+}
+
+}  // namespace
+
+TransferAnalysis analyze_transfer(const learning::TrialTable& table, const TransferOptions& options) {
+  TransferAnalysis out;
+  out.measure = table.measure;
+  if (table.groups.size() < 2) {
+    std::ostringstream m;
+    m << "transfer analysis: " << table.groups.size() << " group(s) with participants (allowed: at least 2)";
+    throw DataError(m.str());
+  }
+  if (options.control_group) require_group(table, *options.control_group, "control");
+  if (options.reference_group) require_group(table, *options.reference_group, "reference");
+  out.reference = options.reference_group ? *options.reference_group
+                  : options.control_group ? *options.control_group
+                                          : table.groups.front();
+  bool any_retention = false;
+  for (const auto& p : table.participants) {
+    ParticipantChange c{p.participant, p.group, 0.0, 0.0, std::nullopt};
+    for (Phase phase : {Phase::kPre, Phase::kPost}) {
+      auto it = p.phases.find(phase);
+      if (it == p.phases.end()) {
+        throw DataError("transfer analysis: participant " + p.participant + " has no " + learning::phase_name(phase) +
+                        "-test trial (allowed: every participant has pre- and post-test trials)");
+      }
+      (phase == Phase::kPre ? c.pre : c.post) = median(it->second.value);
+    }
+    if (auto it = p.phases.find(Phase::kRetention); it != p.phases.end()) {
+      c.retention = median(it->second.value);
+      any_retention = true;
+    }
+    out.participants.push_back(c);
+  }
+  out.comparisons.push_back(compare(out.participants, table.groups, out.reference, false, options));
+  if (any_retention) out.comparisons.push_back(compare(out.participants, table.groups, out.reference, true, options));
+
+  add_transfer_ratios(table, options, out);
   return out;
 }
 

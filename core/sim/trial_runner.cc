@@ -25,7 +25,11 @@ ClockKind parse_clock_kind(std::string_view name) {
   throw std::invalid_argument("clock: '" + std::string(name) + "' is not a clock; choose virtual or wall");
 }
 
-SimRig::SimRig(const SimTrialConfig& config) {
+namespace {
+
+// The fields SimRig checks itself (the rate, the population and the device
+// are checked where they are used).
+void check_trial_config(const SimTrialConfig& config) {
   if (!(config.max_duration_s > 0.0) || !std::isfinite(config.max_duration_s))
     throw std::invalid_argument("max_duration_s: " + std::to_string(config.max_duration_s) +
                                 " must be a positive number of seconds");
@@ -33,6 +37,12 @@ SimRig::SimRig(const SimTrialConfig& config) {
   if (!(config.force_informed_trials >= 0.0 && config.force_informed_trials <= config.practice_trials))
     throw std::invalid_argument("force_informed_trials: " + std::to_string(config.force_informed_trials) +
                                 " must be within 0..practice_trials (" + std::to_string(config.practice_trials) + ")");
+}
+
+}  // namespace
+
+SimRig::SimRig(const SimTrialConfig& config) {
+  check_trial_config(config);
   RateSchedule schedule = config.thesis_rate ? RateSchedule::thesis_wander(config.trial_seed)
                                              : RateSchedule::fixed(config.rate_Hz);
 
