@@ -1,4 +1,5 @@
 #include "app/plan/plan_command.h"
+#include "app/plan/plan_transfer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -62,7 +63,33 @@ struct PlanPowerOptions {
   int shards = 1;
   std::string population;                 // --population (app/cli/population_option.h)
   std::string model_uncertainty = "auto";  // on, off; auto: on when the population has posterior draws
+  std::optional<double> force_free_share;  // transfer designs only (app/plan/plan_transfer.h)
+  bool measure_given = false;              // --measure on the command line
 };
+
+// A protocol with groups: plan power of its transfer design, or the named
+// reason an option does not apply to one.
+int run_plan_power_of_transfer(const protocols::Protocol& protocol, const PlanPowerOptions& o) {
+  auto refuse = [](const std::string& option, const std::string& why) {
+    throw std::runtime_error(option + ": not for a protocol with groups (a transfer design): " + why);
+  };
+  if (o.shards > 1) refuse("--shard", "run its plan on one machine");
+  if (o.model_uncertainty == "on") refuse("--model-uncertainty on", "its studies use the population's point estimate");
+  if (o.measure_given) refuse("--measure", "a transfer design is compared on trial time");
+  TransferPowerCli cli;
+  cli.protocol_path = o.protocol;
+  cli.per_group = o.participants;
+  cli.studies = o.studies;
+  cli.seed = o.seed;
+  cli.jobs = o.jobs;
+  cli.out = o.out;
+  cli.rate_Hz = o.rate_Hz;
+  cli.max_trial_s = o.max_trial_s;
+  cli.population = o.population;
+  cli.force_free_share = o.force_free_share.value_or(0.5);
+  cli.json = o.json;
+  return run_transfer_power(protocol, cli);
+}
 
 // The --out folder, made now and proven writable, before anything is
 // simulated: a folder that cannot take the results is found in a second,
@@ -203,6 +230,10 @@ std::string population_key(const ChosenPopulation& p) {
 
 int run_plan_power(const PlanPowerOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
+  if (protocol.transfer) return run_plan_power_of_transfer(protocol, o);
+  if (o.force_free_share)
+    throw std::runtime_error("--force-free-share: only for a protocol with groups (a transfer design); within-"
+                             "participant predictions use the fitted model, in which every trial counts fully");
   const std::string protocol_text = protocols::read_protocol_text(o.protocol);
   const ChosenPopulation population = choose_population(o.population);
   const bool has_draws = population.file && !population.file->draws.empty();
@@ -909,7 +940,14 @@ void add_plan_command(CLI::App& app) {
                   "off: every study uses the point estimate (default: on when the population is a fitted file)")
       ->check(CLI::IsMember({"on", "off", "auto"}))
       ->capture_default_str();
-  cmd->callback([opt] {
+  cmd->add_option_function<double>(
+         "--force-free-share", [opt](double v) { opt->force_free_share = v; },
+         "Transfer designs (protocols with groups): the share of a practice trial that counts whatever force the "
+         "hand felt, 0..1; the rest counts by the trial's force information (docs/simulation.md, \"Simulated "
+         "learners\": an assumption, not a fit; default 0.5)")
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->callback([opt, cmd] {
+    opt->measure_given = cmd->count("--measure") > 0;
     const int status = run_plan_power(*opt);
     if (status != 0) throw CLI::RuntimeError(status);
   });

@@ -1,0 +1,116 @@
+#include "app/plan/plan_transfer.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/stats/data_error.h"
+#include "analysis/transfer/group_permutation.h"
+#include "app/cli/population_option.h"
+#include "core/common/csv_format.h"
+#include "core/common/output_file.h"
+#include "planning/transfer_plan.h"
+#include "planning/transfer_power.h"
+
+namespace hapticlab::app {
+namespace {
+
+// The p value of the exact two-group rank test; NaN when a group is empty.
+double rank_test_p(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.empty() || b.empty()) return std::numeric_limits<double>::quiet_NaN();
+  return analysis::transfer::group_permutation_test({a, b}).p_value;
+}
+
+std::vector<int> default_group_sizes(const protocols::Protocol& protocol) {
+  const std::size_t groups = protocol.transfer->groups.size();
+  return {std::max(1, static_cast<int>(protocol.participants.size() / groups))};
+}
+
+struct TaskPower {
+  std::string task;
+  planning::TransferPower power;
+};
+
+std::string power_csv(const std::vector<TaskPower>& tasks, double share) {
+  std::ostringstream csv;
+  csv << "task,participants_per_group,test,group,reference,studies,significant,power,power_low,power_high,"
+         "median_effect_s,force_free_share\n";
+  for (const TaskPower& t : tasks) {
+    for (const planning::TransferPowerRow& r : t.power.rows) {
+      csv << t.task << ',' << r.per_group << ',' << r.test << ',' << csv_text(r.group) << ','
+          << csv_text(r.reference) << ',' << r.studies << ',' << r.significant << ',' << format_number(r.power) << ','
+          << format_number(r.power_low) << ',' << format_number(r.power_high) << ','
+          << format_number(r.median_effect_s) << ',' << format_number(share) << '\n';
+    }
+  }
+  return csv.str();
+}
+
+void print_table(const std::vector<TaskPower>& tasks, const TransferPowerCli& cli, const std::string& population) {
+  std::printf("Transfer design: power of the post-test and retention comparisons, each group against '%s', on the "
+              "change of trial time from the pre-test (exact rank test, alpha 0.05), %d simulated studies per size.\n"
+              "Model: %s; learning from force information with force_free_share %.2f, an assumption, not a fit "
+              "(docs/simulation.md, \"Simulated learners\").\n\n",
+              tasks.front().power.rows.empty() ? "" : tasks.front().power.rows.front().reference.c_str(), cli.studies,
+              population.c_str(), cli.force_free_share);
+  std::printf("| task | per group | test | group | power [95 %% CI] | median effect [s] |\n| --- | ---: | --- | --- | --- | ---: |\n");
+  for (const TaskPower& t : tasks) {
+    for (const planning::TransferPowerRow& r : t.power.rows) {
+      std::printf("| %s | %d | %s | %s | %.0f %% [%.0f, %.0f] | %+.2f |\n", t.task.c_str(), r.per_group, r.test.c_str(),
+                  r.group.c_str(), 100.0 * r.power, 100.0 * r.power_low, 100.0 * r.power_high, r.median_effect_s);
+    }
+  }
+}
+
+std::string power_json(const std::vector<TaskPower>& tasks, double share) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const TaskPower& t : tasks) {
+    for (const planning::TransferPowerRow& r : t.power.rows) {
+      rows.push_back({{"task", t.task}, {"participants_per_group", r.per_group}, {"test", r.test}, {"group", r.group},
+                      {"reference", r.reference}, {"studies", r.studies}, {"significant", r.significant},
+                      {"power", r.power}, {"power_low", r.power_low}, {"power_high", r.power_high},
+                      {"median_effect_s", r.median_effect_s}});
+    }
+  }
+  return nlohmann::json{{"force_free_share", share}, {"rows", rows}}.dump(2) + "\n";
+}
+
+}  // namespace
+
+int run_transfer_power(const protocols::Protocol& protocol, const TransferPowerCli& cli) {
+  const std::vector<planning::TransferDesign> designs = planning::transfer_designs(protocol);
+  const ChosenPopulation population = choose_population(cli.population);
+  planning::TransferPowerOptions options;
+  options.per_group = cli.per_group.empty() ? default_group_sizes(protocol) : cli.per_group;
+  options.studies = cli.studies;
+  options.seed = cli.seed;
+  options.jobs = cli.jobs > 0 ? static_cast<int>(cli.jobs) : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.simulation.rate_Hz = cli.rate_Hz;
+  options.simulation.max_trial_s = cli.max_trial_s;
+  options.simulation.population = population.point;
+  options.simulation.learning.force_free_share = cli.force_free_share;
+  std::filesystem::create_directories(cli.out);
+  std::vector<TaskPower> tasks;
+  int timed_out = 0, trials = 0;
+  for (const planning::TransferDesign& d : designs) {
+    std::fprintf(stderr, "simulating %s: %d studies per group size...\n", d.task.c_str(), cli.studies);
+    tasks.push_back({d.task, planning::transfer_power(d, options, rank_test_p)});
+    timed_out += tasks.back().power.trials_timed_out;
+    trials += tasks.back().power.trials_run;
+  }
+  write_file_atomically(std::filesystem::path(cli.out) / "transfer_power.csv", power_csv(tasks, cli.force_free_share));
+  if (cli.json) std::fputs(power_json(tasks, cli.force_free_share).c_str(), stdout);
+  else print_table(tasks, cli, population.describe);
+  std::fprintf(cli.json ? stderr : stdout,
+               "\n%d of %d simulated trials timed out (left out: a participant without a complete test trial is not "
+               "compared).\nAll rows: %s\n",
+               timed_out, trials, (std::filesystem::path(cli.out) / "transfer_power.csv").c_str());
+  return 0;
+}
+
+}  // namespace hapticlab::app
