@@ -1,4 +1,5 @@
 #include "app/plan/plan_command.h"
+#include "app/plan/plan_power_options.h"
 #include "app/plan/plan_transfer.h"
 
 #include <algorithm>
@@ -47,49 +48,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct PlanPowerOptions {
-  std::string protocol;
-  std::vector<int> participants;
-  int studies = 200;
-  std::uint64_t seed = 1;
-  std::size_t jobs = 0;
-  std::string out = "plan-power";
-  std::string measure = "force_p95_N";
-  double rate_Hz = 1000.0;
-  double max_trial_s = 300.0;
-  bool plots = true;
-  bool json = false;
-  int shard = 0;   // --shard I/N
-  int shards = 1;
-  std::string population;                 // --population (app/cli/population_option.h)
-  std::string model_uncertainty = "auto";  // on, off; auto: on when the population has posterior draws
-  std::optional<double> force_free_share;  // transfer designs only (app/plan/plan_transfer.h)
-  bool measure_given = false;              // --measure on the command line
-};
 
-// A protocol with groups: plan power of its transfer design, or the named
-// reason an option does not apply to one.
-int run_plan_power_of_transfer(const protocols::Protocol& protocol, const PlanPowerOptions& o) {
-  auto refuse = [](const std::string& option, const std::string& why) {
-    throw std::runtime_error(option + ": not for a protocol with groups (a transfer design): " + why);
-  };
-  if (o.shards > 1) refuse("--shard", "run its plan on one machine");
-  if (o.model_uncertainty == "on") refuse("--model-uncertainty on", "its studies use the population's point estimate");
-  if (o.measure_given) refuse("--measure", "a transfer design is compared on trial time");
-  TransferPowerCli cli;
-  cli.protocol_path = o.protocol;
-  cli.per_group = o.participants;
-  cli.studies = o.studies;
-  cli.seed = o.seed;
-  cli.jobs = o.jobs;
-  cli.out = o.out;
-  cli.rate_Hz = o.rate_Hz;
-  cli.max_trial_s = o.max_trial_s;
-  cli.population = o.population;
-  cli.force_free_share = o.force_free_share.value_or(0.5);
-  cli.json = o.json;
-  return run_transfer_power(protocol, cli);
-}
 
 // The --out folder, made now and proven writable, before anything is
 // simulated: a folder that cannot take the results is found in a second,
@@ -228,12 +187,16 @@ std::string population_key(const ChosenPopulation& p) {
   return p.file ? "sha256 " + p.file->sha256 : "unfitted model " + std::to_string(kParticipantModelVersion);
 }
 
+void check_shard_count(const PlanPowerOptions& o, std::size_t plan_size) {
+  if (static_cast<std::size_t>(o.shards) > plan_size)
+    throw std::runtime_error("--shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + ": the plan has " +
+                             std::to_string(plan_size) + " studies (--participants x --studies), so at most " +
+                             std::to_string(plan_size) + " shards, each with a study");
+}
+
 int run_plan_power(const PlanPowerOptions& o) {
   const protocols::Protocol protocol = protocols::load_protocol_file(o.protocol);
-  if (protocol.transfer) return run_plan_power_of_transfer(protocol, o);
-  if (o.force_free_share)
-    throw std::runtime_error("--force-free-share: only for a protocol with groups (a transfer design); within-"
-                             "participant predictions use the fitted model, in which every trial counts fully");
+  if (const std::optional<int> status = run_if_transfer_design(protocol, o)) return *status;
   const std::string protocol_text = protocols::read_protocol_text(o.protocol);
   const ChosenPopulation population = choose_population(o.population);
   const bool has_draws = population.file && !population.file->draws.empty();
@@ -251,10 +214,7 @@ int run_plan_power(const PlanPowerOptions& o) {
   inputs.shard = o.shard;
   inputs.shards = o.shards;
   const std::size_t plan_size = inputs.studies_of_plan().size();
-  if (static_cast<std::size_t>(o.shards) > plan_size)
-    throw std::runtime_error("--shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + ": the plan has " +
-                             std::to_string(plan_size) + " studies (--participants x --studies), so at most " +
-                             std::to_string(plan_size) + " shards, each with a study");
+  check_shard_count(o, plan_size);
   if (o.plots) (void)analysis::find_gnuplot();
 
   prepare_out_folder(o.out);
@@ -876,6 +836,32 @@ int run_plan_calibrate(const PlanCalibrateOptions& o) {
   return 0;
 }
 
+// --shard I/N of plan power (a Slurm job array's part of the plan).
+void add_shard_option(CLI::App* cmd, PlanPowerOptions& options) {
+  PlanPowerOptions* opt = &options;
+  cmd->add_option_function<std::string>(
+         "--shard",
+         [opt](const std::string& v) {
+           const auto slash = v.find('/');
+           const auto whole = [](const std::string& t, long long lo, long long hi) -> std::optional<int> {
+             if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos) return {};
+             const long long x = std::stoll(t);
+             return x >= lo && x <= hi ? std::optional<int>(static_cast<int>(x)) : std::nullopt;
+           };
+           const std::optional<int> n = slash == std::string::npos ? std::nullopt : whole(v.substr(slash + 1), 1, 100000);
+           const std::optional<int> i = n ? whole(v.substr(0, slash), 0, *n - 1) : std::nullopt;
+           if (!i)
+             throw CLI::ValidationError("--shard", "'" + v + "' is not I/N with 0 <= I < N <= 100000 (shard I of N, "
+                                                   "counting from 0: --shard 0/3, 1/3, 2/3)");
+           opt->shard = *i;
+           opt->shards = *n;
+         },
+         "This run's part of the plan, I/N (0 <= I < N): the studies k (the plan's, in order) with k mod N = I, the "
+         "same ones a one-machine run simulates, into this --out; `plan merge` joins the N folders. For a Slurm job "
+         "array (scripts/slurm/)")
+      ->type_name("I/N");
+}
+
 }  // namespace
 
 void add_plan_command(CLI::App& app) {
@@ -912,27 +898,7 @@ void add_plan_command(CLI::App& app) {
       ->check(positive_number());
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; }, "No figures (no gnuplot needed)");
   cmd->add_flag("--json", opt->json, "Print the power table as JSON (progress goes to stderr)");
-  cmd->add_option_function<std::string>(
-         "--shard",
-         [opt](const std::string& v) {
-           const auto slash = v.find('/');
-           const auto whole = [](const std::string& t, long long lo, long long hi) -> std::optional<int> {
-             if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos) return {};
-             const long long x = std::stoll(t);
-             return x >= lo && x <= hi ? std::optional<int>(static_cast<int>(x)) : std::nullopt;
-           };
-           const std::optional<int> n = slash == std::string::npos ? std::nullopt : whole(v.substr(slash + 1), 1, 100000);
-           const std::optional<int> i = n ? whole(v.substr(0, slash), 0, *n - 1) : std::nullopt;
-           if (!i)
-             throw CLI::ValidationError("--shard", "'" + v + "' is not I/N with 0 <= I < N <= 100000 (shard I of N, "
-                                                   "counting from 0: --shard 0/3, 1/3, 2/3)");
-           opt->shard = *i;
-           opt->shards = *n;
-         },
-         "This run's part of the plan, I/N (0 <= I < N): the studies k (the plan's, in order) with k mod N = I, the "
-         "same ones a one-machine run simulates, into this --out; `plan merge` joins the N folders. For a Slurm job "
-         "array (scripts/slurm/)")
-      ->type_name("I/N");
+  add_shard_option(cmd, *opt);
   add_population_option(cmd, opt->population);
   cmd->add_option("--model-uncertainty", opt->model_uncertainty,
                   "on: each study draws its participants' population from the fitted population's posterior, and "
@@ -940,12 +906,7 @@ void add_plan_command(CLI::App& app) {
                   "off: every study uses the point estimate (default: on when the population is a fitted file)")
       ->check(CLI::IsMember({"on", "off", "auto"}))
       ->capture_default_str();
-  cmd->add_option_function<double>(
-         "--force-free-share", [opt](double v) { opt->force_free_share = v; },
-         "Transfer designs (protocols with groups): the share of a practice trial that counts whatever force the "
-         "hand felt, 0..1; the rest counts by the trial's force information (docs/simulation.md, \"Simulated "
-         "learners\": an assumption, not a fit; default 0.5)")
-      ->check(CLI::Range(0.0, 1.0));
+  add_transfer_options(cmd, *opt);
   cmd->callback([opt, cmd] {
     opt->measure_given = cmd->count("--measure") > 0;
     const int status = run_plan_power(*opt);

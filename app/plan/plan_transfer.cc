@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -111,6 +112,43 @@ int run_transfer_power(const protocols::Protocol& protocol, const TransferPowerC
                "compared).\nAll rows: %s\n",
                timed_out, trials, (std::filesystem::path(cli.out) / "transfer_power.csv").c_str());
   return 0;
+}
+
+std::optional<int> run_if_transfer_design(const protocols::Protocol& protocol, const PlanPowerOptions& o) {
+  if (!protocol.transfer) {
+    if (o.force_free_share)
+      throw std::runtime_error("--force-free-share: only for a protocol with groups (a transfer design); within-"
+                               "participant predictions use the fitted model, in which every trial counts fully");
+    return std::nullopt;
+  }
+  auto refuse = [](const std::string& option, const std::string& why) {
+    throw std::runtime_error(option + ": not for a protocol with groups (a transfer design): " + why);
+  };
+  if (o.shards > 1) refuse("--shard", "run its plan on one machine");
+  if (o.model_uncertainty == "on") refuse("--model-uncertainty on", "its studies use the population's point estimate");
+  if (o.measure_given) refuse("--measure", "a transfer design is compared on trial time");
+  TransferPowerCli cli;
+  cli.protocol_path = o.protocol;
+  cli.per_group = o.participants;
+  cli.studies = o.studies;
+  cli.seed = o.seed;
+  cli.jobs = o.jobs;
+  cli.out = o.out;
+  cli.rate_Hz = o.rate_Hz;
+  cli.max_trial_s = o.max_trial_s;
+  cli.population = o.population;
+  cli.force_free_share = o.force_free_share.value_or(0.5);
+  cli.json = o.json;
+  return run_transfer_power(protocol, cli);
+}
+
+void add_transfer_options(CLI::App* cmd, PlanPowerOptions& o) {
+  cmd->add_option_function<double>(
+         "--force-free-share", [&o](double v) { o.force_free_share = v; },
+         "Transfer designs (protocols with groups): the share of a practice trial that counts whatever force the "
+         "hand felt, 0..1; the rest counts by the trial's force information (docs/simulation.md, \"Simulated "
+         "learners\": an assumption, not a fit; default 0.5)")
+      ->check(CLI::Range(0.0, 1.0));
 }
 
 }  // namespace hapticlab::app

@@ -9,6 +9,11 @@
 #include <string>
 #include <vector>
 
+#include <optional>
+
+#include <CLI/CLI.hpp>
+
+#include "app/plan/plan_power_options.h"
 #include "protocols/protocol.h"
 
 namespace hapticlab::app {
@@ -30,5 +35,14 @@ struct TransferPowerCli {
 // Prints the power table, writes OUT/transfer_power.csv; returns the exit
 // status. Throws std::runtime_error / std::invalid_argument with the reason.
 int run_transfer_power(const protocols::Protocol& protocol, const TransferPowerCli& cli);
+
+// plan power's path for a protocol with groups: its exit status, after
+// refusing by name the options that do not apply to a transfer design;
+// nullopt for a protocol without groups (after refusing the options that
+// apply only to one).
+std::optional<int> run_if_transfer_design(const protocols::Protocol& protocol, const PlanPowerOptions& o);
+
+// plan power's options for transfer designs (--force-free-share).
+void add_transfer_options(CLI::App* cmd, PlanPowerOptions& o);
 
 }  // namespace hapticlab::app
