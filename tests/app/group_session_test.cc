@@ -22,13 +22,10 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-TEST(GroupSessionTest, OneSittingPerSessionRefusedBeforeItsDueDateUnlessOverriddenAndLogged) {
-  const fs::path dir = fs::temp_directory_path() / ("hapticlab_group_session_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+// One participant per group; sittings of one clip trial each.
+void write_group_protocol(const fs::path& file) {
   const std::string settings = std::string(HAPTICLAB_SOURCE_DIR) + "/examples/settings/";
-  // One participant per group; sittings of one clip trial each.
-  std::ofstream(dir / "groups.json") << R"({
+  std::ofstream(file) << R"({
     "study": "group sessions", "tasks": ["clip"],
     "settings": [")" << settings << R"(high_fidelity.json", ")" << settings << R"(no_force_feedback.json"],
     "groups": [{"name": "trained without force", "training": "No Force Feedback"}, {"name": "control", "training": null}],
@@ -37,6 +34,18 @@ TEST(GroupSessionTest, OneSittingPerSessionRefusedBeforeItsDueDateUnlessOverridd
       {"phase": "training", "sessions": 2, "min_gap_h": 20, "trials": {"clip": 1}},
       {"phase": "post_test", "setting": "High Fidelity", "min_gap_h": 20, "trials": {"clip": 1}}],
     "participants": ["G1", "G2"], "seed": 5})";
+}
+
+fs::path group_test_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+TEST(GroupSessionTest, OneSittingPerSessionRefusedBeforeItsDueDateUnlessOverriddenAndLogged) {
+  const fs::path dir = group_test_dir("hapticlab_group_session");
+  write_group_protocol(dir / "groups.json");
   const std::string db_path = (dir / "study.db").string();
   auto [status, out] = testing::run_cli(kBinary, "study create --protocol " + (dir / "groups.json").string() +
                                                      " --db " + db_path);
@@ -84,6 +93,20 @@ TEST(GroupSessionTest, OneSittingPerSessionRefusedBeforeItsDueDateUnlessOverridd
   EXPECT_EQ(actions[0].type, "override_due_date");
   EXPECT_THAT(actions[0].detail, HasSubstr("training session 2 due "));
   EXPECT_EQ(actions[0].participant_code, code);
+  fs::remove_all(dir);
+}
+
+// The demo runs a group design's sittings one after another on simulated
+// time: each started when due, so none is refused and none overridden.
+TEST(GroupSessionTest, TheDemoRunsEverySittingOnSimulatedTime) {
+  const fs::path dir = group_test_dir("hapticlab_group_demo");
+  write_group_protocol(dir / "groups.json");
+  const auto [status, out] = testing::run_cli(
+      kBinary, "demo --no-plots --protocol " + (dir / "groups.json").string() + " --out " + (dir / "out").string());
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_THAT(out, HasSubstr("Sessions done: 6 of 6 trials complete"));
+  db::StudyDb db((dir / "out" / "study.db").string());
+  EXPECT_EQ(db.operator_actions().size(), 0u);
   fs::remove_all(dir);
 }
 
