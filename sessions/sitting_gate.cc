@@ -1,11 +1,8 @@
 #include "sessions/sitting_gate.h"
 
-#include <cmath>
-#include <stdexcept>
-
-#include "core/common/csv_format.h"
-
 #include "db/study_db.h"
+#include "protocols/group_assignment.h"
+#include "protocols/protocol_json.h"
 #include "protocols/sittings.h"
 #include "sessions/study_progress.h"
 
@@ -20,25 +17,25 @@ SittingGate check_sitting_gate(const std::filesystem::path& db_path, const std::
   db::StudyDb db(db_path, open);
   if (db.studies().empty()) return gate;
   const StudyProgress progress = study_progress(db);
-  for (const ParticipantProgress& p : progress.participants) {
+  for (std::size_t i = 0; i < progress.participants.size(); ++i) {
+    const ParticipantProgress& p = progress.participants[i];
     if (p.code != participant || !p.sitting) continue;
     const SittingProgress& sp = *p.sitting;
-    if (sp.next_phase == "done")
-      throw std::runtime_error("participant " + participant + " has done all " + std::to_string(sp.sittings) +
-                               " sittings of the protocol; nothing is left to run");
     gate.block = sp.sittings_done + 1;
-    if (sp.due_unix_s && now_unix_s < *sp.due_unix_s) {
-      if (!override_due) {
-        const std::string sitting = sp.next_phase + " session " + std::to_string(sp.next_session);
-        throw protocols::SittingTooEarly(
-            "participant " + participant + "'s next sitting (" + sitting + ") is not due before " +
-            protocols::utc_text(*sp.due_unix_s) + " (" + format_number(std::round((*sp.due_unix_s - now_unix_s) / 360.0) / 10.0) +
-            " h from now): refused; the operator may override with " + protocols::kOverrideDueFlag + ", which is logged");
-      }
+    // All done: a block no trial has, so the session runs nothing, as a
+    // finished schedule of any protocol does.
+    if (sp.next_phase == "done") return gate;
+    const auto design = protocols::group_design_from_protocol_text(progress.study.protocol_json, db_path.string());
+    const auto groups = protocols::assign_groups(*design, db_path.string());
+    std::size_t index = 0;
+    while (design->participants[index].code != participant) ++index;
+    const auto sittings = protocols::group_sittings(*design, groups[index]);
+    const protocols::SittingDue due{static_cast<std::size_t>(sp.sittings_done), sp.due_unix_s};
+    if (protocols::check_sitting_start(participant, sittings, due, now_unix_s, override_due) ==
+        protocols::SittingStart::kOverridden)
       gate.override_detail = sp.next_phase + " session " + std::to_string(sp.next_session) + " due " +
-                             protocols::utc_text(*sp.due_unix_s) + ", started " +
-                             protocols::utc_text(now_unix_s) + " (operator override)";
-    }
+                             protocols::utc_text(*sp.due_unix_s) + ", started " + protocols::utc_text(now_unix_s) +
+                             " (operator override)";
   }
   return gate;
 }

@@ -22,8 +22,9 @@ struct SittingGate {
 // Reads the study (without recovery, like StudySession) and decides.
 // Throws protocols::SittingTooEarly (the participant, the sitting, the due
 // date, the override flag) when the next sitting is not due at now_unix_s
-// and !override_due; std::runtime_error when the participant has done
-// every sitting.
+// and !override_due. A participant who has done every sitting gets a
+// block no trial has: the session runs nothing, as with any finished
+// schedule (the demo resumes a finished study so).
 SittingGate check_sitting_gate(const std::filesystem::path& db_path, const std::string& participant,
                                double now_unix_s, bool override_due);
 
