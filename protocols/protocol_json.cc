@@ -77,6 +77,22 @@ class Reader {
     return p;
   }
 
+  // What a stored group design's progress needs (group_design_from_protocol_text):
+  // the study, tasks, participants, groups, phases and seed; not the
+  // settings, which are in the database (checked when the study was made).
+  Protocol read_group_design(const json& j) {
+    Protocol p;
+    expect_object(j, "(top level)");
+    p.study = as_string(require(j, "study", ""), "study");
+    if (j.contains("ve") && j["ve"] == "external") p.ve = Ve::kExternal;
+    ve_ = p.ve;
+    p.tasks = read_tasks(require(j, "tasks", ""), "tasks");
+    read_participants(require(j, "participants", ""), p, 0);
+    read_transfer(j, p);
+    p.seed = as_seed(require(j, "seed", ""), "seed");
+    return p;
+  }
+
   // The rule of a "staircase" block; `p` (when given) is the protocol read
   // so far, for the checks that need its tasks and settings.
   StaircaseSpec read_staircase_spec(const json& v, const Protocol* p) const {
@@ -508,6 +524,17 @@ std::optional<StaircaseSpec> staircase_from_protocol_text(std::string_view text,
   const std::string only_task =
       tasks != nullptr && tasks->is_array() && tasks->size() == 1 && (*tasks)[0].is_string() ? (*tasks)[0].get<std::string>() : "";
   return Reader(source, {}).staircase_spec(j["staircase"], only_task);
+}
+
+std::optional<Protocol> group_design_from_protocol_text(std::string_view text, const std::string& source) {
+  json j;
+  try {
+    j = parse_json_strict(text);
+  } catch (const InputFileError& e) {
+    throw ProtocolError(source, "(file)", std::string("is refused: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("groups") || !j.contains("phases")) return std::nullopt;
+  return Reader(source, {}).read_group_design(j);
 }
 
 Protocol protocol_from_json(const json& j, const std::filesystem::path& base_dir, const std::string& source) {

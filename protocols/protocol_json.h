@@ -31,6 +31,12 @@ Protocol load_protocol_file(const std::filesystem::path& path);
 // the study was created; its settings are in the database, not read here);
 // nullopt when it has none. ProtocolError when the block does not read.
 std::optional<StaircaseSpec> staircase_from_protocol_text(std::string_view text, const std::string& source);
+// The group design of a protocol text a study stored (transfer_design.h):
+// a Protocol with its study, tasks, participants, `transfer` and seed, but
+// no settings (those are in the database); nullopt when it has no groups.
+// Enough for assign_groups and group_sittings. ProtocolError when it does
+// not read.
+std::optional<Protocol> group_design_from_protocol_text(std::string_view text, const std::string& source);
 // The "rate_tolerance_fraction" of a protocol text a study stored; the
 // default (RateCheck::kDefaultToleranceFraction) when it has none.
 double rate_tolerance_from_protocol_text(std::string_view text, const std::string& source);

@@ -13,6 +13,7 @@
 #include "core/device/device_factory.h"
 #include "core/loop/task_event.h"
 #include "sessions/crash_note.h"
+#include "sessions/sitting_gate.h"
 #include "sessions/staircase_planner.h"
 #include "sessions/study_session.h"
 #include "sessions/trial_end.h"
@@ -114,7 +115,7 @@ std::string practice_cut_short_reason(const SimTrialResult& r, double max_trial_
 // loop's supervision, how it ended), and closing.
 class SessionRun {
  public:
-  SessionRun(const std::filesystem::path& db_path, const SessionOptions& options);
+  SessionRun(const std::filesystem::path& db_path, const SessionOptions& options, SittingGate gate = {});
   SessionResult run();
 
  private:
@@ -144,6 +145,7 @@ class SessionRun {
   void progress(SessionProgress p) const;
 
   const SessionOptions& options_;
+  SittingGate gate_;  // one sitting per session in a group design; its logged override
   StudySession session_;
   db::StudyDb& db_;
   const db::StudyRow& study_;
@@ -162,8 +164,9 @@ class SessionRun {
   std::vector<OperatorEvent> actions_;
 };
 
-SessionRun::SessionRun(const std::filesystem::path& db_path, const SessionOptions& options)
+SessionRun::SessionRun(const std::filesystem::path& db_path, const SessionOptions& options, SittingGate gate)
     : options_(options),
+      gate_(std::move(gate)),
       // Opening, the participant's lock, recovery, re-queueing and the
       // session row: the bookkeeping every runner shares (study_session.h).
       session_(db_path, options.participant, options.device.describe(),
@@ -185,6 +188,14 @@ SessionRun::SessionRun(const std::filesystem::path& db_path, const SessionOption
   if (options_.on_session_opened) options_.on_session_opened(result_.session_id);
   force_limits_ = protocols::safety_from_protocol_text(study_.protocol_json, db_.path());
   rate_tolerance_ = protocols::rate_tolerance_from_protocol_text(study_.protocol_json, db_.path());
+  if (gate_.override_detail) {
+    db::OperatorActionRow action;
+    action.session_id = result_.session_id;
+    action.unix_s = db::unix_now_s();
+    action.type = "override_due_date";
+    action.detail = *gate_.override_detail;
+    db_.add_operator_action(action);
+  }
 }
 
 void SessionRun::progress(SessionProgress p) const {
@@ -479,6 +490,7 @@ SessionResult SessionRun::run() {
     if (options_.max_trials && result_.trials_run >= *options_.max_trials) break;
     const std::optional<db::TrialRow> next = next_trial();
     if (!next) break;
+    if (gate_.block && next->block != *gate_.block) break;  // one sitting per session
     if (!train(*next)) break;
     if (options_.hold_before_trial) {
       while (!stop_requested(options_) && options_.hold_before_trial())
@@ -521,7 +533,9 @@ SessionResult run_session(const std::filesystem::path& db_path, const SessionOpt
   // cannot take this one down with.
   probe_device(options.device, DeviceConfig{options.rate_Hz, 0});
   (void)open_device(options.device);
-  return SessionRun(db_path, options).run();
+  SittingGate gate = check_sitting_gate(db_path, options.participant,
+                                        options.now_unix_s.value_or(db::unix_now_s()), options.override_due_date);
+  return SessionRun(db_path, options, std::move(gate)).run();
 }
 
 }  // namespace hapticlab::sessions

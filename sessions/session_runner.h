@@ -100,6 +100,12 @@ struct SessionOptions {
   // Run at most this many scheduled trials, then close the session (the
   // rest stays planned). nullopt: the whole remaining schedule.
   std::optional<int> max_trials;
+  // A between-group design (sessions/sitting_gate.h): run the next sitting
+  // even before it is due, logging the override in operator_action.
+  bool override_due_date = false;
+  // The time a sitting's due date is compared with [s since 1970, UTC];
+  // nullopt: the wall clock. Tests set it to move days forward.
+  std::optional<double> now_unix_s;
   // Set (e.g. by a SIGINT handler) to stop: the running trial is aborted
   // and re-queued, and the session closes. May be null.
   const std::atomic<bool>* stop = nullptr;

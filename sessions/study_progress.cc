@@ -8,7 +8,56 @@
 
 #include <nlohmann/json.hpp>
 
+#include "protocols/group_assignment.h"
+#include "protocols/protocol_json.h"
+#include "protocols/sittings.h"
+
 namespace hapticlab::sessions {
+namespace {
+
+// A sitting is done when none of its trials (block = sitting) is still
+// planned or running; re-queued trials keep it open.
+void add_sitting_progress(const db::StudyRow& study, std::vector<ParticipantProgress>& participants) {
+  const auto design = protocols::group_design_from_protocol_text(study.protocol_json, "stored protocol");
+  if (!design) return;
+  const std::string source = "stored protocol of \"" + study.name + "\"";
+  const auto groups = protocols::assign_groups(*design, source);
+  for (ParticipantProgress& p : participants) {
+    std::size_t index = 0;
+    while (index < design->participants.size() && design->participants[index].code != p.code) ++index;
+    if (index == design->participants.size()) continue;
+    const auto sittings = protocols::group_sittings(*design, groups[index]);
+    std::vector<bool> open(sittings.size() + 1, false);
+    std::vector<std::optional<double>> end(sittings.size() + 1);
+    for (const db::TrialRow& t : p.trials) {
+      if (t.block < 1 || static_cast<std::size_t>(t.block) > sittings.size()) continue;
+      if (t.status == db::TrialStatus::kPlanned || t.status == db::TrialStatus::kRunning) open[t.block] = true;
+      if (t.ended_unix_s && (!end[t.block] || *t.ended_unix_s > *end[t.block])) end[t.block] = t.ended_unix_s;
+    }
+    std::size_t done = 0;
+    while (done < sittings.size() && !open[done + 1]) ++done;
+    const auto due = protocols::next_sitting_due(sittings, done, done == 0 ? std::nullopt : end[done]);
+    SittingProgress sp;
+    sp.group = design->transfer->groups[groups[index]].name;
+    sp.sittings_done = static_cast<int>(done);
+    sp.sittings = static_cast<int>(sittings.size());
+    if (due.next < sittings.size()) {
+      sp.next_phase = std::string(protocols::phase_kind_name(sittings[due.next].phase));
+      sp.next_session = sittings[due.next].session;
+    } else {
+      sp.next_phase = "done";
+    }
+    sp.due_unix_s = due.due_unix_s;
+    p.sitting = std::move(sp);
+  }
+}
+
+std::string due_text(const SittingProgress& sp) {
+  if (sp.next_phase == "done") return "-";
+  return sp.due_unix_s ? protocols::utc_text(*sp.due_unix_s) : "now";
+}
+
+}  // namespace
 
 StudyProgress study_progress(db::StudyDb& db) {
   const auto studies = db.studies();
@@ -35,6 +84,7 @@ StudyProgress study_progress(db::StudyDb& db) {
     p.scheduled = static_cast<int>(slots.size());
     out.participants.push_back(std::move(p));
   }
+  add_sitting_progress(out.study, out.participants);
   return out;
 }
 
@@ -52,6 +102,23 @@ std::string format_study_progress(const StudyProgress& progress, bool with_sched
     std::snprintf(line, sizeof line, "%-12s %9d %8d %8d %8d %8d\n", p.code.c_str(), p.scheduled, p.complete,
                   p.aborted, p.running, p.planned);
     s += line;
+  }
+  bool grouped = false;
+  for (const auto& p : progress.participants) grouped = grouped || p.sitting.has_value();
+  if (grouped) {
+    std::snprintf(line, sizeof line, "\n%-12s %-28s %-9s %-16s %s\n", "participant", "group", "sittings",
+                  "next", "due (UTC)");
+    s += line;
+    for (const auto& p : progress.participants) {
+      if (!p.sitting) continue;
+      const SittingProgress& sp = *p.sitting;
+      const std::string next =
+          sp.next_phase == "done" ? "done" : sp.next_phase + " " + std::to_string(sp.next_session);
+      const std::string count = std::to_string(sp.sittings_done) + "/" + std::to_string(sp.sittings);
+      std::snprintf(line, sizeof line, "%-12s %-28s %-9s %-16s %s\n", p.code.c_str(), sp.group.c_str(),
+                    count.c_str(), next.c_str(), due_text(sp).c_str());
+      s += line;
+    }
   }
   if (!with_schedule) return s;
   for (const auto& p : progress.participants) {
@@ -94,6 +161,15 @@ nlohmann::json study_progress_json(const StudyProgress& progress) {
                                  {"running", p.running},
                                  {"to_do", p.planned},
                                  {"trials", std::move(trials)}});
+    if (p.sitting) {
+      const SittingProgress& sp = *p.sitting;
+      j["participants"].back()["group"] = sp.group;
+      j["participants"].back()["sittings_done"] = sp.sittings_done;
+      j["participants"].back()["sittings"] = sp.sittings;
+      j["participants"].back()["next_phase"] = sp.next_phase;
+      j["participants"].back()["next_session"] = sp.next_session;
+      j["participants"].back()["next_due_utc"] = due_text(sp);
+    }
   }
   return j;
 }

@@ -3,6 +3,7 @@
 // participant's progress through it (operator view: names the settings).
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,17 @@
 
 namespace hapticlab::sessions {
 
+// Where a participant of a between-group design stands
+// (protocols/sittings.h): the group, the next sitting and when it is due.
+struct SittingProgress {
+  std::string group;
+  int sittings_done = 0;
+  int sittings = 0;
+  std::string next_phase;       // "pre_test", ..., or "done"
+  int next_session = 0;         // 1-based within next_phase; 0 when done
+  std::optional<double> due_unix_s;  // nullopt: due now (or done)
+};
+
 struct ParticipantProgress {
   std::string code;
   int planned = 0;     // still to run (re-queued trials included)
@@ -20,6 +32,8 @@ struct ParticipantProgress {
   int aborted = 0;     // kept, marked, left out of analysis by default
   int scheduled = 0;   // trials in the original schedule
   std::vector<db::TrialRow> trials;  // schedule order
+  // Only for a protocol with groups; old studies print as before.
+  std::optional<SittingProgress> sitting;
 };
 
 struct StudyProgress {

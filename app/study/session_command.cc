@@ -2,8 +2,10 @@
 #include "app/study/session_command.h"
 
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <stdexcept>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -39,6 +41,7 @@ struct SessionCommandOptions {
   int max_trials = -1;       // -1: all
   bool blind = false;
   bool training_until_enter = false;
+  bool override_due_date = false;
   RealtimeOptions realtime;
   bool json = false;
   std::string population;  // --population (app/cli/population_option.h)
@@ -62,6 +65,16 @@ std::string trial_label(const sessions::SessionProgress& p, bool blind) {
   return s;
 }
 
+// HAPTICLAB_TEST_NOW_UNIX_S: seconds since 1970, a finite number.
+double parse_test_now(const char* text) {
+  char* end = nullptr;
+  const double x = std::strtod(text, &end);
+  if (end == text || *end != '\0' || !std::isfinite(x) || x < 0)
+    throw std::runtime_error(std::string("HAPTICLAB_TEST_NOW_UNIX_S is \"") + text +
+                             "\", but must be seconds since 1970 (a number >= 0)");
+  return x;
+}
+
 int run(const SessionCommandOptions& opt) {
   sessions::SessionOptions options;
   options.participant = opt.participant;
@@ -76,6 +89,9 @@ int run(const SessionCommandOptions& opt) {
   options.population = choose_population(opt.population).point;
   if (opt.training_trials >= 0) options.training_trials = opt.training_trials;
   if (opt.max_trials >= 0) options.max_trials = opt.max_trials;
+  options.override_due_date = opt.override_due_date;
+  // For tests only (docs/protocols.md): the time due dates are compared with.
+  if (const char* now = std::getenv("HAPTICLAB_TEST_NOW_UNIX_S")) options.now_unix_s = parse_test_now(now);
   options.realtime = opt.realtime;
   if (opt.realtime.enabled) {
     RealtimeResult granted;
@@ -253,6 +269,9 @@ void add_session_command(CLI::App& app) {
                 "as with a real participant, who practises until the operator judges them ready");
   cmd->add_option("--max-trials", opt->max_trials, "Run at most this many trials, then stop (default: all)")
       ->check(non_negative_number());
+  cmd->add_flag("--override-due-date", opt->override_due_date,
+                "Run a group design's next sitting before its due date (the protocol's minimum gap); the "
+                "override is logged in the study (operator_action)");
   cmd->add_flag("--realtime", opt->realtime.enabled,
                 "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked (for a real device; "
                 "if the system refuses, says so and runs without; docs/devices.md)");

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -58,6 +59,17 @@ void create_or_resume(const fs::path& db_path, const fs::path& protocol, Progres
   const sessions::CreatedStudy created = sessions::create_study(db, protocol, software_version());
   line.print("1. Study designed and block-randomized: " + std::to_string(created.participants) +
              " simulated surgeons, " + std::to_string(created.trials) + " trials -> " + db_path.string());
+}
+
+// When `code`'s next sitting of a group design is due (simulated time: the
+// demo starts each sitting then); nullopt when it is due now.
+std::optional<double> next_due_unix_s(const fs::path& db_path, const std::string& code) {
+  db::OpenOptions open;
+  open.integrity = db::OpenOptions::Integrity::kSkip;
+  db::StudyDb db(db_path, open);
+  for (const auto& p : sessions::study_progress(db).participants)
+    if (p.code == code && p.sitting) return p.sitting->due_unix_s;
+  return std::nullopt;
 }
 
 int run(const DemoOptions& opt) {
@@ -119,7 +131,14 @@ int run(const DemoOptions& opt) {
                       std::to_string(p.trial_count),
                   elapsed_s(), eta);
     };
-    const sessions::SessionResult r = sessions::run_session(db_path, options);
+    sessions::SessionResult r = sessions::run_session(db_path, options);
+    // A group design runs one sitting per session: the next ones follow
+    // on simulated time, each started when it is due.
+    while (!r.stopped_by_operator && !r.device_fault && r.trials_left > 0 && r.trials_run > 0) {
+      updates += r.samples_logged;
+      options.now_unix_s = next_due_unix_s(db_path, code);
+      r = sessions::run_session(db_path, options);
+    }
     updates += r.samples_logged;
     if (r.stopped_by_operator) {
       line.finish();
