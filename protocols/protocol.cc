@@ -111,6 +111,49 @@ std::optional<std::string> participant_code_problem(std::string_view code) {
   return std::nullopt;
 }
 
+namespace {
+
+// The within-participant design: which settings each participant gets.
+void validate_design(const Protocol& p, const std::set<std::string>& codes, const std::string& source) {
+  const Design& d = p.design;
+  switch (d.type) {
+    case DesignType::kComplete:
+      break;
+    case DesignType::kIncomplete: {
+      check_setting_names(p, d.required, "design.required", source);
+      const int optional = static_cast<int>(p.settings.size() - d.required.size());
+      if (d.k < 0 || d.k > optional) {
+        throw ProtocolError(source, "design.k",
+                            "is " + std::to_string(d.k) + ", but must be >= 0 and <= " + std::to_string(optional) +
+                                " (the number of settings not in design.required)");
+      }
+      check_enough_settings(d.required.size() + static_cast<std::size_t>(d.k), "design",
+                            "each participant", source, p.staircase.has_value());
+      break;
+    }
+    case DesignType::kExplicit: {
+      for (const auto& [code, names] : d.assignments) {
+        const std::string path = "design.assignments." + code;
+        if (!codes.count(code)) {
+          throw ProtocolError(source, path, "assigns settings to " + in_quotes(code) +
+                                                ", which is not in participants; every key must be a participant code");
+        }
+        check_setting_names(p, names, path, source);
+        check_enough_settings(names.size(), path, in_quotes(code), source, p.staircase.has_value());
+      }
+      for (std::size_t i = 0; i < p.participants.size(); ++i) {
+        if (!d.assignments.count(p.participants[i].code)) {
+          throw ProtocolError(source, "design.assignments." + p.participants[i].code,
+                              "is missing; an explicit design assigns settings to every participant");
+        }
+      }
+      break;
+    }
+  }
+}
+
+}  // namespace
+
 void validate_protocol(const Protocol& p, const std::string& source) {
   if (p.study.empty()) throw ProtocolError(source, "study", "is empty, but must name the study");
 
@@ -220,43 +263,7 @@ void validate_protocol(const Protocol& p, const std::string& source) {
     validate_transfer_design(p, source);
     return;
   }
-
-  // design
-  const Design& d = p.design;
-  switch (d.type) {
-    case DesignType::kComplete:
-      break;
-    case DesignType::kIncomplete: {
-      check_setting_names(p, d.required, "design.required", source);
-      const int optional = static_cast<int>(p.settings.size() - d.required.size());
-      if (d.k < 0 || d.k > optional) {
-        throw ProtocolError(source, "design.k",
-                            "is " + std::to_string(d.k) + ", but must be >= 0 and <= " + std::to_string(optional) +
-                                " (the number of settings not in design.required)");
-      }
-      check_enough_settings(d.required.size() + static_cast<std::size_t>(d.k), "design",
-                            "each participant", source, p.staircase.has_value());
-      break;
-    }
-    case DesignType::kExplicit: {
-      for (const auto& [code, names] : d.assignments) {
-        const std::string path = "design.assignments." + code;
-        if (!codes.count(code)) {
-          throw ProtocolError(source, path, "assigns settings to " + in_quotes(code) +
-                                                ", which is not in participants; every key must be a participant code");
-        }
-        check_setting_names(p, names, path, source);
-        check_enough_settings(names.size(), path, in_quotes(code), source, p.staircase.has_value());
-      }
-      for (std::size_t i = 0; i < p.participants.size(); ++i) {
-        if (!d.assignments.count(p.participants[i].code)) {
-          throw ProtocolError(source, "design.assignments." + p.participants[i].code,
-                              "is missing; an explicit design assigns settings to every participant");
-        }
-      }
-      break;
-    }
-  }
+  validate_design(p, codes, source);
 }
 
 }  // namespace hapticlab::protocols

@@ -75,7 +75,8 @@ double parse_test_now(const char* text) {
   return x;
 }
 
-int run(const SessionCommandOptions& opt) {
+// The runner's options from the command's (the --realtime grant is added by run).
+sessions::SessionOptions session_options(const SessionCommandOptions& opt) {
   sessions::SessionOptions options;
   options.participant = opt.participant;
   options.device = parse_device_spec(opt.device);
@@ -93,6 +94,11 @@ int run(const SessionCommandOptions& opt) {
   // For tests only (docs/protocols.md): the time due dates are compared with.
   if (const char* now = std::getenv("HAPTICLAB_TEST_NOW_UNIX_S")) options.now_unix_s = parse_test_now(now);
   options.realtime = opt.realtime;
+  return options;
+}
+
+int run(const SessionCommandOptions& opt) {
+  sessions::SessionOptions options = session_options(opt);
   if (opt.realtime.enabled) {
     RealtimeResult granted;
     std::fprintf(stderr, "%s\n", prepare_realtime(opt.realtime, &granted).c_str());
@@ -219,6 +225,18 @@ int run(const SessionCommandOptions& opt) {
   return 0;
 }
 
+// --realtime and its priority and CPU.
+void add_realtime_options(CLI::App* cmd, RealtimeOptions& realtime) {
+  cmd->add_flag("--realtime", realtime.enabled,
+                "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked (for a real device; "
+                "if the system refuses, says so and runs without; docs/devices.md)");
+  cmd->add_option("--realtime-priority", realtime.priority, "SCHED_FIFO priority with --realtime, 1..99")
+      ->check(whole_number_in(1, 99))
+      ->capture_default_str();
+  cmd->add_option("--realtime-cpu", realtime.cpu, "CPU for the loop with --realtime (-1: the last one)")
+      ->capture_default_str();
+}
+
 }  // namespace
 
 void add_session_command(CLI::App& app) {
@@ -272,14 +290,7 @@ void add_session_command(CLI::App& app) {
   cmd->add_flag("--override-due-date", opt->override_due_date,
                 "Run a group design's next sitting before its due date (the protocol's minimum gap); the "
                 "override is logged in the study (operator_action)");
-  cmd->add_flag("--realtime", opt->realtime.enabled,
-                "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked (for a real device; "
-                "if the system refuses, says so and runs without; docs/devices.md)");
-  cmd->add_option("--realtime-priority", opt->realtime.priority, "SCHED_FIFO priority with --realtime, 1..99")
-      ->check(whole_number_in(1, 99))
-      ->capture_default_str();
-  cmd->add_option("--realtime-cpu", opt->realtime.cpu, "CPU for the loop with --realtime (-1: the last one)")
-      ->capture_default_str();
+  add_realtime_options(cmd, opt->realtime);
   cmd->add_flag("--json", opt->json,
                 "Print the session's summary as one JSON object on stdout (progress goes to stderr)");
   cmd->add_flag("--blind", opt->blind,

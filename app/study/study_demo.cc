@@ -72,6 +72,20 @@ std::optional<double> next_due_unix_s(const fs::path& db_path, const std::string
   return std::nullopt;
 }
 
+// The participant's sessions: one, or in a group design every sitting left
+// (one per session), each started on simulated time when it is due.
+sessions::SessionResult run_sittings(const fs::path& db_path, const std::string& code,
+                                     sessions::SessionOptions& options, std::uint64_t& updates) {
+  sessions::SessionResult r = sessions::run_session(db_path, options);
+  while (!r.stopped_by_operator && !r.device_fault && r.trials_left > 0 && r.trials_run > 0) {
+    updates += r.samples_logged;
+    options.now_unix_s = next_due_unix_s(db_path, code);
+    r = sessions::run_session(db_path, options);
+  }
+  updates += r.samples_logged;
+  return r;
+}
+
 int run(const DemoOptions& opt) {
   const auto started = std::chrono::steady_clock::now();
   auto elapsed_s = [&] {
@@ -131,15 +145,7 @@ int run(const DemoOptions& opt) {
                       std::to_string(p.trial_count),
                   elapsed_s(), eta);
     };
-    sessions::SessionResult r = sessions::run_session(db_path, options);
-    // A group design runs one sitting per session: the next ones follow
-    // on simulated time, each started when it is due.
-    while (!r.stopped_by_operator && !r.device_fault && r.trials_left > 0 && r.trials_run > 0) {
-      updates += r.samples_logged;
-      options.now_unix_s = next_due_unix_s(db_path, code);
-      r = sessions::run_session(db_path, options);
-    }
-    updates += r.samples_logged;
+    const sessions::SessionResult r = run_sittings(db_path, code, options, updates);
     if (r.stopped_by_operator) {
       line.finish();
       std::fprintf(stderr, "hapticlab demo: interrupted; %d of %d trials are safely stored in %s. Run the same "
