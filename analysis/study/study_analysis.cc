@@ -184,6 +184,14 @@ void read_staircases(db::StudyDb& db, const db::StudyRow& study, const std::vect
   }
 }
 
+// What the stored protocol adds to the trials: its staircase (each
+// participant's) and its between-group design.
+void read_protocol_parts(db::StudyDb& db, const db::StudyRow& study, const std::vector<db::TrialRow>& rows,
+                         StudyAnalysis& a) {
+  read_staircases(db, study, rows, a);
+  a.group_design = protocols::group_design_from_protocol_text(study.protocol_json, db.path() + ": the study's protocol");
+}
+
 }  // namespace
 
 namespace {
@@ -286,7 +294,7 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
     a.counts.damaged_chunks += t.damaged_chunks.size();
   }
   run_statistics(a);
-  read_staircases(db, *study, rows, a);
+  read_protocol_parts(db, *study, rows, a);
   read_sites(db, a);
   return a;
 }

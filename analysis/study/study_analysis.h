@@ -32,6 +32,7 @@
 #include "analysis/stats/ks_bootstrap.h"
 #include "analysis/stats/percentile.h"
 #include "analysis/stats/test_result.h"
+#include "protocols/protocol.h"
 #include "protocols/staircase.h"
 #include "analysis/study/site_balance.h"
 
@@ -304,6 +305,10 @@ struct StudyAnalysis {
   std::optional<DoseSeries> dose;               // a dose-response study's series; empty otherwise
   std::vector<DoseResponseRow> dose_response;   // per task x measure, when `dose` is set
   std::optional<protocols::StaircaseSpec> staircase;  // a staircase study's rule; empty otherwise
+  // A between-group design's protocol (protocols/transfer_design.h), read
+  // from the stored protocol text; empty for a within-participant study.
+  // Its comparisons are group_design.h's, not the tables above.
+  std::optional<protocols::Protocol> group_design;
   std::vector<StaircaseRow> staircases;               // per participant who has its task
   // A merged multi-site study (db/study_merge.h): each participant's site,
   // from their sessions' `site` (empty map for a study never merged), and

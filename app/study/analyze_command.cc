@@ -1,6 +1,7 @@
 #include "app/study/analyze_command.h"
 
 #include <cstdio>
+#include <iostream>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -9,6 +10,7 @@
 
 #include "app/cli/cli_checks.h"
 #include "app/cli/option_shapes.h"
+#include "analysis/study/group_design.h"
 #include "analysis/study/headline_format.h"
 #include "analysis/report/gnuplot.h"
 #include "analysis/report/report.h"
@@ -127,6 +129,34 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
                      {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};
 }
 
+// A between-group design: the transfer analysis and learning curves
+// (analysis/study/group_design.h) instead of the within-participant report.
+void write_group_design_study(const an::StudyAnalysis& analysis, const std::filesystem::path& out, bool plots,
+                              bool json, bool quiet) {
+  const std::vector<an::TaskGroupAnalysis> tasks = an::analyze_group_design(analysis);
+  const an::GroupDesignFiles files = an::write_group_design(tasks, out, plots ? an::find_gnuplot() : "");
+  if (json) {
+    nlohmann::json written = nlohmann::json::array();
+    for (const auto& f : files.written) written.push_back(f.string());
+    std::printf("%s\n", nlohmann::json{{"group_design", true}, {"metrics", (out / "metrics.csv").string()},
+                                        {"transfer", files.markdown.string()}, {"files", written}}
+                            .dump(2)
+                            .c_str());
+    return;
+  }
+  if (!quiet) {
+    for (const an::TaskGroupAnalysis& t : tasks) {
+      std::printf("\n%s:\n", t.task.c_str());
+      if (t.transfer) an::transfer::write_transfer_text(*t.transfer, std::cout);
+      else std::printf("no transfer analysis: %s\n", t.transfer_refusal.c_str());
+    }
+    std::fflush(stdout);
+  }
+  std::printf("\nbetween-group design: the within-participant tables do not apply; wrote %s, %s and %zu more "
+              "file(s) in %s\n", (out / "metrics.csv").c_str(), files.markdown.c_str(), files.written.size() - 1,
+              out.c_str());
+}
+
 void run_analyze(const AnalyzeOptions& o) {
   an::AnalysisOptions options;
   if (o.study >= 0) options.study_id = o.study;
@@ -165,6 +195,7 @@ void run_analyze(const AnalyzeOptions& o) {
   std::filesystem::create_directories(out, ec);
   if (ec) throw an::DataError("--out is '" + o.out + "', but it cannot be created: " + ec.message());
   an::write_metrics_csv(analysis, out / "metrics.csv");
+  if (analysis.group_design) return write_group_design_study(analysis, out, report.plots, o.json, o.quiet);
   const an::ReportFiles files = an::write_report(analysis, out, report);
   if (o.json) {
     std::printf("%s\n", summary_json(analysis, out, files).dump(2).c_str());

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/common/build_info.h"
+#include "analysis/study/group_design.h"
 #include "analysis/study/headline_format.h"
 #include "analysis/report/report.h"
 #include "analysis/study/metrics_csv.h"
@@ -70,6 +71,39 @@ std::optional<double> next_due_unix_s(const fs::path& db_path, const std::string
   for (const auto& p : sessions::study_progress(db).participants)
     if (p.code == code && p.sitting) return p.sitting->due_unix_s;
   return std::nullopt;
+}
+
+// 3. and 4.: the analysis of the study just run, its report and where the
+// files are. A between-group design gets its transfer analysis
+// (analysis/study/group_design.h) instead of the within-participant tables.
+void analyse_and_report(const fs::path& db_path, const fs::path& out, bool plots, ProgressLine& line) {
+  char text[256];
+  analysis::AnalysisOptions analysis_options;
+  const analysis::StudyAnalysis result = analysis::analyze_study_file(db_path, analysis_options);
+  const fs::path metrics = out / "metrics.csv";
+  analysis::write_metrics_csv(result, metrics);
+  if (result.group_design) {
+    const analysis::GroupDesignFiles files = analysis::write_group_design(
+        analysis::analyze_group_design(result), out, plots ? analysis::find_gnuplot() : fs::path());
+    line.print("3. Analysis: a between-group design, " + std::to_string(result.counts.analysed) +
+               " trials analysed: transfer analysis and learning curves (the within-participant tables do not apply)");
+    std::printf("4. Results in %s:\n   database  %s\n   metrics   %s\n   transfer  %s   (and %zu more files)\n",
+                out.c_str(), db_path.c_str(), metrics.c_str(), files.markdown.c_str(), files.written.size() - 1);
+    return;
+  }
+  analysis::ReportOptions report_options;
+  report_options.plots = plots;
+  const analysis::ReportFiles report = analysis::write_report(result, out, report_options);
+  std::snprintf(text, sizeof text, "3. Analysis: %zu trials analysed, %zu aborted left out, %zu figures",
+                result.counts.analysed, result.counts.aborted_excluded, report.figures.size());
+  line.print(text);
+
+  std::printf("\n%s\n", analysis::format_headline_tables(result).c_str());
+  std::printf("4. Results in %s:\n", out.c_str());
+  std::printf("   database  %s   (hapticlab study show --db %s; schema: db/README.md)\n", db_path.c_str(),
+              db_path.c_str());
+  std::printf("   metrics   %s   (one row per trial and instrument)\n", metrics.c_str());
+  std::printf("   report    %s   (open in a browser; Markdown: %s)\n", report.html.c_str(), report.markdown.c_str());
 }
 
 // The participant's sessions: one, or in a group design every sitting left
@@ -162,23 +196,7 @@ int run(const DemoOptions& opt) {
                 static_cast<double>(updates) / 1e6, static_cast<double>(fs::file_size(db_path)) / 1e6);
   line.print(text);
 
-  analysis::AnalysisOptions analysis_options;
-  const analysis::StudyAnalysis result = analysis::analyze_study_file(db_path, analysis_options);
-  const fs::path metrics = out / "metrics.csv";
-  analysis::write_metrics_csv(result, metrics);
-  analysis::ReportOptions report_options;
-  report_options.plots = opt.plots;
-  const analysis::ReportFiles report = analysis::write_report(result, out, report_options);
-  std::snprintf(text, sizeof text, "3. Analysis: %zu trials analysed, %zu aborted left out, %zu figures",
-                result.counts.analysed, result.counts.aborted_excluded, report.figures.size());
-  line.print(text);
-
-  std::printf("\n%s\n", analysis::format_headline_tables(result).c_str());
-  std::printf("4. Results in %s:\n", out.c_str());
-  std::printf("   database  %s   (hapticlab study show --db %s; schema: db/README.md)\n", db_path.c_str(),
-              db_path.c_str());
-  std::printf("   metrics   %s   (one row per trial and instrument)\n", metrics.c_str());
-  std::printf("   report    %s   (open in a browser; Markdown: %s)\n", report.html.c_str(), report.markdown.c_str());
+  analyse_and_report(db_path, out, opt.plots, line);
   std::printf("Done in %s.\n", format_duration(elapsed_s()).c_str());
   return 0;
 }
