@@ -52,13 +52,13 @@ std::string power_csv(const std::vector<TaskPower>& tasks, double share) {
   return csv.str();
 }
 
-void print_table(const std::vector<TaskPower>& tasks, const TransferPowerCli& cli, const std::string& population) {
+void print_table(const std::vector<TaskPower>& tasks, double share, int studies, const std::string& population) {
   std::printf("Transfer design: power of the post-test and retention comparisons, each group against '%s', on the "
               "change of trial time from the pre-test (exact rank test, alpha 0.05), %d simulated studies per size.\n"
               "Model: %s; learning from force information with force_free_share %.2f, an assumption, not a fit "
               "(docs/simulation.md, \"Simulated learners\").\n\n",
-              tasks.front().power.rows.empty() ? "" : tasks.front().power.rows.front().reference.c_str(), cli.studies,
-              population.c_str(), cli.force_free_share);
+              tasks.front().power.rows.empty() ? "" : tasks.front().power.rows.front().reference.c_str(), studies,
+              population.c_str(), share);
   std::printf("| task | per group | test | group | power [95 %% CI] | median effect [s] |\n| --- | ---: | --- | --- | --- | ---: |\n");
   for (const TaskPower& t : tasks) {
     for (const planning::TransferPowerRow& r : t.power.rows) {
@@ -83,34 +83,35 @@ std::string power_json(const std::vector<TaskPower>& tasks, double share) {
 
 }  // namespace
 
-int run_transfer_power(const protocols::Protocol& protocol, const TransferPowerCli& cli) {
+int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptions& o) {
   const std::vector<planning::TransferDesign> designs = planning::transfer_designs(protocol);
-  const ChosenPopulation population = choose_population(cli.population);
+  const ChosenPopulation population = choose_population(o.population);
   planning::TransferPowerOptions options;
-  options.per_group = cli.per_group.empty() ? default_group_sizes(protocol) : cli.per_group;
-  options.studies = cli.studies;
-  options.seed = cli.seed;
-  options.jobs = cli.jobs > 0 ? static_cast<int>(cli.jobs) : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  options.simulation.rate_Hz = cli.rate_Hz;
-  options.simulation.max_trial_s = cli.max_trial_s;
+  const double share = o.force_free_share.value_or(0.5);
+  options.per_group = o.participants.empty() ? default_group_sizes(protocol) : o.participants;
+  options.studies = o.studies;
+  options.seed = o.seed;
+  options.jobs = o.jobs > 0 ? static_cast<int>(o.jobs) : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.simulation.rate_Hz = o.rate_Hz;
+  options.simulation.max_trial_s = o.max_trial_s;
   options.simulation.population = population.point;
-  options.simulation.learning.force_free_share = cli.force_free_share;
-  std::filesystem::create_directories(cli.out);
+  options.simulation.learning.force_free_share = share;
+  std::filesystem::create_directories(o.out);
   std::vector<TaskPower> tasks;
   int timed_out = 0, trials = 0;
   for (const planning::TransferDesign& d : designs) {
-    std::fprintf(stderr, "simulating %s: %d studies per group size...\n", d.task.c_str(), cli.studies);
+    std::fprintf(stderr, "simulating %s: %d studies per group size...\n", d.task.c_str(), o.studies);
     tasks.push_back({d.task, planning::transfer_power(d, options, rank_test_p)});
     timed_out += tasks.back().power.trials_timed_out;
     trials += tasks.back().power.trials_run;
   }
-  write_file_atomically(std::filesystem::path(cli.out) / "transfer_power.csv", power_csv(tasks, cli.force_free_share));
-  if (cli.json) std::fputs(power_json(tasks, cli.force_free_share).c_str(), stdout);
-  else print_table(tasks, cli, population.describe);
-  std::fprintf(cli.json ? stderr : stdout,
+  write_file_atomically(std::filesystem::path(o.out) / "transfer_power.csv", power_csv(tasks, share));
+  if (o.json) std::fputs(power_json(tasks, share).c_str(), stdout);
+  else print_table(tasks, share, o.studies, population.describe);
+  std::fprintf(o.json ? stderr : stdout,
                "\n%d of %d simulated trials timed out (left out: a participant without a complete test trial is not "
                "compared).\nAll rows: %s\n",
-               timed_out, trials, (std::filesystem::path(cli.out) / "transfer_power.csv").c_str());
+               timed_out, trials, (std::filesystem::path(o.out) / "transfer_power.csv").c_str());
   return 0;
 }
 
@@ -127,19 +128,7 @@ std::optional<int> run_if_transfer_design(const protocols::Protocol& protocol, c
   if (o.shards > 1) refuse("--shard", "run its plan on one machine");
   if (o.model_uncertainty == "on") refuse("--model-uncertainty on", "its studies use the population's point estimate");
   if (o.measure_given) refuse("--measure", "a transfer design is compared on trial time");
-  TransferPowerCli cli;
-  cli.protocol_path = o.protocol;
-  cli.per_group = o.participants;
-  cli.studies = o.studies;
-  cli.seed = o.seed;
-  cli.jobs = o.jobs;
-  cli.out = o.out;
-  cli.rate_Hz = o.rate_Hz;
-  cli.max_trial_s = o.max_trial_s;
-  cli.population = o.population;
-  cli.force_free_share = o.force_free_share.value_or(0.5);
-  cli.json = o.json;
-  return run_transfer_power(protocol, cli);
+  return run_transfer_power(protocol, o);
 }
 
 void add_transfer_options(CLI::App* cmd, PlanPowerOptions& o) {

@@ -18,23 +18,12 @@
 
 namespace hapticlab::app {
 
-struct TransferPowerCli {
-  std::string protocol_path;
-  std::vector<int> per_group;  // --participants: participants per group; empty: the protocol's
-  int studies = 200;
-  std::uint64_t seed = 1;
-  std::size_t jobs = 0;        // 0: one per core
-  std::string out;
-  double rate_Hz = 1000.0;
-  double max_trial_s = 300.0;
-  std::string population;      // --population
-  double force_free_share = 0.5;
-  bool json = false;
-};
 
 // Prints the power table, writes OUT/transfer_power.csv; returns the exit
 // status. Throws std::runtime_error / std::invalid_argument with the reason.
-int run_transfer_power(const protocols::Protocol& protocol, const TransferPowerCli& cli);
+// --participants are participants per group (default: the protocol's
+// participants over its groups); --force-free-share defaults to 0.5.
+int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptions& o);
 
 // plan power's path for a protocol with groups: its exit status, after
 // refusing by name the options that do not apply to a transfer design;

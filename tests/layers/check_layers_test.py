@@ -7,36 +7,17 @@ repository itself keeps it.
 
 Usage: check_layers_test.py SOURCE_DIR WORK_DIR
 """
-import os
-import shutil
-import subprocess
 import sys
 
-source_dir, work_dir = sys.argv[1], sys.argv[2]
-checker = os.path.join(source_dir, "scripts", "check_layers.py")
-failures = []
+from checker_harness import Harness
 
-
-def check(condition, what):
-    if not condition:
-        failures.append(what)
-
-
-def run(root):
-    r = subprocess.run([sys.executable, checker, root], capture_output=True, text=True)
-    return r.returncode, r.stdout + r.stderr
+h = Harness("check_layers.py")
+source_dir, check, run = h.source_dir, h.check, h.run
+failures = h.failures
 
 
 def tree(name, files):
-    root = os.path.join(work_dir, name)
-    shutil.rmtree(root, ignore_errors=True)
-    os.makedirs(root)
-    shutil.copy(os.path.join(source_dir, "LAYERS"), root)
-    for path, text in files.items():
-        os.makedirs(os.path.join(root, os.path.dirname(path)), exist_ok=True)
-        with open(os.path.join(root, path), "w") as f:
-            f.write(text)
-    return root
+    return h.tree(name, files, copy=["LAYERS"])
 
 
 # A tree that keeps the rule: downward includes, a same-folder include, the
