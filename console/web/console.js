@@ -164,7 +164,11 @@ async function refreshStudy() {
     }
     let html = "";
     for (const p of j.participants) {
-      html += `<h3>${text(p.code)}: ${p.complete} of ${p.scheduled} complete, ${p.aborted} aborted, ${p.to_do} to do</h3><table><tr><th>#</th><th>task</th><th>setting</th><th>rep</th><th>status</th><th>reason</th></tr>`;
+      html += `<h3>${text(p.code)}: ${p.complete} of ${p.scheduled} complete, ${p.aborted} aborted, ${p.to_do} to do</h3>`;
+      // A between-group design: the participant's group, sittings and the next one's phase and due date.
+      if (p.group !== undefined)
+        html += `<p class="sitting">group ${text(p.group)}; sittings ${p.sittings_done} of ${p.sittings} done; next: ${text(p.next_phase)}${p.next_phase === "done" ? "" : " " + p.next_session}, due ${text(p.next_due_utc)}</p>`;
+      html += `<table><tr><th>#</th><th>task</th><th>setting</th><th>rep</th><th>status</th><th>reason</th></tr>`;
       for (const t of p.trials)
         html += `<tr class="${text(t.status)}"><td>${t.position}</td><td>${text(t.task)}</td><td>${text(t.setting)}</td><td>${t.repetition}</td><td>${text(t.status)}</td><td>${text(t.abort_reason || "")}</td></tr>`;
       html += "</table>";

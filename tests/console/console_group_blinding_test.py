@@ -1,7 +1,8 @@
 """A between-group design in the real console (issue 38 §1): the operator's
-/api/study gives each participant's group, next phase and due date; the
-participant's port, while a training sitting runs on the group's setting,
-serves nothing that names that setting or the group (blinding).
+/api/study gives each participant's group, next phase and due date, and the
+operator's page shows them in headless Chromium; the participant's port,
+while a training sitting runs on the group's setting, serves nothing that
+names that setting or the group (blinding).
 
 usage: console_group_blinding_test.py HAPTICLAB_CLI SOURCE_DIR WORK_DIR
 """
@@ -39,6 +40,30 @@ def participant_stream(port, seconds):
     return data.decode("utf-8", "replace")
 
 
+def shown_on_page(c, code):
+    """The operator's page, rendered by headless Chromium, shows the
+    participant's group, sittings and next phase (skipped, with the reason,
+    where Chromium is missing)."""
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "testing"))
+    import headless_chromium
+    driver = headless_chromium.start()
+    if driver is None:
+        print("skip (page only): Chromium is missing; the API was checked")
+        return
+    try:
+        driver.get(f"http://127.0.0.1:{c.port}/#token={c.token}")
+        end = time.monotonic() + 20
+        body = ""
+        while time.monotonic() < end and "sittings" not in body:
+            time.sleep(0.2)
+            body = driver.find_element("id", "study-body").text
+        want = f"group {GROUP}; sittings 1 of 3 done; next: training 1, due"
+        if want not in body:
+            fail(f"the operator's page does not show {want!r}: {body[:400]!r}")
+    finally:
+        driver.quit()
+
+
 def main():
     cli, source, work = sys.argv[1:4]
     shutil.rmtree(work, ignore_errors=True)
@@ -67,6 +92,7 @@ def main():
         mine = next(p for p in study["participants"] if p["code"] == code)
         if mine.get("group") != GROUP or mine.get("next_phase") != "training" or "next_due_utc" not in mine:
             fail(f"the operator's /api/study does not give the group, phase and due date: {json.dumps(mine)[:300]}")
+        shown_on_page(c, code)
         expect("start", request(c.port, "POST", "/api/session/start", {"participant": code}, token=c.token), 200)
         wait_for("the training sitting's trial", lambda: TRAINING in json.dumps(status_of(c)), 30)
         seen = participant_stream(c.participant_port, 1.5)
