@@ -21,7 +21,9 @@ namespace hapticlab {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::ContainsRegex;
 using ::testing::HasSubstr;
+using ::testing::MatchesRegex;
 using ::testing::Not;
 
 
@@ -226,13 +228,16 @@ TEST_F(DevicePluginSessionTest, AnIsolatedPluginThatHangsInReadIsKilledAndTheTri
                    "--device plugin-isolated:" + kFake + " --device-option fault=hang_in_read");
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
   EXPECT_EQ(status, 3) << out;
-  EXPECT_THAT(out, HasSubstr("hapticlab session run: device read hung for 1000 ms; the trial is re-queued"));
+  // The hang is timed on the wall clock: the 1 s limit plus the host's
+  // reaction, which a loaded machine stretches by a few ms (1005 ms seen).
+  EXPECT_THAT(out, ContainsRegex("hapticlab session run: device read hung for 1[0-4][0-9][0-9] ms; the trial is "
+                                 "re-queued"));
   db::StudyDb study = open_read_only(db);
   int aborted = 0;
   for (const db::TrialRow& t : study.trials(1)) {
     if (t.status != db::TrialStatus::kAborted) continue;
     ++aborted;
-    EXPECT_EQ(t.abort_reason, "device read hung for 1000 ms");
+    EXPECT_THAT(t.abort_reason, MatchesRegex("device read hung for 1[0-4][0-9][0-9] ms"));
     EXPECT_EQ(study.samples(t.id, 0).size(), 200u);
   }
   EXPECT_EQ(aborted, 1);

@@ -150,9 +150,9 @@ TEST(ProtocolExamplesTest, EveryShippedProtocolLoadsAndPlans) {
     EXPECT_FALSE(plan.participants.empty()) << entry.path();
     ++count;
   }
-  EXPECT_EQ(count, 11);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch,
+  EXPECT_EQ(count, 12);  // thesis_as_run, thesis_quick, thesis_planned_8, pilot_complete, external_peg_touch,
                         // null_setting_check, calibration, friction_dose, friction_staircase, device_comparison,
-                        // transfer_study
+                        // transfer_study, transfer_pilot
 }
 
 // Issue 35 §4: High Fidelity against every device preset, in both tasks.

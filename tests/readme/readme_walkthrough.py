@@ -47,6 +47,8 @@ def rewrites():
         ("--participants 8,16 --studies 40", "--participants 2 --studies 1 --rate-hz 250",
          "the device comparison's 960 simulated participants take about 20 minutes on 2 cores; "
          "one study of 2 at a quarter of the rate shows it runs"),
+        ("--studies 40 --participants 8,16", "--studies 1 --participants 2",
+         "the transfer design's 80 studies take about 12 minutes on 2 cores; one of 2 per group shows it runs"),
         ("--participants 100 --out calibration/", "--participants 2 --out calibration/",
          "plan calibrate's 100 participants take about two minutes on 2 cores; 2 show it runs"),
         ("plan calibrate --fit --out calibration/",
