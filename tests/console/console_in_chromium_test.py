@@ -165,7 +165,19 @@ def main():
     shutil.rmtree(work, ignore_errors=True)
     shots = os.path.join(work, "shots")
     os.makedirs(shots)
-    protocol = os.path.join(source, "examples/protocols/thesis_quick.json")
+    # The quick protocol with the loosest rate check (0.5): this test is
+    # about the pages, not about this machine's real time. Two cores running
+    # the suite beside Chromium can hold the 1 kHz wall-clock loop at 884 Hz
+    # for a second, which the rate check rightly ends as rate_violation (seen
+    # in CI); the rate check has tests of its own (RateMonitor*, the
+    # sessions' rate_violation tests).
+    with open(os.path.join(source, "examples/protocols/thesis_quick.json")) as f:
+        quick = json.load(f)
+    quick["settings"] = [os.path.normpath(os.path.join(source, "examples/protocols", s)) for s in quick["settings"]]
+    quick["rate_tolerance_fraction"] = 0.5
+    protocol = os.path.join(work, "thesis_quick_loose_rate.json")
+    with open(protocol, "w") as f:
+        json.dump(quick, f)
 
     consoles = []
     try:
