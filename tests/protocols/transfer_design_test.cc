@@ -23,14 +23,17 @@ namespace {
 using ::testing::HasSubstr;
 using nlohmann::json;
 
-const std::filesystem::path kExample = testing::kExampleProtocolsDir / "transfer_study.json";
+// A function, not a global: a global built from kExampleProtocolsDir (an
+// inline variable of another header) can be initialized before it, and was
+// under clang's sanitizer build (an empty directory, so a relative path).
+std::filesystem::path example_path() { return testing::kExampleProtocolsDir / "transfer_study.json"; }
 
-json example_json() { return json::parse(read_protocol_text(kExample)); }
+json example_json() { return json::parse(read_protocol_text(example_path())); }
 
 testing::Failure transfer_failure_of(const json& j) { return testing::protocol_failure(j, testing::kExampleProtocolsDir); }
 
 TEST(TransferDesignTest, ExampleRandomizesInStratifiedBlocksAndPlansSittings) {
-  const Protocol p = load_protocol_file(kExample);
+  const Protocol p = load_protocol_file(example_path());
   ASSERT_TRUE(p.transfer.has_value());
   ASSERT_EQ(p.transfer->groups.size(), 3u);
   const auto groups = assign_groups(p, "test");
@@ -122,7 +125,7 @@ TEST(TransferDesignTest, BadDesignsAreRefusedByName) {
 }
 
 TEST(TransferDesignTest, ASittingBeforeItsDueDateIsRefusedUnlessOverridden) {
-  const Protocol p = load_protocol_file(kExample);
+  const Protocol p = load_protocol_file(example_path());
   const std::vector<Sitting> sittings = group_sittings(p, 0);  // trained on High Fidelity
   ASSERT_EQ(sittings.size(), 8u);
   // The first sitting is due at once.
