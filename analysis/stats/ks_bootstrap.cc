@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "analysis/stats/data_error.h"
+#include "analysis/stats/ks_rank_walk.h"
 #include "analysis/stats/moving_block_bootstrap.h"
 #include "analysis/stats/split_mix64.h"
 
@@ -110,6 +111,7 @@ KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& 
   std::vector<std::uint32_t> count1(max_levels, 0);
   std::vector<std::uint32_t> count2(max_levels, 0);
   std::vector<std::uint32_t> count3(max_levels, 0);
+  std::vector<std::uint64_t> touched((max_levels + 63) / 64, 0);
   for (std::size_t m = 0; m < options.resamples; ++m) {
     // Resample at every level: participant, repetitions, then samples.
     const RankedParticipant& p = ranked[rng.below(eligible.size())];
@@ -120,31 +122,20 @@ KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& 
     moving_block_resample(p.control[first], options.block_length, rng, hf1);
     moving_block_resample(p.control[second], options.block_length, rng, hf2);
     moving_block_resample(p.other[other], options.block_length, rng, si1);
-    for (double r : hf1) ++count1[static_cast<std::size_t>(r)];
-    for (double r : hf2) ++count2[static_cast<std::size_t>(r)];
-    for (double r : si1) ++count3[static_cast<std::size_t>(r)];
-    // One walk up the ranks gives both statistics (ks_statistic_sorted's
-    // arithmetic); the histograms are cleared on the way.
-    const double n1 = static_cast<double>(hf1.size());
-    const double n2 = static_cast<double>(hf2.size());
-    const double n3 = static_cast<double>(si1.size());
-    std::size_t c1 = 0;
-    std::size_t c2 = 0;
-    std::size_t c3 = 0;
-    double d12 = 0.0;
-    double d13 = 0.0;
-    for (std::size_t u = 0; u < p.levels; ++u) {
-      if ((count1[u] | count2[u] | count3[u]) == 0) continue;
-      c1 += count1[u];
-      c2 += count2[u];
-      c3 += count3[u];
-      count1[u] = count2[u] = count3[u] = 0;
-      const double f1 = static_cast<double>(c1) / n1;
-      d12 = std::max(d12, std::fabs(f1 - static_cast<double>(c2) / n2));
-      d13 = std::max(d13, std::fabs(f1 - static_cast<double>(c3) / n3));
-    }
-    result.d_intra.push_back(d12);
-    result.d_inter.push_back(d13);
+    const auto count = [&touched](const std::vector<double>& ranks, std::vector<std::uint32_t>& histogram) {
+      for (double r : ranks) {
+        const auto u = static_cast<std::size_t>(r);
+        ++histogram[u];
+        touched[u / 64] |= std::uint64_t{1} << (u % 64);
+      }
+    };
+    count(hf1, count1);
+    count(hf2, count2);
+    count(si1, count3);
+    const KsPairD d =
+        ks_rank_walk(count1, count2, count3, touched, p.levels, hf1.size(), hf2.size(), si1.size());
+    result.d_intra.push_back(d.d12);
+    result.d_inter.push_back(d.d13);
   }
   result.intra = central_range(result.d_intra, options.coverage, options.percentile_method);
   result.inter = central_range(result.d_inter, options.coverage, options.percentile_method);

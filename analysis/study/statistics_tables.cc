@@ -22,6 +22,7 @@
 #include "analysis/stats/skillings_mack.h"
 #include "analysis/study/ordered_names.h"
 #include "analysis/study/dose_response.h"
+#include "analysis/study/ks_tables.h"
 #include "analysis/study/participant_level.h"
 
 namespace hapticlab::analysis {
@@ -331,58 +332,7 @@ void run_statistics(StudyAnalysis& a) {
   }
 
   // Appendix I: KS with the moving block bootstrap, control vs each setting.
-  if (!o.ks) return;
-  std::uint64_t comparison = 0;
-  for (const auto& task : a.tasks) {
-    for (int hand = 0; hand < 2; ++hand) {
-      for (const char* quantity : {"force", "speed"}) {
-        for (std::size_t si = 1; si < a.settings.size(); ++si) {
-          ++comparison;
-          KsRow row{task, hand, quantity, a.settings[si], std::nullopt, {}};
-          std::vector<ParticipantRepetitions> data;
-          std::size_t too_short = 0;
-          for (const auto& participant : a.participants) {
-            ParticipantRepetitions reps;
-            reps.participant = participant;
-            for (const TrialRecord& t : a.trials) {
-              if (t.participant != participant || t.task != task) continue;
-              const bool control = t.setting == a.control;
-              if (!control && t.setting != row.setting) continue;
-              const auto& series = std::string(quantity) == "force" ? t.force_series_N[static_cast<std::size_t>(hand)]
-                                                                    : t.speed_series_m_per_s[static_cast<std::size_t>(hand)];
-              if (series.size() < o.ks_block_length) {
-                if (!series.empty() || t.window) ++too_short;
-                continue;
-              }
-              (control ? reps.control : reps.other).push_back(series);
-            }
-            if (!reps.control.empty() || !reps.other.empty()) data.push_back(std::move(reps));
-          }
-          KsBootstrapOptions ko;
-          ko.resamples = o.ks_resamples;
-          ko.block_length = o.ks_block_length;
-          // Each comparison its own reproducible stream.
-          ko.seed = o.seed * 0x9E3779B97F4A7C15ULL + comparison;
-          ko.percentile_method = o.percentile_method;
-          try {
-            KsBootstrapResult r = ks_block_bootstrap(data, ko);
-            r.d_intra.clear();
-            r.d_intra.shrink_to_fit();
-            r.d_inter.clear();
-            r.d_inter.shrink_to_fit();
-            row.result = std::move(r);
-          } catch (const DataError& e) {
-            row.note = e.what();
-          }
-          if (too_short > 0) {
-            row.note += (row.note.empty() ? "" : "; ") + std::to_string(too_short) +
-                        " repetition(s) shorter than the block length left out";
-          }
-          a.ks.push_back(std::move(row));
-        }
-      }
-    }
-  }
+  if (o.ks) add_ks_rows(a, o.threads);
 }
 
 }  // namespace hapticlab::analysis

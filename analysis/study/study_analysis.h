@@ -83,7 +83,7 @@ struct AnalysisOptions {
   std::size_t ks_block_length = 10;  // in kept samples, >= 1
   std::uint64_t seed = 1;
   std::size_t cdf_points = 101;      // quantiles kept per trial and hand for the CDF plots: 0 (none) or >= 2
-  std::size_t threads = 0;           // trials read in parallel; 0: one thread per core
+  std::size_t threads = 0;           // trials read and KS comparisons run in parallel; 0: one thread per core
   ComparisonMethod method = ComparisonMethod::kParticipant;
 
   // Throws DataError naming the field, its value and the allowed range.

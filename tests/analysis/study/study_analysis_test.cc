@@ -454,6 +454,21 @@ TEST_F(StudyAnalysisTest, ResultsDoNotDependOnTheThreadCount) {
     }
   }
   EXPECT_EQ(format_headline_tables(a), format_headline_tables(b));
+  // The KS comparisons run on three threads in b: the same rows, in order.
+  ASSERT_EQ(a.ks.size(), b.ks.size());
+  ASSERT_EQ(a.ks.size(), 8u);
+  for (std::size_t i = 0; i < a.ks.size(); ++i) {
+    const KsRow& x = a.ks[i];
+    const KsRow& y = b.ks[i];
+    EXPECT_EQ(x.task + x.quantity + x.setting + std::to_string(x.hand), y.task + y.quantity + y.setting + std::to_string(y.hand));
+    EXPECT_EQ(x.note, y.note);
+    ASSERT_EQ(x.result.has_value(), y.result.has_value()) << i;
+    if (!x.result) continue;
+    EXPECT_EQ(x.result->intra.low, y.result->intra.low) << i;
+    EXPECT_EQ(x.result->intra.high, y.result->intra.high) << i;
+    EXPECT_EQ(x.result->inter.low, y.result->inter.low) << i;
+    EXPECT_EQ(x.result->inter.high, y.result->inter.high) << i;
+  }
   std::ostringstream csv_a, csv_b;
   write_metrics_csv(a, csv_a);
   write_metrics_csv(b, csv_b);
