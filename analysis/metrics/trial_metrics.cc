@@ -122,7 +122,8 @@ void WindowAccumulator::add(double t, const Vec3d& p, const Vec3d& velocity_m_pe
   const double force = norm3(force_N);
   const double speed = norm3(velocity_m_per_s);
   // A NaN would otherwise fail the threshold test and vanish silently.
-  if (!std::isfinite(force) || !std::isfinite(speed) || !std::isfinite(norm3(p))) {
+  // (|p| is finite exactly when |p|² is: no square root needed to know.)
+  if (!std::isfinite(force) || !std::isfinite(speed) || !std::isfinite(p[0] * p[0] + p[1] * p[1] + p[2] * p[2])) {
     throw DataError("task window: sample " + std::to_string(i) + " at t_s = " + std::to_string(t) +
                     " has a non-finite " +
                     (!std::isfinite(force) ? "ve_force_N" : !std::isfinite(speed) ? "tip_velocity_m_per_s"
