@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analysis/stats/data_error.h"
@@ -11,13 +12,12 @@
 
 namespace hapticlab::analysis {
 
-DurbinResult durbin_test(const BlockTable& table) {
+namespace {
+
+// Design checks: one observation per cell, equal block sizes k. Returns k.
+std::size_t checked_block_size(const BlockTable& table) {
   const std::size_t t = table.treatment_count();
   const std::size_t b = table.block_count();
-  if (t < 2) throw DataError("Durbin test: at least 2 treatments are needed");
-  if (b < 2) throw DataError("Durbin test: at least 2 blocks are needed");
-
-  // Design checks: one observation per cell, equal block sizes k.
   std::size_t k = 0;
   for (std::size_t i = 0; i < b; ++i) {
     std::size_t size = 0;
@@ -44,8 +44,14 @@ DurbinResult durbin_test(const BlockTable& table) {
     }
   }
   if (k < 2) throw DataError("Durbin test: blocks must hold at least 2 treatments");
+  return k;
+}
 
-  // Replication r and pair balance λ.
+// Replication r and pair balance λ: every treatment in r blocks, every pair
+// together in λ blocks. Returns r.
+std::size_t checked_replication(const BlockTable& table) {
+  const std::size_t t = table.treatment_count();
+  const std::size_t b = table.block_count();
   std::vector<std::size_t> replication(t, 0);
   std::vector<std::vector<std::size_t>> together(t, std::vector<std::size_t>(t, 0));
   for (std::size_t i = 0; i < b; ++i) {
@@ -78,8 +84,18 @@ DurbinResult durbin_test(const BlockTable& table) {
       }
     }
   }
+  return r;
+}
 
-  // Ranks within blocks; A = Σ rank², R_j.
+struct BlockRanks {
+  std::vector<double> rank_sums;  // R_j
+  double a = 0.0;                 // A = Σ rank²
+};
+
+// Ranks within blocks; A = Σ rank², R_j.
+BlockRanks rank_within_blocks(const BlockTable& table) {
+  const std::size_t t = table.treatment_count();
+  const std::size_t b = table.block_count();
   std::vector<double> rank_sums(t, 0.0);
   double a = 0.0;
   std::vector<double> values;
@@ -98,6 +114,20 @@ DurbinResult durbin_test(const BlockTable& table) {
       a += ranking.ranks[m] * ranking.ranks[m];
     }
   }
+  return {std::move(rank_sums), a};
+}
+
+}  // namespace
+
+DurbinResult durbin_test(const BlockTable& table) {
+  const std::size_t t = table.treatment_count();
+  const std::size_t b = table.block_count();
+  if (t < 2) throw DataError("Durbin test: at least 2 treatments are needed");
+  if (b < 2) throw DataError("Durbin test: at least 2 blocks are needed");
+  const std::size_t k = checked_block_size(table);
+  const std::size_t r = checked_replication(table);
+  const auto [rank_sums, a] = rank_within_blocks(table);
+
   const double td = static_cast<double>(t);
   const double bd = static_cast<double>(b);
   const double kd = static_cast<double>(k);

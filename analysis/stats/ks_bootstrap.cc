@@ -36,12 +36,10 @@ DRange central_range(std::vector<double> values, double coverage, PercentileMeth
           percentile_sorted(values, 100.0 - tail_percent, method)};
 }
 
-}  // namespace
-
-bool ranges_disjoint(const DRange& a, const DRange& b) { return a.high < b.low || b.high < a.low; }
-
-KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& data,
-                                     const KsBootstrapOptions& options) {
+// The participants who can supply HF1 != HF2 and SI1, after checking the
+// options and those participants' series.
+std::vector<const ParticipantRepetitions*> eligible_participants(
+    const std::vector<ParticipantRepetitions>& data, const KsBootstrapOptions& options) {
   if (options.resamples < 1) throw DataError("KS bootstrap: resamples must be >= 1");
   if (options.block_length < 1) {
     throw DataError("KS bootstrap: block length must be >= 1 sample (choose it to "
@@ -51,7 +49,6 @@ KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& 
     throw DataError("KS bootstrap: coverage is " + std::to_string(options.coverage) +
                     ", but must be > 0 and < 1");
   }
-  // Participants who can supply HF1 != HF2 and SI1.
   std::vector<const ParticipantRepetitions*> eligible;
   for (const auto& p : data) {
     if (p.control.size() < 2 || p.other.empty()) continue;
@@ -63,41 +60,58 @@ KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& 
     throw DataError("KS bootstrap: no participant has at least 2 control repetitions "
                     "and 1 repetition of the other setting");
   }
+  return eligible;
+}
 
-  // D depends only on the order of the values, so each participant's series
-  // are replaced by their ranks among all of that participant's values. A
-  // resample is then counted into a histogram over those ranks instead of
-  // being sorted: O(n + U) rather than O(n log n) per series, and the same D,
-  // bit for bit (the walk below evaluates |i/n1 − j/n2| at the same points).
-  struct RankedParticipant {
-    std::vector<std::vector<double>> control;  // ranks, as exact doubles
-    std::vector<std::vector<double>> other;
-    std::size_t levels = 0;                    // distinct values U
-  };
-  std::vector<RankedParticipant> ranked(eligible.size());
-  std::size_t max_levels = 0;
-  for (std::size_t e = 0; e < eligible.size(); ++e) {
-    const ParticipantRepetitions& p = *eligible[e];
-    std::vector<double> levels;
-    for (const auto* reps : {&p.control, &p.other})
-      for (const auto& series : *reps) levels.insert(levels.end(), series.begin(), series.end());
-    std::sort(levels.begin(), levels.end());
-    levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
-    auto to_ranks = [&](const std::vector<std::vector<double>>& reps) {
-      std::vector<std::vector<double>> out;
-      for (const auto& series : reps) {
-        auto& r = out.emplace_back();
-        r.reserve(series.size());
-        for (double v : series) {
-          r.push_back(static_cast<double>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin()));
-        }
+// D depends only on the order of the values, so each participant's series
+// are replaced by their ranks among all of that participant's values. A
+// resample is then counted into a histogram over those ranks instead of
+// being sorted: O(n + U) rather than O(n log n) per series, and the same D,
+// bit for bit (the walk in ks_block_bootstrap evaluates |i/n1 − j/n2| at the
+// same points).
+struct RankedParticipant {
+  std::vector<std::vector<double>> control;  // ranks, as exact doubles
+  std::vector<std::vector<double>> other;
+  std::size_t levels = 0;                    // distinct values U
+};
+
+RankedParticipant ranked_participant(const ParticipantRepetitions& p) {
+  std::vector<double> levels;
+  for (const auto* reps : {&p.control, &p.other})
+    for (const auto& series : *reps) levels.insert(levels.end(), series.begin(), series.end());
+  std::sort(levels.begin(), levels.end());
+  levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
+  auto to_ranks = [&](const std::vector<std::vector<double>>& reps) {
+    std::vector<std::vector<double>> out;
+    for (const auto& series : reps) {
+      auto& r = out.emplace_back();
+      r.reserve(series.size());
+      for (double v : series) {
+        r.push_back(static_cast<double>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin()));
       }
-      return out;
-    };
-    ranked[e].control = to_ranks(p.control);
-    ranked[e].other = to_ranks(p.other);
-    ranked[e].levels = levels.size();
-    max_levels = std::max(max_levels, levels.size());
+    }
+    return out;
+  };
+  RankedParticipant ranked;
+  ranked.control = to_ranks(p.control);
+  ranked.other = to_ranks(p.other);
+  ranked.levels = levels.size();
+  return ranked;
+}
+
+}  // namespace
+
+bool ranges_disjoint(const DRange& a, const DRange& b) { return a.high < b.low || b.high < a.low; }
+
+KsBootstrapResult ks_block_bootstrap(const std::vector<ParticipantRepetitions>& data,
+                                     const KsBootstrapOptions& options) {
+  const std::vector<const ParticipantRepetitions*> eligible = eligible_participants(data, options);
+  std::vector<RankedParticipant> ranked;
+  ranked.reserve(eligible.size());
+  std::size_t max_levels = 0;
+  for (const ParticipantRepetitions* p : eligible) {
+    ranked.push_back(ranked_participant(*p));
+    max_levels = std::max(max_levels, ranked.back().levels);
   }
 
   KsBootstrapResult result;

@@ -131,10 +131,15 @@ void comparison_rows(std::ostream& out, const StudyAnalysis& a, const std::strin
   }
 }
 
-}  // namespace
+// The heading row of measures above a table's rows.
+void measure_heading(std::ostream& out) {
+  out << pad("", kRowWidth);
+  for (Measure m : kAllMeasures) out << pad(measure_label(m), kColWidth);
+  out << "\n";
+}
 
-std::string format_headline_tables(const StudyAnalysis& a) {
-  std::ostringstream out;
+// Which trials were analysed and which left out, and the options.
+void write_counts(std::ostream& out, const StudyAnalysis& a) {
   const TrialCounts& c = a.counts;
   out << "Study '" << a.study_name << "' (" << a.db_path.string() << ")\n";
   out << "Trials analysed: " << c.analysed << " (" << c.complete << " complete";
@@ -145,11 +150,12 @@ std::string format_headline_tables(const StudyAnalysis& a) {
   out << "\n";
   out << "Percentiles: " << percentile_method_name(a.options.percentile_method) << "; alpha = " << a.options.alpha
       << "; control: " << a.control << "\n\n";
+}
 
+// Table 3.4: Friedman across settings, one row per task and participant.
+void write_friedman_table(std::ostream& out, const StudyAnalysis& a) {
   out << "Table 3.4  Friedman across settings per participant (hands as blocks, repetitions as replicates): p\n";
-  out << pad("", kRowWidth);
-  for (Measure m : kAllMeasures) out << pad(measure_label(m), kColWidth);
-  out << "\n";
+  measure_heading(out);
   for (const auto& task : a.tasks) {
     for (const auto& participant : a.participants) {
       std::vector<const FriedmanRow*> rows;
@@ -170,9 +176,11 @@ std::string format_headline_tables(const StudyAnalysis& a) {
     }
   }
   out << "* p < " << a.options.alpha << "\n\n";
+}
 
-  // Each setting against the control: one value per participant (the
-  // default) and the thesis' procedure, the chosen method first.
+// Each setting against the control: one value per participant (the
+// default) and the thesis' procedure, the chosen method first.
+void write_comparison_tables(std::ostream& out, const StudyAnalysis& a) {
   const std::string level = format_level(a.sidak_level);
   std::ostringstream thesis;
   for (const auto& task : a.tasks) {
@@ -200,11 +208,12 @@ std::string format_headline_tables(const StudyAnalysis& a) {
     out << thesis.str() << participant.str();
   else
     out << participant.str() << thesis.str();
+}
 
+// All participants at once, one row per task.
+void write_whole_design_table(std::ostream& out, const StudyAnalysis& a) {
   out << "All participants at once (per-cell medians; Friedman if complete, else Durbin or Skillings-Mack): p\n";
-  out << pad("", kRowWidth);
-  for (Measure m : kAllMeasures) out << pad(measure_label(m), kColWidth);
-  out << "\n";
+  measure_heading(out);
   for (const auto& task : a.tasks) {
     out << pad(task, kRowWidth);
     for (Measure m : kAllMeasures) {
@@ -220,50 +229,63 @@ std::string format_headline_tables(const StudyAnalysis& a) {
     out << "\n";
   }
   out << "F Friedman, D Durbin, SM Skillings-Mack; * p < " << a.options.alpha << "\n";
+}
 
-  if (a.dose) {
-    out << "\nDose-response of " << a.dose->field << " (each participant's slope over strengths, exact sign-flip "
-        << "test; the smallest significant strength by the fixed sequence from the strongest, alpha "
-        << a.options.alpha << ")\n";
-    out << pad("", kRowWidth);
-    for (Measure m : kAllMeasures) out << pad(measure_label(m), kColWidth);
-    out << "\n";
-    for (const auto& task : a.tasks) {
-      std::string trend_line = pad(task + " trend p", kRowWidth);
-      std::string smallest_line = pad(task + " smallest", kRowWidth);
-      for (Measure m : kAllMeasures) {
-        std::string trend = "N/A";
-        std::string smallest = "none";
-        for (const DoseResponseRow& r : a.dose_response) {
-          if (r.task != task || r.measure != m) continue;
-          if (r.trend_p)
-            trend = format_p(*r.trend_p, a.options.alpha) + (r.trend_significant ? "*" : "") +
-                    (r.mean_slope > 0 ? " up" : r.mean_slope < 0 ? " down" : "");
-          if (r.smallest_significant_strength) smallest = format_level(*r.smallest_significant_strength);
-        }
-        trend_line += pad(trend, kColWidth);
-        smallest_line += pad(smallest, kColWidth);
+// A dose series' trend and smallest significant strength, per task.
+void write_dose_table(std::ostream& out, const StudyAnalysis& a) {
+  out << "\nDose-response of " << a.dose->field << " (each participant's slope over strengths, exact sign-flip "
+      << "test; the smallest significant strength by the fixed sequence from the strongest, alpha "
+      << a.options.alpha << ")\n";
+  measure_heading(out);
+  for (const auto& task : a.tasks) {
+    std::string trend_line = pad(task + " trend p", kRowWidth);
+    std::string smallest_line = pad(task + " smallest", kRowWidth);
+    for (Measure m : kAllMeasures) {
+      std::string trend = "N/A";
+      std::string smallest = "none";
+      for (const DoseResponseRow& r : a.dose_response) {
+        if (r.task != task || r.measure != m) continue;
+        if (r.trend_p)
+          trend = format_p(*r.trend_p, a.options.alpha) + (r.trend_significant ? "*" : "") +
+                  (r.mean_slope > 0 ? " up" : r.mean_slope < 0 ? " down" : "");
+        if (r.smallest_significant_strength) smallest = format_level(*r.smallest_significant_strength);
       }
-      out << trend_line << "\n" << smallest_line << "\n";
+      trend_line += pad(trend, kColWidth);
+      smallest_line += pad(smallest, kColWidth);
     }
-    out << "* p < " << a.options.alpha << "; up/down: the mean slope's sign; smallest: the smallest strength with a "
-        << "significant change from " << a.control << "\n";
+    out << trend_line << "\n" << smallest_line << "\n";
   }
-  if (a.staircase) {
-    out << "\nAdaptive staircase of " << a.staircase->field << " (" << a.staircase->measure << " changed by "
-        << 100.0 * a.staircase->change << " % from " << a.staircase->baseline << "; " << a.counts.staircase
-        << " staircase trials, not in the comparisons above)\n";
-    for (const StaircaseRow& r : a.staircases) {
-      out << pad(r.participant, kRowWidth);
-      if (!r.note.empty()) {
-        out << r.note << "\n";
-        continue;
-      }
-      out << (r.threshold ? "threshold " + format_level(*r.threshold) : std::string("no threshold")) << " after "
-          << r.trials.size() << " trials, " << r.reversals.size() << " reversals"
-          << (r.finished ? " (" + r.stop_reason + ")" : std::string(" (not finished)")) << "\n";
+  out << "* p < " << a.options.alpha << "; up/down: the mean slope's sign; smallest: the smallest strength with a "
+      << "significant change from " << a.control << "\n";
+}
+
+// An adaptive staircase's threshold, per participant.
+void write_staircase_table(std::ostream& out, const StudyAnalysis& a) {
+  out << "\nAdaptive staircase of " << a.staircase->field << " (" << a.staircase->measure << " changed by "
+      << 100.0 * a.staircase->change << " % from " << a.staircase->baseline << "; " << a.counts.staircase
+      << " staircase trials, not in the comparisons above)\n";
+  for (const StaircaseRow& r : a.staircases) {
+    out << pad(r.participant, kRowWidth);
+    if (!r.note.empty()) {
+      out << r.note << "\n";
+      continue;
     }
+    out << (r.threshold ? "threshold " + format_level(*r.threshold) : std::string("no threshold")) << " after "
+        << r.trials.size() << " trials, " << r.reversals.size() << " reversals"
+        << (r.finished ? " (" + r.stop_reason + ")" : std::string(" (not finished)")) << "\n";
   }
+}
+
+}  // namespace
+
+std::string format_headline_tables(const StudyAnalysis& a) {
+  std::ostringstream out;
+  write_counts(out, a);
+  write_friedman_table(out, a);
+  write_comparison_tables(out, a);
+  write_whole_design_table(out, a);
+  if (a.dose) write_dose_table(out, a);
+  if (a.staircase) write_staircase_table(out, a);
   return out.str();
 }
 

@@ -178,18 +178,8 @@ OptionalTest whole_design_test(const StudyAnalysis& a, const std::vector<Point>&
   return out;
 }
 
-}  // namespace
-
-void run_statistics(StudyAnalysis& a) {
-  a.friedman.clear();
-  a.pairwise.clear();
-  a.participant_pairwise.clear();
-  a.whole_design.clear();
-  a.correlations.clear();
-  a.ks.clear();
-  const AnalysisOptions& o = a.options;
-
-  // Table 3.4: per participant and task, hands as blocks; then each hand alone.
+// Table 3.4: per participant and task, hands as blocks; then each hand alone.
+void friedman_per_participant(StudyAnalysis& a) {
   for (const auto& task : a.tasks) {
     for (const auto& participant : a.participants) {
       const bool did_task = std::any_of(a.trials.begin(), a.trials.end(), [&](const TrialRecord& t) {
@@ -206,67 +196,59 @@ void run_statistics(StudyAnalysis& a) {
       }
     }
   }
+}
 
-  // Tables 3.5 / 3.6: the control against each other setting, all blocks that did both.
-  a.sidak_m = a.settings.empty() ? 0 : a.settings.size() - 1;
-  a.sidak_level = a.sidak_m > 0 ? sidak_level(o.alpha, a.sidak_m) : o.alpha;
-  for (const auto& task : a.tasks) {
-    for (std::size_t si = 1; si < a.settings.size(); ++si) {
-      const std::string& setting = a.settings[si];
-      for (Measure m : kAllMeasures) {
-        PairwiseCell cell;
-        cell.task = task;
-        cell.setting = setting;
-        cell.measure = m;
-        cell.gated = std::none_of(a.friedman.begin(), a.friedman.end(), [&](const FriedmanRow& r) {
-          return r.task == task && r.measure == m && r.hand == -1 && r.test.result && r.test.result->p < o.alpha;
-        });
-        const std::vector<Point> points = collect(a, "", task, m, -1);
-        std::vector<Observation> pair_points;
-        for (const auto& p : points) {
-          if (p.setting == a.control || p.setting == setting) pair_points.push_back({p.block, p.setting, "", p.value});
-        }
-        // Balanced as `stats pairwise` does: same replicates in every cell.
-        const BlockTable both = BlockTable::from_observations(pair_points);
-        const BalancedPair balanced =
-            both.treatment_count() == 2
-                ? balance_pair(both, both.treatment_index(a.control), both.treatment_index(setting))
-                : BalancedPair{};
-        const BlockTable& table = balanced.table;
-        std::set<std::string> participants;
-        for (const auto& b : table.block_names) participants.insert(b.substr(0, b.find('/')));
-        cell.note = balanced.note();
-        cell.blocks = table.block_names.size();
-        cell.participants = participants.size();
-        if (table.block_names.empty()) {
-          cell.note = "no participant has data for both settings";
-        } else {
-          try {
-            const TestResult r = friedman_test(table);
-            cell.p = r.p;
-            cell.statistic = r.statistic;
-            cell.significant = r.p < a.sidak_level;
-            // Effect size over the same blocks: each block's median under
-            // the setting minus its median under the control.
-            cell.rank_biserial =
-                paired_rank_biserial(table, table.treatment_index(a.control), table.treatment_index(setting));
-            cell.direction = *cell.rank_biserial > 0 ? "higher" : *cell.rank_biserial < 0 ? "lower" : "equal";
-          } catch (const DataError& e) {
-            cell.note = e.what();
-          }
-        }
-        a.pairwise.push_back(std::move(cell));
-      }
-    }
+// The control against `setting` for one task and measure, over all blocks
+// that did both (a cell of Tables 3.5 / 3.6).
+PairwiseCell pairwise_cell(const StudyAnalysis& a, const std::string& task, const std::string& setting, Measure m) {
+  const AnalysisOptions& o = a.options;
+  PairwiseCell cell;
+  cell.task = task;
+  cell.setting = setting;
+  cell.measure = m;
+  cell.gated = std::none_of(a.friedman.begin(), a.friedman.end(), [&](const FriedmanRow& r) {
+    return r.task == task && r.measure == m && r.hand == -1 && r.test.result && r.test.result->p < o.alpha;
+  });
+  const std::vector<Point> points = collect(a, "", task, m, -1);
+  std::vector<Observation> pair_points;
+  for (const auto& p : points) {
+    if (p.setting == a.control || p.setting == setting) pair_points.push_back({p.block, p.setting, "", p.value});
   }
+  // Balanced as `stats pairwise` does: same replicates in every cell.
+  const BlockTable both = BlockTable::from_observations(pair_points);
+  const BalancedPair balanced =
+      both.treatment_count() == 2
+          ? balance_pair(both, both.treatment_index(a.control), both.treatment_index(setting))
+          : BalancedPair{};
+  const BlockTable& table = balanced.table;
+  std::set<std::string> participants;
+  for (const auto& b : table.block_names) participants.insert(b.substr(0, b.find('/')));
+  cell.note = balanced.note();
+  cell.blocks = table.block_names.size();
+  cell.participants = participants.size();
+  if (table.block_names.empty()) {
+    cell.note = "no participant has data for both settings";
+    return cell;
+  }
+  try {
+    const TestResult r = friedman_test(table);
+    cell.p = r.p;
+    cell.statistic = r.statistic;
+    cell.significant = r.p < a.sidak_level;
+    // Effect size over the same blocks: each block's median under
+    // the setting minus its median under the control.
+    cell.rank_biserial =
+        paired_rank_biserial(table, table.treatment_index(a.control), table.treatment_index(setting));
+    cell.direction = *cell.rank_biserial > 0 ? "higher" : *cell.rank_biserial < 0 ? "lower" : "equal";
+  } catch (const DataError& e) {
+    cell.note = e.what();
+  }
+  return cell;
+}
 
-  // The same comparisons with one value per participant (the default method).
-  a.participant_pairwise = participant_pairwise(a);
-  // A dose-response study: the trend over strengths and the smallest that changes the measure.
-  a.dose_response = dose_response(a);
-
-  // What the tests are about: each setting's median and IQR per task.
-  a.descriptive.clear();
+// What the tests are about: each setting's median and IQR per task.
+void descriptive_rows(StudyAnalysis& a) {
+  const AnalysisOptions& o = a.options;
   for (const auto& task : a.tasks) {
     for (const auto& setting : a.settings) {
       for (Measure m : kAllMeasures) {
@@ -289,15 +271,10 @@ void run_statistics(StudyAnalysis& a) {
       }
     }
   }
+}
 
-  // Whole design: every participant at once.
-  for (const auto& task : a.tasks) {
-    for (Measure m : kAllMeasures) {
-      a.whole_design.push_back({task, m, whole_design_test(a, collect(a, "", task, m, -1))});
-    }
-  }
-
-  // Table 3.7: trial-number correlations.
+// Table 3.7: trial-number correlations.
+void trial_correlations(StudyAnalysis& a) {
   for (const auto& task : a.tasks) {
     for (const auto& participant : a.participants) {
       for (Measure m : kAllMeasures) {
@@ -330,6 +307,46 @@ void run_statistics(StudyAnalysis& a) {
       }
     }
   }
+}
+
+}  // namespace
+
+void run_statistics(StudyAnalysis& a) {
+  a.friedman.clear();
+  a.pairwise.clear();
+  a.participant_pairwise.clear();
+  a.whole_design.clear();
+  a.correlations.clear();
+  a.ks.clear();
+  const AnalysisOptions& o = a.options;
+
+  friedman_per_participant(a);
+
+  // Tables 3.5 / 3.6: the control against each other setting, all blocks that did both.
+  a.sidak_m = a.settings.empty() ? 0 : a.settings.size() - 1;
+  a.sidak_level = a.sidak_m > 0 ? sidak_level(o.alpha, a.sidak_m) : o.alpha;
+  for (const auto& task : a.tasks) {
+    for (std::size_t si = 1; si < a.settings.size(); ++si) {
+      for (Measure m : kAllMeasures) a.pairwise.push_back(pairwise_cell(a, task, a.settings[si], m));
+    }
+  }
+
+  // The same comparisons with one value per participant (the default method).
+  a.participant_pairwise = participant_pairwise(a);
+  // A dose-response study: the trend over strengths and the smallest that changes the measure.
+  a.dose_response = dose_response(a);
+
+  a.descriptive.clear();
+  descriptive_rows(a);
+
+  // Whole design: every participant at once.
+  for (const auto& task : a.tasks) {
+    for (Measure m : kAllMeasures) {
+      a.whole_design.push_back({task, m, whole_design_test(a, collect(a, "", task, m, -1))});
+    }
+  }
+
+  trial_correlations(a);
 
   // Appendix I: KS with the moving block bootstrap, control vs each setting.
   if (o.ks) add_ks_rows(a, o.threads);

@@ -211,6 +211,25 @@ void read_sites(db::StudyDb& db, StudyAnalysis& a) {
   if (!a.participant_sites.empty()) a.site_balance = site_balance(a.trials, a.participant_sites, a.tasks, a.settings);
 }
 
+// Which study: the one chosen by id, or the file's only one.
+const db::StudyRow* chosen_study(db::StudyDb& db, const std::vector<db::StudyRow>& studies,
+                                 const AnalysisOptions& options) {
+  if (studies.empty()) throw DataError(db.path() + ": the database holds no study");
+  if (options.study_id) {
+    for (const auto& s : studies)
+      if (s.id == *options.study_id) return &s;
+    std::string ids;
+    for (const auto& s : studies) ids += (ids.empty() ? "" : ", ") + std::to_string(s.id) + " (" + s.name + ")";
+    throw DataError("study id is " + std::to_string(*options.study_id) + ", but " + db.path() +
+                    " holds only: " + ids);
+  }
+  if (studies.size() == 1) return &studies.front();
+  std::string ids;
+  for (const auto& s : studies) ids += (ids.empty() ? "" : ", ") + std::to_string(s.id) + " (" + s.name + ")";
+  throw DataError(db.path() + " holds " + std::to_string(studies.size()) +
+                  " studies; choose one with --study ID: " + ids);
+}
+
 }  // namespace
 
 StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
@@ -219,27 +238,8 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   a.options = options;
   a.db_path = db.path();
 
-  // Which study.
   const std::vector<db::StudyRow> studies = db.studies();
-  if (studies.empty()) throw DataError(db.path() + ": the database holds no study");
-  const db::StudyRow* study = nullptr;
-  if (options.study_id) {
-    for (const auto& s : studies)
-      if (s.id == *options.study_id) study = &s;
-    if (study == nullptr) {
-      std::string ids;
-      for (const auto& s : studies) ids += (ids.empty() ? "" : ", ") + std::to_string(s.id) + " (" + s.name + ")";
-      throw DataError("study id is " + std::to_string(*options.study_id) + ", but " + db.path() +
-                      " holds only: " + ids);
-    }
-  } else if (studies.size() == 1) {
-    study = &studies.front();
-  } else {
-    std::string ids;
-    for (const auto& s : studies) ids += (ids.empty() ? "" : ", ") + std::to_string(s.id) + " (" + s.name + ")";
-    throw DataError(db.path() + " holds " + std::to_string(studies.size()) +
-                    " studies; choose one with --study ID: " + ids);
-  }
+  const db::StudyRow* study = chosen_study(db, studies, options);
   a.study_id = study->id;
   a.study_name = study->name;
   a.study_seed = study->seed;
