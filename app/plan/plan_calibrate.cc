@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/cli/data_paths.h"
+#include "app/cli/cli_checks.h"
 #include "app/cli/interrupt_flag.h"
 #include "app/cli/option_shapes.h"
 #include "app/cli/population_option.h"

@@ -44,10 +44,7 @@ void add_plan_merge_subcommand(CLI::App* plan) {
                     "The protocol file, when it is not where the shards' runs read it (its text and settings must be "
                     "the same)")
       ->check(CLI::ExistingFile);
-  merge->add_option("--measure", r.measure, "Measure of the printed table and figures (power.csv has all)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s",
-                             "path_length_m"}));
+  add_plan_measure_option(merge, r.measure);
   merge->add_flag("--no-plots", [mo](std::int64_t) { mo->request.plots = false; }, "No figures (no gnuplot needed)");
   merge->add_flag("--json", mo->json, "Print the power table as JSON");
   merge->callback([mo] {

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/report/gnuplot.h"
+#include "app/cli/cli_checks.h"
 #include "app/cli/interrupt_flag.h"
 #include "app/cli/option_shapes.h"
 #include "app/cli/population_option.h"
@@ -251,10 +252,7 @@ void add_power_plan_options(CLI::App* cmd, PlanPowerOptions& o) {
   add_jobs_option(*cmd, o.jobs, "Studies simulated at once (0: two per core)")->capture_default_str();
   cmd->add_option("--out", o.out, "Folder for plan_power.db (the finished studies), power.csv and figures")
       ->capture_default_str();
-  cmd->add_option("--measure", o.measure, "Measure of the printed table and figures (power.csv has all)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"force_median_N", "force_p95_N", "completion_time_s", "speed_median_m_per_s",
-                             "path_length_m"}));
+  add_plan_measure_option(cmd, o.measure);
 }
 
 // --rate-hz, --max-trial-s, --no-plots, --json, --shard, --population,

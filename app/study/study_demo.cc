@@ -11,6 +11,7 @@
 #include "core/common/build_info.h"
 #include "analysis/study/group_design.h"
 #include "analysis/study/headline_format.h"
+#include "analysis/report/gnuplot.h"
 #include "analysis/report/report.h"
 #include "analysis/study/metrics_csv.h"
 #include "analysis/study/study_analysis.h"
