@@ -8,8 +8,6 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <set>
-#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -122,22 +120,13 @@ void announce_power_run(ProgressLine& line, const PlanPowerOptions& o, const Pow
 // progress line; stops after the running ones on Ctrl-C.
 PowerRunTally simulate_power_plan(const PlanPowerOptions& o, const PowerPlan& p, planning::PowerStore& store,
                                   const InterruptFlag& interrupt) {
-  const std::set<std::pair<int, int>> done = store.done();
-  std::vector<std::pair<int, int>> todo;
-  const std::vector<std::pair<int, int>> mine = p.inputs.studies_of_shard();
-  for (const auto& study : mine)
-    if (!done.count(study)) todo.push_back(study);
+  const planning::PlanWork work = planning::plan_work(p.inputs, store);
+  const std::vector<std::pair<int, int>>& todo = work.todo;
   PowerRunTally t;
-  t.total = mine.size();
-  t.already = t.total - todo.size();
+  t.total = work.total;
+  t.already = work.already;
   ProgressLine line(o.json ? stderr : stdout);
-  // Default: two studies per core. Each study's haptic loop runs on its own
-  // thread while the study's thread sleeps between draining its samples, so
-  // one study per core leaves the cores partly idle (4 thesis-sized studies
-  // on 2 cores: 12.5 s with 2 jobs, 10.5 s with 4).
-  const std::size_t jobs = std::min<std::size_t>(
-      o.jobs > 0 ? o.jobs : 2 * std::max(1u, std::thread::hardware_concurrency()),
-      std::max<std::size_t>(1, todo.size()));
+  const std::size_t jobs = planning::plan_jobs(o.jobs, todo.size());
   announce_power_run(line, o, p, todo.size(), t.already, t.total, jobs);
   planning::PlanRunOptions run;
   run.seed = o.seed;
