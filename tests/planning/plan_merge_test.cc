@@ -35,7 +35,7 @@ std::string file_text(const fs::path& p) {
   return s.str();
 }
 
-class PlanMergeTest : public ::testing::Test {
+class PlanShardsMergeTest : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() / ("hapticlab_plan_merge_" +
@@ -97,7 +97,7 @@ class PlanMergeTest : public ::testing::Test {
   SimulatedStudyOptions sim_;
 };
 
-TEST_F(PlanMergeTest, TheShardsMergedWriteWhatAOneMachineRunWritesAndARepeatAddsNothing) {
+TEST_F(PlanShardsMergeTest, TheShardsMergedWriteWhatAOneMachineRunWritesAndARepeatAddsNothing) {
   const std::string s0 = run("s0", inputs(0, 2)).string();
   const std::string s1 = run("s1", inputs(1, 2)).string();
   const fs::path whole = run("whole", inputs(0, 1));
@@ -132,7 +132,7 @@ TEST_F(PlanMergeTest, TheShardsMergedWriteWhatAOneMachineRunWritesAndARepeatAdds
   EXPECT_FALSE(fs::exists(dir_ / "m2"));
 }
 
-TEST_F(PlanMergeTest, PowerCsvHoldsEachSettingsShareOfSignificantStudies) {
+TEST_F(PlanShardsMergeTest, PowerCsvHoldsEachSettingsShareOfSignificantStudies) {
   // Two studies set by hand: No Force Feedback significant in one of them.
   std::vector<StudyOutcome> outcomes(2);
   for (int k = 0; k < 2; ++k) {
