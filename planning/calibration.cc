@@ -7,9 +7,12 @@
 #include <exception>
 #include <map>
 #include <mutex>
+#include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #include "analysis/stats/percentile.h"
+#include "core/common/csv_format.h"
 #include "planning/power.h"
 
 namespace hapticlab::planning {
@@ -161,6 +164,44 @@ std::vector<MeasuredEffect> measure_effects(const analysis::StudyAnalysis& a, co
     out.push_back(std::move(m));
   }
   return out;
+}
+
+CalibrationSettings check_calibration_protocol(const protocols::Protocol& protocol, const std::string& protocol_path,
+                                               int participants, std::uint64_t seed,
+                                               const SimulatedStudyOptions& sim) {
+  CalibrationSettings found;
+  analysis::StudyAnalysis names;
+  for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
+  try {
+    analysis::choose_control(names, sim.analysis);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(protocol_path + ": " + e.what() + "; plan calibrate compares No Force Feedback with it");
+  }
+  found.control = names.control;
+  // No Force Feedback by what it does, not its name: the tip force clipped to 0 N.
+  for (const auto& s : protocol.settings) {
+    const auto& t = s.settings.engine.tip_force_saturation;
+    if (t.enabled && t.limit_N == 0.0 && found.no_feedback.empty()) found.no_feedback = s.settings.name;
+  }
+  if (found.no_feedback.empty())
+    throw std::runtime_error(protocol_path + ": no setting displays no force (tip_force_saturation enabled with "
+                             "limit_N 0, as examples/settings/no_force_feedback.json); plan calibrate measures "
+                             "the published effects of force feedback against it");
+  // A design that cannot take the group sizes is refused before anything runs.
+  (void)resized_protocol(protocol, std::min(participants, kCalibrationGroup), seed);
+  if (const int rest = participants % kCalibrationGroup; rest > 0) (void)resized_protocol(protocol, rest, seed);
+  return found;
+}
+
+std::string calibration_csv(const std::vector<MeasuredEffect>& effects) {
+  std::ostringstream csv;
+  csv << "id,task,what,published,source,criterion,participants,median_ratio,q1,q3,share_above_1,consistent\n";
+  for (const auto& e : effects)
+    csv << e.effect.id << ',' << e.effect.task << ',' << csv_text(e.effect.what) << ',' << csv_text(e.effect.published)
+        << ',' << csv_text(e.effect.source) << ',' << csv_text(e.effect.criterion) << ',' << e.participants << ','
+        << format_number(e.median) << ',' << format_number(e.q1) << ',' << format_number(e.q3) << ','
+        << format_number(e.share_above_one) << ',' << (e.consistent ? "yes" : "no") << '\n';
+  return csv.str();
 }
 
 }  // namespace hapticlab::planning

@@ -73,4 +73,23 @@ SimulatedPopulation simulate_population(const protocols::Protocol& protocol, int
 std::vector<MeasuredEffect> measure_effects(const analysis::StudyAnalysis& analysis, const std::string& control,
                                             const std::string& no_feedback);
 
+// The two settings of the setting ratios, found in a calibration protocol.
+struct CalibrationSettings {
+  std::string control;      // analysis::choose_control's
+  std::string no_feedback;  // the first setting that displays no force
+};
+
+// Checks a calibration protocol before anything runs: it has a control
+// (analysis::choose_control under `sim`'s analysis options) and a setting
+// that displays no force (No Force Feedback by what it does, not its
+// name: tip_force_saturation enabled with limit_N 0), and its design takes
+// the group sizes of `participants` (resized_protocol with `seed`). Throws
+// std::runtime_error naming `protocol_path` and what is missing.
+CalibrationSettings check_calibration_protocol(const protocols::Protocol& protocol, const std::string& protocol_path,
+                                               int participants, std::uint64_t seed,
+                                               const SimulatedStudyOptions& sim);
+
+// calibration.csv: one line per measured effect.
+std::string calibration_csv(const std::vector<MeasuredEffect>& effects);
+
 }  // namespace hapticlab::planning

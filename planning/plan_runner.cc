@@ -1,16 +1,34 @@
 #include "planning/plan_runner.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <exception>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "planning/power.h"
 
 namespace hapticlab::planning {
+
+PlanWork plan_work(const PlanInputs& inputs, PowerStore& store) {
+  const std::set<std::pair<int, int>> done = store.done();
+  PlanWork w;
+  const std::vector<std::pair<int, int>> mine = inputs.studies_of_shard();
+  for (const auto& study : mine)
+    if (!done.count(study)) w.todo.push_back(study);
+  w.total = mine.size();
+  w.already = w.total - w.todo.size();
+  return w;
+}
+
+std::size_t plan_jobs(std::size_t requested, std::size_t todo) {
+  return std::min<std::size_t>(requested > 0 ? requested : 2 * std::max(1u, std::thread::hardware_concurrency()),
+                               std::max<std::size_t>(1, todo));
+}
 
 PlanRunResult run_plan_studies(const protocols::Protocol& protocol, const std::vector<std::pair<int, int>>& todo,
                                PowerStore& store, const PlanRunOptions& options) {

@@ -49,6 +49,22 @@ class PlanStoreFailure : public std::runtime_error {
   std::size_t stored;
 };
 
+// What a run of a plan (or of its shard) has to do: the shard's studies
+// (PlanInputs::studies_of_shard) not yet in `store`, in the plan's order.
+struct PlanWork {
+  std::vector<std::pair<int, int>> todo;
+  std::size_t total = 0;    // the shard's studies
+  std::size_t already = 0;  // of them stored before (a resumed run)
+};
+PlanWork plan_work(const PlanInputs& inputs, PowerStore& store);
+
+// Threads for `todo` studies: `requested`, or with 0 two per core (each
+// study's haptic loop runs on its own thread while the study's thread
+// sleeps between draining its samples, so one study per core leaves the
+// cores partly idle: 4 thesis-sized studies on 2 cores took 12.5 s with 2
+// jobs, 10.5 s with 4); never more than the studies, at least 1.
+std::size_t plan_jobs(std::size_t requested, std::size_t todo);
+
 // Simulates `todo` ((participants, index) pairs) into `store`. Rethrows a
 // study's own error after the running studies end; throws PlanStoreFailure
 // when storing fails.

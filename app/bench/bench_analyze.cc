@@ -311,74 +311,91 @@ std::size_t build_study(const std::filesystem::path& path, double rate_hz, std::
   return trials;
 }
 
-void run_bench(const BenchOptions& o) {
-  namespace fs = std::filesystem;
-  const fs::path dir = o.dir.empty() ? fs::temp_directory_path() / ("hapticlab_bench_analyze_" + std::to_string(::getpid()))
-                                     : fs::path(o.dir);
-  fs::create_directories(dir);
-  const fs::path db_path = o.db.empty() ? dir / "study.db" : fs::path(o.db);
+// The bench's study: built in the folder (not timed), or the --db given.
+struct AnalyzeBenchStudy {
+  std::filesystem::path dir, db_path;
   std::size_t samples = 0;
   std::size_t trials = 0;
   double build_s = 0.0;
+};
+
+AnalyzeBenchStudy analyze_bench_study(const BenchOptions& o) {
+  namespace fs = std::filesystem;
+  AnalyzeBenchStudy s;
+  s.dir = o.dir.empty() ? fs::temp_directory_path() / ("hapticlab_bench_analyze_" + std::to_string(::getpid()))
+                        : fs::path(o.dir);
+  fs::create_directories(s.dir);
+  s.db_path = o.db.empty() ? s.dir / "study.db" : fs::path(o.db);
   if (o.db.empty()) {
-    fs::remove(db_path);
-    if (!o.json) std::printf("building a thesis-sized study in %s (not timed) ...\n", db_path.c_str());
+    fs::remove(s.db_path);
+    if (!o.json) std::printf("building a thesis-sized study in %s (not timed) ...\n", s.db_path.c_str());
     std::fflush(stdout);
     const auto b0 = std::chrono::steady_clock::now();
-    trials = build_study(db_path, o.rate_hz, samples);
-    build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - b0).count();
-  } else if (!fs::is_regular_file(db_path)) {
+    s.trials = build_study(s.db_path, o.rate_hz, s.samples);
+    s.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - b0).count();
+  } else if (!fs::is_regular_file(s.db_path)) {
     throw std::runtime_error("--db is '" + o.db + "', but no such file exists (expected a study database)");
   }
+  return s;
+}
+
+// What the bench made is removed unless --keep (a --db given is never removed).
+void remove_analyze_bench_files(const BenchOptions& o, const AnalyzeBenchStudy& s) {
+  std::error_code ignored;
+  if (o.dir.empty()) std::filesystem::remove_all(s.dir, ignored);
+  else if (o.db.empty()) std::filesystem::remove(s.db_path, ignored);
+}
+
+void print_analyze_bench(const BenchOptions& o, const AnalyzeBenchStudy& s, double db_mb, double analysis_s,
+                         double report_s, double cpu_used_s, std::size_t figures) {
+  if (o.json) {
+    std::printf("{\"trials\": %zu, \"instrument_samples\": %zu, \"db_MB\": %.1f, \"build_s\": %.2f, "
+                "\"analysis_s\": %.3f, \"report_s\": %.3f, \"total_s\": %.3f, \"cpu_s\": %.3f, "
+                "\"figures\": %zu, \"target_s\": 10}\n",
+                s.trials, s.samples, db_mb, s.build_s, analysis_s, report_s, analysis_s + report_s, cpu_used_s,
+                figures);
+  } else {
+    std::printf("study: %zu trials, %zu instrument-samples (%.0f Hz), %.1f MB database, built in %.1f s\n", s.trials,
+                s.samples, o.rate_hz, db_mb, s.build_s);
+    std::printf("analysis (read, metrics, statistics, KS bootstrap): %.3f s\n", analysis_s);
+    std::printf("metrics CSV + report (%zu figures):                   %.3f s\n", figures, report_s);
+    std::printf("total: %.3f s wall, %.3f s CPU incl. gnuplot (target: under 10 s)\n", analysis_s + report_s,
+                cpu_used_s);
+  }
+}
+
+void run_bench(const BenchOptions& o) {
+  namespace fs = std::filesystem;
+  AnalyzeBenchStudy s = analyze_bench_study(o);
   if (!o.compare.empty()) {
-    run_compare(o, db_path, dir, samples);
-    if (!o.keep) {
-      std::error_code ignored;
-      if (o.dir.empty()) fs::remove_all(dir, ignored);
-      else if (o.db.empty()) fs::remove(db_path, ignored);
-    }
+    run_compare(o, s.db_path, s.dir, s.samples);
+    if (!o.keep) remove_analyze_bench_files(o, s);
     return;
   }
 
   // Timed: exactly what `hapticlab analyze` does.
   const double cpu0_s = cpu_s();
   const auto t0 = std::chrono::steady_clock::now();
-  const an::StudyAnalysis analysis = an::analyze_study_file(db_path, {});
+  const an::StudyAnalysis analysis = an::analyze_study_file(s.db_path, {});
   const auto t1 = std::chrono::steady_clock::now();
   an::ReportOptions report;
   report.plots = !o.no_plots;
-  fs::create_directories(dir / "out");
-  an::write_metrics_csv(analysis, dir / "out" / "metrics.csv");
-  const an::ReportFiles files = an::write_report(analysis, dir / "out", report);
+  fs::create_directories(s.dir / "out");
+  an::write_metrics_csv(analysis, s.dir / "out" / "metrics.csv");
+  const an::ReportFiles files = an::write_report(analysis, s.dir / "out", report);
   const auto t2 = std::chrono::steady_clock::now();
   const double cpu_used_s = cpu_s() - cpu0_s;
   const double analysis_s = std::chrono::duration<double>(t1 - t0).count();
   const double report_s = std::chrono::duration<double>(t2 - t1).count();
-  const double db_mb = static_cast<double>(fs::file_size(db_path)) / 1e6;
-  if (trials == 0) {
-    trials = analysis.trials.size();
+  const double db_mb = static_cast<double>(fs::file_size(s.db_path)) / 1e6;
+  if (s.trials == 0) {
+    s.trials = analysis.trials.size();
   }
-
-  if (o.json) {
-    std::printf("{\"trials\": %zu, \"instrument_samples\": %zu, \"db_MB\": %.1f, \"build_s\": %.2f, "
-                "\"analysis_s\": %.3f, \"report_s\": %.3f, \"total_s\": %.3f, \"cpu_s\": %.3f, "
-                "\"figures\": %zu, \"target_s\": 10}\n",
-                trials, samples, db_mb, build_s, analysis_s, report_s, analysis_s + report_s, cpu_used_s,
-                files.figures.size());
-  } else {
-    std::printf("study: %zu trials, %zu instrument-samples (%.0f Hz), %.1f MB database, built in %.1f s\n", trials,
-                samples, o.rate_hz, db_mb, build_s);
-    std::printf("analysis (read, metrics, statistics, KS bootstrap): %.3f s\n", analysis_s);
-    std::printf("metrics CSV + report (%zu figures):                   %.3f s\n", files.figures.size(), report_s);
-    std::printf("total: %.3f s wall, %.3f s CPU incl. gnuplot (target: under 10 s)\n", analysis_s + report_s,
-                cpu_used_s);
-  }
+  print_analyze_bench(o, s, db_mb, analysis_s, report_s, cpu_used_s, files.figures.size());
   if (!o.keep) {
-    std::error_code ignored;
-    if (o.dir.empty()) fs::remove_all(dir, ignored);
-    else if (o.db.empty()) fs::remove(db_path, ignored);
+    remove_analyze_bench_files(o, s);
   } else if (!o.json) {
-    std::printf("kept %s and the report in %s\n", db_path.c_str(), (dir / "out").c_str());
+    std::printf("kept %s and the report in %s\n", s.db_path.c_str(), (s.dir / "out").c_str());
   }
 }
 

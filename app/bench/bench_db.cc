@@ -245,6 +245,41 @@ LoopResult bench_loop(double seconds, bool logging, const fs::path& path) {
   return r;
 }
 
+nlohmann::json bench_db_loop_json(const LoopResult& r) {
+  return nlohmann::json{{"updates", r.timing.count},
+                        {"p50_period_us", r.timing.p50_period_s * 1e6},
+                        {"p99_period_us", r.timing.p99_period_s * 1e6},
+                        {"max_period_us", r.timing.max_period_s * 1e6},
+                        {"overruns", r.timing.overruns},
+                        {"dropped_samples", r.dropped_samples},
+                        {"logged_updates", r.logged}};
+}
+
+void print_bench_db_json(const BenchDbOptions& opt, const RateResult& rate, const SizeResult& wall,
+                         const SizeResult& virt, const LoopResult& off, const LoopResult& on) {
+  const nlohmann::json j = {
+      {"benchmark", "db"},
+      {"rate", {{"instrument_samples_per_s", rate.instrument_samples_per_s}, {"updates", rate.updates},
+                {"wall_s", rate.wall_s}, {"commits", rate.commits}, {"writer_cpu_s", rate.writer_cpu_s},
+                {"instrument_samples_per_writer_cpu_s", rate.per_writer_cpu_s}}},
+      {"size", {{"simulated_s", wall.simulated_s}, {"wall_clock_bytes_per_hour", wall.bytes_per_hour},
+                {"virtual_clock_bytes_per_hour", virt.bytes_per_hour}}},
+      {"loop_1kHz", {{"seconds", opt.loop_seconds}, {"logging_off", bench_db_loop_json(off)},
+                     {"logging_on", bench_db_loop_json(on)}}}};
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
+void print_bench_db_loop(const BenchDbOptions& opt, const LoopResult& off, const LoopResult& on) {
+  std::printf("(c) wall-clock loop, 1 kHz, full simulated rig, %.1f s each:\n", opt.loop_seconds);
+  for (const auto& [name, r] : {std::pair{"logging off", &off}, std::pair{"logging on ", &on}})
+    std::printf("    %s: period p50 %.1f us, p99 %.1f us, max %.1f us, overruns %llu, dropped samples %llu\n",
+                name, r->timing.p50_period_s * 1e6, r->timing.p99_period_s * 1e6, r->timing.max_period_s * 1e6,
+                static_cast<unsigned long long>(r->timing.overruns),
+                static_cast<unsigned long long>(r->dropped_samples));
+  std::printf("    p99 difference (on - off): %+.1f us; %llu updates logged\n",
+              (on.timing.p99_period_s - off.timing.p99_period_s) * 1e6, static_cast<unsigned long long>(on.logged));
+}
+
 void run_bench_db(const BenchDbOptions& opt) {
   ScratchDir dir(opt.dir);
   if (!opt.json)
@@ -279,35 +314,10 @@ void run_bench_db(const BenchDbOptions& opt) {
 
   const LoopResult off = bench_loop(opt.loop_seconds, false, dir.file("loop.db"));
   const LoopResult on = bench_loop(opt.loop_seconds, true, dir.file("loop.db"));
-  if (!opt.json) {
-    std::printf("(c) wall-clock loop, 1 kHz, full simulated rig, %.1f s each:\n", opt.loop_seconds);
-    for (const auto& [name, r] : {std::pair{"logging off", &off}, std::pair{"logging on ", &on}})
-      std::printf("    %s: period p50 %.1f us, p99 %.1f us, max %.1f us, overruns %llu, dropped samples %llu\n",
-                  name, r->timing.p50_period_s * 1e6, r->timing.p99_period_s * 1e6, r->timing.max_period_s * 1e6,
-                  static_cast<unsigned long long>(r->timing.overruns),
-                  static_cast<unsigned long long>(r->dropped_samples));
-    std::printf("    p99 difference (on - off): %+.1f us; %llu updates logged\n",
-                (on.timing.p99_period_s - off.timing.p99_period_s) * 1e6, static_cast<unsigned long long>(on.logged));
-    return;
-  }
-  const auto loop_json = [](const LoopResult& r) {
-    return nlohmann::json{{"updates", r.timing.count},
-                          {"p50_period_us", r.timing.p50_period_s * 1e6},
-                          {"p99_period_us", r.timing.p99_period_s * 1e6},
-                          {"max_period_us", r.timing.max_period_s * 1e6},
-                          {"overruns", r.timing.overruns},
-                          {"dropped_samples", r.dropped_samples},
-                          {"logged_updates", r.logged}};
-  };
-  const nlohmann::json j = {
-      {"benchmark", "db"},
-      {"rate", {{"instrument_samples_per_s", rate.instrument_samples_per_s}, {"updates", rate.updates},
-                {"wall_s", rate.wall_s}, {"commits", rate.commits}, {"writer_cpu_s", rate.writer_cpu_s},
-                {"instrument_samples_per_writer_cpu_s", rate.per_writer_cpu_s}}},
-      {"size", {{"simulated_s", wall.simulated_s}, {"wall_clock_bytes_per_hour", wall.bytes_per_hour},
-                {"virtual_clock_bytes_per_hour", virt.bytes_per_hour}}},
-      {"loop_1kHz", {{"seconds", opt.loop_seconds}, {"logging_off", loop_json(off)}, {"logging_on", loop_json(on)}}}};
-  std::printf("%s\n", j.dump(2).c_str());
+  if (opt.json)
+    print_bench_db_json(opt, rate, wall, virt, off, on);
+  else
+    print_bench_db_loop(opt, off, on);
 }
 
 }  // namespace

@@ -151,6 +151,38 @@ double process_cpu_s(pid_t pid) {
 // the loop (sleep, then spin to the deadline) and timed alone, the two
 // backends in alternating order within the same period so a noisy phase
 // of the machine hits both.
+void print_isolation_bench(const std::string& plugin, std::uint64_t updates, double period_us, bool json,
+                           const Spread& x, const Spread& y, double host_cpu_fraction) {
+  const double overhead_p99_us = y.p99_us - x.p99_us;
+  const bool default_isolated = overhead_p99_us < 20.0;
+  if (json) {
+    std::printf("%s\n", nlohmann::json{{"benchmark", "device isolation"},
+                                       {"plugin", plugin},
+                                       {"updates", updates},
+                                       {"period_us", period_us},
+                                       {"in_process_us", {{"p50", x.p50_us}, {"p99", x.p99_us}, {"max", x.max_us}}},
+                                       {"isolated_us", {{"p50", y.p50_us}, {"p99", y.p99_us}, {"max", y.max_us}}},
+                                       {"overhead_p50_us", y.p50_us - x.p50_us},
+                                       {"overhead_p99_us", overhead_p99_us},
+                                       {"host_cpu_percent", 100.0 * host_cpu_fraction},
+                                       {"under_20_us_at_p99", default_isolated}}
+                            .dump(2)
+                            .c_str());
+    return;
+  }
+  std::printf("hapticlab bench device --isolation: read + write per update through %s, %llu updates paced at "
+              "%.0f us on the wall clock, in-process and isolated alternating\n",
+              plugin.c_str(), static_cast<unsigned long long>(updates), period_us);
+  std::printf("%-28s p50 %8.2f us   p99 %8.2f us   max %9.1f us\n", "in-process (dlopen)", x.p50_us, x.p99_us,
+              x.max_us);
+  std::printf("%-28s p50 %8.2f us   p99 %8.2f us   max %9.1f us\n", "isolated (child process)", y.p50_us, y.p99_us,
+              y.max_us);
+  std::printf("isolation costs %.2f us at p50, %.2f us at p99; under 20 us at p99: %s\n", y.p50_us - x.p50_us,
+              overhead_p99_us, default_isolated ? "yes" : "NO");
+  std::printf("the host process used %.0f %% of a CPU (it spins around each expected call)\n",
+              100.0 * host_cpu_fraction);
+}
+
 void bench_isolation(std::string plugin, std::uint64_t updates, double period_us, bool json) {
   if (plugin.empty()) plugin = default_sim_plugin();
   Rig in_process(parse_device_spec("plugin-inprocess:" + plugin));
@@ -192,35 +224,7 @@ void bench_isolation(std::string plugin, std::uint64_t updates, double period_us
   }
   const double host_cpu_fraction = (process_cpu_s(host_pid) - host_cpu0_s) / (wall.now_s());
   if (faults > 0) throw std::runtime_error("bench device: " + std::to_string(faults) + " device faults");
-  const Spread x = spread(a), y = spread(b);
-  const double overhead_p99_us = y.p99_us - x.p99_us;
-  const bool default_isolated = overhead_p99_us < 20.0;
-  if (json) {
-    std::printf("%s\n", nlohmann::json{{"benchmark", "device isolation"},
-                                       {"plugin", plugin},
-                                       {"updates", updates},
-                                       {"period_us", period_us},
-                                       {"in_process_us", {{"p50", x.p50_us}, {"p99", x.p99_us}, {"max", x.max_us}}},
-                                       {"isolated_us", {{"p50", y.p50_us}, {"p99", y.p99_us}, {"max", y.max_us}}},
-                                       {"overhead_p50_us", y.p50_us - x.p50_us},
-                                       {"overhead_p99_us", overhead_p99_us},
-                                       {"host_cpu_percent", 100.0 * host_cpu_fraction},
-                                       {"under_20_us_at_p99", default_isolated}}
-                            .dump(2)
-                            .c_str());
-    return;
-  }
-  std::printf("hapticlab bench device --isolation: read + write per update through %s, %llu updates paced at "
-              "%.0f us on the wall clock, in-process and isolated alternating\n",
-              plugin.c_str(), static_cast<unsigned long long>(updates), period_us);
-  std::printf("%-28s p50 %8.2f us   p99 %8.2f us   max %9.1f us\n", "in-process (dlopen)", x.p50_us, x.p99_us,
-              x.max_us);
-  std::printf("%-28s p50 %8.2f us   p99 %8.2f us   max %9.1f us\n", "isolated (child process)", y.p50_us, y.p99_us,
-              y.max_us);
-  std::printf("isolation costs %.2f us at p50, %.2f us at p99; under 20 us at p99: %s\n", y.p50_us - x.p50_us,
-              overhead_p99_us, default_isolated ? "yes" : "NO");
-  std::printf("the host process used %.0f %% of a CPU (it spins around each expected call)\n",
-              100.0 * host_cpu_fraction);
+  print_isolation_bench(plugin, updates, period_us, json, spread(a), spread(b), host_cpu_fraction);
 }
 
 }  // namespace

@@ -242,9 +242,10 @@ std::string thesis_text(const RowSpec& r) {
   return buf;
 }
 
-void run_bench(bool json, std::int64_t updates, int repeats) {
-  const std::array<Trajectory, kNumInstruments> traj = make_trajectories();
-
+// Every row's engine built and warmed up, then timed `repeats` times with
+// the rows interleaved; the medians, minima and increments.
+std::vector<RowResult> engine_bench_rows(const std::array<Trajectory, kNumInstruments>& traj, std::int64_t updates,
+                                         int repeats) {
   struct Bench {
     std::unique_ptr<Engine> engine;
     std::size_t cursor = 0;
@@ -283,64 +284,77 @@ void run_bench(bool json, std::int64_t updates, int repeats) {
   // instruments, over two all-off updates.
   const double off_ns = rows[0].median_ns;
   for (RowResult& row : rows) row.increment_ns = row.median_ns - row.spec->instruments * off_ns;
+  return rows;
+}
 
+void print_engine_bench_json(const std::vector<RowResult>& rows, const MachineInfo& m, std::int64_t updates,
+                             int repeats, bool target_met) {
+  nlohmann::json j;
+  j["machine"] = {{"hardware_concurrency", m.hardware_threads},
+                  {"cpu_model", m.cpu_model},
+                  {"compiler", m.compiler},
+                  {"optimized", m.optimized},
+                  {"ndebug", m.ndebug}};
+  j["updates_per_repeat"] = updates;
+  j["repeats"] = repeats;
+  j["trajectory_length"] = kTrajectoryLength;
+  nlohmann::json arr = nlohmann::json::array();
+  for (const RowResult& row : rows) {
+    arr.push_back({{"name", row.spec->name},
+                   {"instruments", row.spec->instruments},
+                   {"ns_per_update_median", row.median_ns},
+                   {"ns_per_update_min", row.min_ns},
+                   {"increment_ns", row.increment_ns},
+                   {"thesis_us", row.spec->thesis_us},
+                   {"thesis_is_increment", row.spec->thesis_is_increment},
+                   {"status_bits", row.status_bits}});
+  }
+  j["rows"] = arr;
+  j["target"] = {{"description", "all effects on both instruments < 1 us per update"},
+                 {"limit_ns", kTargetBothInstruments_ns},
+                 {"measured_ns", rows.back().median_ns},
+                 {"met", target_met}};
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
+void print_engine_bench_table(const std::vector<RowResult>& rows, const MachineInfo& m, std::int64_t updates,
+                              int repeats, bool target_met) {
+  std::printf("hapticlab bench engine: %lld updates x %d repeats per row, %zu-input trajectory, "
+              "dt 0.5..2 ms\n",
+              static_cast<long long>(updates), repeats, kTrajectoryLength);
+  std::printf("machine: %u hardware threads, %s; %s, %s\n\n", m.hardware_threads,
+              m.cpu_model.c_str(), m.compiler.c_str(), build_text(m).c_str());
+  std::printf("%-30s %5s %11s %9s %12s %10s\n", "row", "inst.", "median ns", "min ns",
+              "incr. ns", "thesis us");
+  for (const RowResult& row : rows) {
+    char incr[32];
+    if (&row == &rows[0]) {
+      std::snprintf(incr, sizeof incr, "-");
+    } else {
+      std::snprintf(incr, sizeof incr, "%+.1f", row.increment_ns);
+    }
+    std::printf("%-30s %5d %11.1f %9.1f %12s %10s\n", row.spec->name, row.spec->instruments,
+                row.median_ns, row.min_ns, incr, thesis_text(*row.spec).c_str());
+  }
+  std::printf("\nincr.: median minus the all-off median (x2 for two instruments); thesis: "
+              "Table 2.3, '+' = increment over its 19 us loop.\n");
+  std::printf("target \"all effects on both instruments < 1 us per update\": %s "
+              "(%.0f ns median; thesis 312 us)\n",
+              target_met ? "MET" : "NOT MET", rows.back().median_ns);
+}
+
+void run_bench(bool json, std::int64_t updates, int repeats) {
+  const std::array<Trajectory, kNumInstruments> traj = make_trajectories();
+  const std::vector<RowResult> rows = engine_bench_rows(traj, updates, repeats);
   const RowResult& both = rows.back();
   const bool target_met = both.median_ns < kTargetBothInstruments_ns;
   std::uint32_t faults = 0;
   for (const RowResult& row : rows) faults |= row.status_bits & kFaultMask;
   const MachineInfo m = machine_info();
-
-  if (json) {
-    nlohmann::json j;
-    j["machine"] = {{"hardware_concurrency", m.hardware_threads},
-                    {"cpu_model", m.cpu_model},
-                    {"compiler", m.compiler},
-                    {"optimized", m.optimized},
-                    {"ndebug", m.ndebug}};
-    j["updates_per_repeat"] = updates;
-    j["repeats"] = repeats;
-    j["trajectory_length"] = kTrajectoryLength;
-    nlohmann::json arr = nlohmann::json::array();
-    for (const RowResult& row : rows) {
-      arr.push_back({{"name", row.spec->name},
-                     {"instruments", row.spec->instruments},
-                     {"ns_per_update_median", row.median_ns},
-                     {"ns_per_update_min", row.min_ns},
-                     {"increment_ns", row.increment_ns},
-                     {"thesis_us", row.spec->thesis_us},
-                     {"thesis_is_increment", row.spec->thesis_is_increment},
-                     {"status_bits", row.status_bits}});
-    }
-    j["rows"] = arr;
-    j["target"] = {{"description", "all effects on both instruments < 1 us per update"},
-                   {"limit_ns", kTargetBothInstruments_ns},
-                   {"measured_ns", both.median_ns},
-                   {"met", target_met}};
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
-    std::printf("hapticlab bench engine: %lld updates x %d repeats per row, %zu-input trajectory, "
-                "dt 0.5..2 ms\n",
-                static_cast<long long>(updates), repeats, kTrajectoryLength);
-    std::printf("machine: %u hardware threads, %s; %s, %s\n\n", m.hardware_threads,
-                m.cpu_model.c_str(), m.compiler.c_str(), build_text(m).c_str());
-    std::printf("%-30s %5s %11s %9s %12s %10s\n", "row", "inst.", "median ns", "min ns",
-                "incr. ns", "thesis us");
-    for (const RowResult& row : rows) {
-      char incr[32];
-      if (&row == &rows[0]) {
-        std::snprintf(incr, sizeof incr, "-");
-      } else {
-        std::snprintf(incr, sizeof incr, "%+.1f", row.increment_ns);
-      }
-      std::printf("%-30s %5d %11.1f %9.1f %12s %10s\n", row.spec->name, row.spec->instruments,
-                  row.median_ns, row.min_ns, incr, thesis_text(*row.spec).c_str());
-    }
-    std::printf("\nincr.: median minus the all-off median (x2 for two instruments); thesis: "
-                "Table 2.3, '+' = increment over its 19 us loop.\n");
-    std::printf("target \"all effects on both instruments < 1 us per update\": %s "
-                "(%.0f ns median; thesis 312 us)\n",
-                target_met ? "MET" : "NOT MET", both.median_ns);
-  }
+  if (json)
+    print_engine_bench_json(rows, m, updates, repeats, target_met);
+  else
+    print_engine_bench_table(rows, m, updates, repeats, target_met);
   if (faults != 0) {
     std::fprintf(stderr, "hapticlab bench engine: warning: fault status bits 0x%x during the run; "
                  "figures do not measure the normal path\n", faults);

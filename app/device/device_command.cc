@@ -85,6 +85,36 @@ double percentile(const std::vector<double>& sorted, double fraction) {
 // for opt.seconds of it (a device too slow for the rate runs fewer
 // updates, not longer). Like the haptic loop it never bursts to catch up
 // after a late update, and checks the achieved rate as a session does.
+// One good reading against the ratings: the range seen, positions outside
+// the rating, and moves faster than the rating since `previous` (when set).
+inline void check_reading(const DeviceReading& reading, const DeviceReading* previous, const DeviceRatings& ratings,
+                          double now_s, double previous_s, CheckResult& r) {
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < kNumDeviceJoints; ++j) {
+      const auto ui = static_cast<std::size_t>(i), uj = static_cast<std::size_t>(j);
+      const double x = reading.position[ui][uj];
+      const DeviceJointRating& rating = ratings.joint[ui][uj];
+      Seen& s = r.seen[ui][uj];
+      s.min = std::min(s.min, x);
+      s.max = std::max(s.max, x);
+      if (x < rating.min_position || x > rating.max_position) ++r.outside_rating;
+      if (previous != nullptr &&
+          std::abs(x - previous->position[ui][uj]) > rating.max_velocity * (now_s - previous_s))
+        ++r.over_velocity;
+    }
+}
+
+// The whole run, for one shorter than a window (or the part after the
+// last); not one a crashed or hung device cut short, whose last period
+// holds the hang.
+void finish_checks(const CheckOptions& opt, CheckResult& r) {
+  const double achieved_Hz = r.achieved_Hz();
+  if (!r.rate_violation && r.process_fault.empty() && r.updates > 1 &&
+      std::abs(achieved_Hz / opt.rate_Hz - 1.0) > opt.rate_tolerance_fraction)
+    r.rate_violation = RateViolation{achieved_Hz, opt.rate_Hz, r.elapsed_s, opt.rate_tolerance_fraction};
+  std::sort(r.dt_s.begin(), r.dt_s.end());
+}
+
 CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& clock, const CheckOptions& opt) {
   CheckResult r;
   const double period_s = 1.0 / opt.rate_Hz;
@@ -110,18 +140,7 @@ CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& 
     DeviceReading reading;
     const DeviceStatus status = device.read(reading);
     if (status == DeviceStatus::kOk) {
-      for (int i = 0; i < 2; ++i)
-        for (int j = 0; j < kNumDeviceJoints; ++j) {
-          const auto ui = static_cast<std::size_t>(i), uj = static_cast<std::size_t>(j);
-          const double x = reading.position[ui][uj];
-          const DeviceJointRating& rating = ratings.joint[ui][uj];
-          Seen& s = r.seen[ui][uj];
-          s.min = std::min(s.min, x);
-          s.max = std::max(s.max, x);
-          if (x < rating.min_position || x > rating.max_position) ++r.outside_rating;
-          if (have_previous && std::abs(x - previous.position[ui][uj]) > rating.max_velocity * (now_s - previous_s))
-            ++r.over_velocity;
-        }
+      check_reading(reading, have_previous ? &previous : nullptr, ratings, now_s, previous_s, r);
       previous = reading;
       have_previous = true;
     } else {
@@ -141,14 +160,7 @@ CheckResult run_checks(Device& device, const DeviceRatings& ratings, WallClock& 
     }
   }
   r.elapsed_s = previous_s - first_s;
-  // The whole run, for one shorter than a window (or the part after the
-  // last); not one a crashed or hung device cut short, whose last period
-  // holds the hang.
-  const double achieved_Hz = r.achieved_Hz();
-  if (!r.rate_violation && r.process_fault.empty() && r.updates > 1 &&
-      std::abs(achieved_Hz / opt.rate_Hz - 1.0) > opt.rate_tolerance_fraction)
-    r.rate_violation = RateViolation{achieved_Hz, opt.rate_Hz, r.elapsed_s, opt.rate_tolerance_fraction};
-  std::sort(r.dt_s.begin(), r.dt_s.end());
+  finish_checks(opt, r);
   return r;
 }
 

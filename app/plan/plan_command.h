@@ -3,7 +3,7 @@
 
 namespace hapticlab::app {
 
-// `hapticlab plan power`: simulation-based power of a study design.
+// `hapticlab plan`: power, merge and calibrate (app/plan/plan_subcommands.h).
 void add_plan_command(CLI::App& app);
 
 }  // namespace hapticlab::app

@@ -1,5 +1,5 @@
 #pragma once
-// The options of `hapticlab plan power` (app/plan/plan_command.cc), shared
+// The options of `hapticlab plan power` (app/plan/plan_power.cc), shared
 // with its transfer-design path (plan_transfer.h).
 #include <cstddef>
 #include <cstdint>

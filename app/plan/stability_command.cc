@@ -232,10 +232,8 @@ std::vector<std::string> draw(const fs::path& dir, const StabilityMapConfig& con
   return script.outputs();
 }
 
-void run(const StabilityOptions& o) {
+StabilityMapConfig stability_config(const StabilityOptions& o, const NamedSettings& named) {
   StabilityMapConfig config;
-  const fs::path settings_path = o.settings.empty() ? default_settings_dir() / "max_stable.json" : fs::path(o.settings);
-  const NamedSettings named = load_settings_file(settings_path);
   config.base = named.engine;
   config.rates_Hz = o.rates_Hz;
   std::sort(config.rates_Hz.begin(), config.rates_Hz.end());
@@ -247,14 +245,12 @@ void run(const StabilityOptions& o) {
   config.criterion.max_oscillation_m = o.max_oscillation_mm * 1e-3;
   config.criterion.max_energy_J = o.max_energy_mJ * 1e-3;
   config.duration_s = o.duration_s;
-  const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
-  config.jobs = o.jobs == 0 ? cores : o.jobs;
+  return config;
+}
 
-  // The time per device update on this machine, the least of three runs of
-  // the base settings (one run is too noisy on a shared machine), to
-  // estimate the whole map before starting it. The estimate counts every
-  // run the map may need; marches that stop early make it finish sooner.
-  const StabilityMapSize size = stability_map_size(config);
+// The time per device update on this machine, the least of three runs of
+// the base settings (one run is too noisy on a shared machine).
+double stability_per_update_s(const StabilityMapConfig& config) {
   StiffContactConfig probe;
   probe.settings = config.base;
   probe.kind = config.contact;
@@ -267,10 +263,20 @@ void run(const StabilityOptions& o) {
     per_update_s = std::min(per_update_s, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() /
                                               (probe.duration_s * probe.rate_Hz));
   }
+  return per_update_s;
+}
+
+// The whole map estimated before starting it, printed, and refused without
+// --yes when large. The estimate counts every run the map may need;
+// marches that stop early make it finish sooner.
+void announce_stability_map(const StabilityOptions& o, const StabilityMapConfig& config, const std::string& name,
+                            std::size_t cores) {
+  const StabilityMapSize size = stability_map_size(config);
+  const double per_update_s = stability_per_update_s(config);
   const double estimate_s = size.updates * per_update_s / static_cast<double>(std::min(config.jobs, cores));
   std::printf("Stability map of %s: %zu parameters x %zu rates x %zu stiffnesses x controller off/on, at most %ld "
               "runs of %s s; at most about %s on %zu threads\n",
-              named.name.c_str(), config.parameters.size(), config.rates_Hz.size(), config.stiffnesses_N_per_m.size(),
+              name.c_str(), config.parameters.size(), config.rates_Hz.size(), config.stiffnesses_N_per_m.size(),
               size.runs, format_number(config.duration_s).c_str(), format_duration(estimate_s).c_str(), config.jobs);
   std::fflush(stdout);
   if (estimate_s > kConfirmAbove_s && !o.yes)
@@ -278,6 +284,15 @@ void run(const StabilityOptions& o) {
                              format_duration(estimate_s) + " on this machine, measured at " +
                              sig3(per_update_s * 1e6) + " us per update. Pass --yes to run it anyway, or make it "
                              "smaller (--rates, --effects, --stiffness, --steps, --duration-s)");
+}
+
+void run(const StabilityOptions& o) {
+  const fs::path settings_path = o.settings.empty() ? default_settings_dir() / "max_stable.json" : fs::path(o.settings);
+  const NamedSettings named = load_settings_file(settings_path);
+  StabilityMapConfig config = stability_config(o, named);
+  const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
+  config.jobs = o.jobs == 0 ? cores : o.jobs;
+  announce_stability_map(o, config, named.name, cores);
 
   fs::create_directories(o.out);
   ProgressLine line(stdout);

@@ -4,7 +4,9 @@
 #include <iostream>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -62,9 +64,9 @@ nlohmann::json sites_json(const an::StudyAnalysis& a) {
 
 // The summary a script needs: what was analysed, the whole-design and
 // pairwise results, and where the files are. The report has everything.
-nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::path& out,
-                            const an::ReportFiles& files) {
-  auto optional = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+nlohmann::json analyze_optional(const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); }
+
+nlohmann::json whole_design_json(const an::StudyAnalysis& a) {
   nlohmann::json whole = nlohmann::json::array();
   for (const an::WholeDesignRow& r : a.whole_design) {
     nlohmann::json row = {{"task", r.task}, {"measure", an::measure_column(r.measure)}};
@@ -78,38 +80,57 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
     }
     whole.push_back(row);
   }
+  return whole;
+}
+
+// The pairwise cells: the thesis' procedure, then one value per participant.
+std::pair<nlohmann::json, nlohmann::json> pairwise_json(const an::StudyAnalysis& a) {
   nlohmann::json pairwise = nlohmann::json::array();
   for (const an::PairwiseCell& c : a.pairwise)
     pairwise.push_back({{"task", c.task}, {"setting", c.setting}, {"measure", an::measure_column(c.measure)},
-                        {"p", optional(c.p)}, {"significant", c.significant}, {"participants", c.participants},
+                        {"p", analyze_optional(c.p)}, {"significant", c.significant}, {"participants", c.participants},
                         {"note", c.note}});
   nlohmann::json by_participant = nlohmann::json::array();
   for (const an::ParticipantPairwiseCell& c : a.participant_pairwise)
     by_participant.push_back({{"task", c.task}, {"setting", c.setting}, {"measure", an::measure_column(c.measure)},
-                              {"p", optional(c.p)}, {"significant", c.significant},
-                              {"participants", c.participants}, {"mean_difference", optional(c.mean_difference)},
+                              {"p", analyze_optional(c.p)}, {"significant", c.significant},
+                              {"participants", c.participants}, {"mean_difference", analyze_optional(c.mean_difference)},
                               {"note", c.note}});
-  nlohmann::json dose;  // null unless a dose-response study
-  if (a.dose) {
-    nlohmann::json levels = nlohmann::json::array();
-    for (const an::DoseLevel& l : a.dose->levels) levels.push_back({{"setting", l.setting}, {"strength", l.strength}});
-    nlohmann::json rows = nlohmann::json::array();
-    for (const an::DoseResponseRow& r : a.dose_response)
-      rows.push_back({{"task", r.task}, {"measure", an::measure_column(r.measure)}, {"trend_p", optional(r.trend_p)},
-                      {"mean_slope", r.mean_slope}, {"participants", r.slopes},
-                      {"trend_significant", r.trend_significant},
-                      {"smallest_significant_strength", optional(r.smallest_significant_strength)},
-                      {"note", r.note}});
-    dose = {{"field", a.dose->field}, {"levels", levels}, {"rows", rows}};
-  }
-  nlohmann::json staircases;  // null unless a staircase study
-  if (a.staircase) {
-    staircases = nlohmann::json::array();
-    for (const an::StaircaseRow& r : a.staircases)
-      staircases.push_back({{"participant", r.participant}, {"baseline", r.baseline},
-                            {"trials", r.trials.size()}, {"reversals", r.reversals}, {"finished", r.finished},
-                            {"stop_reason", r.stop_reason}, {"threshold", optional(r.threshold)}, {"note", r.note}});
-  }
+  return {pairwise, by_participant};
+}
+
+// Null unless a dose-response study.
+nlohmann::json dose_json(const an::StudyAnalysis& a) {
+  nlohmann::json dose;
+  if (!a.dose) return dose;
+  nlohmann::json levels = nlohmann::json::array();
+  for (const an::DoseLevel& l : a.dose->levels) levels.push_back({{"setting", l.setting}, {"strength", l.strength}});
+  nlohmann::json rows = nlohmann::json::array();
+  for (const an::DoseResponseRow& r : a.dose_response)
+    rows.push_back({{"task", r.task}, {"measure", an::measure_column(r.measure)}, {"trend_p", analyze_optional(r.trend_p)},
+                    {"mean_slope", r.mean_slope}, {"participants", r.slopes},
+                    {"trend_significant", r.trend_significant},
+                    {"smallest_significant_strength", analyze_optional(r.smallest_significant_strength)},
+                    {"note", r.note}});
+  dose = {{"field", a.dose->field}, {"levels", levels}, {"rows", rows}};
+  return dose;
+}
+
+// Null unless a staircase study.
+nlohmann::json staircase_rows_json(const an::StudyAnalysis& a) {
+  nlohmann::json staircases;
+  if (!a.staircase) return staircases;
+  staircases = nlohmann::json::array();
+  for (const an::StaircaseRow& r : a.staircases)
+    staircases.push_back({{"participant", r.participant}, {"baseline", r.baseline},
+                          {"trials", r.trials.size()}, {"reversals", r.reversals}, {"finished", r.finished},
+                          {"stop_reason", r.stop_reason}, {"threshold", analyze_optional(r.threshold)}, {"note", r.note}});
+  return staircases;
+}
+
+nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::path& out,
+                            const an::ReportFiles& files) {
+  const auto [pairwise, by_participant] = pairwise_json(a);
   return {{"study", a.study_name},
           {"control", a.control},
           {"method", an::comparison_method_name(a.options.method)},
@@ -119,11 +140,11 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
                       {"without_window", a.counts.without_window}, {"damaged_chunks", a.counts.damaged_chunks},
                       {"staircase", a.counts.staircase}}},
           {"sidak_level", a.sidak_level},
-          {"whole_design", whole},
+          {"whole_design", whole_design_json(a)},
           {"pairwise", pairwise},  // the thesis' procedure
           {"participant_pairwise", by_participant},
-          {"dose_response", dose},
-          {"staircase", staircases},
+          {"dose_response", dose_json(a)},
+          {"staircase", staircase_rows_json(a)},
           {"sites", sites_json(a)},
           {"files", {{"metrics_csv", (out / "metrics.csv").string()}, {"html", files.html.string()},
                      {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};

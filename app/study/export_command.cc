@@ -53,14 +53,8 @@ std::string trial_range(const std::vector<db::TrialRow>& trials) {
   return "trial ids are " + ids;
 }
 
-void run_export(const ExportOptions& opt) {
-  if (opt.format != "csv")
-    throw std::runtime_error("--format: '" + opt.format + "' is not a supported format; allowed: csv");
-  if (!fs::is_regular_file(opt.db))
-    throw std::runtime_error("--db: '" + opt.db + "' " +
-                             (fs::exists(opt.db) ? "is not a file" : "does not exist") +
-                             "; give a study database made by `hapticlab study create`");
-
+// The study file, read-only and fully checked.
+db::OpenOptions export_open_options() {
   // Read-only and no recovery: exporting must not abort a trial that a
   // session is running right now, nor migrate someone's file.
   db::OpenOptions options;
@@ -71,8 +65,12 @@ void run_export(const ExportOptions& opt) {
   // extra cost is small: a chunk row holds ~1000 updates, so there are few
   // rows to look up.
   options.integrity = db::OpenOptions::Integrity::kFull;
-  db::StudyDb db(opt.db, options);
-  std::vector<db::BadChunk> bad;
+  return options;
+}
+
+// The options' selection, refused when it mixes --trial with a study's
+// selection or names a participant or setting the study does not hold.
+db::ExportSelection export_selection(const ExportOptions& opt, db::StudyDb& db) {
   db::ExportSelection selection = opt.selection;
   for (const std::string& name : opt.channels) selection.channels.push_back(*db::channel_index(name));
   selection.participants.insert(opt.participants.begin(), opt.participants.end());
@@ -95,7 +93,12 @@ void run_export(const ExportOptions& opt) {
   };
   check_names(selection.participants, "--participant", [](const db::TrialRow& t) { return t.participant_code; });
   check_names(selection.settings, "--setting", [](const db::TrialRow& t) { return t.setting_name; });
+  return selection;
+}
 
+// The files of --trial, or of every study in the file.
+std::vector<fs::path> export_files(const ExportOptions& opt, db::StudyDb& db, const db::ExportSelection& selection,
+                                   std::vector<db::BadChunk>& bad) {
   std::vector<fs::path> files;
   if (opt.trial) {
     const std::vector<db::TrialRow> trials = db.trials();
@@ -104,19 +107,32 @@ void run_export(const ExportOptions& opt) {
     if (!found)
       throw std::runtime_error("--trial: no trial " + std::to_string(*opt.trial) + " in " + opt.db + "; " +
                                trial_range(trials));
-    files = db::export_trial_csv(db, *opt.trial, opt.out, &bad, selection);
-  } else {
-    const std::vector<db::StudyRow> studies = db.studies();
-    if (studies.empty())
-      throw std::runtime_error("--db: " + opt.db + " holds no study (run `hapticlab study create` first)");
-    for (const db::StudyRow& s : studies) {
-      // One study per file is the rule; should there be more, each gets a
-      // folder so their trials.csv do not overwrite each other.
-      const fs::path dir = studies.size() == 1 ? fs::path(opt.out) : fs::path(opt.out) / ("study" + std::to_string(s.id));
-      const std::vector<fs::path> written = db::export_study_csv(db, s.id, dir, &bad, selection);
-      files.insert(files.end(), written.begin(), written.end());
-    }
+    return db::export_trial_csv(db, *opt.trial, opt.out, &bad, selection);
   }
+  const std::vector<db::StudyRow> studies = db.studies();
+  if (studies.empty())
+    throw std::runtime_error("--db: " + opt.db + " holds no study (run `hapticlab study create` first)");
+  for (const db::StudyRow& s : studies) {
+    // One study per file is the rule; should there be more, each gets a
+    // folder so their trials.csv do not overwrite each other.
+    const fs::path dir = studies.size() == 1 ? fs::path(opt.out) : fs::path(opt.out) / ("study" + std::to_string(s.id));
+    const std::vector<fs::path> written = db::export_study_csv(db, s.id, dir, &bad, selection);
+    files.insert(files.end(), written.begin(), written.end());
+  }
+  return files;
+}
+
+void run_export(const ExportOptions& opt) {
+  if (opt.format != "csv")
+    throw std::runtime_error("--format: '" + opt.format + "' is not a supported format; allowed: csv");
+  if (!fs::is_regular_file(opt.db))
+    throw std::runtime_error("--db: '" + opt.db + "' " +
+                             (fs::exists(opt.db) ? "is not a file" : "does not exist") +
+                             "; give a study database made by `hapticlab study create`");
+  db::StudyDb db(opt.db, export_open_options());
+  std::vector<db::BadChunk> bad;
+  const db::ExportSelection selection = export_selection(opt, db);
+  const std::vector<fs::path> files = export_files(opt, db, selection, bad);
   std::printf("%s: exported %s as csv: %zu files in %s\n", opt.db.c_str(),
               opt.trial ? ("trial " + std::to_string(*opt.trial)).c_str() : "every started trial",
               files.size(), opt.out.c_str());

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
+#include <optional>
 #include <stdexcept>
 #include <iostream>
 #include <memory>
@@ -97,8 +99,8 @@ sessions::SessionOptions session_options(const SessionCommandOptions& opt) {
   return options;
 }
 
-int run(const SessionCommandOptions& opt) {
-  sessions::SessionOptions options = session_options(opt);
+// --realtime (its grant printed on stderr) and --training-until-enter.
+void prepare_session_run(const SessionCommandOptions& opt, sessions::SessionOptions& options) {
   if (opt.realtime.enabled) {
     RealtimeResult granted;
     std::fprintf(stderr, "%s\n", prepare_realtime(opt.realtime, &granted).c_str());
@@ -112,12 +114,12 @@ int run(const SessionCommandOptions& opt) {
     options.training_ends = &enter_presses;
     count_enter_presses(enter_presses);
   }
+}
 
-  InterruptFlag interrupt;
-  options.stop = &interrupt.flag();
-  // With --json, stdout carries only the summary object; progress goes to stderr.
-  ProgressLine line(opt.json ? stderr : stdout);
-  options.on_progress = [&](const sessions::SessionProgress& p) {
+// The progress line of a session: training, each trial started and finished.
+std::function<void(const sessions::SessionProgress&)> session_progress(const SessionCommandOptions& opt,
+                                                                      ProgressLine& line) {
+  return [&opt, &line](const sessions::SessionProgress& p) {
     using Phase = sessions::SessionProgress::Phase;
     const double done = p.trial_count > 0 ? static_cast<double>(p.trial_number - 1) / p.trial_count : 0.0;
     switch (p.phase) {
@@ -138,19 +140,19 @@ int run(const SessionCommandOptions& opt) {
       }
     }
   };
-  // At once, not at the end of the trial: the device may be stuck.
-  options.on_alert = [&](const std::string& alert) {
-    line.finish();
-    std::fprintf(stderr, "hapticlab session run: %s\n", alert.c_str());
-    std::fflush(stderr);
-  };
-  sessions::SessionResult r;
+}
+
+// The session run; empty (after saying why) when the device was not ready.
+// A hung device ends the process with status 3 at once.
+std::optional<sessions::SessionResult> run_session_or_refuse(const std::string& db,
+                                                             const sessions::SessionOptions& options,
+                                                             ProgressLine& line) {
   try {
-    r = sessions::run_session(opt.db, options);
+    return sessions::run_session(db, options);
   } catch (const sessions::DeviceNotReadyError& e) {
     line.finish();
     std::fprintf(stderr, "hapticlab session run: %s\n", e.what());
-    return 3;
+    return std::nullopt;
   } catch (const sessions::DeviceHungError& e) {
     line.finish();
     std::fprintf(stderr, "hapticlab session run: %s\n", e.what());
@@ -159,60 +161,62 @@ int run(const SessionCommandOptions& opt) {
     // usual way would wait for it, or destroy what it is using.
     std::_Exit(3);
   }
-  line.finish();
-  if (r.stale_session)
-    std::fprintf(stderr, "hapticlab session run: took over the lock of %s's previous session (%s), which had "
-                         "ended without releasing it\n",
-                 opt.participant.c_str(), r.stale_session->c_str());
-  if (opt.json) {
-    nlohmann::json j = {{"session", r.session_id},
-                        {"participant", opt.participant},
-                        {"device", options.device.describe()},
-                        {"training_trials", r.training_trials},
-                        {"training_cut_short", r.training_cut_short},
-                        {"trials_run", r.trials_run},
-                        {"trials_complete", r.trials_complete},
-                        {"trials_aborted", r.trials_aborted},
-                        {"trials_requeued", r.trials_requeued},
-                        {"trials_left", r.trials_left},
-                        {"updates_logged", r.samples_logged},
-                        {"stopped_by_operator", r.stopped_by_operator},
-                        {"device_fault", r.device_fault ? nlohmann::json(r.device_fault_reason) : nlohmann::json()},
-                        {"stale_session", r.stale_session ? nlohmann::json(*r.stale_session) : nlohmann::json()}};
-    if (r.staircase) {
-      const auto& st = r.staircase->state;
-      j["staircase"] = {{"field", r.staircase->spec.field},
-                        {"measure", r.staircase->spec.measure},
-                        {"baseline", r.staircase->baseline},
-                        {"trials", st.trials.size()},
-                        {"reversals", st.reversal_strengths},
-                        {"steps", [&] {
-                           nlohmann::json a = nlohmann::json::array();
-                           for (const auto& t : st.trials) a.push_back({{"strength", t.strength}, {"value", t.value},
-                                                                        {"changed", t.changed}});
-                           return a;
-                         }()},
-                        {"finished", st.finished},
-                        {"stop_reason", st.stop_reason},
-                        {"threshold", st.threshold ? nlohmann::json(*st.threshold) : nlohmann::json()}};
-    }
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
-    std::printf("session %lld of %s: %d %s run (%d complete, %d aborted), %d re-queued, %d still planned, "
-                "%llu updates logged%s\n",
-                static_cast<long long>(r.session_id), opt.participant.c_str(), r.trials_run,
-                r.trials_run == 1 ? "trial" : "trials", r.trials_complete, r.trials_aborted, r.trials_requeued,
-                r.trials_left, static_cast<unsigned long long>(r.samples_logged),
-                r.training_trials > 0 ? (", after " + std::to_string(r.training_trials) + " training trial" +
-                                         (r.training_trials == 1 ? "" : "s") +
-                                         (r.training_cut_short > 0
-                                              ? " (" + std::to_string(r.training_cut_short) +
-                                                    " cut short before the task was complete)"
-                                              : std::string()))
-                                            .c_str()
-                                      : "");
-    if (r.staircase) std::printf("%s\n", analysis::staircase_summary(*r.staircase).c_str());
-  }
+}
+
+nlohmann::json session_staircase_json(const sessions::SessionResult& r) {
+  const auto& st = r.staircase->state;
+  nlohmann::json steps = nlohmann::json::array();
+  for (const auto& t : st.trials) steps.push_back({{"strength", t.strength}, {"value", t.value}, {"changed", t.changed}});
+  return {{"field", r.staircase->spec.field},
+          {"measure", r.staircase->spec.measure},
+          {"baseline", r.staircase->baseline},
+          {"trials", st.trials.size()},
+          {"reversals", st.reversal_strengths},
+          {"steps", steps},
+          {"finished", st.finished},
+          {"stop_reason", st.stop_reason},
+          {"threshold", st.threshold ? nlohmann::json(*st.threshold) : nlohmann::json()}};
+}
+
+void print_session_json(const SessionCommandOptions& opt, const sessions::SessionOptions& options,
+                        const sessions::SessionResult& r) {
+  nlohmann::json j = {{"session", r.session_id},
+                      {"participant", opt.participant},
+                      {"device", options.device.describe()},
+                      {"training_trials", r.training_trials},
+                      {"training_cut_short", r.training_cut_short},
+                      {"trials_run", r.trials_run},
+                      {"trials_complete", r.trials_complete},
+                      {"trials_aborted", r.trials_aborted},
+                      {"trials_requeued", r.trials_requeued},
+                      {"trials_left", r.trials_left},
+                      {"updates_logged", r.samples_logged},
+                      {"stopped_by_operator", r.stopped_by_operator},
+                      {"device_fault", r.device_fault ? nlohmann::json(r.device_fault_reason) : nlohmann::json()},
+                      {"stale_session", r.stale_session ? nlohmann::json(*r.stale_session) : nlohmann::json()}};
+  if (r.staircase) j["staircase"] = session_staircase_json(r);
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
+void print_session_text(const SessionCommandOptions& opt, const sessions::SessionResult& r) {
+  std::printf("session %lld of %s: %d %s run (%d complete, %d aborted), %d re-queued, %d still planned, "
+              "%llu updates logged%s\n",
+              static_cast<long long>(r.session_id), opt.participant.c_str(), r.trials_run,
+              r.trials_run == 1 ? "trial" : "trials", r.trials_complete, r.trials_aborted, r.trials_requeued,
+              r.trials_left, static_cast<unsigned long long>(r.samples_logged),
+              r.training_trials > 0 ? (", after " + std::to_string(r.training_trials) + " training trial" +
+                                       (r.training_trials == 1 ? "" : "s") +
+                                       (r.training_cut_short > 0
+                                            ? " (" + std::to_string(r.training_cut_short) +
+                                                  " cut short before the task was complete)"
+                                            : std::string()))
+                                          .c_str()
+                                    : "");
+  if (r.staircase) std::printf("%s\n", analysis::staircase_summary(*r.staircase).c_str());
+}
+
+// 3 on a device fault, 130 when the operator stopped it, else 0.
+int session_exit_status(const sessions::SessionResult& r) {
   if (r.device_fault) {
     std::fprintf(stderr, "hapticlab session run: %s; the trial is re-queued, run the session again once the "
                          "device works\n", r.device_fault_reason.c_str());
@@ -225,6 +229,35 @@ int run(const SessionCommandOptions& opt) {
   return 0;
 }
 
+int run(const SessionCommandOptions& opt) {
+  sessions::SessionOptions options = session_options(opt);
+  prepare_session_run(opt, options);
+  InterruptFlag interrupt;
+  options.stop = &interrupt.flag();
+  // With --json, stdout carries only the summary object; progress goes to stderr.
+  ProgressLine line(opt.json ? stderr : stdout);
+  options.on_progress = session_progress(opt, line);
+  // At once, not at the end of the trial: the device may be stuck.
+  options.on_alert = [&](const std::string& alert) {
+    line.finish();
+    std::fprintf(stderr, "hapticlab session run: %s\n", alert.c_str());
+    std::fflush(stderr);
+  };
+  const std::optional<sessions::SessionResult> ran = run_session_or_refuse(opt.db, options, line);
+  if (!ran) return 3;
+  const sessions::SessionResult& r = *ran;
+  line.finish();
+  if (r.stale_session)
+    std::fprintf(stderr, "hapticlab session run: took over the lock of %s's previous session (%s), which had "
+                         "ended without releasing it\n",
+                 opt.participant.c_str(), r.stale_session->c_str());
+  if (opt.json)
+    print_session_json(opt, options, r);
+  else
+    print_session_text(opt, r);
+  return session_exit_status(r);
+}
+
 // --realtime and its priority and CPU.
 void add_realtime_options(CLI::App* cmd, RealtimeOptions& realtime) {
   cmd->add_flag("--realtime", realtime.enabled,
@@ -235,6 +268,52 @@ void add_realtime_options(CLI::App* cmd, RealtimeOptions& realtime) {
       ->capture_default_str();
   cmd->add_option("--realtime-cpu", realtime.cpu, "CPU for the loop with --realtime (-1: the last one)")
       ->capture_default_str();
+}
+
+// --device, --device-option, --insecure, --clock, --rate-hz: what runs the trials.
+void add_session_device_options(CLI::App* cmd, SessionCommandOptions& o) {
+  cmd->add_option("--device", o.device,
+                  "Device: sim (the simulated workstation and participant), plugin:PATH.so (a device plugin, "
+                  "docs/devices.md), plugin-isolated:PATH.so (the plugin in a process of its own: a crash or hang "
+                  "ends the trial, not the session), udp:[HOST:]PORT (a driver behind the UDP bridge, "
+                  "docs/udp_bridge.md)")
+      ->check([](const std::string& text) {
+        try {
+          parse_device_spec(text);
+          return std::string();
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+      })
+      ->capture_default_str();
+  cmd->add_option("--device-option", o.device_options, "key=value passed to the device (repeatable)");
+  add_insecure_flag(cmd, o.insecure);
+  cmd->add_option("--clock", o.clock, "virtual: as fast as the CPU allows; wall: real time")
+      ->check(CLI::IsMember({"virtual", "wall"}))
+      ->capture_default_str();
+  add_loop_rate_option(*cmd, o.rate_Hz, "Haptic loop rate [Hz], 150..2000")
+      ->capture_default_str();
+}
+
+// --max-trial-s, --training-trials, --training-until-enter, --max-trials,
+// --override-due-date: which trials run, and how long.
+void add_session_trial_options(CLI::App* cmd, SessionCommandOptions& o) {
+  cmd->add_option("--max-trial-s", o.max_trial_s,
+                  "Time limit per trial [s]; a trial that reaches it is aborted and not re-queued")
+      ->check(positive_number())
+      ->capture_default_str();
+  cmd->add_option("--training-trials", o.training_trials,
+                  "Simulated training trials per task before its first trial, 0..1000 (default: the protocol's; "
+                  "with --training-until-enter the most it may last, default 1000)")
+      ->check(whole_number_in(0, kMaxTrainingTrials));
+  cmd->add_flag("--training-until-enter", o.training_until_enter,
+                "The operator ends each task's training: trials repeat until Enter is pressed (or stdin ends), "
+                "as with a real participant, who practises until the operator judges them ready");
+  cmd->add_option("--max-trials", o.max_trials, "Run at most this many trials, then stop (default: all)")
+      ->check(non_negative_number());
+  cmd->add_flag("--override-due-date", o.override_due_date,
+                "Run a group design's next sitting before its due date (the protocol's minimum gap); the "
+                "override is logged in the study (operator_action)");
 }
 
 }  // namespace
@@ -253,43 +332,8 @@ void add_session_command(CLI::App& app) {
   cmd->add_option("--db", opt->db, "Study database (from `hapticlab study create`)")->required();
   cmd->add_option("--participant", opt->participant, "Participant code, as in the protocol")->required();
   add_population_option(cmd, opt->population);
-  cmd->add_option("--device", opt->device,
-                  "Device: sim (the simulated workstation and participant), plugin:PATH.so (a device plugin, "
-                  "docs/devices.md), plugin-isolated:PATH.so (the plugin in a process of its own: a crash or hang "
-                  "ends the trial, not the session), udp:[HOST:]PORT (a driver behind the UDP bridge, "
-                  "docs/udp_bridge.md)")
-      ->check([](const std::string& text) {
-        try {
-          parse_device_spec(text);
-          return std::string();
-        } catch (const std::invalid_argument& e) {
-          return std::string(e.what());
-        }
-      })
-      ->capture_default_str();
-  cmd->add_option("--device-option", opt->device_options, "key=value passed to the device (repeatable)");
-  add_insecure_flag(cmd, opt->insecure);
-  cmd->add_option("--clock", opt->clock, "virtual: as fast as the CPU allows; wall: real time")
-      ->check(CLI::IsMember({"virtual", "wall"}))
-      ->capture_default_str();
-  add_loop_rate_option(*cmd, opt->rate_Hz, "Haptic loop rate [Hz], 150..2000")
-      ->capture_default_str();
-  cmd->add_option("--max-trial-s", opt->max_trial_s,
-                  "Time limit per trial [s]; a trial that reaches it is aborted and not re-queued")
-      ->check(positive_number())
-      ->capture_default_str();
-  cmd->add_option("--training-trials", opt->training_trials,
-                  "Simulated training trials per task before its first trial, 0..1000 (default: the protocol's; "
-                  "with --training-until-enter the most it may last, default 1000)")
-      ->check(whole_number_in(0, kMaxTrainingTrials));
-  cmd->add_flag("--training-until-enter", opt->training_until_enter,
-                "The operator ends each task's training: trials repeat until Enter is pressed (or stdin ends), "
-                "as with a real participant, who practises until the operator judges them ready");
-  cmd->add_option("--max-trials", opt->max_trials, "Run at most this many trials, then stop (default: all)")
-      ->check(non_negative_number());
-  cmd->add_flag("--override-due-date", opt->override_due_date,
-                "Run a group design's next sitting before its due date (the protocol's minimum gap); the "
-                "override is logged in the study (operator_action)");
+  add_session_device_options(cmd, *opt);
+  add_session_trial_options(cmd, *opt);
   add_realtime_options(cmd, opt->realtime);
   cmd->add_flag("--json", opt->json,
                 "Print the session's summary as one JSON object on stdout (progress goes to stderr)");

@@ -21,6 +21,7 @@
 #include "analysis/stats/friedman.h"
 #include "analysis/stats/kolmogorov_smirnov.h"
 #include "analysis/stats/ks_bootstrap.h"
+#include "analysis/stats/ks_samples.h"
 #include "analysis/stats/effect_size.h"
 #include "analysis/stats/pairwise_friedman.h"
 #include "analysis/stats/percentile.h"
@@ -365,10 +366,10 @@ void run_correlation(const CorrelationOptions& opt) {
   });
 }
 
-void run_ks(const KsOptions& opt) {
-  const auto csv = read_data(opt.common.csv, opt.common.drop_missing, {opt.common.columns.value});
+// The KS columns: without --block and without a "block" column the pooled
+// test needs no blocks (only the bootstrap resamples per block).
+an::LongColumns ks_columns(const KsOptions& opt, const an::LongCsv& csv) {
   an::LongColumns columns = opt.common.columns;
-  // The pooled test needs no blocks; only the bootstrap resamples per block.
   const bool has_block_column = std::find(csv.columns().begin(), csv.columns().end(),
                                           columns.block) != csv.columns().end();
   if (!opt.block_given && !has_block_column) {
@@ -378,6 +379,60 @@ void run_ks(const KsOptions& opt) {
     }
     columns.block.clear();
   }
+  return columns;
+}
+
+json ks_pooled(const KsOptions& opt, const an::KsSamples& samples) {
+  const an::KsResult ks = an::ks_test(samples.control, samples.other);
+  const char* p_method = ks.exact ? "exact" : "asymptotic";
+  json j = {{"test", "ks"},
+            {"control", opt.control},
+            {"other", opt.other},
+            {"statistic", ks.d},
+            {"p", ks.p},
+            {"p_method", p_method},  // "exact" below n1*n2 = 10000, else "asymptotic"
+            {"p_asymptotic", ks.p_asymptotic},
+            {"n", ks.n1 + ks.n2},
+            {"n_control", ks.n1},
+            {"n_other", ks.n2}};
+  if (!opt.common.json) {
+    std::cout << "Kolmogorov-Smirnov, pooled " << opt.control << " (n = " << ks.n1 << ") vs "
+              << opt.other << " (n = " << ks.n2 << "): D = " << num(ks.d) << ", " << p_method
+              << " p = " << num(ks.p) << "\n";
+  }
+  return j;
+}
+
+json ks_bootstrap_result(const KsOptions& opt, const an::KsSamples& samples, an::PercentileMethod method) {
+  an::KsBootstrapOptions bo;
+  bo.resamples = opt.bootstrap;
+  bo.block_length = opt.block_length;
+  bo.seed = opt.seed;
+  bo.percentile_method = method;
+  const an::KsBootstrapResult b = an::ks_block_bootstrap(samples.participants, bo);
+  if (!opt.common.json) {
+    std::cout << "Moving block bootstrap (" << bo.resamples << " resamples, block length "
+              << bo.block_length << ", seed " << bo.seed << ", " << b.participants_used
+              << " participants):\n  D_intra 95% range [" << num(b.intra.low) << ", "
+              << num(b.intra.high) << "]\n  D_inter 95% range [" << num(b.inter.low) << ", "
+              << num(b.inter.high) << "]\n  "
+              << (b.significant ? "ranges do not overlap: significant difference"
+                                : "ranges overlap: no significant difference")
+              << "\n";
+  }
+  return {{"resamples", bo.resamples},
+          {"block_length", bo.block_length},
+          {"seed", bo.seed},
+          {"percentile_method", std::string(an::percentile_method_name(method))},
+          {"participants_used", b.participants_used},
+          {"d_intra_95", {b.intra.low, b.intra.high}},
+          {"d_inter_95", {b.inter.low, b.inter.high}},
+          {"significant", b.significant}};
+}
+
+void run_ks(const KsOptions& opt) {
+  const auto csv = read_data(opt.common.csv, opt.common.drop_missing, {opt.common.columns.value});
+  const an::LongColumns columns = ks_columns(opt, csv);
   // One participant may be enough for the bootstrap (the thesis' "(1)" rows).
   const auto observations = an::read_observations(csv, columns, 1, 2);
   if (opt.bootstrap > 0 && opt.common.columns.replicate.empty()) {
@@ -388,80 +443,10 @@ void run_ks(const KsOptions& opt) {
   }
   const auto method = an::parse_percentile_method(opt.percentile_method);
   run_grouped("ks", csv, opt.common.group, opt.common.json, [&](const Group& g) {
-    std::vector<double> control;
-    std::vector<double> other;
-    // participant -> repetition -> series, in file order
-    std::vector<an::ParticipantRepetitions> participants;
-    std::map<std::string, std::size_t> participant_index;
-    std::map<std::tuple<std::string, std::string, std::string>, std::size_t> series_index;
-    bool seen_control = false;
-    bool seen_other = false;
-    for (std::size_t r : g.rows) {
-      const auto& o = observations[r];
-      const bool is_control = o.treatment == opt.control;
-      const bool is_other = o.treatment == opt.other;
-      seen_control |= is_control;
-      seen_other |= is_other;
-      if (!is_control && !is_other) continue;
-      (is_control ? control : other).push_back(o.value);
-      auto [pit, new_participant] = participant_index.emplace(o.block, participants.size());
-      if (new_participant) participants.push_back({o.block, {}, {}});
-      auto& reps = is_control ? participants[pit->second].control : participants[pit->second].other;
-      auto [sit, new_series] = series_index.emplace(std::tuple{o.block, o.treatment, o.replicate},
-                                                    reps.size());
-      if (new_series) reps.emplace_back();
-      reps[sit->second].push_back(o.value);
-    }
-    for (const auto& [name, seen] : {std::pair{&opt.control, seen_control},
-                                     std::pair{&opt.other, seen_other}}) {
-      if (!seen) {
-        throw an::DataError(opt.common.csv + ": no rows with " + opt.common.columns.treatment +
-                            " = '" + *name + "'");
-      }
-    }
-    const an::KsResult ks = an::ks_test(control, other);
-    const char* p_method = ks.exact ? "exact" : "asymptotic";
-    json j = {{"test", "ks"},
-              {"control", opt.control},
-              {"other", opt.other},
-              {"statistic", ks.d},
-              {"p", ks.p},
-              {"p_method", p_method},  // "exact" below n1*n2 = 10000, else "asymptotic"
-              {"p_asymptotic", ks.p_asymptotic},
-              {"n", ks.n1 + ks.n2},
-              {"n_control", ks.n1},
-              {"n_other", ks.n2}};
-    if (!opt.common.json) {
-      std::cout << "Kolmogorov-Smirnov, pooled " << opt.control << " (n = " << ks.n1 << ") vs "
-                << opt.other << " (n = " << ks.n2 << "): D = " << num(ks.d) << ", " << p_method
-                << " p = " << num(ks.p) << "\n";
-    }
-    if (opt.bootstrap > 0) {
-      an::KsBootstrapOptions bo;
-      bo.resamples = opt.bootstrap;
-      bo.block_length = opt.block_length;
-      bo.seed = opt.seed;
-      bo.percentile_method = method;
-      const an::KsBootstrapResult b = an::ks_block_bootstrap(participants, bo);
-      j["bootstrap"] = {{"resamples", bo.resamples},
-                        {"block_length", bo.block_length},
-                        {"seed", bo.seed},
-                        {"percentile_method", std::string(an::percentile_method_name(method))},
-                        {"participants_used", b.participants_used},
-                        {"d_intra_95", {b.intra.low, b.intra.high}},
-                        {"d_inter_95", {b.inter.low, b.inter.high}},
-                        {"significant", b.significant}};
-      if (!opt.common.json) {
-        std::cout << "Moving block bootstrap (" << bo.resamples << " resamples, block length "
-                  << bo.block_length << ", seed " << bo.seed << ", " << b.participants_used
-                  << " participants):\n  D_intra 95% range [" << num(b.intra.low) << ", "
-                  << num(b.intra.high) << "]\n  D_inter 95% range [" << num(b.inter.low) << ", "
-                  << num(b.inter.high) << "]\n  "
-                  << (b.significant ? "ranges do not overlap: significant difference"
-                                    : "ranges overlap: no significant difference")
-                  << "\n";
-      }
-    }
+    const an::KsSamples samples = an::gather_ks_samples(observations, g.rows, opt.control, opt.other,
+                                                        opt.common.csv, opt.common.columns.treatment);
+    json j = ks_pooled(opt, samples);
+    if (opt.bootstrap > 0) j["bootstrap"] = ks_bootstrap_result(opt, samples, method);
     return j;
   });
 }

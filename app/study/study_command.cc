@@ -77,129 +77,150 @@ void show(const StudyOptions& opt) {
 // chunk's place, checksum and structure (db/chunk_reader.h). On a plain
 // read-only connection, not StudyDb: StudyDb refuses a damaged file at the
 // door, and this command's job is to say everything that is damaged.
+// What `study check` found, every finding in the order checked.
+struct StudyCheckFindings {
+  std::vector<db::Finding> findings;
+  std::size_t integrity = 0;  // integrity_check's findings
+  std::size_t structure = 0;  // tables, references, value types
+  db::ChunkCheck chunks;
+  std::string not_checked;  // why the chunks were not checked
+};
+
+void check_integrity(db::Database& conn, StudyCheckFindings& c) {
+  try {
+    db::Statement s = conn.prepare("PRAGMA integrity_check(100)");
+    while (s.step())
+      if (const std::string line = s.column_text(0); line != "ok") {
+        c.findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt, line});
+        ++c.integrity;
+      }
+  } catch (const db::DbError& e) {
+    c.findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt,
+                          std::string("integrity_check itself failed: ") + e.what()});
+    ++c.integrity;
+  }
+}
+
+// The structure, then the chunks: each only when what it reads is sound
+// (a view in a table's place could make any query hang, and an older
+// schema has other checksums).
+void check_structure_and_chunks(db::Database& conn, StudyCheckFindings& c) {
+  try {
+    const int version = db::check_schema_version(conn);
+    std::vector<db::Finding> tables = db::check_tables(conn, version);
+    c.structure += tables.size();
+    c.findings.insert(c.findings.end(), tables.begin(), tables.end());
+    if (!tables.empty()) {
+      c.not_checked = "the tables are not what the schema says (above), so no query reads them";
+    } else if (version < db::kSchemaVersion) {
+      c.not_checked = "schema version " + std::to_string(version) + " predates this HapticLab's checks (version " +
+                      std::to_string(db::kSchemaVersion) + "); a command that opens it read-write "
+                      "(`hapticlab analyze`) migrates it, then check again";
+    } else {
+      for (auto* check : {&db::check_foreign_keys, &db::check_value_types}) {
+        std::vector<db::Finding> found = (*check)(conn, 100);
+        c.structure += found.size();
+        c.findings.insert(c.findings.end(), found.begin(), found.end());
+      }
+      c.chunks = db::check_all_chunks(conn);
+      for (const db::BadChunk& b : c.chunks.bad)
+        c.findings.push_back({"chunk", "sample_chunk", std::nullopt, b.trial_id, b.instrument, db::describe(b)});
+    }
+  } catch (const db::DbError& e) {
+    c.not_checked = e.what();
+  }
+}
+
+void print_study_check_json(const StudyOptions& opt, const StudyCheckFindings& c, bool damaged) {
+  nlohmann::json j;
+  j["db"] = opt.db;
+  nlohmann::json integrity_lines = nlohmann::json::array();
+  for (const db::Finding& f : c.findings)
+    if (f.check == "integrity") integrity_lines.push_back(f.message);
+  j["integrity_check"] = integrity_lines;  // empty: "ok"
+  j["chunks_checked"] = c.chunks.chunks;
+  j["updates_checked"] = c.chunks.updates;
+  j["migrated_chunks"] = c.chunks.migrated_chunks;
+  nlohmann::json bad = nlohmann::json::array();
+  for (const db::BadChunk& b : c.chunks.bad)
+    bad.push_back({{"trial_id", b.trial_id},
+                   {"instrument", b.instrument},
+                   {"first_tick", b.first_tick},
+                   {"count", b.count},
+                   {"kind", db::to_string(b.kind)},
+                   {"problem", b.problem}});
+  j["bad_chunks"] = bad;
+  // Every finding of every check, each naming what it concerns.
+  nlohmann::json all = nlohmann::json::array();
+  for (const db::Finding& f : c.findings) {
+    nlohmann::json x = {{"check", f.check}, {"message", f.message}};
+    if (!f.table.empty()) x["table"] = f.table;
+    if (f.row) x["row"] = *f.row;
+    if (f.trial_id) x["trial_id"] = *f.trial_id;
+    if (f.instrument) x["instrument"] = *f.instrument;
+    all.push_back(std::move(x));
+  }
+  j["findings"] = all;
+  if (!c.not_checked.empty()) j["error"] = c.not_checked;
+  j["ok"] = !damaged;
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
+// The findings of `checks` under `title`, or "ok".
+void print_check_findings(const std::vector<db::Finding>& findings, const char* title,
+                          const std::vector<std::string>& checks) {
+  std::vector<const db::Finding*> mine;
+  for (const db::Finding& f : findings)
+    for (const std::string& c : checks)
+      if (f.check == c) mine.push_back(&f);
+  if (mine.empty()) {
+    std::printf("  %s: ok\n", title);
+    return;
+  }
+  std::printf("  %s: %zu finding(s)\n", title, mine.size());
+  for (const db::Finding* f : mine) std::printf("    %s\n", f->message.c_str());
+}
+
+void print_study_check_text(const StudyOptions& opt, const StudyCheckFindings& c) {
+  std::printf("%s\n", opt.db.c_str());
+  print_check_findings(c.findings, "integrity_check", {"integrity"});
+  if (c.structure > 0 || c.not_checked.empty())
+    print_check_findings(c.findings, "structure (tables, references, value types)", {"schema", "foreign_key", "type"});
+  if (!c.not_checked.empty()) {
+    std::printf("  sample chunks: not checked: %s\n", c.not_checked.c_str());
+    return;
+  }
+  std::printf("  sample chunks: %llu checked, %zu damaged; %llu updates read back\n",
+              static_cast<unsigned long long>(c.chunks.chunks), c.chunks.bad.size(),
+              static_cast<unsigned long long>(c.chunks.updates));
+  if (c.chunks.migrated_chunks > 0)
+    std::printf("    %llu chunk(s) predate checksums: checksummed when the file was migrated, so damage "
+                "done before that cannot be seen\n",
+                static_cast<unsigned long long>(c.chunks.migrated_chunks));
+  for (const db::BadChunk& b : c.chunks.bad) std::printf("    damaged: %s\n", db::describe(b).c_str());
+}
+
 void check(const StudyOptions& opt) {
   if (!std::filesystem::is_regular_file(opt.db))
     throw std::runtime_error("--db: '" + opt.db + "' " +
                              (std::filesystem::exists(opt.db) ? "is not a file" : "does not exist") +
                              "; give a study database made by `hapticlab study create`");
   db::Database conn(opt.db, db::Database::Mode::kReadOnly);
-
-  std::vector<db::Finding> findings;  // every one, in the order checked
-  std::size_t integrity = 0;
-  try {
-    db::Statement s = conn.prepare("PRAGMA integrity_check(100)");
-    while (s.step())
-      if (const std::string line = s.column_text(0); line != "ok") {
-        findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt, line});
-        ++integrity;
-      }
-  } catch (const db::DbError& e) {
-    findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt,
-                        std::string("integrity_check itself failed: ") + e.what()});
-    ++integrity;
-  }
-
-  // The structure, then the chunks: each only when what it reads is sound
-  // (a view in a table's place could make any query hang, and an older
-  // schema has other checksums).
-  std::string not_checked;  // why the chunks were not checked
-  std::size_t structure = 0;
-  db::ChunkCheck chunks;
-  try {
-    const int version = db::check_schema_version(conn);
-    std::vector<db::Finding> tables = db::check_tables(conn, version);
-    structure += tables.size();
-    findings.insert(findings.end(), tables.begin(), tables.end());
-    if (!tables.empty()) {
-      not_checked = "the tables are not what the schema says (above), so no query reads them";
-    } else if (version < db::kSchemaVersion) {
-      not_checked = "schema version " + std::to_string(version) + " predates this HapticLab's checks (version " +
-                    std::to_string(db::kSchemaVersion) + "); a command that opens it read-write "
-                    "(`hapticlab analyze`) migrates it, then check again";
-    } else {
-      for (auto* check : {&db::check_foreign_keys, &db::check_value_types}) {
-        std::vector<db::Finding> found = (*check)(conn, 100);
-        structure += found.size();
-        findings.insert(findings.end(), found.begin(), found.end());
-      }
-      chunks = db::check_all_chunks(conn);
-      for (const db::BadChunk& c : chunks.bad)
-        findings.push_back({"chunk", "sample_chunk", std::nullopt, c.trial_id, c.instrument, db::describe(c)});
-    }
-  } catch (const db::DbError& e) {
-    not_checked = e.what();
-  }
-
-  const bool damaged = !findings.empty() || !not_checked.empty();
-  if (opt.json) {
-    nlohmann::json j;
-    j["db"] = opt.db;
-    nlohmann::json integrity_lines = nlohmann::json::array();
-    for (const db::Finding& f : findings)
-      if (f.check == "integrity") integrity_lines.push_back(f.message);
-    j["integrity_check"] = integrity_lines;  // empty: "ok"
-    j["chunks_checked"] = chunks.chunks;
-    j["updates_checked"] = chunks.updates;
-    j["migrated_chunks"] = chunks.migrated_chunks;
-    nlohmann::json bad = nlohmann::json::array();
-    for (const db::BadChunk& c : chunks.bad)
-      bad.push_back({{"trial_id", c.trial_id},
-                     {"instrument", c.instrument},
-                     {"first_tick", c.first_tick},
-                     {"count", c.count},
-                     {"kind", db::to_string(c.kind)},
-                     {"problem", c.problem}});
-    j["bad_chunks"] = bad;
-    // Every finding of every check, each naming what it concerns.
-    nlohmann::json all = nlohmann::json::array();
-    for (const db::Finding& f : findings) {
-      nlohmann::json x = {{"check", f.check}, {"message", f.message}};
-      if (!f.table.empty()) x["table"] = f.table;
-      if (f.row) x["row"] = *f.row;
-      if (f.trial_id) x["trial_id"] = *f.trial_id;
-      if (f.instrument) x["instrument"] = *f.instrument;
-      all.push_back(std::move(x));
-    }
-    j["findings"] = all;
-    if (!not_checked.empty()) j["error"] = not_checked;
-    j["ok"] = !damaged;
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
-    std::printf("%s\n", opt.db.c_str());
-    const auto list = [&](const char* title, const std::vector<std::string>& checks) {
-      std::vector<const db::Finding*> mine;
-      for (const db::Finding& f : findings)
-        for (const std::string& c : checks)
-          if (f.check == c) mine.push_back(&f);
-      if (mine.empty()) {
-        std::printf("  %s: ok\n", title);
-        return;
-      }
-      std::printf("  %s: %zu finding(s)\n", title, mine.size());
-      for (const db::Finding* f : mine) std::printf("    %s\n", f->message.c_str());
-    };
-    list("integrity_check", {"integrity"});
-    if (structure > 0 || not_checked.empty()) list("structure (tables, references, value types)", {"schema", "foreign_key", "type"});
-    if (!not_checked.empty()) {
-      std::printf("  sample chunks: not checked: %s\n", not_checked.c_str());
-    } else {
-      std::printf("  sample chunks: %llu checked, %zu damaged; %llu updates read back\n",
-                  static_cast<unsigned long long>(chunks.chunks), chunks.bad.size(),
-                  static_cast<unsigned long long>(chunks.updates));
-      if (chunks.migrated_chunks > 0)
-        std::printf("    %llu chunk(s) predate checksums: checksummed when the file was migrated, so damage "
-                    "done before that cannot be seen\n",
-                    static_cast<unsigned long long>(chunks.migrated_chunks));
-      for (const db::BadChunk& c : chunks.bad) std::printf("    damaged: %s\n", db::describe(c).c_str());
-    }
-  }
+  StudyCheckFindings c;
+  check_integrity(conn, c);
+  check_structure_and_chunks(conn, c);
+  const bool damaged = !c.findings.empty() || !c.not_checked.empty();
+  if (opt.json)
+    print_study_check_json(opt, c, damaged);
+  else
+    print_study_check_text(opt, c);
   std::fflush(stdout);
-  if (!findings.empty())
-    throw std::runtime_error(opt.db + ": damaged: " + std::to_string(integrity) + " integrity_check finding(s), " +
-                             std::to_string(structure) + " structure finding(s), " +
-                             std::to_string(chunks.bad.size()) + " damaged sample chunk(s)" +
-                             (not_checked.empty() ? "" : ", chunks not checked"));
-  if (damaged) throw std::runtime_error(opt.db + ": sample chunks not checked: " + not_checked);
+  if (!c.findings.empty())
+    throw std::runtime_error(opt.db + ": damaged: " + std::to_string(c.integrity) + " integrity_check finding(s), " +
+                             std::to_string(c.structure) + " structure finding(s), " +
+                             std::to_string(c.chunks.bad.size()) + " damaged sample chunk(s)" +
+                             (c.not_checked.empty() ? "" : ", chunks not checked"));
+  if (damaged) throw std::runtime_error(opt.db + ": sample chunks not checked: " + c.not_checked);
   if (!opt.json) std::printf("no damage found\n");
 }
 

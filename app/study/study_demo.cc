@@ -11,6 +11,7 @@
 #include "core/common/build_info.h"
 #include "analysis/study/group_design.h"
 #include "analysis/study/headline_format.h"
+#include "analysis/report/gnuplot.h"
 #include "analysis/report/report.h"
 #include "analysis/study/metrics_csv.h"
 #include "analysis/study/study_analysis.h"
@@ -120,11 +121,76 @@ sessions::SessionResult run_sittings(const fs::path& db_path, const std::string&
   return r;
 }
 
+// Where the study stands: the bar runs over every scheduled trial.
+struct DemoStanding {
+  std::vector<std::string> codes;
+  int total = 0, done_before = 0;
+};
+
+DemoStanding demo_standing(const fs::path& db_path) {
+  DemoStanding s;
+  db::OpenOptions open;
+  open.integrity = db::OpenOptions::Integrity::kQuick;
+  db::StudyDb db(db_path, open);
+  const sessions::StudyProgress progress = sessions::study_progress(db);
+  for (const auto& p : progress.participants) {
+    s.codes.push_back(p.code);
+    s.total += p.scheduled;
+    s.done_before += p.complete;
+  }
+  return s;
+}
+
+// What the demo's sessions did this run.
+struct DemoSessions {
+  int done = 0, timed_out = 0;
+  std::uint64_t updates = 0;
+  bool interrupted = false;
+};
+
+double demo_seconds_since(std::chrono::steady_clock::time_point started) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+}
+
+// Every participant's sittings on the virtual clock, with the progress bar.
+DemoSessions run_demo_sessions(const fs::path& db_path, const DemoStanding& standing, const ChosenPopulation& population,
+                               ProgressLine& line, std::chrono::steady_clock::time_point started,
+                               const InterruptFlag& interrupt) {
+  DemoSessions s;
+  s.done = standing.done_before;
+  const int total = standing.total;
+  const double run_started_s = demo_seconds_since(started);
+  for (const std::string& code : standing.codes) {
+    sessions::SessionOptions options;
+    options.participant = code;
+    options.population = population.point;
+    options.clock = ClockKind::kVirtual;
+    options.stop = &interrupt.flag();
+    options.on_progress = [&](const sessions::SessionProgress& p) {
+      if (p.phase != sessions::SessionProgress::Phase::kTrialFinished) return;
+      if (p.status == db::TrialStatus::kComplete) ++s.done;
+      else if (p.abort_reason.starts_with("time limit")) ++s.timed_out;
+      const int finished_here = s.done - standing.done_before;
+      std::optional<double> eta;
+      if (finished_here > 0)
+        eta = (demo_seconds_since(started) - run_started_s) / finished_here * (total - s.done - s.timed_out);
+      line.update(static_cast<double>(s.done + s.timed_out) / total,
+                  "2. sessions: " + code + " " + p.task + " trial " + std::to_string(p.trial_number) + "/" +
+                      std::to_string(p.trial_count),
+                  demo_seconds_since(started), eta);
+    };
+    const sessions::SessionResult r = run_sittings(db_path, code, options, s.updates);
+    if (r.stopped_by_operator) {
+      s.interrupted = true;
+      return s;
+    }
+    if (r.device_fault) throw std::runtime_error(code + ": " + r.device_fault_reason);
+  }
+  return s;
+}
+
 int run(const DemoOptions& opt) {
   const auto started = std::chrono::steady_clock::now();
-  auto elapsed_s = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  };
   const fs::path out(opt.out);
   fs::create_directories(out);
   const fs::path protocol = opt.protocol.empty()
@@ -138,66 +204,27 @@ int run(const DemoOptions& opt) {
   line.print("HapticLab demo: the thesis study (" + protocol.string() +
              ") on the simulated rig, virtual clock; simulated surgeons from the " + population.describe);
   create_or_resume(db_path, protocol, line);
-
-  // Where the study stands: the bar runs over every scheduled trial.
-  std::vector<std::string> codes;
-  int total = 0, done_before = 0;
-  {
-    db::OpenOptions open;
-    open.integrity = db::OpenOptions::Integrity::kQuick;
-    db::StudyDb db(db_path, open);
-    const sessions::StudyProgress progress = sessions::study_progress(db);
-    for (const auto& p : progress.participants) {
-      codes.push_back(p.code);
-      total += p.scheduled;
-      done_before += p.complete;
-    }
-  }
-  if (done_before > 0) line.print("   " + std::to_string(done_before) + " of " + std::to_string(total) +
-                                  " trials already complete; continuing");
+  const DemoStanding standing = demo_standing(db_path);
+  if (standing.done_before > 0) line.print("   " + std::to_string(standing.done_before) + " of " +
+                                           std::to_string(standing.total) + " trials already complete; continuing");
 
   InterruptFlag interrupt;
-  int done = done_before;
-  int timed_out = 0;
-  std::uint64_t updates = 0;
-  const double run_started_s = elapsed_s();
-  for (const std::string& code : codes) {
-    sessions::SessionOptions options;
-    options.participant = code;
-    options.population = population.point;
-    options.clock = ClockKind::kVirtual;
-    options.stop = &interrupt.flag();
-    options.on_progress = [&](const sessions::SessionProgress& p) {
-      if (p.phase != sessions::SessionProgress::Phase::kTrialFinished) return;
-      if (p.status == db::TrialStatus::kComplete) ++done;
-      else if (p.abort_reason.starts_with("time limit")) ++timed_out;
-      const int finished_here = done - done_before;
-      std::optional<double> eta;
-      if (finished_here > 0) eta = (elapsed_s() - run_started_s) / finished_here * (total - done - timed_out);
-      line.update(static_cast<double>(done + timed_out) / total,
-                  "2. sessions: " + code + " " + p.task + " trial " + std::to_string(p.trial_number) + "/" +
-                      std::to_string(p.trial_count),
-                  elapsed_s(), eta);
-    };
-    const sessions::SessionResult r = run_sittings(db_path, code, options, updates);
-    if (r.stopped_by_operator) {
-      line.finish();
-      std::fprintf(stderr, "hapticlab demo: interrupted; %d of %d trials are safely stored in %s. Run the same "
-                           "command again to resume.\n", done, total, db_path.c_str());
-      return 130;
-    }
-    if (r.device_fault) throw std::runtime_error(code + ": " + r.device_fault_reason);
-  }
+  const DemoSessions s = run_demo_sessions(db_path, standing, population, line, started, interrupt);
   line.finish();
+  if (s.interrupted) {
+    std::fprintf(stderr, "hapticlab demo: interrupted; %d of %d trials are safely stored in %s. Run the same "
+                         "command again to resume.\n", s.done, standing.total, db_path.c_str());
+    return 130;
+  }
   char text[256];
   std::snprintf(text, sizeof text, "2. Sessions done: %d of %d trials complete%s, %.1f million loop updates logged "
                 "this run, database %.0f MB",
-                done, total, timed_out > 0 ? (", " + std::to_string(timed_out) + " timed out").c_str() : "",
-                static_cast<double>(updates) / 1e6, static_cast<double>(fs::file_size(db_path)) / 1e6);
+                s.done, standing.total, s.timed_out > 0 ? (", " + std::to_string(s.timed_out) + " timed out").c_str() : "",
+                static_cast<double>(s.updates) / 1e6, static_cast<double>(fs::file_size(db_path)) / 1e6);
   line.print(text);
 
   analyse_and_report(db_path, out, opt.plots, line);
-  std::printf("Done in %s.\n", format_duration(elapsed_s()).c_str());
+  std::printf("Done in %s.\n", format_duration(demo_seconds_since(started)).c_str());
   return 0;
 }
 

@@ -142,5 +142,38 @@ TEST_F(PlanCalibrateTest, BadInputIsNamed) {
   EXPECT_THAT(out, HasSubstr("--participants"));
 }
 
+// The protocol checks of plan calibrate without the CLI: the control and
+// the setting that displays no force found by what it does (the second
+// setting here, whatever its name), and a protocol without one refused.
+TEST_F(PlanCalibrateTest, TheProtocolCheckFindsTheControlAndTheSettingWithoutForce) {
+  const auto path = protocol("c.json", "no_force_feedback.json").string();
+  const CalibrationSettings found =
+      check_calibration_protocol(protocols::load_protocol_file(path), path, 12, 3, SimulatedStudyOptions{});
+  EXPECT_EQ(found.control, "High Fidelity");
+  EXPECT_EQ(found.no_feedback, "No Force Feedback");
+  const auto friction = protocol("f.json", "friction.json").string();
+  try {
+    (void)check_calibration_protocol(protocols::load_protocol_file(friction), friction, 12, 3, SimulatedStudyOptions{});
+    FAIL() << "a protocol without a setting that displays no force was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr(friction + ": no setting displays no force"));
+  }
+}
+
+TEST(CalibrationCsvTest, OneLinePerEffectWithItsMeasuredRatio) {
+  MeasuredEffect e;
+  e.effect = published_effects().front();
+  e.participants = 7;
+  e.median = 1.25;
+  e.q1 = 1.0;
+  e.q3 = 1.5;
+  e.share_above_one = 0.75;
+  e.consistent = false;
+  const std::string csv = calibration_csv({e});
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 2);
+  EXPECT_THAT(csv, HasSubstr("\n" + e.effect.id + "," + e.effect.task + ","));
+  EXPECT_THAT(csv, HasSubstr(",7,1.25,1,1.5,0.75,no\n"));
+}
+
 }  // namespace
 }  // namespace hapticlab::planning

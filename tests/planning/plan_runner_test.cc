@@ -128,5 +128,28 @@ TEST_F(PlanRunnerTest, WithTheModelsUncertaintyEachGroupDrawsItsPopulation) {
   EXPECT_NE(draw_of_group(draw_group(0), 2), draw_of_group(draw_group(10), 2)) << "both studies took one draw";
 }
 
+// What a resumed run of a shard has left: its studies not in the store,
+// in order; and the threads for them.
+TEST_F(PlanRunnerTest, AResumedShardDoesItsStudiesNotYetStoredOnAtMostOneThreadEach) {
+  PlanInputs shard = inputs();  // 2 participants x 20 studies
+  shard.shard = 1;
+  shard.shards = 3;             // studies 1, 4, 7, ... of the plan
+  PowerStore store(dir_ / "shard.db", shard, protocol_);
+  PlanRunOptions o;
+  o.seed = 3;
+  o.sim = sim_;
+  ASSERT_EQ(run_plan_studies(protocol_, {{2, 1}, {2, 7}}, store, o).stored, 2u);
+  const PlanWork w = plan_work(shard, store);
+  EXPECT_EQ(w.total, 7u);
+  EXPECT_EQ(w.already, 2u);
+  const std::vector<std::pair<int, int>> left = {{2, 4}, {2, 10}, {2, 13}, {2, 16}, {2, 19}};
+  EXPECT_EQ(w.todo, left);
+  EXPECT_EQ(plan_jobs(3, 10), 3u);
+  EXPECT_EQ(plan_jobs(8, 2), 2u);
+  EXPECT_EQ(plan_jobs(8, 0), 1u);
+  EXPECT_GE(plan_jobs(0, 1000), 2u);
+  EXPECT_EQ(plan_jobs(0, 1000) % 2, 0u);
+}
+
 }  // namespace
 }  // namespace hapticlab::planning

@@ -1,0 +1,14 @@
+#pragma once
+// The output folder of a plan command (plan power, merge, calibrate), made
+// and proven writable before anything is simulated: a folder that cannot
+// take the results is found in a second, not after the whole simulation.
+#include <filesystem>
+
+namespace hapticlab::planning {
+
+// Makes `out` (and its parents) and writes and removes a probe file in it.
+// Throws std::runtime_error naming --out, the folder and the cause ("...;
+// nothing was simulated").
+void prepare_plan_folder(const std::filesystem::path& out);
+
+}  // namespace hapticlab::planning
