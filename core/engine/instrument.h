@@ -84,6 +84,24 @@ class Instrument {
 
  private:
   void resync(const JointVector& q) noexcept;
+  // The stages of step(), always inlined: the step is the engine's hot path
+  // and the compiler must see it as one body (a call each would cost).
+  // dt policy: sets `dt_s` to the time this update advances and returns the
+  // number of sub-steps it takes (resyncing at the measured position when
+  // the update must not be integrated).
+  [[gnu::always_inline]] int plan_time(const InstrumentInput& in, const Eigen::Vector3d& ve, double& dt_s,
+                                       InstrumentOutput& out) noexcept;
+  // The per-DOF chains, sub-stepped along the straight line from the last
+  // position to the measured one: the joint commands, and the degraded
+  // position into `degraded`.
+  [[gnu::always_inline]] JointVector step_chains(const InstrumentInput& in, const JointVector& ve_joint, double dt_s,
+                                                 int substeps, ButterworthCache& filters,
+                                                 JointVector& degraded) noexcept;
+  // The degraded joints, delayed/held, as the VE sees them: the degraded
+  // position, tip and the display offsets from the measured `pose`.
+  [[gnu::always_inline]] void show_degraded(const InstrumentInput& in, const JointVector& degraded,
+                                            const ToolPose& pose, const SinCos& pitch, const SinCos& yaw,
+                                            InstrumentOutput& out) noexcept;
   // Device limit per axis, then the displayed tip force those limited
   // commands make (eq. 2.19). False, and `out` untouched, if a command is
   // not finite. Always inlined (4 % of an update as a call).
