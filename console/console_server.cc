@@ -239,15 +239,13 @@ class Console {
 
  private:
   static ConsoleTuningConfig tuning_config(const ConsoleConfig& config, const sessions::StudyProgress& at_start) {
-    ConsoleTuningConfig tuning_config;
-    tuning_config.device = config.session.device;
-    tuning_config.realtime = config.session.realtime;
-    tuning_config.clock = ClockKind::kWall;  // a free trial is felt (or watched) as it happens
-    tuning_config.force_limits =
-        protocols::safety_from_protocol_text(at_start.study.protocol_json, config.session.db.string());
-    tuning_config.out_dir =
-        config.session.db.parent_path() / (config.session.db.stem().string() + "-console-tuning");
-    return tuning_config;
+    ConsoleTuningConfig c;
+    c.device = config.session.device;
+    c.realtime = config.session.realtime;
+    c.clock = ClockKind::kWall;  // a free trial is felt (or watched) as it happens
+    c.force_limits = protocols::safety_from_protocol_text(at_start.study.protocol_json, config.session.db.string());
+    c.out_dir = config.session.db.parent_path() / (config.session.db.stem().string() + "-console-tuning");
+    return c;
   }
 
   // --- who may: the token, in its header; for a GET a browser must name by
@@ -427,12 +425,14 @@ class Console {
       if (start == nullptr)
         throw std::invalid_argument("from: '" + from + "' is not a setting of the study (" + names + ")");
       std::lock_guard lock(device_mutex_);
-      if (session_.running()) throw ConsoleConflict("a session is running; the Tuning page is for pilot work outside one");
+      if (session_.running())
+        throw ConsoleConflict("a session is running; the Tuning page is for pilot work outside one");
       tuning_.start(task, *start);
     });
     tuning_control(op, "/api/tuning/stop", [this](const nlohmann::json&) { tuning_.stop(); });
     tuning_control(op, "/api/tuning/set", [this](const nlohmann::json& body) {
-      if (!body.contains("value")) throw std::invalid_argument("value: missing (a number, or true/false for \"enabled\")");
+      if (!body.contains("value"))
+        throw std::invalid_argument("value: missing (a number, or true/false for \"enabled\")");
       tuning_.set(text_field(body, "field", 200), body["value"]);
     });
     tuning_control(op, "/api/tuning/save",
@@ -463,7 +463,8 @@ class Console {
     });
     control(op, "/api/results/analyze",
             [this](const nlohmann::json& body) { results_.start(bool_field(body, "plots", true)); });
-    control(op, "/api/session/note", [this](const nlohmann::json& body) { session_.note(text_field(body, "text", 2000)); });
+    control(op, "/api/session/note",
+            [this](const nlohmann::json& body) { session_.note(text_field(body, "text", 2000)); });
   }
 
   nlohmann::json tuning_view() const {
@@ -508,8 +509,8 @@ ConsoleOutcome serve_console(const ConsoleConfig& config, const std::atomic<bool
   Console console(config);
   http::Server server(server_config());
   console.add_streams(server);
-  const int port = server.add_site(
-      {"operator", config.bind_address, config.port, console.operator_routes(), kOperatorConnections, kOperatorStreams});
+  const int port = server.add_site({"operator", config.bind_address, config.port, console.operator_routes(),
+                                    kOperatorConnections, kOperatorStreams});
   const int participant_port = server.add_site({"participant", config.bind_address, config.participant_port,
                                                 console.participant_routes(), kParticipantConnections,
                                                 kParticipantStreams});
