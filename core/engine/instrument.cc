@@ -62,12 +62,12 @@ void Instrument::resync(const JointVector& q) noexcept {
   last_position_ = q;
 }
 
-inline int Instrument::plan_time(const InstrumentInput& in, const Eigen::Vector3d& ve, double& dt,
-                                 InstrumentOutput& out) noexcept {
+inline Instrument::TimePlan Instrument::plan_time(const InstrumentInput& in, const Eigen::Vector3d& ve,
+                                                  InstrumentOutput& out) noexcept {
   // A dt below 1/2000 s (or <= 0) advances no time: it is carried into the
   // next update, because a position difference over a microsecond would be
   // a velocity spike.
-  dt = (in.dt_s > 0.0 ? in.dt_s : 0.0) + deferred_dt_s_;
+  double dt = (in.dt_s > 0.0 ? in.dt_s : 0.0) + deferred_dt_s_;
   deferred_dt_s_ = 0.0;
   int substeps = 1;
   if (dt < kMinDt_s) {
@@ -93,29 +93,7 @@ inline int Instrument::plan_time(const InstrumentInput& in, const Eigen::Vector3
     substeps = 1;
     dt = 0.0;
   }
-  return substeps;
-}
-
-inline JointVector Instrument::step_chains(const InstrumentInput& in, const JointVector& ve_joint, double dt,
-                                           int substeps, ButterworthCache& filters, JointVector& degraded) noexcept {
-  const double sub_dt = dt / substeps;
-  const ButterworthCoefficients filter = sub_dt > 0.0 ? filters.at(sub_dt) : ButterworthCoefficients{};
-  JointVector command = JointVector::Zero();
-  for (int i = 1; i <= substeps; ++i) {
-    const double w = static_cast<double>(i) / substeps;
-    for (int a = 0; a < kNumAxes; ++a) {
-      // The last sub-step lands exactly on the measured position.
-      const double x = i == substeps ? in.position[a]
-                                     : (1.0 - w) * last_position_[a] + w * in.position[a];
-      const DofOutput d =
-          chains_[a].step(settings_.axis(a), terms_[a == kInsertion ? 0 : 1], x, ve_joint[a], sub_dt, filter);
-      command[a] = d.force;
-      degraded[a] = d.position;
-      last_dof_[static_cast<std::size_t>(a)] = d;
-    }
-  }
-  if (dt > 0.0) last_position_ = in.position;  // a deferred update keeps the start point
-  return command;
+  return {dt, substeps};
 }
 
 inline void Instrument::show_degraded(const InstrumentInput& in, const JointVector& degraded, const ToolPose& pose,
@@ -169,12 +147,30 @@ InstrumentOutput Instrument::step(const InstrumentInput& in, ButterworthCache& f
   }
 
   // dt policy: how many sub-steps of which length
-  double dt = 0.0;
-  const int substeps = plan_time(in, ve, dt, out);
+  const TimePlan plan = plan_time(in, ve, out);
+  const double dt = plan.dt_s;
+  const int substeps = plan.substeps;
 
-  // per DOF chains => joint commands and the degraded position
+  // per DOF chains, sub-stepped along the straight line from the last position
+  const double sub_dt = dt / substeps;
+  const ButterworthCoefficients filter = sub_dt > 0.0 ? filters.at(sub_dt) : ButterworthCoefficients{};
+  JointVector command = JointVector::Zero();
   JointVector degraded = in.position;
-  const JointVector command = step_chains(in, ve_joint, dt, substeps, filters, degraded);
+  for (int i = 1; i <= substeps; ++i) {
+    const double w = static_cast<double>(i) / substeps;
+    for (int a = 0; a < kNumAxes; ++a) {
+      // The last sub-step lands exactly on the measured position.
+      const double x = i == substeps ? in.position[a]
+                                     : (1.0 - w) * last_position_[a] + w * in.position[a];
+      const DofOutput d =
+          chains_[a].step(settings_.axis(a), terms_[a == kInsertion ? 0 : 1], x, ve_joint[a], sub_dt, filter);
+      command[a] = d.force;
+      degraded[a] = d.position;
+      last_dof_[static_cast<std::size_t>(a)] = d;
+    }
+  }
+  if (dt > 0.0) last_position_ = in.position;  // a deferred update keeps the start point
+
   const bool commands_finite = finish_forces(command, out);
 
   // degraded joints => delayed/held => VE, with display offsets

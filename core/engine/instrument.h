@@ -86,17 +86,15 @@ class Instrument {
   void resync(const JointVector& q) noexcept;
   // The stages of step(), always inlined: the step is the engine's hot path
   // and the compiler must see it as one body (a call each would cost).
-  // dt policy: sets `dt_s` to the time this update advances and returns the
-  // number of sub-steps it takes (resyncing at the measured position when
-  // the update must not be integrated).
-  [[gnu::always_inline]] int plan_time(const InstrumentInput& in, const Eigen::Vector3d& ve, double& dt_s,
-                                       InstrumentOutput& out) noexcept;
-  // The per-DOF chains, sub-stepped along the straight line from the last
-  // position to the measured one: the joint commands, and the degraded
-  // position into `degraded`.
-  [[gnu::always_inline]] JointVector step_chains(const InstrumentInput& in, const JointVector& ve_joint, double dt_s,
-                                                 int substeps, ButterworthCache& filters,
-                                                 JointVector& degraded) noexcept;
+  // dt policy: the time this update advances and in how many sub-steps
+  // (resyncing at the measured position when the update must not be
+  // integrated).
+  struct TimePlan {
+    double dt_s = 0.0;
+    int substeps = 1;
+  };
+  [[gnu::always_inline]] TimePlan plan_time(const InstrumentInput& in, const Eigen::Vector3d& ve,
+                                            InstrumentOutput& out) noexcept;
   // The degraded joints, delayed/held, as the VE sees them: the degraded
   // position, tip and the display offsets from the measured `pose`.
   [[gnu::always_inline]] void show_degraded(const InstrumentInput& in, const JointVector& degraded,
