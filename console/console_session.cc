@@ -225,6 +225,58 @@ void ConsoleSession::abort_trial(const std::string& reason, std::optional<std::i
 
 void ConsoleSession::note(const std::string& text) { actions_.record(action_row("note", "operator_note", text)); }
 
+bool ConsoleSession::hold_before_trial() {
+  if (paused_.load()) {
+    std::unique_lock lock(mutex_);
+    // A rest asked for during training (no trial ended since) starts now.
+    if (rest_after_trial_s_) {
+      rest_until_wall_s_ = wall_now_s() + *rest_after_trial_s_;
+      rest_after_trial_s_.reset();
+    }
+    const std::optional<double> left = rest_left_s();
+    if (!left || *left > 0.0) return true;
+    // The rest is over: the session goes on by itself (in step mode too,
+    // as docs/console.md says: the next trial needs no "next"), stored as
+    // a resume.
+    rest_until_wall_s_.reset();
+    paused_.store(false);
+    if (step_.load() && allowed_trials_.load() <= started_trials_.load())
+      allowed_trials_.store(started_trials_.load() + 1);
+    db::OperatorActionRow row;
+    row.session_id = session_id_;
+    row.type = "operator_resume";
+    row.detail = "rest over";
+    lock.unlock();
+    try {
+      actions_.record(row);
+    } catch (const std::exception& e) {
+      std::lock_guard again(mutex_);
+      error_ = std::string("the end of a rest could not be stored: ") + e.what();
+    }
+  }
+  const bool wait = step_.load() && allowed_trials_.load() <= started_trials_.load();
+  std::lock_guard lock(mutex_);
+  waiting_for_next_ = wait;
+  return wait;
+}
+
+void ConsoleSession::on_progress(const sessions::SessionProgress& p) {
+  std::lock_guard lock(mutex_);
+  waiting_for_next_ = false;
+  if (p.phase == sessions::SessionProgress::Phase::kTrialStarted) {
+    started_trials_.fetch_add(1);
+    trial_started_wall_s_ = wall_now_s();
+    live_.clear();
+    loop_status_.reset();
+  }
+  if (p.phase == sessions::SessionProgress::Phase::kTrialFinished) {
+    last_finished_ = p;
+    if (rest_after_trial_s_) rest_until_wall_s_ = wall_now_s() + *rest_after_trial_s_;
+    rest_after_trial_s_.reset();
+  }
+  progress_ = p;
+}
+
 void ConsoleSession::run(std::string participant) {
   sessions::SessionOptions options;
   options.participant = participant;
@@ -244,61 +296,13 @@ void ConsoleSession::run(std::string participant) {
     }
     opened_.notify_all();
   };
-  options.hold_before_trial = [this] {
-    if (paused_.load()) {
-      std::unique_lock lock(mutex_);
-      // A rest asked for during training (no trial ended since) starts now.
-      if (rest_after_trial_s_) {
-        rest_until_wall_s_ = wall_now_s() + *rest_after_trial_s_;
-        rest_after_trial_s_.reset();
-      }
-      const std::optional<double> left = rest_left_s();
-      if (!left || *left > 0.0) return true;
-      // The rest is over: the session goes on by itself (in step mode too,
-      // as docs/console.md says: the next trial needs no "next"), stored as
-      // a resume.
-      rest_until_wall_s_.reset();
-      paused_.store(false);
-      if (step_.load() && allowed_trials_.load() <= started_trials_.load())
-        allowed_trials_.store(started_trials_.load() + 1);
-      db::OperatorActionRow row;
-      row.session_id = session_id_;
-      row.type = "operator_resume";
-      row.detail = "rest over";
-      lock.unlock();
-      try {
-        actions_.record(row);
-      } catch (const std::exception& e) {
-        std::lock_guard again(mutex_);
-        error_ = std::string("the end of a rest could not be stored: ") + e.what();
-      }
-    }
-    const bool wait = step_.load() && allowed_trials_.load() <= started_trials_.load();
-    std::lock_guard lock(mutex_);
-    waiting_for_next_ = wait;
-    return wait;
-  };
+  options.hold_before_trial = [this] { return hold_before_trial(); };
   options.take_operator_events = [this](std::vector<sessions::OperatorEvent>& out) {
     std::lock_guard lock(mutex_);
     out.insert(out.end(), pending_actions_.begin(), pending_actions_.end());
     pending_actions_.clear();
   };
-  options.on_progress = [this](const sessions::SessionProgress& p) {
-    std::lock_guard lock(mutex_);
-    waiting_for_next_ = false;
-    if (p.phase == sessions::SessionProgress::Phase::kTrialStarted) {
-      started_trials_.fetch_add(1);
-      trial_started_wall_s_ = wall_now_s();
-      live_.clear();
-      loop_status_.reset();
-    }
-    if (p.phase == sessions::SessionProgress::Phase::kTrialFinished) {
-      last_finished_ = p;
-      if (rest_after_trial_s_) rest_until_wall_s_ = wall_now_s() + *rest_after_trial_s_;
-      rest_after_trial_s_.reset();
-    }
-    progress_ = p;
-  };
+  options.on_progress = [this](const sessions::SessionProgress& p) { on_progress(p); };
   options.on_loop_status = [this](const sessions::LoopStatus& status) {
     std::lock_guard lock(mutex_);
     loop_status_ = status;

@@ -105,6 +105,12 @@ class ConsoleSession {
 
  private:
   void run(std::string participant);
+  // The session runner's hooks (on its thread). Whether the next trial must
+  // wait: a rest or step mode holds it; a rest that is over resumes the
+  // session, stored as the operator's resume.
+  bool hold_before_trial();
+  // What the runner reports as trials start and end.
+  void on_progress(const sessions::SessionProgress& p);
   // The record of an action now: the session, the running trial and its
   // loop time. Throws ConsoleConflict when no session runs (naming
   // `action`); waits (a few seconds at most) for a session that is starting

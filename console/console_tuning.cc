@@ -171,6 +171,30 @@ std::string ConsoleTuning::save(const std::string& name) {
   return file;
 }
 
+bool ConsoleTuning::poll_free_trial(SimRig& rig, int repetition, int& polls, bool& alerted) {
+  HapticLoop& loop = rig.loop();
+  if (!alerted && loop.watchdog_tripped()) {
+    // At once, as a session's runner does: the loop is halted, and a
+    // call that does not return is given up on after the grace.
+    alerted = true;
+    const DeviceCall call = loop.watchdog_call();
+    char limit[32];
+    std::snprintf(limit, sizeof limit, "%.0f ms", 1e3 * loop.watchdog_limit_s());
+    device_.alert((call != DeviceCall::kNone
+                       ? "device " + std::string(to_string(call)) + "() has not returned for " + limit
+                       : "the haptic loop has completed no update for " + std::string(limit)) +
+                  " in free trial " + std::to_string(repetition) + "; the watchdog halted the device (zero force)");
+  }
+  std::lock_guard lock(mutex_);
+  if (changed_) {
+    rig.engine().set_settings(engine_);  // taken by the loop at its next update
+    changed_ = false;
+    applied_t_s_ = rig.loop().elapsed_s();
+  }
+  if (++polls % 500 == 0) last_timing_ = rig.loop().timing();  // ~100 µs: about every 0.1 s
+  return !stop_.load();
+}
+
 void ConsoleTuning::run(TaskKind task) {
   std::string error;
   try {
@@ -209,27 +233,7 @@ void ConsoleTuning::run(TaskKind task) {
       }
       sink.device_hang_grace_s = config_.device_hang_grace_s;
       sink.between_drains = [this, &polls, &alerted, repetition](SimRig& rig) {
-        HapticLoop& loop = rig.loop();
-        if (!alerted && loop.watchdog_tripped()) {
-          // At once, as a session's runner does: the loop is halted, and a
-          // call that does not return is given up on after the grace.
-          alerted = true;
-          const DeviceCall call = loop.watchdog_call();
-          char limit[32];
-          std::snprintf(limit, sizeof limit, "%.0f ms", 1e3 * loop.watchdog_limit_s());
-          device_.alert((call != DeviceCall::kNone
-                             ? "device " + std::string(to_string(call)) + "() has not returned for " + limit
-                             : "the haptic loop has completed no update for " + std::string(limit)) +
-                        " in free trial " + std::to_string(repetition) + "; the watchdog halted the device (zero force)");
-        }
-        std::lock_guard lock(mutex_);
-        if (changed_) {
-          rig.engine().set_settings(engine_);  // taken by the loop at its next update
-          changed_ = false;
-          applied_t_s_ = rig.loop().elapsed_s();
-        }
-        if (++polls % 500 == 0) last_timing_ = rig.loop().timing();  // ~100 µs: about every 0.1 s
-        return !stop_.load();
+        return poll_free_trial(rig, repetition, polls, alerted);
       };
       const SimTrialResult r = run_sim_trial(c, sink);
       if (r.device_hung) {

@@ -89,6 +89,10 @@ class ConsoleTuning {
 
  private:
   void run(TaskKind task);
+  // Between the loop's drains of free trial `repetition` (on the trial's
+  // thread): says a watchdog trip at once, hands the loop the operator's
+  // changes, keeps the timing; false when the operator stopped.
+  bool poll_free_trial(SimRig& rig, int repetition, int& polls, bool& alerted);
   void append_log(const std::string& field, const std::string& from, const std::string& to);  // holds mutex_
 
   const ConsoleTuningConfig config_;

@@ -152,12 +152,8 @@ void validate_design(const Protocol& p, const std::set<std::string>& codes, cons
   }
 }
 
-}  // namespace
-
-void validate_protocol(const Protocol& p, const std::string& source) {
-  if (p.study.empty()) throw ProtocolError(source, "study", "is empty, but must name the study");
-
-  // tasks and their repetitions
+// The study's tasks: known to its VE, listed once, each with its repetitions.
+void validate_tasks(const Protocol& p, const std::string& source) {
   if (p.tasks.empty()) {
     throw ProtocolError(source, "tasks",
                         p.ve == Ve::kSimulated ? "is empty, but must list at least one of \"dissection\", \"clip\""
@@ -180,8 +176,10 @@ void validate_protocol(const Protocol& p, const std::string& source) {
                               std::to_string(kMaxRepetitions) + " (repetitions of every setting)");
     }
   }
+}
 
-  // settings: named, names unique (designs refer to settings by name)
+// The settings: named, names unique (designs refer to settings by name).
+void validate_setting_names(const Protocol& p, const std::string& source) {
   for (std::size_t i = 0; i < p.settings.size(); ++i) {
     const std::string& name = p.settings[i].settings.name;
     if (name.empty()) {
@@ -205,6 +203,50 @@ void validate_protocol(const Protocol& p, const std::string& source) {
       }
     }
   }
+}
+
+// One participant: a new valid code, some of the study's tasks, training.
+void validate_participant(const Protocol& p, std::size_t i, std::set<std::string>& codes,
+                          const std::string& source) {
+  const ParticipantSpec& ps = p.participants[i];
+  const std::string path = index_path("participants", i);
+  if (auto problem = participant_code_problem(ps.code)) {
+    throw ProtocolError(source, path + ".code", "is " + in_quotes(ps.code) + ", which " + *problem);
+  }
+  if (!codes.insert(ps.code).second) {
+    throw ProtocolError(source, path + ".code",
+                        "is " + in_quotes(ps.code) + ", which is already used; codes must be unique");
+  }
+  if (ps.tasks.empty()) {
+    throw ProtocolError(source, path + ".tasks", "is empty, but must list at least one of the study's tasks");
+  }
+  for (std::size_t t = 0; t < ps.tasks.size(); ++t) {
+    bool in_study = false;
+    for (const Task& st : p.tasks) in_study = in_study || st == ps.tasks[t];
+    if (!in_study) {
+      throw ProtocolError(source, index_path(path + ".tasks", t),
+                          "is " + in_quotes(task_name(ps.tasks[t])) + ", which is not one of the study's tasks");
+    }
+    for (std::size_t u = 0; u < t; ++u) {
+      if (ps.tasks[u] == ps.tasks[t]) {
+        throw ProtocolError(source, index_path(path + ".tasks", t),
+                            "is " + in_quotes(task_name(ps.tasks[t])) + ", which is already listed");
+      }
+    }
+  }
+  if (ps.training_trials < 0 || ps.training_trials > kMaxTrainingTrials) {
+    throw ProtocolError(source, path + ".training_trials",
+                        "is " + std::to_string(ps.training_trials) + ", but must be >= 0 and <= " +
+                            std::to_string(kMaxTrainingTrials));
+  }
+}
+
+}  // namespace
+
+void validate_protocol(const Protocol& p, const std::string& source) {
+  if (p.study.empty()) throw ProtocolError(source, "study", "is empty, but must name the study");
+  validate_tasks(p, source);
+  validate_setting_names(p, source);
   if (p.settings.size() < (p.staircase ? 1u : 2u)) {
     throw ProtocolError(source, "settings",
                         "has " + std::to_string(p.settings.size()) + " setting(s), but must have at least 2");
@@ -224,39 +266,7 @@ void validate_protocol(const Protocol& p, const std::string& source) {
     throw ProtocolError(source, "participants", "is empty, but must list at least one participant code");
   }
   std::set<std::string> codes;
-  for (std::size_t i = 0; i < p.participants.size(); ++i) {
-    const ParticipantSpec& ps = p.participants[i];
-    const std::string path = index_path("participants", i);
-    if (auto problem = participant_code_problem(ps.code)) {
-      throw ProtocolError(source, path + ".code", "is " + in_quotes(ps.code) + ", which " + *problem);
-    }
-    if (!codes.insert(ps.code).second) {
-      throw ProtocolError(source, path + ".code",
-                          "is " + in_quotes(ps.code) + ", which is already used; codes must be unique");
-    }
-    if (ps.tasks.empty()) {
-      throw ProtocolError(source, path + ".tasks", "is empty, but must list at least one of the study's tasks");
-    }
-    for (std::size_t t = 0; t < ps.tasks.size(); ++t) {
-      bool in_study = false;
-      for (const Task& st : p.tasks) in_study = in_study || st == ps.tasks[t];
-      if (!in_study) {
-        throw ProtocolError(source, index_path(path + ".tasks", t),
-                            "is " + in_quotes(task_name(ps.tasks[t])) + ", which is not one of the study's tasks");
-      }
-      for (std::size_t u = 0; u < t; ++u) {
-        if (ps.tasks[u] == ps.tasks[t]) {
-          throw ProtocolError(source, index_path(path + ".tasks", t),
-                              "is " + in_quotes(task_name(ps.tasks[t])) + ", which is already listed");
-        }
-      }
-    }
-    if (ps.training_trials < 0 || ps.training_trials > kMaxTrainingTrials) {
-      throw ProtocolError(source, path + ".training_trials",
-                          "is " + std::to_string(ps.training_trials) + ", but must be >= 0 and <= " +
-                              std::to_string(kMaxTrainingTrials));
-    }
-  }
+  for (std::size_t i = 0; i < p.participants.size(); ++i) validate_participant(p, i, codes, source);
 
   // A between-group design has its own rules and no within-participant design.
   if (p.transfer) {

@@ -59,15 +59,9 @@ std::timespec to_timespec(Steady::duration d) noexcept {
 
 std::string format_ms(double ms) { return std::to_string(static_cast<long long>(std::llround(ms))); }
 
-}  // namespace
-
-void set_plugin_host_executable(const std::string& path) { registered_host() = path; }
-const std::string& plugin_host_executable() noexcept { return registered_host(); }
-
-IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, const std::string& path,
-                                           const std::map<std::string, std::string>& options, const Bounds& bounds)
-    : path_(path), bounds_(bounds) {
-  // The request for create: path, then key and value of each option.
+// The request for create: path, then key and value of each option, each
+// ended by a NUL.
+std::string create_request(const std::string& path, const std::map<std::string, std::string>& options) {
   std::string request = path;
   request.push_back('\0');
   for (const auto& [key, value] : options) {
@@ -80,6 +74,52 @@ IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, c
     throw std::invalid_argument("plugin " + path + ": its path and options take " + std::to_string(request.size()) +
                                 " bytes; at most " + std::to_string(kPluginChannelTextBytes - 1) +
                                 " can be passed to an isolated plugin");
+  return request;
+}
+
+// Starts the host process with the channel `memfd` as its
+// kPluginHostChannelFd; returns posix_spawn's error (0: started, its id in
+// `pid`).
+int spawn_host(const std::string& host_executable, int memfd, pid_t& pid) {
+  const std::string fd_text = std::to_string(kPluginHostChannelFd), parent_text = std::to_string(::getpid());
+  // argv[0] "hapticlab": `ps` shows what it is, not /proc/self/exe.
+  const char* argv[] = {"hapticlab", "device", "plugin-host", "--channel-fd", fd_text.c_str(),
+                        "--parent-pid", parent_text.c_str(), nullptr};
+  posix_spawn_file_actions_t files;
+  posix_spawnattr_t attr;
+  ::posix_spawn_file_actions_init(&files);
+  ::posix_spawnattr_init(&attr);
+  // stdin stays with the operator; stdout and stderr are shared, so what a
+  // plugin prints reaches the terminal as before.
+  ::posix_spawn_file_actions_addopen(&files, 0, "/dev/null", O_RDONLY, 0);
+  ::posix_spawn_file_actions_adddup2(&files, memfd, kPluginHostChannelFd);
+  // A process group of its own: Ctrl-C at the terminal is the session's to
+  // handle (it stops the trial with zero force), not a crash of the plugin.
+  sigset_t none, all;
+  sigemptyset(&none);
+  sigfillset(&all);
+  sigdelset(&all, SIGKILL);
+  sigdelset(&all, SIGSTOP);
+  ::posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  ::posix_spawnattr_setpgroup(&attr, 0);
+  ::posix_spawnattr_setsigmask(&attr, &none);
+  ::posix_spawnattr_setsigdefault(&attr, &all);
+  const int spawned = ::posix_spawn(&pid, host_executable.c_str(), &files, &attr, const_cast<char* const*>(argv),
+                                    environ);
+  ::posix_spawn_file_actions_destroy(&files);
+  ::posix_spawnattr_destroy(&attr);
+  return spawned;
+}
+
+}  // namespace
+
+void set_plugin_host_executable(const std::string& path) { registered_host() = path; }
+const std::string& plugin_host_executable() noexcept { return registered_host(); }
+
+IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, const std::string& path,
+                                           const std::map<std::string, std::string>& options, const Bounds& bounds)
+    : path_(path), bounds_(bounds) {
+  const std::string request = create_request(path, options);
 
   // The channel.
   memfd_ = ::memfd_create("hapticlab-plugin-channel", MFD_CLOEXEC);
@@ -103,33 +143,7 @@ IsolatedPluginDevice::IsolatedPluginDevice(const std::string& host_executable, c
   if (host_executable.empty())
     fail_create("could not be isolated: no host executable to run it in (only the hapticlab command has one; "
                 "plugin-inprocess:PATH runs the plugin in this process)");
-  const std::string fd_text = std::to_string(kPluginHostChannelFd), parent_text = std::to_string(::getpid());
-  // argv[0] "hapticlab": `ps` shows what it is, not /proc/self/exe.
-  const char* argv[] = {"hapticlab", "device", "plugin-host", "--channel-fd", fd_text.c_str(),
-                        "--parent-pid", parent_text.c_str(), nullptr};
-  posix_spawn_file_actions_t files;
-  posix_spawnattr_t attr;
-  ::posix_spawn_file_actions_init(&files);
-  ::posix_spawnattr_init(&attr);
-  // stdin stays with the operator; stdout and stderr are shared, so what a
-  // plugin prints reaches the terminal as before.
-  ::posix_spawn_file_actions_addopen(&files, 0, "/dev/null", O_RDONLY, 0);
-  ::posix_spawn_file_actions_adddup2(&files, memfd_, kPluginHostChannelFd);
-  // A process group of its own: Ctrl-C at the terminal is the session's to
-  // handle (it stops the trial with zero force), not a crash of the plugin.
-  sigset_t none, all;
-  sigemptyset(&none);
-  sigfillset(&all);
-  sigdelset(&all, SIGKILL);
-  sigdelset(&all, SIGSTOP);
-  ::posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
-  ::posix_spawnattr_setpgroup(&attr, 0);
-  ::posix_spawnattr_setsigmask(&attr, &none);
-  ::posix_spawnattr_setsigdefault(&attr, &all);
-  const int spawned = ::posix_spawn(&pid_, host_executable.c_str(), &files, &attr, const_cast<char* const*>(argv),
-                                    environ);
-  ::posix_spawn_file_actions_destroy(&files);
-  ::posix_spawnattr_destroy(&attr);
+  const int spawned = spawn_host(host_executable, memfd_, pid_);
   if (spawned != 0) {
     pid_ = 0;
     fail_create("could not be isolated: its host " + host_executable + " did not start (" + std::strerror(spawned) +

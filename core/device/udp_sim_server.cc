@@ -67,18 +67,13 @@ void UdpSimServer::run(const std::atomic<bool>& stop) {
   }
 }
 
-void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* from, unsigned from_len) {
-  udp::Header h;
-  if (const udp::Verdict v = udp::decode_header(data, size, key_, h); v != udp::Verdict::kOk) {
-    (udp::is_rejected_mac(v) ? rejected_mac_ : malformed_).fetch_add(1, std::memory_order_relaxed);
-    return;
-  }
+bool UdpSimServer::accepted(const udp::Header& h) {
   switch (h.type) {
     case udp::Type::kHelloReply:
     case udp::Type::kAck:
     case udp::Type::kState:
       malformed_.fetch_add(1, std::memory_order_relaxed);  // a device's message sent to the device
-      return;
+      return false;
     default: break;
   }
   // The session's, and newer than anything it has sent: a datagram of an
@@ -86,32 +81,73 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
   if (h.type == udp::Type::kHello) {
     if (h.host_nonce == 0 || h.device_nonce != 0) {
       wrong_nonce_.fetch_add(1, std::memory_order_relaxed);
-      return;
+      return false;
     }
     if (sim_ && h.host_nonce == host_nonce_ && !udp::newer_sequence(h.sequence, host_sequence_)) {
       out_of_order_.fetch_add(1, std::memory_order_relaxed);
-      return;
+      return false;
     }
     if (h.host_nonce != host_nonce_ && active_ && steady_ns() - last_command_ns_ <= kBusyWindow_ns) {
       busy_hello_.fetch_add(1, std::memory_order_relaxed);
-      return;
+      return false;
     }
-  } else {
-    if (!sim_ || h.host_nonce != host_nonce_ || h.device_nonce != device_nonce_) {
-      wrong_nonce_.fetch_add(1, std::memory_order_relaxed);
-      return;
-    }
-    if (!udp::newer_sequence(h.sequence, host_sequence_)) {
-      out_of_order_.fetch_add(1, std::memory_order_relaxed);
-      return;
-    }
+    return true;
   }
+  if (!sim_ || h.host_nonce != host_nonce_ || h.device_nonce != device_nonce_) {
+    wrong_nonce_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  if (!udp::newer_sequence(h.sequence, host_sequence_)) {
+    out_of_order_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  return true;
+}
+
+udp::Header UdpSimServer::reply_header(udp::Type type) {
+  return udp::Header{type, ++tx_sequence_, sim_ ? sim_->time_s() : 0.0, host_nonce_, device_nonce_};
+}
+
+std::size_t UdpSimServer::start_session(const udp::Header& h, std::byte* out) {
+  active_ = false;
+  host_nonce_ = h.host_nonce;
+  device_nonce_ = udp::new_nonce();
+  // As open_device() builds the built-in sim, so both compute the same.
+  SimDeviceParams params;
+  params.max_substep_s = 1e-3;
+  sim_ = std::make_unique<SimDevice>(params);
+  udp::HelloReply r;
+  r.echo_sequence = h.sequence;
+  r.flags = udp::kFlagSimulated | udp::kFlagCalibrated;
+  std::memcpy(r.name.data(), "sim", 4);
+  r.ratings = sim_->ratings();
+  return udp::encode(reply_header(udp::Type::kHelloReply), r, key_, out);
+}
+
+std::size_t UdpSimServer::poll_state(const udp::Header& h, std::byte* out) {
+  DeviceReading reading;
+  udp::State s;
+  s.echo_sequence = h.sequence;
+  s.status = sim_->read(reading);
+  s.device_time_s = reading.device_time_s;
+  s.position = reading.position;
+  for (int i = 0; i < 2; ++i) {
+    s.hand_force[static_cast<std::size_t>(i)] = sim_->hand_force(i);
+    s.motor_force[static_cast<std::size_t>(i)] = sim_->motor_force(i);
+  }
+  return udp::encode(reply_header(udp::Type::kState), s, key_, out);
+}
+
+void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* from, unsigned from_len) {
+  udp::Header h;
+  if (const udp::Verdict v = udp::decode_header(data, size, key_, h); v != udp::Verdict::kOk) {
+    (udp::is_rejected_mac(v) ? rejected_mac_ : malformed_).fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (!accepted(h)) return;
   host_sequence_ = h.sequence;
 
   std::array<std::byte, udp::kMaxDatagramBytes> out;
-  const auto reply_header = [&](udp::Type type) {
-    return udp::Header{type, ++tx_sequence_, sim_ ? sim_->time_s() : 0.0, host_nonce_, device_nonce_};
-  };
   const auto send = [&](std::size_t n) {
     ::sendto(fd_, out.data(), n, MSG_NOSIGNAL, static_cast<const sockaddr*>(from), from_len);
   };
@@ -123,23 +159,10 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
       h.type != udp::Type::kSetStartPose)
     clock_.set(h.time_s);
 
-  if (h.type == udp::Type::kHello) {
-    active_ = false;
-    host_nonce_ = h.host_nonce;
-    device_nonce_ = udp::new_nonce();
-    // As open_device() builds the built-in sim, so both compute the same.
-    SimDeviceParams params;
-    params.max_substep_s = 1e-3;
-    sim_ = std::make_unique<SimDevice>(params);
-    udp::HelloReply r;
-    r.echo_sequence = h.sequence;
-    r.flags = udp::kFlagSimulated | udp::kFlagCalibrated;
-    std::memcpy(r.name.data(), "sim", 4);
-    r.ratings = sim_->ratings();
-    send(udp::encode(reply_header(udp::Type::kHelloReply), r, key_, out.data()));
-    return;
-  }
   switch (h.type) {
+    case udp::Type::kHello:
+      send(start_session(h, out.data()));
+      return;
     case udp::Type::kConfigure: {
       udp::Configure c;
       udp::decode(data, c);
@@ -165,20 +188,9 @@ void UdpSimServer::handle(const std::byte* data, std::size_t size, const void* f
       active_ = false;
       ack(sim_->deactivate());
       return;
-    case udp::Type::kPoll: {
-      DeviceReading reading;
-      udp::State s;
-      s.echo_sequence = h.sequence;
-      s.status = sim_->read(reading);
-      s.device_time_s = reading.device_time_s;
-      s.position = reading.position;
-      for (int i = 0; i < 2; ++i) {
-        s.hand_force[static_cast<std::size_t>(i)] = sim_->hand_force(i);
-        s.motor_force[static_cast<std::size_t>(i)] = sim_->motor_force(i);
-      }
-      send(udp::encode(reply_header(udp::Type::kState), s, key_, out.data()));
+    case udp::Type::kPoll:
+      send(poll_state(h, out.data()));
       return;
-    }
     case udp::Type::kCommand: {
       last_command_ns_ = steady_ns();
       udp::Command c;

@@ -67,6 +67,17 @@ class UdpSimServer {
   };
 
   void handle(const std::byte* data, std::size_t size, const void* from, unsigned from_len);
+  // Whether a datagram with a valid header is for this session and new
+  // (counting the refusal when not).
+  bool accepted(const udp::Header& h);
+  // The header of the next reply (its own sequence number).
+  udp::Header reply_header(udp::Type type);
+  // Starts a new session on HELLO `h`; encodes the reply into `out`,
+  // returns its size.
+  std::size_t start_session(const udp::Header& h, std::byte* out);
+  // Reads the device for POLL `h`; encodes the STATE reply into `out`,
+  // returns its size.
+  std::size_t poll_state(const udp::Header& h, std::byte* out);
 
   int fd_ = -1;
   int port_ = 0;

@@ -62,6 +62,60 @@ void Instrument::resync(const JointVector& q) noexcept {
   last_position_ = q;
 }
 
+inline Instrument::TimePlan Instrument::plan_time(const InstrumentInput& in, const Eigen::Vector3d& ve,
+                                                  InstrumentOutput& out) noexcept {
+  // A dt below 1/2000 s (or <= 0) advances no time: it is carried into the
+  // next update, because a position difference over a microsecond would be
+  // a velocity spike.
+  double dt = (in.dt_s > 0.0 ? in.dt_s : 0.0) + deferred_dt_s_;
+  deferred_dt_s_ = 0.0;
+  int substeps = 1;
+  if (dt < kMinDt_s) {
+    out.status |= kDtDeferred;
+    deferred_dt_s_ = dt;
+    dt = 0.0;
+  } else if (dt > kMaxDt_s && dt <= kMaxSubsteps * kMaxDt_s) {
+    substeps = static_cast<int>(std::ceil(dt / kMaxDt_s - 1e-9));
+    out.status |= kDtSubstepped;
+  }
+  if (needs_resync_ || dt > kMaxSubsteps * kMaxDt_s) {
+    if (!anchored_) {
+      // First real update: nothing before it happened, not even in the
+      // emulated loop's history.
+      ve_force_delay_.reset(ve);
+      position_delay_.reset(in.position);
+      anchored_ = true;
+    }
+    resync(in.position);
+    out.status |= kDtResynced;
+    needs_resync_ = false;
+    deferred_dt_s_ = 0.0;
+    substeps = 1;
+    dt = 0.0;
+  }
+  return {dt, substeps};
+}
+
+inline void Instrument::show_degraded(const InstrumentInput& in, const JointVector& degraded, const ToolPose& pose,
+                                      const SinCos& pitch, const SinCos& yaw, InstrumentOutput& out) noexcept {
+  const LoopEmulation& loop = settings_.loop;
+  out.degraded_position =
+      position_delay_.step(degraded, in.dt_s, loop.position_latency_s, loop.hold_rate_Hz);
+  if (out.degraded_position != in.position) {  // backlash or latency on: the VE sees elsewhere
+    // An angle the VE sees unchanged (an axis without backlash) shares the
+    // measured one's sine and cosine.
+    const JointVector& q_ve = out.degraded_position;
+    const ToolPose shown =
+        tool_pose(q_ve[kInsertion], same_bits(q_ve[kPitch], in.position[kPitch]) ? pitch : shown_pitch_(q_ve[kPitch]),
+                  same_bits(q_ve[kYaw], in.position[kYaw]) ? yaw : shown_yaw_(q_ve[kYaw]));
+    out.tip_offset_m = tip_offset(pose, shown);
+    out.orientation_offset = orientation_offset(pose, shown);
+    out.degraded_tip_m = tip_position(shown);
+  } else {
+    out.degraded_tip_m = tip_position(pose);
+  }
+}
+
 InstrumentOutput Instrument::step(const InstrumentInput& in, ButterworthCache& filters) noexcept {
   InstrumentOutput out;
   refreshable_ = false;
@@ -92,35 +146,10 @@ InstrumentOutput Instrument::step(const InstrumentInput& in, ButterworthCache& f
     return out;
   }
 
-  // dt policy: how many sub-steps of which length. A dt below 1/2000 s (or
-  // <= 0) advances no time: it is carried into the next update, because a
-  // position difference over a microsecond would be a velocity spike.
-  double dt = (in.dt_s > 0.0 ? in.dt_s : 0.0) + deferred_dt_s_;
-  deferred_dt_s_ = 0.0;
-  int substeps = 1;
-  if (dt < kMinDt_s) {
-    out.status |= kDtDeferred;
-    deferred_dt_s_ = dt;
-    dt = 0.0;
-  } else if (dt > kMaxDt_s && dt <= kMaxSubsteps * kMaxDt_s) {
-    substeps = static_cast<int>(std::ceil(dt / kMaxDt_s - 1e-9));
-    out.status |= kDtSubstepped;
-  }
-  if (needs_resync_ || dt > kMaxSubsteps * kMaxDt_s) {
-    if (!anchored_) {
-      // First real update: nothing before it happened, not even in the
-      // emulated loop's history.
-      ve_force_delay_.reset(ve);
-      position_delay_.reset(in.position);
-      anchored_ = true;
-    }
-    resync(in.position);
-    out.status |= kDtResynced;
-    needs_resync_ = false;
-    deferred_dt_s_ = 0.0;
-    substeps = 1;
-    dt = 0.0;
-  }
+  // dt policy: how many sub-steps of which length
+  const TimePlan plan = plan_time(in, ve, out);
+  const double dt = plan.dt_s;
+  const int substeps = plan.substeps;
 
   // per DOF chains, sub-stepped along the straight line from the last position
   const double sub_dt = dt / substeps;
@@ -145,21 +174,7 @@ InstrumentOutput Instrument::step(const InstrumentInput& in, ButterworthCache& f
   const bool commands_finite = finish_forces(command, out);
 
   // degraded joints => delayed/held => VE, with display offsets
-  out.degraded_position =
-      position_delay_.step(degraded, in.dt_s, loop.position_latency_s, loop.hold_rate_Hz);
-  if (out.degraded_position != in.position) {  // backlash or latency on: the VE sees elsewhere
-    // An angle the VE sees unchanged (an axis without backlash) shares the
-    // measured one's sine and cosine.
-    const JointVector& q_ve = out.degraded_position;
-    const ToolPose shown =
-        tool_pose(q_ve[kInsertion], same_bits(q_ve[kPitch], in.position[kPitch]) ? pitch : shown_pitch_(q_ve[kPitch]),
-                  same_bits(q_ve[kYaw], in.position[kYaw]) ? yaw : shown_yaw_(q_ve[kYaw]));
-    out.tip_offset_m = tip_offset(pose, shown);
-    out.orientation_offset = orientation_offset(pose, shown);
-    out.degraded_tip_m = tip_position(shown);
-  } else {
-    out.degraded_tip_m = tip_position(pose);
-  }
+  show_degraded(in, degraded, pose, pitch, yaw, out);
 
   if (!commands_finite || !finite(out.displayed_force_N) || !finite(out.degraded_position)) {
     internal_fault(in.position, out);

@@ -84,6 +84,22 @@ class Instrument {
 
  private:
   void resync(const JointVector& q) noexcept;
+  // The stages of step(), always inlined: the step is the engine's hot path
+  // and the compiler must see it as one body (a call each would cost).
+  // dt policy: the time this update advances and in how many sub-steps
+  // (resyncing at the measured position when the update must not be
+  // integrated).
+  struct TimePlan {
+    double dt_s = 0.0;
+    int substeps = 1;
+  };
+  [[gnu::always_inline]] TimePlan plan_time(const InstrumentInput& in, const Eigen::Vector3d& ve,
+                                            InstrumentOutput& out) noexcept;
+  // The degraded joints, delayed/held, as the VE sees them: the degraded
+  // position, tip and the display offsets from the measured `pose`.
+  [[gnu::always_inline]] void show_degraded(const InstrumentInput& in, const JointVector& degraded,
+                                            const ToolPose& pose, const SinCos& pitch, const SinCos& yaw,
+                                            InstrumentOutput& out) noexcept;
   // Device limit per axis, then the displayed tip force those limited
   // commands make (eq. 2.19). False, and `out` untouched, if a command is
   // not finite. Always inlined (4 % of an update as a call).

@@ -142,9 +142,7 @@ void Hand::feel_device(const ToolPose& pose, const DeviceJoints& device_force, d
   stiffening_ += std::min(1.0, dt_s / kStiffenTime_s) * (wanted - stiffening_);
 }
 
-void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoints& felt,
-                double seen_depth_m, const Eigen::Vector3d& seen_tip_m, HandCouplings& out) noexcept {
-  // Base path (minimum jerk).
+inline void Hand::follow_reach(double t_s) noexcept {
   if (t_s >= reach_end_s_) {
     base_m_ = reach_to_m_;
     base_velocity_.setZero();
@@ -154,58 +152,63 @@ void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoint
     base_m_ = reach_from_m_ + min_jerk(tau) * (reach_to_m_ - reach_from_m_);
     base_velocity_ = (min_jerk_rate(tau) / span) * (reach_to_m_ - reach_from_m_);
   }
+}
 
-  // Slow noise: tremor/drift of the hand and drift of the visual estimate,
-  // updated at the cue rate (200 Hz) since they are slow anyway.
-  if (noise_grid_.due(t_s)) {
-    noise_grid_.advance(t_s);
-    const double h_s = noise_grid_.period_s();
-    const double a = std::min(1.0, h_s / kTremorTime_s);
-    const double s = params_.motor_noise_m * std::sqrt(2.0 * a);
-    for (int k = 0; k < 3; ++k) tremor_m_[k] += -a * tremor_m_[k] + s * rng_.normal();
-    const double b = std::min(1.0, h_s / kVisualDrift_s);
-    visual_bias_ += -b * visual_bias_ + params_.visual_noise * std::sqrt(2.0 * b) * rng_.normal();
-    visual_scale_ = params_.visual_force_gain * std::exp(visual_bias_);
-  }
+// Slow noise: tremor/drift of the hand and drift of the visual estimate,
+// updated at the cue rate (200 Hz) since they are slow anyway.
+inline void Hand::update_slow_noise(double t_s) noexcept {
+  if (!noise_grid_.due(t_s)) return;
+  noise_grid_.advance(t_s);
+  const double h_s = noise_grid_.period_s();
+  const double a = std::min(1.0, h_s / kTremorTime_s);
+  const double s = params_.motor_noise_m * std::sqrt(2.0 * a);
+  for (int k = 0; k < 3; ++k) tremor_m_[k] += -a * tremor_m_[k] + s * rng_.normal();
+  const double b = std::min(1.0, h_s / kVisualDrift_s);
+  visual_bias_ += -b * visual_bias_ + params_.visual_noise * std::sqrt(2.0 * b) * rng_.normal();
+  visual_scale_ = params_.visual_force_gain * std::exp(visual_bias_);
+}
 
-  const double k = params_.stiffness_N_per_m * stiffening_;
-  if (pressing_) {
-    const JointVector reaction(-felt[kJointInsertion], -felt[kJointPitch], -felt[kJointYaw]);
-    const Eigen::Vector3d felt_tip = joint_to_world(pose, reaction, kMinArm_m);
-    const double felt_N = std::max(0.0, -into_.dot(felt_tip));
-    felt_smooth_N_ += std::min(1.0, dt_s / kFeltSmoothing_s) * (felt_N - felt_smooth_N_);
-    felt_cue_.push(t_s, felt_smooth_N_);
-    seen_cue_.push(t_s, seen_depth_m);
-    const double h = felt_cue_.delayed(params_.haptic_delay_s);
-    const double seen_depth = seen_cue_.delayed(params_.visual_delay_s);
-    seen_depth_m_ = seen_depth;
-    const double v = seen_depth > 0.0 ? visual_scale_ *
-                                            believed_stiffness_N_per_m_ * seen_depth
-                                      : 0.0;
-    if (v > 0.1) {
-      const double ratio = std::clamp(h / v, 0.0, 1.5);
-      agreement_ += (ratio - agreement_) * std::min(1.0, dt_s / kAgreementTime_s);
-    }
-    const double h_contact = h;
-    const double trust = std::clamp(agreement_, 0.0, 1.0);
-    haptic_weight_ = 0.9 * trust * trust;
-    // A visible gap between tool and tissue is unmistakable: whatever the
-    // hand feels then (friction, cogging, inertia) is not contact force.
-    estimate_N_ = seen_depth < -kVisibleGap_m ? 0.0 : haptic_weight_ * h_contact + (1.0 - haptic_weight_) * v;
-    // Divided by the present stiffness: the force correction keeps its pace
-    // however stiff the arm is.
-    offset_m_ += dt_s * (target_force_N_ - estimate_N_) / (k * params_.regulation_time_s);
-    offset_m_ = std::clamp(offset_m_, -0.004, 0.020);
-  } else {
+inline void Hand::regulate_force(double t_s, double dt_s, const ToolPose& pose, const DeviceJoints& felt,
+                                 double seen_depth_m, double k) noexcept {
+  if (!pressing_) {
     felt_smooth_N_ = 0.0;
     felt_cue_.push(t_s, 0.0);
     seen_cue_.push(t_s, seen_depth_m);
     seen_depth_m_ = seen_cue_.delayed(params_.visual_delay_s);
     offset_m_ -= offset_m_ * std::min(1.0, dt_s / kOffsetRelease_s);
+    return;
   }
+  const JointVector reaction(-felt[kJointInsertion], -felt[kJointPitch], -felt[kJointYaw]);
+  const Eigen::Vector3d felt_tip = joint_to_world(pose, reaction, kMinArm_m);
+  const double felt_N = std::max(0.0, -into_.dot(felt_tip));
+  felt_smooth_N_ += std::min(1.0, dt_s / kFeltSmoothing_s) * (felt_N - felt_smooth_N_);
+  felt_cue_.push(t_s, felt_smooth_N_);
+  seen_cue_.push(t_s, seen_depth_m);
+  const double h = felt_cue_.delayed(params_.haptic_delay_s);
+  const double seen_depth = seen_cue_.delayed(params_.visual_delay_s);
+  seen_depth_m_ = seen_depth;
+  const double v = seen_depth > 0.0 ? visual_scale_ *
+                                          believed_stiffness_N_per_m_ * seen_depth
+                                    : 0.0;
+  if (v > 0.1) {
+    const double ratio = std::clamp(h / v, 0.0, 1.5);
+    agreement_ += (ratio - agreement_) * std::min(1.0, dt_s / kAgreementTime_s);
+  }
+  const double h_contact = h;
+  const double trust = std::clamp(agreement_, 0.0, 1.0);
+  haptic_weight_ = 0.9 * trust * trust;
+  // A visible gap between tool and tissue is unmistakable: whatever the
+  // hand feels then (friction, cogging, inertia) is not contact force.
+  estimate_N_ = seen_depth < -kVisibleGap_m ? 0.0 : haptic_weight_ * h_contact + (1.0 - haptic_weight_) * v;
+  // Divided by the present stiffness: the force correction keeps its pace
+  // however stiff the arm is.
+  offset_m_ += dt_s * (target_force_N_ - estimate_N_) / (k * params_.regulation_time_s);
+  offset_m_ = std::clamp(offset_m_, -0.004, 0.020);
+}
 
-  // Visual steering: once a reach is over, the seen tip (delayed) is pulled
-  // onto the aim. Along the press direction the force regulation rules.
+// Once a reach is over, the seen tip (delayed) is pulled onto the aim.
+// Along the press direction the force regulation rules.
+inline void Hand::steer(double t_s, double dt_s, const Eigen::Vector3d& seen_tip_m) noexcept {
   for (int k = 0; k < 3; ++k) seen_tip_cue_[static_cast<std::size_t>(k)].push(t_s, seen_tip_m[k]);
   const Eigen::Vector3d seen(seen_tip_cue_[0].delayed(params_.visual_delay_s),
                              seen_tip_cue_[1].delayed(params_.visual_delay_s),
@@ -221,6 +224,18 @@ void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoint
       if (n > kMaxCorrection_m) correction_m_ *= kMaxCorrection_m / n;
     }
   }
+}
+
+void Hand::step(double t_s, double dt_s, const ToolPose& pose, const DeviceJoints& felt,
+                double seen_depth_m, const Eigen::Vector3d& seen_tip_m, HandCouplings& out) noexcept {
+  // Base path (minimum jerk), slow noise, the force cues and the press,
+  // visual steering; then the couplings to the reference pose.
+  follow_reach(t_s);
+  update_slow_noise(t_s);
+  const double k = params_.stiffness_N_per_m * stiffening_;
+  regulate_force(t_s, dt_s, pose, felt, seen_depth_m, k);
+  steer(t_s, dt_s, seen_tip_m);
+
   const Eigen::Vector3d p_ref = base_m_ + correction_m_ + offset_m_ * into_ + tremor_m_;
   const Eigen::Vector3d p = p_ref - kTrocarPosition_m[static_cast<std::size_t>(instrument_)];
   const JointVector q_ref = joints_for_tip(instrument_, p_ref);

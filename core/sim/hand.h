@@ -124,6 +124,21 @@ class Hand {
   }
 
  private:
+  // The stages of step(), in its order, always inlined: step() runs for
+  // each hand on every simulated update, and the compiler sees it as the
+  // one body it was.
+  // The base path: where the reach's minimum-jerk path is at t_s.
+  [[gnu::always_inline]] void follow_reach(double t_s) noexcept;
+  // Tremor and the visual estimate's drift, at the cue rate.
+  [[gnu::always_inline]] void update_slow_noise(double t_s) noexcept;
+  // The press: the felt and seen force cues, their agreement, and the
+  // offset along the press direction that regulates the force. `k`: the
+  // arm's present stiffness [N/m].
+  [[gnu::always_inline]] void regulate_force(double t_s, double dt_s, const ToolPose& pose,
+                                             const DeviceJoints& felt, double seen_depth_m, double k) noexcept;
+  // Visual steering: the seen tip (delayed) pulled onto the aim.
+  [[gnu::always_inline]] void steer(double t_s, double dt_s, const Eigen::Vector3d& seen_tip_m) noexcept;
+
   int instrument_ = 0;
   HandParams params_;
   Random rng_;

@@ -198,293 +198,312 @@ void Participant::act(const LoopTickView& view) noexcept {
     phase_start_s_[static_cast<std::size_t>(h)] = -1.0; \
   } while (0)
 
-void Participant::act_dissection(double t) noexcept {
+namespace {
+
+// The index on the task's line path of the first cell at or after `from`
+// not yet removed, -1 when none is left.
+int next_uncut(const DissectionTask& task, int from) noexcept {
+  const auto& path = task.line_path();
+  for (int k = std::max(from, 0); k < static_cast<int>(path.size()); ++k)
+    if (!task.removed(path[static_cast<std::size_t>(k)])) return k;
+  return -1;
+}
+
+}  // namespace
+
+// --- right hand: the cautery
+inline void Participant::dissection_cautery(double t, bool done) noexcept {
   const DissectionTask& task = *dissection_;
   const auto& path = task.line_path();
-  const bool done = task.complete();
-  auto next_line_index = [&](int from) {
-    for (int k = std::max(from, 0); k < static_cast<int>(path.size()); ++k)
-      if (!task.removed(path[static_cast<std::size_t>(k)])) return k;
-    return -1;
-  };
+  const auto next_line_index = [&task](int from) { return next_uncut(task, from); };
   const double cautery_N = kCauteryForce_N * force_factor_;
-
-  // --- right hand: the cautery
-  {
-    Hand& hand = hands_[kRight];
-    const bool entering = phase_start_s_[kRight] < 0.0;
-    if (entering) phase_start_s_[kRight] = t;
-    switch (phase_[kRight]) {
-      case Phase::kApproach:
-        if (entering || burn_index_ < 0) {
-          burn_index_ = next_line_index(0);
-          if (burn_index_ < 0) { HL_ENTER(kRight, Phase::kRetract); break; }
-          const Eigen::Vector3d hover =
-              task.cell_center(path[static_cast<std::size_t>(burn_index_)]) + Eigen::Vector3d(0, 0, 0.004);
-          hand.reach(hover, t, reach_time(kRight, hand.base(), hover, 0.002));
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kRight, Phase::kDescend);
-        }
-        break;
-      case Phase::kDescend:
-        if (entering) {
-          const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(burn_index_)]);
-          hand.reach(spot, t, 0.35 * time_factor_[kRight]);
-          hand.press(-Eigen::Vector3d::UnitZ(), cautery_N * rng_.lognormal_factor(kForceReproductionLogSd),
-                     task.params().tissue.stiffness_N_per_m);
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kRight, Phase::kWork);
-          removed_seen_at_s_ = -1.0;
-          burn_progress_s_ = t;
-        }
-        break;
-      case Phase::kWork: {
-        if (done) { HL_ENTER(kRight, Phase::kRelease); break; }
-        const int cell = path[static_cast<std::size_t>(burn_index_)];
-        if (!task.removed(cell)) {
-          // No visible progress: press a little harder, within reason. The
-          // bound is three times the person's own force, but never below
-          // three times the average person's: a light hand that feels a
-          // device's force (a cogging detent, friction) as the tissue's, and
-          // sees nothing burn, presses on like anyone else rather than
-          // holding the tool off the tissue until the time limit.
-          if (t - burn_progress_s_ > 1.0 * time_factor_[kRight]) {
-            burn_progress_s_ = t;
-            const double bound_N = 3.0 * kCauteryForce_N * std::max(force_factor_, 1.0);
-            hand.set_target_force(std::min(bound_N, hand.target_force_N() * 1.15));
-          }
-          break;
-        }
-        burn_progress_s_ = t;
-        // The participant sees the tissue go only after the visual delay.
-        if (removed_seen_at_s_ < 0.0) removed_seen_at_s_ = t;
-        if (t - removed_seen_at_s_ < traits_.visual_delay_s) break;
+  Hand& hand = hands_[kRight];
+  const bool entering = phase_start_s_[kRight] < 0.0;
+  if (entering) phase_start_s_[kRight] = t;
+  switch (phase_[kRight]) {
+    case Phase::kApproach:
+      if (entering || burn_index_ < 0) {
+        burn_index_ = next_line_index(0);
+        if (burn_index_ < 0) { HL_ENTER(kRight, Phase::kRetract); break; }
+        const Eigen::Vector3d hover =
+            task.cell_center(path[static_cast<std::size_t>(burn_index_)]) + Eigen::Vector3d(0, 0, 0.004);
+        hand.reach(hover, t, reach_time(kRight, hand.base(), hover, 0.002));
+      } else if (hand.reach_done(t)) {
+        HL_ENTER(kRight, Phase::kDescend);
+      }
+      break;
+    case Phase::kDescend:
+      if (entering) {
+        const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(burn_index_)]);
+        hand.reach(spot, t, 0.35 * time_factor_[kRight]);
+        hand.press(-Eigen::Vector3d::UnitZ(), cautery_N * rng_.lognormal_factor(kForceReproductionLogSd),
+                   task.params().tissue.stiffness_N_per_m);
+      } else if (hand.reach_done(t)) {
+        HL_ENTER(kRight, Phase::kWork);
         removed_seen_at_s_ = -1.0;
-        const int next = next_line_index(burn_index_ + 1);
-        if (next < 0) { HL_ENTER(kRight, Phase::kRelease); break; }
-        burn_index_ = next;
-        const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(next)]);
-        const double dist = (spot - hand.base()).norm();
-        if (dist > 0.005) { HL_ENTER(kRight, Phase::kRelease); break; }
-        hand.reach(spot, t, std::max(0.12, dist / kDragSpeed_m_per_s) * time_factor_[kRight]);
-        if (rng_.uniform() < 0.15)  // now and then the surgeon re-sets the pressure
-          hand.set_target_force(cautery_N * rng_.lognormal_factor(kForceReproductionLogSd));
+        burn_progress_s_ = t;
+      }
+      break;
+    case Phase::kWork: {
+      if (done) { HL_ENTER(kRight, Phase::kRelease); break; }
+      const int cell = path[static_cast<std::size_t>(burn_index_)];
+      if (!task.removed(cell)) {
+        // No visible progress: press a little harder, within reason. The
+        // bound is three times the person's own force, but never below
+        // three times the average person's: a light hand that feels a
+        // device's force (a cogging detent, friction) as the tissue's, and
+        // sees nothing burn, presses on like anyone else rather than
+        // holding the tool off the tissue until the time limit.
+        if (t - burn_progress_s_ > 1.0 * time_factor_[kRight]) {
+          burn_progress_s_ = t;
+          const double bound_N = 3.0 * kCauteryForce_N * std::max(force_factor_, 1.0);
+          hand.set_target_force(std::min(bound_N, hand.target_force_N() * 1.15));
+        }
         break;
       }
-      case Phase::kRelease:
-        if (release(kRight, t, entering, 0.005, kNoGripChange)) {
-          if (done) { HL_ENTER(kRight, Phase::kRetract); }
-          else { burn_index_ = -1; HL_ENTER(kRight, Phase::kApproach); }
-        }
-        break;
-      case Phase::kRetract:
-        if (retract(kRight, t, entering)) HL_ENTER(kRight, Phase::kDone);
-        break;
-      case Phase::kDone:
-        break;
+      burn_progress_s_ = t;
+      // The participant sees the tissue go only after the visual delay.
+      if (removed_seen_at_s_ < 0.0) removed_seen_at_s_ = t;
+      if (t - removed_seen_at_s_ < traits_.visual_delay_s) break;
+      removed_seen_at_s_ = -1.0;
+      const int next = next_line_index(burn_index_ + 1);
+      if (next < 0) { HL_ENTER(kRight, Phase::kRelease); break; }
+      burn_index_ = next;
+      const Eigen::Vector3d spot = task.cell_center(path[static_cast<std::size_t>(next)]);
+      const double dist = (spot - hand.base()).norm();
+      if (dist > 0.005) { HL_ENTER(kRight, Phase::kRelease); break; }
+      hand.reach(spot, t, std::max(0.12, dist / kDragSpeed_m_per_s) * time_factor_[kRight]);
+      if (rng_.uniform() < 0.15)  // now and then the surgeon re-sets the pressure
+        hand.set_target_force(cautery_N * rng_.lognormal_factor(kForceReproductionLogSd));
+      break;
     }
+    case Phase::kRelease:
+      if (release(kRight, t, entering, 0.005, kNoGripChange)) {
+        if (done) { HL_ENTER(kRight, Phase::kRetract); }
+        else { burn_index_ = -1; HL_ENTER(kRight, Phase::kApproach); }
+      }
+      break;
+    case Phase::kRetract:
+      if (retract(kRight, t, entering)) HL_ENTER(kRight, Phase::kDone);
+      break;
+    case Phase::kDone:
+      break;
   }
+}
 
-  // --- left hand: the grasper that tensions the tissue near the cautery
-  {
-    Hand& hand = hands_[kLeft];
-    const bool entering = phase_start_s_[kLeft] < 0.0;
-    if (entering) phase_start_s_[kLeft] = t;
-    const Eigen::Vector3d target =
-        burn_index_ >= 0 ? task.cell_center(path[static_cast<std::size_t>(burn_index_)]) : hands_[kRight].base();
-    const double tension_N = kTensionForce_N * force_factor_;
-    const auto& grasp = task.grasp();
-    switch (phase_[kLeft]) {
-      case Phase::kApproach:
-        if (done) { HL_ENTER(kLeft, Phase::kRetract); break; }
-        if (entering) {
-          // Grasp beside and behind the dissection site, pulling away from it.
-          const double side = target.y() > 0.0 ? -1.0 : 1.0;
-          const auto& p = task.params();
-          grasp_site_ = Eigen::Vector3d(
-              std::clamp(target.x() + 0.004, -p.half_width_x_m + 0.001, p.half_width_x_m - 0.001),
-              std::clamp(target.y() + side * 0.006, -p.half_width_y_m + 0.001, p.half_width_y_m - 0.001),
-              p.surface_z_m);
-          Eigen::Vector3d away = grasp_site_ - target;
-          away.z() = 0.0;
-          if (away.norm() < 1e-6) away = Eigen::Vector3d(-1, 0, 0);
-          pull_dir_ = (away.normalized() + Eigen::Vector3d(0, 0, 0.6)).normalized();
-          const Eigen::Vector3d hover = grasp_site_ + Eigen::Vector3d(0, 0, 0.005);
-          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
-          hand.reach(hover, t, reach_time(kLeft, hand.base(), hover, 0.004));
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kLeft, Phase::kDescend);
-        }
+// --- left hand: the grasper that tensions the tissue near the cautery
+inline void Participant::dissection_grasper(double t, bool done) noexcept {
+  const DissectionTask& task = *dissection_;
+  const auto& path = task.line_path();
+  Hand& hand = hands_[kLeft];
+  const bool entering = phase_start_s_[kLeft] < 0.0;
+  if (entering) phase_start_s_[kLeft] = t;
+  const Eigen::Vector3d target =
+      burn_index_ >= 0 ? task.cell_center(path[static_cast<std::size_t>(burn_index_)]) : hands_[kRight].base();
+  const double tension_N = kTensionForce_N * force_factor_;
+  const auto& grasp = task.grasp();
+  switch (phase_[kLeft]) {
+    case Phase::kApproach:
+      if (done) { HL_ENTER(kLeft, Phase::kRetract); break; }
+      if (entering) {
+        // Grasp beside and behind the dissection site, pulling away from it.
+        const double side = target.y() > 0.0 ? -1.0 : 1.0;
+        const auto& p = task.params();
+        grasp_site_ = Eigen::Vector3d(
+            std::clamp(target.x() + 0.004, -p.half_width_x_m + 0.001, p.half_width_x_m - 0.001),
+            std::clamp(target.y() + side * 0.006, -p.half_width_y_m + 0.001, p.half_width_y_m - 0.001),
+            p.surface_z_m);
+        Eigen::Vector3d away = grasp_site_ - target;
+        away.z() = 0.0;
+        if (away.norm() < 1e-6) away = Eigen::Vector3d(-1, 0, 0);
+        pull_dir_ = (away.normalized() + Eigen::Vector3d(0, 0, 0.6)).normalized();
+        const Eigen::Vector3d hover = grasp_site_ + Eigen::Vector3d(0, 0, 0.005);
+        hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+        hand.reach(hover, t, reach_time(kLeft, hand.base(), hover, 0.004));
+      } else if (hand.reach_done(t)) {
+        HL_ENTER(kLeft, Phase::kDescend);
+      }
+      break;
+    case Phase::kDescend:
+      if (entering) {
+        hand.reach(grasp_site_, t, 0.35 * time_factor_[kLeft]);
+        hand.press(-Eigen::Vector3d::UnitZ(), kTouchForce_N * force_factor_, task.params().tissue.stiffness_N_per_m);
+      } else if (grasp.holding()) {
+        HL_ENTER(kLeft, Phase::kWork);
+      } else if (hand.reach_done(t) && hand.grip_done(t) && hand.estimated_force_N() > 0.05 &&
+                 t - phase_start_s_[kLeft] > 0.4 * time_factor_[kLeft]) {
+        hand.grip_to(kGripShut_rad, t, 0.25);
+      } else if (t - phase_start_s_[kLeft] > 3.0) {
+        HL_ENTER(kLeft, Phase::kRelease);  // could not get hold: start over
+      }
+      break;
+    case Phase::kWork:
+      if (entering) {
+        hand.stop_press();
+        hand.press(pull_dir_, tension_N * rng_.lognormal_factor(kForceReproductionLogSd),
+                   task.params().grasp.stiffness_N_per_m);
+      }
+      if (done || !grasp.holding() || (target - grasp.anchor()).norm() > 0.014)
+        HL_ENTER(kLeft, Phase::kRelease);
+      break;
+    case Phase::kRelease:
+      if (release(kLeft, t, entering, 0.006, 0.2))
+        HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
+      break;
+    case Phase::kRetract:
+      if (retract(kLeft, t, entering)) HL_ENTER(kLeft, Phase::kDone);
+      break;
+    case Phase::kDone:
+      break;
+  }
+}
+
+void Participant::act_dissection(double t) noexcept {
+  const bool done = dissection_->complete();
+  dissection_cautery(t, done);
+  dissection_grasper(t, done);
+}
+
+// --- left hand: grasp the duct beside the marker and hold it up gently
+inline void Participant::clip_grasper(double t, bool done, double marker) noexcept {
+  const ClipTask& task = *clip_;
+  const auto& p = task.params();
+  const auto& grasp = task.grasp();
+  Hand& hand = hands_[kLeft];
+  const bool entering = phase_start_s_[kLeft] < 0.0;
+  if (entering) phase_start_s_[kLeft] = t;
+  switch (phase_[kLeft]) {
+    case Phase::kApproach:
+      if (done) { HL_ENTER(kLeft, Phase::kRetract); break; }
+      if (entering) {
+        grasp_site_ = task.axis_point(marker - 0.008);
+        const Eigen::Vector3d hover = grasp_site_ + Eigen::Vector3d(0, 0, p.duct_radius_m + 0.006);
+        hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+        hand.reach(hover, t, reach_time(kLeft, hand.base(), hover, 0.003));
+      } else if (hand.reach_done(t)) {
+        HL_ENTER(kLeft, Phase::kDescend);
+      }
+      break;
+    case Phase::kDescend:
+      if (entering) {
+        hand.reach(grasp_site_, t, 0.4 * time_factor_[kLeft]);
+      } else if (grasp.holding()) {
+        HL_ENTER(kLeft, Phase::kWork);
+      } else if (hand.reach_done(t) && hand.grip_done(t) &&
+                 t - phase_start_s_[kLeft] > 0.5 * time_factor_[kLeft]) {
+        hand.grip_to(kGripShut_rad, t, 0.25);
+      } else if (t - phase_start_s_[kLeft] > 3.0) {
+        HL_ENTER(kLeft, Phase::kRelease);  // could not get hold: start over
+      }
+      break;
+    case Phase::kWork:
+      if (entering) {
+        pull_dir_ = Eigen::Vector3d::UnitZ();
+        hand.press(pull_dir_, kLiftForce_N * force_factor_ * rng_.lognormal_factor(kForceReproductionLogSd),
+                   p.grasp.stiffness_N_per_m);
+      }
+      if (done || !grasp.holding() || std::abs(grasp.anchor().x() - marker) > 0.014)
+        HL_ENTER(kLeft, Phase::kRelease);
+      break;
+    case Phase::kRelease:
+      if (release(kLeft, t, entering, 0.006, 0.2))
+        HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
+      break;
+    case Phase::kRetract:
+      if (retract(kLeft, t, entering)) HL_ENTER(kLeft, Phase::kDone);
+      break;
+    case Phase::kDone:
+      break;
+  }
+}
+
+// --- right hand: the clip applier
+inline void Participant::clip_applier(double t, bool done, double marker) noexcept {
+  const ClipTask& task = *clip_;
+  const auto& p = task.params();
+  const auto& grasp = task.grasp();
+  Hand& hand = hands_[kRight];
+  const bool entering = phase_start_s_[kRight] < 0.0;
+  if (entering) phase_start_s_[kRight] = t;
+  const Eigen::Vector3d top = task.axis_point(marker) + Eigen::Vector3d(0, 0, p.duct_radius_m);
+  // The applier slipped down beside the duct instead of sitting on it.
+  const bool slid_off = tip_[kRight].z() < p.duct_z_m &&
+                        std::abs(tip_[kRight].y() - task.duct_y_m()) > 0.8 * p.duct_radius_m;
+  // The applier pressed through the duct and is below it. The duct wall
+  // is a spring that gives at most stiffness x radius (0.375 N unheld), so
+  // a hand that reads the force low by eye presses on and pops through. A
+  // person who sees that lifts, aims again and presses more gently; one
+  // who presses as hard again pops through on every attempt, and the
+  // trial runs into its time limit.
+  const bool pushed_through = std::abs(tip_[kRight].x()) <= p.duct_half_length_m &&
+                              tip_[kRight].z() < p.duct_z_m - p.duct_radius_m;
+  switch (phase_[kRight]) {
+    case Phase::kApproach:
+      if (done) { HL_ENTER(kRight, Phase::kRetract); break; }
+      if (entering) {
+        const Eigen::Vector3d hover = top + Eigen::Vector3d(0, 0, 0.008);
+        hand.grip_to(kGripOpenTarget_rad, t, 0.2);
+        hand.reach(hover, t, reach_time(kRight, hand.base(), hover, 0.002));
+      } else if (hand.reach_done(t) && (grasp.holding() || t - phase_start_s_[kRight] > 4.0) &&
+                 (hand.aim_error_m() < 0.001 || t - phase_start_s_[kRight] > 3.0)) {
+        // Aim first (the seen tip over the marker), then go down.
+        HL_ENTER(kRight, Phase::kDescend);
+      }
+      break;
+    case Phase::kDescend:
+      if (!entering && (slid_off || pushed_through)) {
+        if (pushed_through) seat_force_scale_ *= kGentlerAfterPushThrough;
+        HL_ENTER(kRight, Phase::kRelease);  // off the duct: lift and aim again
         break;
-      case Phase::kDescend:
-        if (entering) {
-          hand.reach(grasp_site_, t, 0.35 * time_factor_[kLeft]);
-          hand.press(-Eigen::Vector3d::UnitZ(), kTouchForce_N * force_factor_, task.params().tissue.stiffness_N_per_m);
-        } else if (grasp.holding()) {
-          HL_ENTER(kLeft, Phase::kWork);
-        } else if (hand.reach_done(t) && hand.grip_done(t) && hand.estimated_force_N() > 0.05 &&
-                   t - phase_start_s_[kLeft] > 0.4 * time_factor_[kLeft]) {
-          hand.grip_to(kGripShut_rad, t, 0.25);
-        } else if (t - phase_start_s_[kLeft] > 3.0) {
-          HL_ENTER(kLeft, Phase::kRelease);  // could not get hold: start over
-        }
+      }
+      if (entering) {
+        hand.reach(top, t, 0.4 * time_factor_[kRight]);
+        hand.press(-Eigen::Vector3d::UnitZ(),
+                   kSeatForce_N * seat_force_scale_ * force_factor_ *
+                       rng_.lognormal_factor(kForceReproductionLogSd),
+                   p.duct.stiffness_N_per_m);
+      } else if (hand.reach_done(t) &&
+                 ((hand.seen_depth_m() > 0.0003 && hand.estimated_force_N() >= 0.5 * hand.target_force_N()) ||
+                  t - phase_start_s_[kRight] > 2.5 * time_factor_[kRight])) {
+        // Close only once the applier is seen (or felt) seated on the duct.
+        HL_ENTER(kRight, Phase::kWork);
+      }
+      break;
+    case Phase::kWork:
+      if (entering) hand.grip_to(kGripShut_rad, t, 0.3 * time_factor_[kRight]);
+      if (slid_off && hand.grip_done(t)) {
+        HL_ENTER(kRight, Phase::kRelease);  // slid off the duct: lift and aim again
         break;
-      case Phase::kWork:
-        if (entering) {
-          hand.stop_press();
-          hand.press(pull_dir_, tension_N * rng_.lognormal_factor(kForceReproductionLogSd),
-                     task.params().grasp.stiffness_N_per_m);
-        }
-        if (done || !grasp.holding() || (target - grasp.anchor()).norm() > 0.014)
-          HL_ENTER(kLeft, Phase::kRelease);
-        break;
-      case Phase::kRelease:
-        if (release(kLeft, t, entering, 0.006, 0.2))
-          HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
-        break;
-      case Phase::kRetract:
-        if (retract(kLeft, t, entering)) HL_ENTER(kLeft, Phase::kDone);
-        break;
-      case Phase::kDone:
-        break;
-    }
+      }
+      if (task.clips_applied() > clip_index_) {
+        clip_index_ = task.clips_applied();
+        HL_ENTER(kRight, Phase::kRelease);
+      } else if (task.clips_missed() > clips_seen_missed_) {
+        clips_seen_missed_ = task.clips_missed();
+        HL_ENTER(kRight, Phase::kRelease);
+      } else if (hand.grip_done(t) && t - phase_start_s_[kRight] > 1.5) {
+        HL_ENTER(kRight, Phase::kRelease);
+      }
+      break;
+    case Phase::kRelease:
+      if (release(kRight, t, entering, 0.008, 0.25))
+        HL_ENTER(kRight, done ? Phase::kRetract : Phase::kApproach);
+      break;
+    case Phase::kRetract:
+      if (retract(kRight, t, entering)) HL_ENTER(kRight, Phase::kDone);
+      break;
+    case Phase::kDone:
+      break;
   }
 }
 
 void Participant::act_clip(double t) noexcept {
   const ClipTask& task = *clip_;
   const bool done = task.complete();
-  const auto& p = task.params();
   const int k = std::min(clip_index_, ClipTask::kClipsPerDuct - 1);
   const double marker = task.marker_x_m(k);
-  const auto& grasp = task.grasp();
-
-  // --- left hand: grasp the duct beside the marker and hold it up gently
-  {
-    Hand& hand = hands_[kLeft];
-    const bool entering = phase_start_s_[kLeft] < 0.0;
-    if (entering) phase_start_s_[kLeft] = t;
-    switch (phase_[kLeft]) {
-      case Phase::kApproach:
-        if (done) { HL_ENTER(kLeft, Phase::kRetract); break; }
-        if (entering) {
-          grasp_site_ = task.axis_point(marker - 0.008);
-          const Eigen::Vector3d hover = grasp_site_ + Eigen::Vector3d(0, 0, p.duct_radius_m + 0.006);
-          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
-          hand.reach(hover, t, reach_time(kLeft, hand.base(), hover, 0.003));
-        } else if (hand.reach_done(t)) {
-          HL_ENTER(kLeft, Phase::kDescend);
-        }
-        break;
-      case Phase::kDescend:
-        if (entering) {
-          hand.reach(grasp_site_, t, 0.4 * time_factor_[kLeft]);
-        } else if (grasp.holding()) {
-          HL_ENTER(kLeft, Phase::kWork);
-        } else if (hand.reach_done(t) && hand.grip_done(t) &&
-                   t - phase_start_s_[kLeft] > 0.5 * time_factor_[kLeft]) {
-          hand.grip_to(kGripShut_rad, t, 0.25);
-        } else if (t - phase_start_s_[kLeft] > 3.0) {
-          HL_ENTER(kLeft, Phase::kRelease);  // could not get hold: start over
-        }
-        break;
-      case Phase::kWork:
-        if (entering) {
-          pull_dir_ = Eigen::Vector3d::UnitZ();
-          hand.press(pull_dir_, kLiftForce_N * force_factor_ * rng_.lognormal_factor(kForceReproductionLogSd),
-                     p.grasp.stiffness_N_per_m);
-        }
-        if (done || !grasp.holding() || std::abs(grasp.anchor().x() - marker) > 0.014)
-          HL_ENTER(kLeft, Phase::kRelease);
-        break;
-      case Phase::kRelease:
-        if (release(kLeft, t, entering, 0.006, 0.2))
-          HL_ENTER(kLeft, done ? Phase::kRetract : Phase::kApproach);
-        break;
-      case Phase::kRetract:
-        if (retract(kLeft, t, entering)) HL_ENTER(kLeft, Phase::kDone);
-        break;
-      case Phase::kDone:
-        break;
-    }
-  }
-
-  // --- right hand: the clip applier
-  {
-    Hand& hand = hands_[kRight];
-    const bool entering = phase_start_s_[kRight] < 0.0;
-    if (entering) phase_start_s_[kRight] = t;
-    const Eigen::Vector3d top = task.axis_point(marker) + Eigen::Vector3d(0, 0, p.duct_radius_m);
-    // The applier slipped down beside the duct instead of sitting on it.
-    const bool slid_off = tip_[kRight].z() < p.duct_z_m &&
-                          std::abs(tip_[kRight].y() - task.duct_y_m()) > 0.8 * p.duct_radius_m;
-    // The applier pressed through the duct and is below it. The duct wall
-    // is a spring that gives at most stiffness x radius (0.375 N unheld), so
-    // a hand that reads the force low by eye presses on and pops through. A
-    // person who sees that lifts, aims again and presses more gently; one
-    // who presses as hard again pops through on every attempt, and the
-    // trial runs into its time limit.
-    const bool pushed_through = std::abs(tip_[kRight].x()) <= p.duct_half_length_m &&
-                                tip_[kRight].z() < p.duct_z_m - p.duct_radius_m;
-    switch (phase_[kRight]) {
-      case Phase::kApproach:
-        if (done) { HL_ENTER(kRight, Phase::kRetract); break; }
-        if (entering) {
-          const Eigen::Vector3d hover = top + Eigen::Vector3d(0, 0, 0.008);
-          hand.grip_to(kGripOpenTarget_rad, t, 0.2);
-          hand.reach(hover, t, reach_time(kRight, hand.base(), hover, 0.002));
-        } else if (hand.reach_done(t) && (grasp.holding() || t - phase_start_s_[kRight] > 4.0) &&
-                   (hand.aim_error_m() < 0.001 || t - phase_start_s_[kRight] > 3.0)) {
-          // Aim first (the seen tip over the marker), then go down.
-          HL_ENTER(kRight, Phase::kDescend);
-        }
-        break;
-      case Phase::kDescend:
-        if (!entering && (slid_off || pushed_through)) {
-          if (pushed_through) seat_force_scale_ *= kGentlerAfterPushThrough;
-          HL_ENTER(kRight, Phase::kRelease);  // off the duct: lift and aim again
-          break;
-        }
-        if (entering) {
-          hand.reach(top, t, 0.4 * time_factor_[kRight]);
-          hand.press(-Eigen::Vector3d::UnitZ(),
-                     kSeatForce_N * seat_force_scale_ * force_factor_ *
-                         rng_.lognormal_factor(kForceReproductionLogSd),
-                     p.duct.stiffness_N_per_m);
-        } else if (hand.reach_done(t) &&
-                   ((hand.seen_depth_m() > 0.0003 && hand.estimated_force_N() >= 0.5 * hand.target_force_N()) ||
-                    t - phase_start_s_[kRight] > 2.5 * time_factor_[kRight])) {
-          // Close only once the applier is seen (or felt) seated on the duct.
-          HL_ENTER(kRight, Phase::kWork);
-        }
-        break;
-      case Phase::kWork:
-        if (entering) hand.grip_to(kGripShut_rad, t, 0.3 * time_factor_[kRight]);
-        if (slid_off && hand.grip_done(t)) {
-          HL_ENTER(kRight, Phase::kRelease);  // slid off the duct: lift and aim again
-          break;
-        }
-        if (task.clips_applied() > clip_index_) {
-          clip_index_ = task.clips_applied();
-          HL_ENTER(kRight, Phase::kRelease);
-        } else if (task.clips_missed() > clips_seen_missed_) {
-          clips_seen_missed_ = task.clips_missed();
-          HL_ENTER(kRight, Phase::kRelease);
-        } else if (hand.grip_done(t) && t - phase_start_s_[kRight] > 1.5) {
-          HL_ENTER(kRight, Phase::kRelease);
-        }
-        break;
-      case Phase::kRelease:
-        if (release(kRight, t, entering, 0.008, 0.25))
-          HL_ENTER(kRight, done ? Phase::kRetract : Phase::kApproach);
-        break;
-      case Phase::kRetract:
-        if (retract(kRight, t, entering)) HL_ENTER(kRight, Phase::kDone);
-        break;
-      case Phase::kDone:
-        break;
-    }
-  }
+  clip_grasper(t, done, marker);
+  clip_applier(t, done, marker);
 }
 
 #undef HL_ENTER

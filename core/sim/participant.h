@@ -115,6 +115,14 @@ class Participant final : public LoopAgent {
 
   void act_dissection(double t_s) noexcept;
   void act_clip(double t_s) noexcept;
+  // Each hand's phases in a task, always inlined into act_dissection and
+  // act_clip (each runs once per simulated update). `done`: the task was
+  // complete at the update's start; `marker_x_m`: where the clip being
+  // applied goes, as it was at the update's start.
+  [[gnu::always_inline]] void dissection_cautery(double t_s, bool done) noexcept;
+  [[gnu::always_inline]] void dissection_grasper(double t_s, bool done) noexcept;
+  [[gnu::always_inline]] void clip_grasper(double t_s, bool done, double marker_x_m) noexcept;
+  [[gnu::always_inline]] void clip_applier(double t_s, bool done, double marker_x_m) noexcept;
   double reach_time(int hand, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                     double width_m) const noexcept;
   double seen_depth(int hand, const Eigen::Vector3d& tip) const noexcept;

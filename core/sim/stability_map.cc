@@ -133,6 +133,60 @@ StabilityMapSize stability_map_size(const StabilityMapConfig& c) {
   return size;
 }
 
+namespace {
+
+// One run of the stiff contact with settings `s`.
+StiffContactResult stiff_contact_run(const StabilityMapConfig& c, const EngineSettings& s, double rate_Hz, double k) {
+  StiffContactConfig run;
+  run.settings = s;
+  run.rate_Hz = rate_Hz;
+  run.kind = c.contact;
+  run.stiffness_N_per_m = k;
+  run.duration_s = c.duration_s;
+  return run_stiff_contact(run);
+}
+
+// One cell: whether its base value is stable, then the nearest boundary
+// below and above it. `base`: the settings (controller on or off) as JSON.
+// Returns the number of runs it took.
+long search_cell(const StabilityMapConfig& c, const nlohmann::json& base, StabilityCell& cell) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  const StabilityParameter& p = c.parameters[cell.parameter];
+  // The base value's own run, its effect switched on as every run
+  // of the search has it (the base settings' run may have it off).
+  long cell_runs = 0;
+  cell.base_stable =
+      is_stable(stiff_contact_run(c, with_value(base, p.field, cell.base_value), cell.rate_Hz, cell.stiffness_N_per_m),
+                c.criterion);
+  ++cell_runs;
+  auto passes = [&](double v) {
+    const bool ok = is_stable(stiff_contact_run(c, with_value(base, p.field, v), cell.rate_Hz, cell.stiffness_N_per_m),
+                              c.criterion);
+    ++cell_runs;
+    cell.tried.emplace_back(v, ok);
+    return ok;
+  };
+  // A base value outside the range searched widens it: the search
+  // starts from the base.
+  BoundarySearch range = p.range;
+  range.lo = std::min(range.lo, cell.base_value);
+  range.hi = std::max(range.hi, cell.base_value);
+  auto side = [&](double to) {
+    if (to != cell.base_value)
+      return find_nearest_boundary(range, cell.base_value, cell.base_stable, to, passes);
+    Boundary none;  // the base at the range's end: nothing beyond it
+    none.kind = cell.base_stable ? BoundaryKind::kStableEverywhere : BoundaryKind::kUnstableEverywhere;
+    none.stable = cell.base_stable ? to : kNaN;
+    none.unstable = cell.base_stable ? kNaN : to;
+    return none;
+  };
+  cell.below = side(range.lo);
+  cell.above = side(range.hi);
+  return cell_runs;
+}
+
+}  // namespace
+
 StabilityMap run_stability_map(const StabilityMapConfig& c,
                                const std::function<void(std::size_t, std::size_t)>& progress) {
   const nlohmann::json base_json = settings_to_json({"base", "", c.base});
@@ -154,17 +208,6 @@ StabilityMap run_stability_map(const StabilityMapConfig& c,
   // The settings with and without the controller, as JSON, made once.
   const nlohmann::json off_json = settings_to_json({"base", "", with_passivity_enabled(c.base, false)});
   const nlohmann::json on_json = settings_to_json({"base", "", with_passivity_enabled(c.base, true)});
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-  auto contact = [&c](const EngineSettings& s, double rate_Hz, double k) {
-    StiffContactConfig run;
-    run.settings = s;
-    run.rate_Hz = rate_Hz;
-    run.kind = c.contact;
-    run.stiffness_N_per_m = k;
-    run.duration_s = c.duration_s;
-    return run_stiff_contact(run);
-  };
 
   const std::size_t tasks = map.base_runs.size() + map.cells.size();
   std::atomic<std::size_t> next{0};
@@ -177,42 +220,12 @@ StabilityMap run_stability_map(const StabilityMapConfig& c,
       try {
         if (t < map.base_runs.size()) {
           StabilityBaseRun& b = map.base_runs[t];
-          b.result = contact(with_passivity_enabled(c.base, b.controller), b.rate_Hz, b.stiffness_N_per_m);
+          b.result = stiff_contact_run(c, with_passivity_enabled(c.base, b.controller), b.rate_Hz, b.stiffness_N_per_m);
           b.stable = is_stable(b.result, c.criterion);
           runs.fetch_add(1);
         } else {
           StabilityCell& cell = map.cells[t - map.base_runs.size()];
-          const StabilityParameter& p = c.parameters[cell.parameter];
-          const nlohmann::json& base = cell.controller ? on_json : off_json;
-          // The base value's own run, its effect switched on as every run
-          // of the search has it (the base settings' run may have it off).
-          long cell_runs = 0;
-          cell.base_stable = is_stable(
-              contact(with_value(base, p.field, cell.base_value), cell.rate_Hz, cell.stiffness_N_per_m), c.criterion);
-          ++cell_runs;
-          auto passes = [&](double v) {
-            const bool ok = is_stable(contact(with_value(base, p.field, v), cell.rate_Hz, cell.stiffness_N_per_m),
-                                      c.criterion);
-            ++cell_runs;
-            cell.tried.emplace_back(v, ok);
-            return ok;
-          };
-          // A base value outside the range searched widens it: the search
-          // starts from the base.
-          BoundarySearch range = p.range;
-          range.lo = std::min(range.lo, cell.base_value);
-          range.hi = std::max(range.hi, cell.base_value);
-          auto side = [&](double to) {
-            if (to != cell.base_value)
-              return find_nearest_boundary(range, cell.base_value, cell.base_stable, to, passes);
-            Boundary none;  // the base at the range's end: nothing beyond it
-            none.kind = cell.base_stable ? BoundaryKind::kStableEverywhere : BoundaryKind::kUnstableEverywhere;
-            none.stable = cell.base_stable ? to : kNaN;
-            none.unstable = cell.base_stable ? kNaN : to;
-            return none;
-          };
-          cell.below = side(range.lo);
-          cell.above = side(range.hi);
+          const long cell_runs = search_cell(c, cell.controller ? on_json : off_json, cell);
           runs.fetch_add(cell_runs);
         }
       } catch (...) {

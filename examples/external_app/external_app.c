@@ -77,6 +77,54 @@ static int check(int rc, const char* what, const char* error) {
   return rc;
 }
 
+/* The toy VE on one instrument's degraded position: its insertion and
+ * contact events, and its force (a spring pushing the tip back out of the
+ * target) into ve_force_N. Returns whether the tool is in contact; sets
+ * *task_done when the last touch ends. */
+static int ve_update(hl_study* study, tool_state* s, int i, double t_s, const hl_output* out,
+                     double ve_force_N[3], int* touches, int* task_done) {
+  s->insertion_m = out->degraded_insertion_m;
+  /* The scripted hand keeps pitch = yaw = 0: the tip goes down -z from the pivot. */
+  hl_tip_position(out->degraded_insertion_m, out->degraded_pitch_rad, out->degraded_yaw_rad, s->tip_m);
+  const int inside = s->insertion_m >= INSERTION_EVENT_M;
+  if (inside && !s->inside_20mm) hl_study_log_event(study, t_s, HL_EVENT_INSERTION_PASSED, i, 0);
+  if (!inside && s->inside_20mm) hl_study_log_event(study, t_s, HL_EVENT_INSERTION_WITHDRAWN, i, 0);
+  s->inside_20mm = inside;
+
+  const double depth_m = s->insertion_m - (TARGET_INSERTION_M - TOUCH_RADIUS_M);
+  const int contact = i == 0 && depth_m > 0.0;
+  ve_force_N[0] = ve_force_N[1] = 0.0;
+  ve_force_N[2] = contact ? SPRING_N_PER_M * depth_m : 0.0; /* +z: back out of the patient */
+  if (contact && !s->in_contact) {
+    hl_study_log_event(study, t_s, HL_EVENT_CONTACT_START, i, *touches);
+    ++*touches;
+  }
+  if (!contact && s->in_contact) hl_study_log_event(study, t_s, HL_EVENT_CONTACT_END, i, *touches - 1);
+  if (!contact && s->in_contact && *touches >= TOUCHES_TO_COMPLETE) *task_done = 1;
+  s->in_contact = contact;
+  return contact;
+}
+
+/* One instrument's part of the sample to log (the tip's velocity by
+ * difference from the previous update, 0 on the first). */
+static void log_instrument(hl_sample_instrument* log, double raw_m, const hl_output* out, const tool_state* s,
+                           const double previous_tip[3], const double ve_force_N[3], int first, double dt_s) {
+  log->raw_joints[0] = raw_m;
+  log->degraded_joints[0] = out->degraded_insertion_m;
+  log->degraded_joints[1] = out->degraded_pitch_rad;
+  log->degraded_joints[2] = out->degraded_yaw_rad;
+  for (int a = 0; a < 3; ++a) {
+    log->tip_position_m[a] = s->tip_m[a];
+    log->tip_velocity_m_per_s[a] = first ? 0.0 : (s->tip_m[a] - previous_tip[a]) / dt_s;
+    log->ve_force_N[a] = ve_force_N[a];
+    log->displayed_force_N[a] = out->displayed_force_N[a];
+  }
+  log->joint_force[0] = out->insertion_force_N;
+  log->joint_force[1] = out->pitch_torque_Nm;
+  log->joint_force[2] = out->yaw_torque_Nm;
+  log->engine_status = out->status;
+}
+
 /* Runs one trial; returns the outcome for hl_study_end_trial (and its reason). */
 static int run_trial(hl_study* study, const hl_trial* trial, long stall_after, double time_limit_s,
                      const char** reason) {
@@ -125,46 +173,14 @@ static int run_trial(hl_study* study, const hl_trial* trial, long stall_after, d
       /* The VE sees only the degraded position. */
       tool_state* s = &tool[i];
       const double previous_tip[3] = {s->tip_m[0], s->tip_m[1], s->tip_m[2]};
-      s->insertion_m = out.degraded_insertion_m;
-      /* The scripted hand keeps pitch = yaw = 0: the tip goes down -z from the pivot. */
-      hl_tip_position(out.degraded_insertion_m, out.degraded_pitch_rad, out.degraded_yaw_rad, s->tip_m);
-      const int inside = s->insertion_m >= INSERTION_EVENT_M;
-      if (inside && !s->inside_20mm) hl_study_log_event(study, t_s, HL_EVENT_INSERTION_PASSED, i, 0);
-      if (!inside && s->inside_20mm) hl_study_log_event(study, t_s, HL_EVENT_INSERTION_WITHDRAWN, i, 0);
-      s->inside_20mm = inside;
-
-      const double depth_m = s->insertion_m - (TARGET_INSERTION_M - TOUCH_RADIUS_M);
-      const int contact = i == 0 && depth_m > 0.0;
-      ve_force_N[i][0] = ve_force_N[i][1] = 0.0;
-      ve_force_N[i][2] = contact ? SPRING_N_PER_M * depth_m : 0.0; /* +z: back out of the patient */
-      if (contact && !s->in_contact) {
-        hl_study_log_event(study, t_s, HL_EVENT_CONTACT_START, i, touches);
-        ++touches;
-      }
-      if (!contact && s->in_contact) hl_study_log_event(study, t_s, HL_EVENT_CONTACT_END, i, touches - 1);
-      if (!contact && s->in_contact && touches >= TOUCHES_TO_COMPLETE) task_done = 1;
-      s->in_contact = contact;
+      const int contact = ve_update(study, s, i, t_s, &out, ve_force_N[i], &touches, &task_done);
 
       /* The VE's force for this update's positions, through the degradations. */
       hl_engine_refresh_forces(trial->engine, i, ve_force_N[i], &out);
       /* (a real application commands out.insertion_force_N etc. on its device here) */
 
-      hl_sample_instrument* log = &sample.instrument[i];
-      log->raw_joints[0] = raw_m;
-      log->degraded_joints[0] = out.degraded_insertion_m;
-      log->degraded_joints[1] = out.degraded_pitch_rad;
-      log->degraded_joints[2] = out.degraded_yaw_rad;
-      for (int a = 0; a < 3; ++a) {
-        log->tip_position_m[a] = s->tip_m[a];
-        log->tip_velocity_m_per_s[a] = k == 0 ? 0.0 : (s->tip_m[a] - previous_tip[a]) / dt_s;
-        log->ve_force_N[a] = ve_force_N[i][a];
-        log->displayed_force_N[a] = out.displayed_force_N[a];
-      }
-      log->joint_force[0] = out.insertion_force_N;
-      log->joint_force[1] = out.pitch_torque_Nm;
-      log->joint_force[2] = out.yaw_torque_Nm;
-      log->engine_status = out.status;
-      log->in_contact = contact;
+      log_instrument(&sample.instrument[i], raw_m, &out, s, previous_tip, ve_force_N[i], k == 0, dt_s);
+      sample.instrument[i].in_contact = contact;
     }
     hl_study_log_sample(study, &sample); /* never blocks; a full queue counts a drop */
     if (task_done) {

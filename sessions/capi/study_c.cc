@@ -115,6 +115,25 @@ int finish_trial(hl_study& s, hl::db::TrialOutcome outcome, char* error, size_t 
   return HL_OK;
 }
 
+// Before a trial: whatever a late call left in the queues belongs to no
+// trial (the writer is not running, so this thread may consume), and the
+// counters and the tick timing start again.
+void reset_trial_streams(hl_study& study) {
+  hl::LoopSample stale_sample;
+  while (study.samples.try_pop(stale_sample)) {
+  }
+  hl::TaskEvent stale_event;
+  while (study.events.try_pop(stale_event)) {
+  }
+  study.dropped_samples.store(0, std::memory_order_relaxed);
+  study.dropped_events.store(0, std::memory_order_relaxed);
+  study.rejected_samples.store(0, std::memory_order_relaxed);
+  study.rejected_events.store(0, std::memory_order_relaxed);
+  study.have_tick = false;
+  study.last_t_s.store(0.0, std::memory_order_relaxed);
+  study.timing.reset();
+}
+
 }  // namespace
 
 extern "C" {
@@ -222,21 +241,7 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
     }
     // The trial starts with its forces ramping in, as in HapticLab's own loop.
     hl_engine_set_ramp_in(engine, hl::ForceGuard::kDefaultRampIn_s);
-    // Whatever a late call left in the queues belongs to no trial; the
-    // writer is not running, so this thread may consume.
-    hl::LoopSample stale_sample;
-    while (study->samples.try_pop(stale_sample)) {
-    }
-    hl::TaskEvent stale_event;
-    while (study->events.try_pop(stale_event)) {
-    }
-    study->dropped_samples.store(0, std::memory_order_relaxed);
-    study->dropped_events.store(0, std::memory_order_relaxed);
-    study->rejected_samples.store(0, std::memory_order_relaxed);
-    study->rejected_events.store(0, std::memory_order_relaxed);
-    study->have_tick = false;
-    study->last_t_s.store(0.0, std::memory_order_relaxed);
-    study->timing.reset();
+    reset_trial_streams(*study);
     try {
       session.start_trial(*next, study->samples, study->events);
     } catch (...) {
