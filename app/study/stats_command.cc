@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
-#include <map>
 #include <memory>
 #include <optional>
 #include <tuple>
@@ -14,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/io/long_csv.h"
+#include "analysis/io/row_groups.h"
 #include "analysis/stats/block_table.h"
 #include "analysis/stats/correlation.h"
 #include "analysis/stats/data_error.h"
@@ -138,7 +138,8 @@ void add_common_options(CLI::App& cmd, CommonOptions& opt, bool with_group) {
   cmd.add_flag("--json", opt.json, "Print one JSON object instead of a table");
 }
 
-// Rows split by the --group columns, in order of first appearance.
+// Rows split by the --group columns (analysis/io/row_groups.h), with the
+// group's key as JSON for --json.
 struct Group {
   json key = json::object();  // column -> value
   std::string label;          // "participant=S1, task=clip"
@@ -146,23 +147,12 @@ struct Group {
 };
 
 std::vector<Group> split_groups(const an::LongCsv& csv, const std::vector<std::string>& columns) {
-  std::vector<std::size_t> indices;
-  for (const auto& c : columns) indices.push_back(csv.column(c));
   std::vector<Group> groups;
-  std::map<std::vector<std::string>, std::size_t> index;
-  for (std::size_t r = 0; r < csv.row_count(); ++r) {
-    std::vector<std::string> values;
-    for (std::size_t i : indices) values.push_back(csv.text(r, i));
-    auto [it, inserted] = index.emplace(values, groups.size());
-    if (inserted) {
-      Group g;
-      for (std::size_t i = 0; i < columns.size(); ++i) {
-        g.key[columns[i]] = values[i];
-        g.label += (i ? ", " : "") + columns[i] + "=" + values[i];
-      }
-      groups.push_back(std::move(g));
-    }
-    groups[it->second].rows.push_back(r);
+  for (an::RowGroup& g : an::split_rows(csv, columns)) {
+    Group& out = groups.emplace_back();
+    for (const auto& [column, value] : g.key) out.key[column] = value;
+    out.label = std::move(g.label);
+    out.rows = std::move(g.rows);
   }
   return groups;
 }

@@ -60,7 +60,9 @@ def fail(message):
 SLACK = 3
 
 
-def wait_for(what, predicate, timeout_s):
+def wait_for(what, predicate, timeout_s, explain=None):
+    """`explain`, if given, returns what the failure message should add (the
+    server's state), so a timeout under load says why."""
     timeout_s *= SLACK
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
@@ -68,7 +70,7 @@ def wait_for(what, predicate, timeout_s):
         if value:
             return value
         time.sleep(0.1)
-    fail(f"timed out after {timeout_s} s waiting for {what}")
+    fail(f"timed out after {timeout_s} s waiting for {what}" + (f"; {explain()}" if explain else ""))
 
 
 class Console:
@@ -558,7 +560,9 @@ def main():
         Select(driver.find_element(By.ID, "tuning-task")).select_by_value("dissection")
         Select(driver.find_element(By.ID, "tuning-from")).select_by_value("High Fidelity")
         click("tuning-start")
-        wait_for("the free trial's live plots", lambda: driver.execute_script("return window.hapticlab.tuningPoints") > 200, 20)
+        wait_for("the free trial's live plots", lambda: driver.execute_script("return window.hapticlab.tuningPoints") > 200, 20,
+                 lambda: "points drawn: %s; /api/tuning: %s" % (
+                     driver.execute_script("return window.hapticlab.tuningPoints"), c.get("/api/tuning")[:600]))
         code, body = c.post("/api/session/start", {"participant": "S1"}, token=c.token)
         if code != 409 or "free trial" not in body["error"]:
             fail(f"a session started while the free trial drives the device: {code} {body}")
