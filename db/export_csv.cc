@@ -222,6 +222,83 @@ std::vector<std::filesystem::path> export_trial_csv(StudyDb& db, std::int64_t tr
   return {samples.path(), events.path()};
 }
 
+namespace {
+
+// One row of trials.csv: the trial, its loop timing and its device's counts.
+void trial_index_line(StudyDb& db, const TrialRow& t, std::string& line) {
+  put_trial_key(line, t);
+  line += ',';
+  append_number(line, t.block);
+  line += ',';
+  append_number(line, t.position);
+  line += ',';
+  line += to_string(t.status);
+  line += ',';
+  if (t.started_unix_s) append_number(line, *t.started_unix_s);
+  line += ',';
+  if (t.ended_unix_s) append_number(line, *t.ended_unix_s);
+  line += ',';
+  append_csv_text(line, t.abort_reason);
+  line += ',';
+  append_number(line, db.sample_count(t.id, 0));
+  const std::optional<LoopTimingRow> timing = db.loop_timing(t.id);
+  if (timing && timing->timing) {
+    const LoopTimingSummary& s = *timing->timing;
+    for (double x : {static_cast<double>(s.count), s.p50_period_s, s.p99_period_s, s.max_period_s,
+                     s.mean_period_s, static_cast<double>(s.overruns)}) {
+      line += ',';
+      append_number(line, x);
+    }
+  } else {
+    line += ",,,,,,";
+  }
+  line += ',';
+  if (timing) append_number(line, timing->dropped_samples);
+  line += ',';
+  if (timing) append_number(line, timing->dropped_events);
+  // The device's own counts (device_counter), as name=value;... : one
+  // column whatever the device, empty for devices that count nothing.
+  std::string counters;
+  for (const auto& [name, value] : db.device_counters(t.id))
+    counters += (counters.empty() ? "" : ";") + name + "=" + std::to_string(value);
+  line += ',';
+  append_csv_text(line, counters);
+}
+
+// The operator's actions (the console's notes, pauses, STOPs, ...): those
+// of the selected participants' sessions; with no participant selected,
+// also those of no session (a STOP while none ran).
+std::filesystem::path write_operator_actions(StudyDb& db, const std::filesystem::path& out_dir,
+                                             const ExportSelection& selection) {
+  CsvFile actions(out_dir / "operator_actions.csv", selection.gzip);
+  std::string line = "id,session_id,participant,trial_id,unix_s,t_s,type,detail";
+  actions.line(line);
+  for (const OperatorActionRow& a : db.operator_actions()) {
+    if (!selection.participants.empty() && !selection.participants.count(a.participant_code)) continue;
+    line.clear();
+    append_number(line, a.id);
+    line += ',';
+    if (a.session_id) append_number(line, *a.session_id);
+    line += ',';
+    append_csv_text(line, a.participant_code);
+    line += ',';
+    if (a.trial_id) append_number(line, *a.trial_id);
+    line += ',';
+    append_number(line, a.unix_s);
+    line += ',';
+    if (a.t_s) append_number(line, *a.t_s);
+    line += ',';
+    append_csv_text(line, a.type);
+    line += ',';
+    append_csv_text(line, a.detail);
+    actions.line(line);
+  }
+  actions.commit();
+  return actions.path();
+}
+
+}  // namespace
+
 std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t study_id,
                                                     const std::filesystem::path& out_dir,
                                                     std::vector<BadChunk>* bad_chunks,
@@ -245,43 +322,7 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
   index.line(line);
   for (const TrialRow& t : db.trials(study_id)) {
     if (!selected(t, selection)) continue;
-    put_trial_key(line, t);
-    line += ',';
-    append_number(line, t.block);
-    line += ',';
-    append_number(line, t.position);
-    line += ',';
-    line += to_string(t.status);
-    line += ',';
-    if (t.started_unix_s) append_number(line, *t.started_unix_s);
-    line += ',';
-    if (t.ended_unix_s) append_number(line, *t.ended_unix_s);
-    line += ',';
-    append_csv_text(line, t.abort_reason);
-    line += ',';
-    append_number(line, db.sample_count(t.id, 0));
-    const std::optional<LoopTimingRow> timing = db.loop_timing(t.id);
-    if (timing && timing->timing) {
-      const LoopTimingSummary& s = *timing->timing;
-      for (double x : {static_cast<double>(s.count), s.p50_period_s, s.p99_period_s, s.max_period_s,
-                       s.mean_period_s, static_cast<double>(s.overruns)}) {
-        line += ',';
-        append_number(line, x);
-      }
-    } else {
-      line += ",,,,,,";
-    }
-    line += ',';
-    if (timing) append_number(line, timing->dropped_samples);
-    line += ',';
-    if (timing) append_number(line, timing->dropped_events);
-    // The device's own counts (device_counter), as name=value;... : one
-    // column whatever the device, empty for devices that count nothing.
-    std::string counters;
-    for (const auto& [name, value] : db.device_counters(t.id))
-      counters += (counters.empty() ? "" : ";") + name + "=" + std::to_string(value);
-    line += ',';
-    append_csv_text(line, counters);
+    trial_index_line(db, t, line);
     index.line(line);
     if (t.status == TrialStatus::kPlanned) continue;
     if (selection.one_file) {
@@ -299,34 +340,7 @@ std::vector<std::filesystem::path> export_study_csv(StudyDb& db, std::int64_t st
   }
   index.commit();
   written.push_back(index.path());
-  // The operator's actions (the console's notes, pauses, STOPs, ...): those
-  // of the selected participants' sessions; with no participant selected,
-  // also those of no session (a STOP while none ran).
-  CsvFile actions(out_dir / "operator_actions.csv", selection.gzip);
-  line = "id,session_id,participant,trial_id,unix_s,t_s,type,detail";
-  actions.line(line);
-  for (const OperatorActionRow& a : db.operator_actions()) {
-    if (!selection.participants.empty() && !selection.participants.count(a.participant_code)) continue;
-    line.clear();
-    append_number(line, a.id);
-    line += ',';
-    if (a.session_id) append_number(line, *a.session_id);
-    line += ',';
-    append_csv_text(line, a.participant_code);
-    line += ',';
-    if (a.trial_id) append_number(line, *a.trial_id);
-    line += ',';
-    append_number(line, a.unix_s);
-    line += ',';
-    if (a.t_s) append_number(line, *a.t_s);
-    line += ',';
-    append_csv_text(line, a.type);
-    line += ',';
-    append_csv_text(line, a.detail);
-    actions.line(line);
-  }
-  actions.commit();
-  written.push_back(actions.path());
+  written.push_back(write_operator_actions(db, out_dir, selection));
   return written;
 }
 

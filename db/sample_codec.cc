@@ -12,11 +12,7 @@
 #include <stdexcept>
 #include <string>
 
-#include <zstd.h>
-
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
+#include "db/chunk_body.h"
 
 namespace hapticlab::db {
 
@@ -24,6 +20,25 @@ namespace hapticlab::db {
 const std::array<const char*, kChunkChannels> kChannelNames = kSampleChannelNames;
 
 namespace {
+
+// The body's layout and format 3's transforms (chunk_body.h).
+using chunk::check_frame;
+using chunk::compress_body;
+using chunk::decompress;
+using chunk::exact_segments;
+using chunk::kConstant;
+using chunk::kDeviceStatus;
+using chunk::kEndFloat;
+using chunk::kEngineStatus;
+using chunk::kFirstFloat;
+using chunk::kInContact;
+using chunk::kPerUpdate;
+using chunk::kRunningSum;
+using chunk::load;
+using chunk::max_body_bytes;
+using chunk::precondition;
+using chunk::Segment;
+using chunk::structure;
 
 // 8 bytes little-endian of `v` at `out`.
 void put_le64(std::byte* out, std::uint64_t v) noexcept {
@@ -69,8 +84,6 @@ std::string hex32(std::uint32_t v) {
   return buf;
 }
 
-enum Tag : std::uint8_t { kPerUpdate = 0, kConstant = 1, kRunningSum = 2 };
-
 // Channels 2..24: the float32 ones, as pointers into InstrumentSample.
 double* float_channel(InstrumentSample& s, std::size_t channel) noexcept {
   const std::size_t k = channel - 2;
@@ -82,9 +95,6 @@ double* float_channel(InstrumentSample& s, std::size_t channel) noexcept {
   if (k < 20) return &s.displayed_force_N[k - 17];
   return &s.joint_force[k - 20];
 }
-constexpr std::size_t kFirstFloat = 2, kEndFloat = 25;
-constexpr std::size_t kEngineStatus = 25, kDeviceStatus = 26, kInContact = 27;
-
 static_assert(std::endian::native == std::endian::little, "the chunk format is little-endian; memcpy assumes it");
 
 }  // namespace
@@ -156,370 +166,7 @@ void put_bits(Writer& w, const Bits* bits, std::size_t n, std::size_t stride = 1
   for (std::size_t i = 0; i < values; ++i) w.le<Bytes>(static_cast<std::uint64_t>(bits[i * stride]));
 }
 
-// Bytes per value of each channel, in blob order (t_s's running-sum tag
-// is followed by one 8-byte value, like a constant).
-constexpr int channel_bytes(std::size_t channel) noexcept {
-  return channel < kFirstFloat ? 8 : channel == kInContact ? 1 : 4;
-}
-
-// Format 2's preconditioning of a format-1 body, in place (the layout is
-// documented in sample_codec.h): per-update channels of 4 or 8 bytes become
-// differences of consecutive bit patterns, in bit planes; when t_s is
-// stored per update too, dt_s instead becomes its XOR with t's differences
-// (period_residuals), in bit planes. Smooth signals then differ in their
-// low bits only, and the high bit planes are long runs zstd compresses to
-// almost nothing. Tags, constants and 1-byte channels
-// are unchanged, so the inverse walks the same layout. `forward` false
-// undoes it. Throws ChunkError (kStructure) for a body that does not hold
-// `n` updates' worth of channels.
-struct Segment {
-  std::uint8_t tag = kConstant;
-  std::byte* values = nullptr;  // the channel's first value
-  std::size_t width = 0;        // bytes per value
-};
-
-// The channels of a format-1 body of `n` updates; `end` (if given) gets the
-// offset just past the last one.
-std::array<Segment, kChunkChannels> segments(std::span<std::byte> body, std::size_t n, std::size_t* end = nullptr) {
-  std::array<Segment, kChunkChannels> out;
-  std::size_t pos = 0;
-  const auto need = [&](std::size_t bytes) {
-    if (bytes > body.size() - pos) throw ChunkError(ChunkError::Kind::kStructure, "blob too short for its count");
-  };
-  for (std::size_t c = 0; c < kChunkChannels; ++c) {
-    need(1);
-    Segment& g = out[c];
-    g.tag = std::to_integer<std::uint8_t>(body[pos++]);
-    g.width = static_cast<std::size_t>(channel_bytes(c));
-    if (g.tag != kPerUpdate && g.tag != kConstant && !(g.tag == kRunningSum && c == 1))
-      throw ChunkError(ChunkError::Kind::kStructure,
-                       std::string("channel ") + kChannelNames[c] + " has unknown tag " + std::to_string(g.tag));
-    const std::size_t bytes = g.tag == kPerUpdate ? n * g.width : g.width;
-    need(bytes);
-    g.values = body.data() + pos;
-    pos += bytes;
-  }
-  if (end != nullptr) *end = pos;
-  return out;
-}
-
-template <typename U>
-U load(const std::byte* p) noexcept {
-  U v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-
-// Values <-> bit planes. The first m = n - n % 8 values of W bytes become
-// 8 * W planes of m / 8 bytes: plane k holds bit k % 8
-// of byte k / 8 of every value, value i's at bit i % 8 of the plane's byte
-// i / 8. The last n % 8 values follow as they are. Differences of a smooth
-// signal share their high bits (zero, or all ones when negative), so most
-// planes are runs of one byte; a byte plane would mix them with the noisy
-// low bits (about 10 % smaller on the demo study, BENCHMARKS.md).
-//
-// 8 values x 8 bits of one byte as an 8 x 8 bit matrix (row r = value r's
-// byte, in the uint64's byte r) transposed: row c = bit c of each value.
-inline std::uint64_t transpose8x8(std::uint64_t x) noexcept {
-  std::uint64_t t = (x ^ (x >> 7)) & 0x00AA00AA00AA00AAull;
-  x ^= t ^ (t << 7);
-  t = (x ^ (x >> 14)) & 0x0000CCCC0000CCCCull;
-  x ^= t ^ (t << 14);
-  t = (x ^ (x >> 28)) & 0x00000000F0F0F0F0ull;
-  x ^= t ^ (t << 28);
-  return x;
-}
-
-// 8 x 8 bytes transposed: byte c of x[r] and byte r of x[c] trade places.
-// Blocks first (the 4 x 4 corners, then 2 x 2, then single bytes), each
-// swap a masked XOR, as transpose8x8 does for bits. Spelled out and always
-// inlined (GCC kept it a call, 6 % of the encoder), so the eight words stay
-// in registers.
-[[gnu::always_inline]] inline void swap_masked(std::uint64_t& a, std::uint64_t& b, int shift, std::uint64_t mask) noexcept {
-  const std::uint64_t t = ((a >> shift) ^ b) & mask;
-  a ^= t << shift;
-  b ^= t;
-}
-[[gnu::always_inline]] inline void transpose_bytes8x8(std::array<std::uint64_t, 8>& x) noexcept {
-  constexpr std::uint64_t k4 = 0x00000000FFFFFFFFull, k2 = 0x0000FFFF0000FFFFull, k1 = 0x00FF00FF00FF00FFull;
-  swap_masked(x[0], x[4], 32, k4);
-  swap_masked(x[1], x[5], 32, k4);
-  swap_masked(x[2], x[6], 32, k4);
-  swap_masked(x[3], x[7], 32, k4);
-  swap_masked(x[0], x[2], 16, k2);
-  swap_masked(x[1], x[3], 16, k2);
-  swap_masked(x[4], x[6], 16, k2);
-  swap_masked(x[5], x[7], 16, k2);
-  swap_masked(x[0], x[1], 8, k1);
-  swap_masked(x[2], x[3], 8, k1);
-  swap_masked(x[4], x[5], 8, k1);
-  swap_masked(x[6], x[7], 8, k1);
-}
-
-// The 8 bytes of `word` to p[0], p[stride], ..., p[7 * stride], low byte
-// first, and back: one byte of each of 8 consecutive planes. Unrolled by
-// hand (GCC at -O2 keeps the loop, and it dominated the encoder).
-inline void scatter8(std::byte* p, std::size_t stride, std::uint64_t word) noexcept {
-  p[0] = static_cast<std::byte>(word);
-  p[stride] = static_cast<std::byte>(word >> 8);
-  p[2 * stride] = static_cast<std::byte>(word >> 16);
-  p[3 * stride] = static_cast<std::byte>(word >> 24);
-  p[4 * stride] = static_cast<std::byte>(word >> 32);
-  p[5 * stride] = static_cast<std::byte>(word >> 40);
-  p[6 * stride] = static_cast<std::byte>(word >> 48);
-  p[7 * stride] = static_cast<std::byte>(word >> 56);
-}
-inline std::uint64_t gather8(const std::byte* p, std::size_t stride) noexcept {
-  const auto at = [&](std::size_t k) { return std::uint64_t{std::to_integer<std::uint8_t>(p[k * stride])} << (8 * k); };
-  return at(0) | at(1) | at(2) | at(3) | at(4) | at(5) | at(6) | at(7);
-}
-
-#if defined(__SSE2__)
-// Planes -> values for groups g .. g + 15 (`half`: g .. g + 7) at once,
-// into out: most of analyze's decoding, 2.5x faster than a group at a time
-// (an x86-64 baseline instruction set, so no run-time choice). Per byte b
-// of the values: the 16 bytes of each of planes 8b .. 8b + 7 at g are
-// byte-transposed with unpacks, so that one vector holds, for two
-// consecutive groups, each plane's byte (plane s at byte s of its half);
-// then bit j of every byte, collected by movemask (the top bit, after
-// shifting j to it), is byte b of value 8 (g + k) + j for both groups.
-template <std::size_t W>
-[[gnu::always_inline]] inline void planes_to_values_sse2(const std::byte* v, std::size_t groups, std::size_t g,
-                                                         std::byte* out, bool half) noexcept {
-  for (std::size_t b = 0; b < W; ++b) {
-    __m128i a[8];  // (std::array<__m128i> drops the vector type's attributes: a GCC warning)
-    for (std::size_t s = 0; s < 8; ++s) {
-      const auto* p = reinterpret_cast<const __m128i*>(v + (8 * b + s) * groups + g);
-      a[s] = half ? _mm_loadl_epi64(p) : _mm_loadu_si128(p);
-    }
-    const __m128i t0 = _mm_unpacklo_epi8(a[0], a[1]), t1 = _mm_unpackhi_epi8(a[0], a[1]);
-    const __m128i t2 = _mm_unpacklo_epi8(a[2], a[3]), t3 = _mm_unpackhi_epi8(a[2], a[3]);
-    const __m128i t4 = _mm_unpacklo_epi8(a[4], a[5]), t5 = _mm_unpackhi_epi8(a[4], a[5]);
-    const __m128i t6 = _mm_unpacklo_epi8(a[6], a[7]), t7 = _mm_unpackhi_epi8(a[6], a[7]);
-    const __m128i u0 = _mm_unpacklo_epi16(t0, t2), u1 = _mm_unpackhi_epi16(t0, t2);
-    const __m128i u2 = _mm_unpacklo_epi16(t1, t3), u3 = _mm_unpackhi_epi16(t1, t3);
-    const __m128i u4 = _mm_unpacklo_epi16(t4, t6), u5 = _mm_unpackhi_epi16(t4, t6);
-    const __m128i u6 = _mm_unpacklo_epi16(t5, t7), u7 = _mm_unpackhi_epi16(t5, t7);
-    // x[k]: groups g + 2k (bytes 0..7, plane s at byte s) and g + 2k + 1 (8..15).
-    const __m128i x[8] = {_mm_unpacklo_epi32(u0, u4), _mm_unpackhi_epi32(u0, u4),
-                          _mm_unpacklo_epi32(u1, u5), _mm_unpackhi_epi32(u1, u5),
-                          _mm_unpacklo_epi32(u2, u6), _mm_unpackhi_epi32(u2, u6),
-                          _mm_unpacklo_epi32(u3, u7), _mm_unpackhi_epi32(u3, u7)};
-    const std::size_t pairs = half ? 4 : 8;
-    for (std::size_t k = 0; k < pairs; ++k) {
-      __m128i y = x[k];
-      std::byte* const first = out + 8 * (g + 2 * k) * W + b;
-      std::byte* const second = first + 8 * W;
-      for (std::size_t j = 8; j-- > 0;) {
-        const auto m = static_cast<unsigned>(_mm_movemask_epi8(y));
-        first[j * W] = static_cast<std::byte>(m);
-        second[j * W] = static_cast<std::byte>(m >> 8);
-        y = _mm_add_epi8(y, y);  // next lower bit to the top
-      }
-    }
-  }
-}
-#endif
-
-// Bit planes of n values of W bytes at v, in place: `to_planes` makes
-// them, false undoes it. Per group of 8 values: their bytes transposed
-// (word b = byte b of each value), then each word's bits (transpose8x8),
-// whose 8 bytes are the group's byte in planes 8b..8b+7. The group's values
-// are loaded and stored whole, not byte by byte: this runs on every chunk
-// the writer thread stores and every chunk analyze reads.
-template <std::size_t W>
-void bit_planes(std::byte* v, std::size_t n, bool to_planes, std::vector<std::byte>& scratch) {
-  static_assert(W == 4 || W == 8);
-  const std::size_t groups = n / 8;
-  scratch.resize(n * W);
-  std::byte* const out = scratch.data();
-  for (std::size_t g = 0; g < groups; ++g) {
-    std::array<std::uint64_t, 8> x{};
-    if (to_planes) {
-      for (std::size_t r = 0; r < 8; ++r) std::memcpy(&x[r], v + (8 * g + r) * W, W);
-      transpose_bytes8x8(x);
-      for (std::size_t b = 0; b < W; ++b) scatter8(out + 8 * b * groups + g, groups, transpose8x8(x[b]));
-    } else {
-#if defined(__SSE2__)
-      // 16 (then 8) groups at once with SSE2 (planes_to_values_sse2), the
-      // rest one at a time.
-      if (g + 16 <= groups) {
-        planes_to_values_sse2<W>(v, groups, g, out, false);
-        g += 15;
-        continue;
-      }
-      if (g + 8 <= groups) {
-        planes_to_values_sse2<W>(v, groups, g, out, true);
-        g += 7;
-        continue;
-      }
-#endif
-      // transpose8x8 is its own inverse.
-      for (std::size_t b = 0; b < W; ++b) x[b] = transpose8x8(gather8(v + 8 * b * groups + g, groups));
-      transpose_bytes8x8(x);
-      for (std::size_t r = 0; r < 8; ++r) std::memcpy(out + (8 * g + r) * W, &x[r], W);
-    }
-  }
-  std::memcpy(out + groups * 8 * W, v + groups * 8 * W, (n - groups * 8) * W);
-  std::memcpy(v, out, n * W);
-}
-
-// Differences modulo 2^bits, in place (first value kept), and their sums.
-template <typename U>
-void differences(std::byte* v, std::size_t n) {
-  U prev = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const U x = load<U>(v + i * sizeof(U));
-    const U d = static_cast<U>(x - prev);
-    prev = x;
-    std::memcpy(v + i * sizeof(U), &d, sizeof d);
-  }
-}
-template <typename U>
-void sums(std::byte* v, std::size_t n) {
-  U prev = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    prev = static_cast<U>(prev + load<U>(v + i * sizeof(U)));
-    std::memcpy(v + i * sizeof(U), &prev, sizeof prev);
-  }
-}
-
-// dt[i]'s bits XOR those of t[i] - t[i-1] (i >= 1), in place, for a chunk
-// whose t_s is stored per update (the wall clock's: where t[i-1] + dt[i]
-// is not t[i] to the bit): a clock's dt is its t's difference, give or
-// take a rounding, so what is left is zero or a few low bits. `t` holds
-// the decoded t_s values.
-void period_residuals(std::byte* dt, const std::byte* t, std::size_t n) {
-  for (std::size_t i = 1; i < n; ++i) {
-    const double step = std::bit_cast<double>(load<std::uint64_t>(t + i * 8)) -
-                        std::bit_cast<double>(load<std::uint64_t>(t + (i - 1) * 8));
-    const std::uint64_t x = load<std::uint64_t>(dt + i * 8) ^ std::bit_cast<std::uint64_t>(step);
-    std::memcpy(dt + i * 8, &x, 8);
-  }
-}
-
-// `only`: undoing (forward false), the channels to restore; the others are
-// left preconditioned (a reader that projects never reads them).
-void precondition(std::span<std::byte> body, std::size_t n, bool forward, std::vector<std::byte>& scratch,
-                  ChannelSet only = kAllChannels) {
-  const std::array<Segment, kChunkChannels> seg = segments(body, n);
-  constexpr std::size_t kPeriod = 0, kTime = 1;
-  // dt as residuals of t's differences: t must be as stored when they are
-  // made, and restored before they are undone.
-  const bool residual_dt = seg[kPeriod].tag == kPerUpdate && seg[kTime].tag == kPerUpdate;
-  if (forward && residual_dt) period_residuals(seg[kPeriod].values, seg[kTime].values, n);
-  for (std::size_t c = 0; c < kChunkChannels; ++c) {
-    const Segment& g = seg[c];
-    if (g.tag != kPerUpdate || g.width == 1) continue;
-    if (!forward && (only & (ChannelSet{1} << c)) == 0) continue;
-    // Differences for every channel but a residual dt; planes for all.
-    const bool differenced = !(c == kPeriod && residual_dt);
-    const auto diff = [&](bool sum) {
-      if (!differenced) return;
-      if (g.width == 4) sum ? sums<std::uint32_t>(g.values, n) : differences<std::uint32_t>(g.values, n);
-      else sum ? sums<std::uint64_t>(g.values, n) : differences<std::uint64_t>(g.values, n);
-    };
-    const auto planes = [&](bool to_planes) {
-      if (g.width == 4) bit_planes<4>(g.values, n, to_planes, scratch);
-      else bit_planes<8>(g.values, n, to_planes, scratch);
-    };
-    if (forward) {
-      diff(false);
-      planes(true);
-    } else {
-      planes(false);
-      diff(true);
-    }
-  }
-  if (!forward && residual_dt && (only & (ChannelSet{1} << kPeriod)) != 0)
-    period_residuals(seg[kPeriod].values, seg[kTime].values, n);
-}
-
-// zstd contexts, one per thread that encodes or decodes (the writer thread,
-// analysis workers), kept for the thread's life: creating one costs more
-// than compressing a chunk.
-struct ZstdContexts {
-  ZSTD_CCtx* c = nullptr;
-  ZSTD_DCtx* d = nullptr;
-  ~ZstdContexts() {
-    ZSTD_freeCCtx(c);
-    ZSTD_freeDCtx(d);
-  }
-};
-thread_local ZstdContexts tls_zstd;
 thread_local std::vector<std::byte> tls_shuffle;  // the encoder's precondition scratch
-
-// zstd level 1: the fastest standard level; higher levels gained under 1 %
-// in size on the demo study's chunks (BENCHMARKS.md, issue 20 goal 2).
-constexpr int kZstdLevel = 1;
-
-// The worst-case format-1 body of n updates: 28 tags, every channel per
-// update (t_s's running sum is smaller).
-constexpr std::size_t kBytesPerUpdate = 8 + 8 + 4 * (kEndFloat - kFirstFloat) + 4 + 4 + 1;
-constexpr std::size_t max_body_bytes(std::size_t n) noexcept { return kChunkChannels + n * kBytesPerUpdate; }
-
-ChunkError structure(const std::string& what) { return ChunkError(ChunkError::Kind::kStructure, what); }
-
-// A plain body (preconditioned) as one zstd frame -- level 1, its content
-// size and content checksum in it -- behind room for the 5-byte header.
-std::vector<std::byte> compress_body(std::span<const std::byte> plain) {
-  if (tls_zstd.c == nullptr) {
-    if ((tls_zstd.c = ZSTD_createCCtx()) == nullptr) throw std::bad_alloc();
-    for (const auto& [parameter, value] :
-         {std::pair{ZSTD_c_compressionLevel, kZstdLevel}, std::pair{ZSTD_c_checksumFlag, 1},
-          std::pair{ZSTD_c_contentSizeFlag, 1}}) {
-      const std::size_t rc = ZSTD_CCtx_setParameter(tls_zstd.c, parameter, value);
-      if (ZSTD_isError(rc))
-        throw std::runtime_error(std::string("zstd refused a compression parameter: ") + ZSTD_getErrorName(rc));
-    }
-  }
-  std::vector<std::byte> packed(kChunkHeaderBytes + ZSTD_compressBound(plain.size()));
-  const std::size_t size = ZSTD_compress2(tls_zstd.c, packed.data() + kChunkHeaderBytes,
-                                          packed.size() - kChunkHeaderBytes, plain.data(), plain.size());
-  if (ZSTD_isError(size))
-    throw std::runtime_error(std::string("zstd could not compress a sample chunk: ") + ZSTD_getErrorName(size));
-  packed.resize(kChunkHeaderBytes + size);
-  return packed;
-}
-
-// A chunk's zstd frame, checked before anything is allocated for it: one
-// frame (RFC 8878 section 3.1.1: magic number, then the frame header
-// descriptor) that states its content size, at most `most` bytes (what the
-// row's count of updates can take), with the content checksum flag when
-// `need_checksum`, and nothing after it. Returns the content size.
-std::size_t check_frame(std::span<const std::byte> frame, std::size_t most, bool need_checksum) {
-  constexpr std::array<std::uint8_t, 4> kMagic{0x28, 0xB5, 0x2F, 0xFD};  // 0xFD2FB528 little-endian
-  bool magic = frame.size() > kMagic.size();
-  for (std::size_t i = 0; magic && i < kMagic.size(); ++i) magic = std::to_integer<std::uint8_t>(frame[i]) == kMagic[i];
-  if (!magic) throw structure("the zstd frame does not decompress (it does not start with a zstd frame's magic number)");
-  const unsigned long long size = ZSTD_getFrameContentSize(frame.data(), frame.size());
-  if (size == ZSTD_CONTENTSIZE_ERROR) throw structure("the zstd frame does not decompress (no valid frame header)");
-  if (size == ZSTD_CONTENTSIZE_UNKNOWN) throw structure("the zstd frame does not state its content size");
-  if (size > most)
-    throw structure("the zstd frame's header states " + std::to_string(size) + " bytes, more than the " +
-                    std::to_string(most) + " that the row's count of updates can take");
-  // Frame_Header_Descriptor bit 2: Content_Checksum_flag.
-  if (need_checksum && (std::to_integer<std::uint8_t>(frame[4]) & 0x04) == 0)
-    throw structure("the zstd frame carries no content checksum (format 3 frames must)");
-  const std::size_t compressed = ZSTD_findFrameCompressedSize(frame.data(), frame.size());
-  if (ZSTD_isError(compressed))
-    throw structure(std::string("the zstd frame does not decompress: ") + ZSTD_getErrorName(compressed));
-  if (compressed != frame.size())
-    throw structure(std::to_string(frame.size() - compressed) +
-                    " bytes follow the zstd frame (a chunk holds exactly one frame)");
-  return static_cast<std::size_t>(size);
-}
-
-// The checked frame decompressed into `out` (its content checksum, when it
-// has one, verified by zstd).
-void decompress(std::span<const std::byte> frame, std::size_t size, std::vector<std::byte>& out) {
-  if (tls_zstd.d == nullptr && (tls_zstd.d = ZSTD_createDCtx()) == nullptr) throw std::bad_alloc();
-  out.resize(size);
-  const std::size_t got = ZSTD_decompressDCtx(tls_zstd.d, out.data(), out.size(), frame.data(), frame.size());
-  if (ZSTD_isError(got) || got != size)
-    throw structure(std::string("the zstd frame does not decompress: ") +
-                    (ZSTD_isError(got) ? ZSTD_getErrorName(got) : "shorter than its header says"));
-}
 
 void check_count(std::uint64_t count) {
   if (count == 0 || count > kMaxChunkUpdates)
@@ -536,16 +183,6 @@ void check_header_size(std::span<const std::byte> blob) {
   throw ChunkError(ChunkError::Kind::kChecksum, std::string("checksum mismatch (stored CRC-32C ") + scheme +
                                                     hex32(want) + ", the data gives " + hex32(got) +
                                                     "): the chunk is damaged");
-}
-
-// A format-1 body of `n` updates that holds exactly its channels. Returns
-// the channels' layout; throws ChunkError (kStructure) otherwise.
-std::array<Segment, kChunkChannels> exact_segments(std::span<std::byte> body, std::size_t n) {
-  std::size_t end = 0;
-  const std::array<Segment, kChunkChannels> seg = segments(body, n, &end);
-  if (end != body.size())
-    throw structure(std::to_string(body.size()) + " bytes, more than " + std::to_string(n) + " samples use");
-  return seg;
 }
 
 // Format 0's body: the old blob whole, its own format byte (1) first.

@@ -115,7 +115,11 @@ std::string population_file_text(PopulationFile& file) {
   return out.dump(2) + "\n";
 }
 
-PopulationFile read_population_file(const std::filesystem::path& path) {
+namespace {
+
+// The file's JSON, after the checks that say whether it is a population
+// file this hapticlab may use at all: format, versions, checksum.
+json checked_document(const std::filesystem::path& path, int& model, std::string& stored) {
   std::ifstream in(path);
   if (!in) refuse(path, "cannot be read (missing, or no permission)");
   std::stringstream buffer;
@@ -135,29 +139,26 @@ PopulationFile read_population_file(const std::filesystem::path& path) {
                      ", but this hapticlab reads format_version " + std::to_string(kPopulationFormatVersion));
   if (!j.contains("model_version") || !j["model_version"].is_number_integer())
     refuse(path, "has no model_version, so which participant model it was fitted for is unknown");
-  const int model = j["model_version"].get<int>();
+  model = j["model_version"].get<int>();
   if (model != kParticipantModelVersion)
     refuse(path, "was fitted for participant model " + std::to_string(model) + ", but this hapticlab simulates model " +
                      std::to_string(kParticipantModelVersion) +
                      "; a population is not carried over between models: fit it again with `hapticlab plan "
                      "calibrate --fit --out DIR` (docs/simulation.md)");
   if (!j.contains("sha256") || !j["sha256"].is_string()) refuse(path, "has no sha256, so damage cannot be detected");
-  const std::string stored = j["sha256"].get<std::string>();
+  stored = j["sha256"].get<std::string>();
   json body = j;
   body.erase("sha256");
   if (digest_of(body) != stored)
     refuse(path, "is damaged or was edited after the fit: its contents hash to " + digest_of(body) +
                      ", not to the sha256 it records (" + stored +
                      "); restore it, or fit again with `hapticlab plan calibrate --fit`");
+  return j;
+}
 
-  PopulationFile f;
-  f.model_version = model;
-  f.sha256 = stored;
-  f.description = text_member(path, j, "description", "");
-  f.point = population_from(path, member(path, j, "population", ""), "population");
-
-  // The calibration set: every source it relies on must be cited.
-  const json& set = member(path, j, "calibration_set", "");
+// The calibration set's sources: every source it relies on must be cited.
+// Returns their keys.
+std::set<std::string> read_sources(const std::filesystem::path& path, const json& set, PopulationFile& f) {
   const json& sources = member(path, set, "sources", "calibration_set.");
   if (!sources.is_array()) refuse(path, "calibration_set.sources is not a list (damaged?)");
   std::set<std::string> keys;
@@ -176,6 +177,12 @@ PopulationFile read_population_file(const std::filesystem::path& path) {
       refuse(path, "cites no source '" + required.key + "' (" + required.citation.substr(0, 60) +
                        "...), which the calibration set relies on; a population whose sources are missing is not "
                        "used");
+  return keys;
+}
+
+// The calibration set's targets, each citing one of `keys`.
+void read_targets(const std::filesystem::path& path, const json& set, const std::set<std::string>& keys,
+                  PopulationFile& f) {
   const json& targets = member(path, set, "targets", "calibration_set.");
   if (!targets.is_array() || targets.empty()) refuse(path, "calibration_set.targets is empty or not a list");
   for (const json& t : targets) {
@@ -201,7 +208,10 @@ PopulationFile read_population_file(const std::filesystem::path& path) {
     }
     f.targets.push_back(std::move(c));
   }
+}
 
+// The free parameters (each with its prior's source) and the fixed ones.
+void read_parameters(const std::filesystem::path& path, const json& j, PopulationFile& f) {
   const json& free = member(path, j, "free_parameters", "");
   if (!free.is_array() || free.empty()) refuse(path, "free_parameters is empty or not a list");
   for (const json& p : free) {
@@ -231,7 +241,10 @@ PopulationFile read_population_file(const std::filesystem::path& path) {
     x.source = text_member(path, p, "source", ("fixed_parameters[" + x.name + "].").c_str());
     f.fixed.push_back(std::move(x));
   }
+}
 
+// The posterior draws: a table of one column per population field.
+void read_draws(const std::filesystem::path& path, const json& j, PopulationFile& f) {
   const json& draws = member(path, j, "posterior_draws", "");
   const json& columns = member(path, draws, "columns", "posterior_draws.");
   const json& rows = member(path, draws, "rows", "posterior_draws.");
@@ -247,6 +260,22 @@ PopulationFile read_population_file(const std::filesystem::path& path) {
     }
     f.draws.push_back(population_from(path, as_object, "posterior_draws row " + std::to_string(r)));
   }
+}
+
+}  // namespace
+
+PopulationFile read_population_file(const std::filesystem::path& path) {
+  PopulationFile f;
+  std::string stored;
+  const json j = checked_document(path, f.model_version, stored);
+  f.sha256 = stored;
+  f.description = text_member(path, j, "description", "");
+  f.point = population_from(path, member(path, j, "population", ""), "population");
+  const json& set = member(path, j, "calibration_set", "");
+  const std::set<std::string> keys = read_sources(path, set, f);
+  read_targets(path, set, keys, f);
+  read_parameters(path, j, f);
+  read_draws(path, j, f);
   f.fit = j.contains("fit") ? j["fit"] : json::object();
   return f;
 }

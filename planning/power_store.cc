@@ -284,35 +284,54 @@ std::string PowerStore::digest(const std::string& plan_sha256, const StudyOutcom
   return sha256_hex(text);
 }
 
-std::vector<StudyOutcome> PowerStore::load(bool complete) {
-  const Shape& shape = *shape_;
-  constexpr std::int64_t kMaxInt = std::numeric_limits<int>::max();
-  std::map<std::pair<int, int>, StudyOutcome> by_key;
-  std::map<std::pair<int, int>, std::string> stored_sha;
-  db::Statement s = db_.prepare(
+// load(), table by table: the stored studies, then the rows that belong to
+// them (findings, staircases, changes, trials per setting), then what is
+// recomputed rather than trusted.
+struct PowerStore::Loading {
+  using Key = std::pair<int, int>;
+  static constexpr std::int64_t kMaxInt = std::numeric_limits<int>::max();
+
+  PowerStore& store;
+  const Shape& shape;
+  std::map<Key, StudyOutcome> by_key;
+  std::map<Key, std::string> stored_sha;
+
+  void studies();
+  StudyOutcome& owner(const RowReader& r);
+  void findings();
+  void staircases();
+  void changes();
+  void setting_trials();
+  std::vector<StudyOutcome> verified();
+  void check_complete() const;
+};
+
+void PowerStore::Loading::studies() {
+  const PlanInputs& inputs = store.inputs_;
+  db::Statement s = store.db_.prepare(
       "SELECT rowid, participants, typeof(participants), idx, typeof(idx), seed, typeof(seed), trials_run, "
       "typeof(trials_run), trials_timed_out, typeof(trials_timed_out), updates, typeof(updates), seconds, "
       "typeof(seconds), sha256, typeof(sha256) FROM study ORDER BY participants, idx");
   while (s.step()) {
-    const RowReader r(s, path_, "table study, row " + std::to_string(s.column_int64(0)));
+    const RowReader r(s, store.path_, "table study, row " + std::to_string(s.column_int64(0)));
     StudyOutcome o;
     o.participants = static_cast<int>(r.integer(1, "participants", 1, 999));
     if (!shape.codes.count(o.participants))
       r.refuse("it is a study of " + std::to_string(o.participants) + " participants, which this plan (--participants " +
                [&] {
                  std::string l;
-                 for (int n : inputs_.participants) l += (l.empty() ? "" : ",") + std::to_string(n);
+                 for (int n : inputs.participants) l += (l.empty() ? "" : ",") + std::to_string(n);
                  return l;
                }() + ") does not ask for");
-    o.index = static_cast<int>(r.integer(3, "idx", 0, inputs_.studies - 1));
-    const RowReader rs(s, path_, r.row() + " (" + study_label(o.participants, o.index) + ")");
-    if (const int shard = inputs_.shard_of(o.participants, o.index); shard != inputs_.shard)
-      rs.refuse("it is a study of shard " + std::to_string(shard) + "/" + std::to_string(inputs_.shards) +
-                ", not of this run's shard " + std::to_string(inputs_.shard) + "/" + std::to_string(inputs_.shards));
+    o.index = static_cast<int>(r.integer(3, "idx", 0, inputs.studies - 1));
+    const RowReader rs(s, store.path_, r.row() + " (" + study_label(o.participants, o.index) + ")");
+    if (const int shard = inputs.shard_of(o.participants, o.index); shard != inputs.shard)
+      rs.refuse("it is a study of shard " + std::to_string(shard) + "/" + std::to_string(inputs.shards) +
+                ", not of this run's shard " + std::to_string(inputs.shard) + "/" + std::to_string(inputs.shards));
     const std::string seed = rs.text(5, "seed");
-    const std::uint64_t expected_seed = study_seed(inputs_.seed, o.participants, o.index);
+    const std::uint64_t expected_seed = study_seed(inputs.seed, o.participants, o.index);
     if (seed != std::to_string(expected_seed))
-      rs.refuse("column seed is '" + shown_text(seed) + "', but this plan's --seed " + std::to_string(inputs_.seed) +
+      rs.refuse("column seed is '" + shown_text(seed) + "', but this plan's --seed " + std::to_string(inputs.seed) +
                 " gives that study the seed " + std::to_string(expected_seed));
     o.seed = expected_seed;
     o.trials_run = static_cast<int>(rs.integer(7, "trials_run", 0, kMaxInt));
@@ -323,25 +342,27 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
     stored_sha[{o.participants, o.index}] = rs.text(15, "sha256");
     by_key[{o.participants, o.index}] = std::move(o);
   }
+}
 
-  // Each finding and staircase row belongs to a stored study of the plan.
-  const auto owner = [&](const RowReader& r) -> StudyOutcome& {
-    const auto n = static_cast<int>(r.integer(1, "participants", 1, 999));
-    const auto i = static_cast<int>(r.integer(3, "idx", 0, kMaxInt));
-    const auto it = by_key.find({n, i});
-    if (it == by_key.end())
-      r.refuse("it belongs to the " + study_label(n, i) + ", which has no row in table study (a study "
-               "row was deleted, or this row was added)");
-    return it->second;
-  };
-  std::map<std::pair<int, int>, std::set<std::tuple<std::string, std::string, std::string, std::string, std::string>>>
-      seen;
-  db::Statement f = db_.prepare(
+// Each finding and staircase row belongs to a stored study of the plan.
+StudyOutcome& PowerStore::Loading::owner(const RowReader& r) {
+  const auto n = static_cast<int>(r.integer(1, "participants", 1, 999));
+  const auto i = static_cast<int>(r.integer(3, "idx", 0, kMaxInt));
+  const auto it = by_key.find({n, i});
+  if (it == by_key.end())
+    r.refuse("it belongs to the " + study_label(n, i) + ", which has no row in table study (a study "
+             "row was deleted, or this row was added)");
+  return it->second;
+}
+
+void PowerStore::Loading::findings() {
+  std::map<Key, std::set<std::tuple<std::string, std::string, std::string, std::string, std::string>>> seen;
+  db::Statement f = store.db_.prepare(
       "SELECT rowid, participants, typeof(participants), idx, typeof(idx), method, typeof(method), task, "
       "typeof(task), setting, typeof(setting), measure, typeof(measure), participant, typeof(participant), p, "
       "typeof(p), significant, typeof(significant) FROM finding ORDER BY rowid");
   while (f.step()) {
-    const RowReader r(f, path_, "table finding, row " + std::to_string(f.column_int64(0)));
+    const RowReader r(f, store.path_, "table finding, row " + std::to_string(f.column_int64(0)));
     StudyOutcome& o = owner(r);
     Finding x;
     x.method = r.text(5, "method");
@@ -370,11 +391,14 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
                (x.setting.empty() ? x.participant : x.setting) + ", " + x.measure + ")");
     o.findings.push_back(std::move(x));
   }
-  db::Statement st = db_.prepare(
+}
+
+void PowerStore::Loading::staircases() {
+  db::Statement st = store.db_.prepare(
       "SELECT rowid, participants, typeof(participants), idx, typeof(idx), participant, typeof(participant), "
       "threshold, typeof(threshold), trials, typeof(trials) FROM staircase ORDER BY rowid");
   while (st.step()) {
-    const RowReader r(st, path_, "table staircase, row " + std::to_string(st.column_int64(0)));
+    const RowReader r(st, store.path_, "table staircase, row " + std::to_string(st.column_int64(0)));
     StudyOutcome& o = owner(r);
     if (shape.max_staircase_trials < 0) r.refuse("this plan's protocol has no staircase");
     StaircaseOutcome x;
@@ -385,15 +409,17 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
     x.trials = static_cast<int>(r.integer(9, "trials", 0, shape.max_staircase_trials));
     o.staircases.push_back(std::move(x));
   }
-  // Each setting's change against the control (study_change.h), and the
-  // trials run and timed out per setting (the comparison report's).
-  std::map<std::pair<int, int>, std::set<std::tuple<std::string, std::string, std::string>>> seen_change;
-  db::Statement ch = db_.prepare(
+}
+
+// Each setting's change against the control (study_change.h).
+void PowerStore::Loading::changes() {
+  std::map<Key, std::set<std::tuple<std::string, std::string, std::string>>> seen_change;
+  db::Statement ch = store.db_.prepare(
       "SELECT rowid, participants, typeof(participants), idx, typeof(idx), task, typeof(task), setting, "
       "typeof(setting), measure, typeof(measure), n, typeof(n), ratio, typeof(ratio) FROM setting_change "
       "ORDER BY rowid");
   while (ch.step()) {
-    const RowReader r(ch, path_, "table setting_change, row " + std::to_string(ch.column_int64(0)));
+    const RowReader r(ch, store.path_, "table setting_change, row " + std::to_string(ch.column_int64(0)));
     StudyOutcome& o = owner(r);
     ChangeOutcome x;
     x.task = r.text(5, "task");
@@ -411,12 +437,16 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
       r.refuse("it repeats a change of its study (" + x.task + ", " + x.setting + ", " + x.measure + ")");
     o.changes.push_back(std::move(x));
   }
-  std::map<std::pair<int, int>, std::set<std::pair<std::string, std::string>>> seen_trials;
-  db::Statement tr = db_.prepare(
+}
+
+// The trials run and timed out per setting (the comparison report's).
+void PowerStore::Loading::setting_trials() {
+  std::map<Key, std::set<std::pair<std::string, std::string>>> seen_trials;
+  db::Statement tr = store.db_.prepare(
       "SELECT rowid, participants, typeof(participants), idx, typeof(idx), task, typeof(task), setting, "
       "typeof(setting), run, typeof(run), timed_out, typeof(timed_out) FROM setting_trials ORDER BY rowid");
   while (tr.step()) {
-    const RowReader r(tr, path_, "table setting_trials, row " + std::to_string(tr.column_int64(0)));
+    const RowReader r(tr, store.path_, "table setting_trials, row " + std::to_string(tr.column_int64(0)));
     StudyOutcome& o = owner(r);
     SettingTrials x;
     x.task = r.text(5, "task");
@@ -432,11 +462,13 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
       r.refuse("it repeats the trials of its study's " + x.task + " under " + x.setting);
     o.setting_trials.push_back(std::move(x));
   }
+}
 
-  // Recomputed, not trusted: each test's significance, then each study's digest.
+// Recomputed, not trusted: each test's significance, then each study's digest.
+std::vector<StudyOutcome> PowerStore::Loading::verified() {
   std::vector<StudyOutcome> out;
   for (auto& [key, o] : by_key) {
-    const std::string where = path_ + ": " + study_label(key.first, key.second);
+    const std::string where = store.path_ + ": " + study_label(key.first, key.second);
     std::set<std::pair<std::string, std::string>> table34;  // (task, measure) with a participant's test below alpha
     for (const Finding& x : o.findings)
       if (x.method == "participant" && x.p < shape.alpha) table34.insert({x.task, x.measure});
@@ -453,23 +485,37 @@ std::vector<StudyOutcome> PowerStore::load(bool complete) {
                              std::to_string(x.p) + " makes it " + (expected ? "significant" : "not significant") +
                              "; the file is damaged or was edited: start a new --out or remove it");
     }
-    if (digest(plan_sha256_, o) != stored_sha.at(key))
+    if (digest(store.plan_sha256_, o) != stored_sha.at(key))
       throw PlanStoreError(where + ": its rows do not match the SHA-256 stored with it (a finding, staircase or "
                            "count was changed, added or removed after the study was stored); the file is damaged or "
                            "was edited: start a new --out or remove it");
     out.push_back(std::move(o));
   }
-  if (complete) {
-    const std::vector<std::pair<int, int>> wanted = inputs_.studies_of_shard();
-    for (const auto& [n, i] : wanted)
-      if (!by_key.count({n, i}))
-        throw PlanStoreError(path_ + ": the " + study_label(n, i) + " is missing" +
-                             (inputs_.shards > 1 ? " from shard " + std::to_string(inputs_.shard) + "/" +
-                                                       std::to_string(inputs_.shards)
-                                                 : std::string()) +
-                             " (" + std::to_string(by_key.size()) + " of " + std::to_string(wanted.size()) +
-                             " studies stored)");
-  }
+  return out;
+}
+
+void PowerStore::Loading::check_complete() const {
+  const PlanInputs& inputs = store.inputs_;
+  const std::vector<std::pair<int, int>> wanted = inputs.studies_of_shard();
+  for (const auto& [n, i] : wanted)
+    if (!by_key.count({n, i}))
+      throw PlanStoreError(store.path_ + ": the " + study_label(n, i) + " is missing" +
+                           (inputs.shards > 1 ? " from shard " + std::to_string(inputs.shard) + "/" +
+                                                    std::to_string(inputs.shards)
+                                              : std::string()) +
+                           " (" + std::to_string(by_key.size()) + " of " + std::to_string(wanted.size()) +
+                           " studies stored)");
+}
+
+std::vector<StudyOutcome> PowerStore::load(bool complete) {
+  Loading loading{*this, *shape_, {}, {}};
+  loading.studies();
+  loading.findings();
+  loading.staircases();
+  loading.changes();
+  loading.setting_trials();
+  std::vector<StudyOutcome> out = loading.verified();
+  if (complete) loading.check_complete();
   return out;
 }
 

@@ -71,6 +71,7 @@ class PowerStore {
 
  private:
   struct Shape;
+  struct Loading;  // load()'s steps, table by table (power_store.cc)
   db::Database db_;
   std::string path_;
   std::string plan_sha256_;
