@@ -13,6 +13,7 @@
 #include "db/chunk_reader.h"
 #include "db/schema.h"
 #include "db/structure_check.h"
+#include "db/study_check.h"
 #include "db/study_db.h"
 #include "db/study_merge.h"
 #include "sessions/study_progress.h"
@@ -72,64 +73,8 @@ void show(const StudyOptions& opt) {
   }
 }
 
-// `study check`: SQLite's integrity_check, then the file's structure
-// (db/structure_check.h: tables, references, value types), then every
-// chunk's place, checksum and structure (db/chunk_reader.h). On a plain
-// read-only connection, not StudyDb: StudyDb refuses a damaged file at the
-// door, and this command's job is to say everything that is damaged.
-// What `study check` found, every finding in the order checked.
-struct StudyCheckFindings {
-  std::vector<db::Finding> findings;
-  std::size_t integrity = 0;  // integrity_check's findings
-  std::size_t structure = 0;  // tables, references, value types
-  db::ChunkCheck chunks;
-  std::string not_checked;  // why the chunks were not checked
-};
-
-void check_integrity(db::Database& conn, StudyCheckFindings& c) {
-  try {
-    db::Statement s = conn.prepare("PRAGMA integrity_check(100)");
-    while (s.step())
-      if (const std::string line = s.column_text(0); line != "ok") {
-        c.findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt, line});
-        ++c.integrity;
-      }
-  } catch (const db::DbError& e) {
-    c.findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt,
-                          std::string("integrity_check itself failed: ") + e.what()});
-    ++c.integrity;
-  }
-}
-
-// The structure, then the chunks: each only when what it reads is sound
-// (a view in a table's place could make any query hang, and an older
-// schema has other checksums).
-void check_structure_and_chunks(db::Database& conn, StudyCheckFindings& c) {
-  try {
-    const int version = db::check_schema_version(conn);
-    std::vector<db::Finding> tables = db::check_tables(conn, version);
-    c.structure += tables.size();
-    c.findings.insert(c.findings.end(), tables.begin(), tables.end());
-    if (!tables.empty()) {
-      c.not_checked = "the tables are not what the schema says (above), so no query reads them";
-    } else if (version < db::kSchemaVersion) {
-      c.not_checked = "schema version " + std::to_string(version) + " predates this HapticLab's checks (version " +
-                      std::to_string(db::kSchemaVersion) + "); a command that opens it read-write "
-                      "(`hapticlab analyze`) migrates it, then check again";
-    } else {
-      for (auto* check : {&db::check_foreign_keys, &db::check_value_types}) {
-        std::vector<db::Finding> found = (*check)(conn, 100);
-        c.structure += found.size();
-        c.findings.insert(c.findings.end(), found.begin(), found.end());
-      }
-      c.chunks = db::check_all_chunks(conn);
-      for (const db::BadChunk& b : c.chunks.bad)
-        c.findings.push_back({"chunk", "sample_chunk", std::nullopt, b.trial_id, b.instrument, db::describe(b)});
-    }
-  } catch (const db::DbError& e) {
-    c.not_checked = e.what();
-  }
-}
+// `study check` (db/study_check.h finds, this prints).
+using StudyCheckFindings = db::StudyFileCheck;
 
 void print_study_check_json(const StudyOptions& opt, const StudyCheckFindings& c, bool damaged) {
   nlohmann::json j;
@@ -206,10 +151,8 @@ void check(const StudyOptions& opt) {
                              (std::filesystem::exists(opt.db) ? "is not a file" : "does not exist") +
                              "; give a study database made by `hapticlab study create`");
   db::Database conn(opt.db, db::Database::Mode::kReadOnly);
-  StudyCheckFindings c;
-  check_integrity(conn, c);
-  check_structure_and_chunks(conn, c);
-  const bool damaged = !c.findings.empty() || !c.not_checked.empty();
+  const StudyCheckFindings c = db::check_study_file(conn);
+  const bool damaged = c.damaged();
   if (opt.json)
     print_study_check_json(opt, c, damaged);
   else
