@@ -4,8 +4,6 @@
 // one that is the control itself is refused.
 #include "planning/plan_design.h"
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -15,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "protocols/protocol_json.h"
+#include "testing/scratch_dir.h"
 
 namespace hapticlab::planning {
 namespace {
@@ -24,17 +23,8 @@ using ::testing::HasSubstr;
 
 class PlanDesignTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("hapticlab_plan_design_" +
-                                        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
-                                        "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+  PlanDesignTest() : dir_(scratch_.path()) {
     std::ofstream(dir_ / "copy.json") << R"({"name": "HF copy", "description": "the control again"})";
-  }
-  void TearDown() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
   }
   // A protocol of High Fidelity (the control), Friction and "HF copy",
   // with `null_settings` (a JSON array) declared.
@@ -48,6 +38,7 @@ class PlanDesignTest : public ::testing::Test {
       "participants": ["P01", "P02", "P03"], "design": {"type": "complete"}, "training_trials": 0, "seed": 7})";
     return path.string();
   }
+  testing::ScratchDir scratch_;
   fs::path dir_;
 };
 

@@ -7,7 +7,6 @@
 // comparison's title.
 #include "planning/plan_merge.h"
 
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -21,6 +20,7 @@
 #include "planning/plan_runner.h"
 #include "planning/power_store.h"
 #include "protocols/protocol_json.h"
+#include "two_setting_plan.h"
 
 namespace hapticlab::planning {
 namespace {
@@ -35,27 +35,9 @@ std::string file_text(const fs::path& p) {
   return s.str();
 }
 
-class PlanShardsMergeTest : public ::testing::Test {
+class PlanShardsMergeTest : public TwoSettingPlanTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("hapticlab_plan_merge_" +
-                                        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
-                                        "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    const fs::path settings = fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
-    protocol_path_ = dir_ / "protocol.json";
-    std::ofstream(protocol_path_) << R"({"study": "merge test", "tasks": ["clip"], "repetitions": {"clip": 1},
-      "settings": [")" << (settings / "high_fidelity.json").string() << R"(", ")"
-                                  << (settings / "no_force_feedback.json").string() << R"("],
-      "participants": ["P01", "P02"], "design": {"type": "complete"}, "training_trials": 0, "seed": 7})";
-    protocol_ = protocols::load_protocol_file(protocol_path_.string());
-    sim_.rate_Hz = 150.0;
-  }
-  void TearDown() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
+  PlanShardsMergeTest() : TwoSettingPlanTest("merge test") {}
   // The plan (2 participants, 2 studies), shard `shard` of `shards`.
   PlanInputs inputs(int shard, int shards) const {
     PlanInputs p = plan_inputs(protocol_, protocol_path_.string(),
@@ -92,9 +74,6 @@ class PlanShardsMergeTest : public ::testing::Test {
     }
     return "(no refusal)";
   }
-  fs::path dir_, protocol_path_;
-  protocols::Protocol protocol_;
-  SimulatedStudyOptions sim_;
 };
 
 TEST_F(PlanShardsMergeTest, TheShardsMergedWriteWhatAOneMachineRunWritesAndARepeatAddsNothing) {

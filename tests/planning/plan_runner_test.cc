@@ -4,7 +4,6 @@
 // model's uncertainty reaching the studies (each group's posterior draw).
 #include "planning/plan_runner.h"
 
-#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -15,33 +14,16 @@
 
 #include "planning/plan_inputs.h"
 #include "protocols/protocol_json.h"
+#include "two_setting_plan.h"
 
 namespace hapticlab::planning {
 namespace {
 
 namespace fs = std::filesystem;
 
-class PlanRunnerTest : public ::testing::Test {
+class PlanRunnerTest : public TwoSettingPlanTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("hapticlab_plan_runner_" +
-                                        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
-                                        "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    const fs::path settings = fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
-    protocol_path_ = dir_ / "protocol.json";
-    std::ofstream(protocol_path_) << R"({"study": "runner test", "tasks": ["clip"], "repetitions": {"clip": 1},
-      "settings": [")" << (settings / "high_fidelity.json").string() << R"(", ")"
-                                  << (settings / "no_force_feedback.json").string() << R"("],
-      "participants": ["P01", "P02"], "design": {"type": "complete"}, "training_trials": 0, "seed": 7})";
-    protocol_ = protocols::load_protocol_file(protocol_path_.string());
-    sim_.rate_Hz = 150.0;
-  }
-  void TearDown() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
+  PlanRunnerTest() : TwoSettingPlanTest("runner test") {}
   PlanInputs inputs() const {
     return plan_inputs(protocol_, protocol_path_.string(), protocols::read_protocol_text(protocol_path_.string()), 3,
                        {2}, 20, sim_);
@@ -63,9 +45,6 @@ class PlanRunnerTest : public ::testing::Test {
     for (const StudyOutcome& s : store.load()) out.push_back(digest(s));
     return out;
   }
-  fs::path dir_, protocol_path_;
-  protocols::Protocol protocol_;
-  SimulatedStudyOptions sim_;
 };
 
 TEST_F(PlanRunnerTest, TheSameStudiesOnAnyNumberOfThreadsAndAResumedRunDoesWhatIsLeft) {
