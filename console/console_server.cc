@@ -21,6 +21,7 @@
 #include "console/stop_route.h"
 #include "core/common/input_file.h"
 #include "db/study_db.h"
+#include "protocols/protocol_json.h"
 #include "protocols/safety_json.h"
 #include "sessions/study_progress.h"
 
@@ -243,7 +244,12 @@ class Console {
     c.device = config.session.device;
     c.realtime = config.session.realtime;
     c.clock = ClockKind::kWall;  // a free trial is felt (or watched) as it happens
-    c.force_limits = protocols::safety_from_protocol_text(at_start.study.protocol_json, config.session.db.string());
+    // The rig of the study's sessions: the protocol's force limits and rate
+    // tolerance (a free trial held to the default 10 % stopped as
+    // rate_violation where the study's sessions went on).
+    const std::string& protocol = at_start.study.protocol_json;
+    c.force_limits = protocols::safety_from_protocol_text(protocol, config.session.db.string());
+    c.rate_tolerance_fraction = protocols::rate_tolerance_from_protocol_text(protocol, config.session.db.string());
     c.out_dir = config.session.db.parent_path() / (config.session.db.stem().string() + "-console-tuning");
     return c;
   }

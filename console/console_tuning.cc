@@ -219,6 +219,7 @@ void ConsoleTuning::run(TaskKind task) {
       c.rate_Hz = config_.rate_Hz;
       c.realtime = config_.realtime;
       c.safety.force_limits = config_.force_limits;
+      c.safety.rate.tolerance_fraction = config_.rate_tolerance_fraction;
       SimTrialSink sink;
       sink.on_sample = [this](const LoopSample& s) {
         std::lock_guard lock(mutex_);
@@ -277,6 +278,8 @@ nlohmann::json ConsoleTuning::status() const {
   nlohmann::json j = {{"running", running_}, {"task", task_},       {"from", from_name_},
                       {"settings", settings_}, {"free_trial", free_trial_}, {"log", log_},
                       {"saved", saved_},     {"error", error_}};
+  j["rate_Hz"] = config_.rate_Hz;
+  j["rate_tolerance_fraction"] = config_.rate_tolerance_fraction;
   if (running_) j["loop_t_s"] = live_.newest_t_s();
   if (running_ && applied_t_s_) j["applied_t_s"] = *applied_t_s_;
   j.update(device_.status());

@@ -22,6 +22,7 @@
 
 #include "console/device_health.h"
 #include "console/live_buffer.h"
+#include "core/loop/rate_monitor.h"
 #include "core/sim/trial_runner.h"
 #include "core/settings/settings_json.h"
 
@@ -30,7 +31,10 @@ namespace hapticlab::console {
 struct ConsoleTuningConfig {
   DeviceSpec device;                      // as the console's sessions
   ClockKind clock = ClockKind::kWall;     // virtual only in tests: it runs as fast as it can
-  double rate_Hz = 1000.0;                // 150..2000
+  double rate_Hz = 1000.0;                // 150..2000; the sessions' rate
+  // The achieved rate may lie this fraction off rate_Hz (wall clock;
+  // RateCheck): the protocol's rate_tolerance_fraction, as in its sessions.
+  double rate_tolerance_fraction = RateCheck::kDefaultToleranceFraction;  // 0.001..0.5
   RealtimeOptions realtime;
   OperatorForceLimits force_limits;       // the protocol's "safety" object
   std::filesystem::path out_dir;          // tuning-log.csv and the saved settings files
