@@ -5,7 +5,7 @@
 #include "db/chunk_body.h"
 
 #if defined(__SSE2__)
-#include <emmintrin.h>
+#include <immintrin.h>
 #endif
 
 namespace hapticlab::db::chunk {
@@ -157,11 +157,69 @@ template <std::size_t W>
     }
   }
 }
+
+// 4-byte values, groups g .. g + 31, with AVX2 where the CPU has it (chosen
+// at run time: the build targets the x86-64 baseline). The SSE2 path's
+// stores of one byte per value byte bound it (a byte store per output
+// byte); here each value is one 32-bit store. Per byte b, the unpacks
+// (within each 128-bit lane: lane 0 groups g .. g + 15, lane 1 g + 16 ..
+// g + 31) leave x[b][k] = planes 8b .. 8b + 7 of groups g + 2k, g + 2k + 1,
+// g + 16 + 2k, g + 17 + 2k, a quadword each. A 4 x 4 quadword transpose of
+// x[0..3][k] gives, per group, its 32 planes' bytes in one vector (plane p
+// at byte p), so bit j of every byte, collected by movemask, is value j of
+// the group whole: bit p of the mask is bit p % 8 of its byte p / 8.
+[[gnu::target("avx2")]] void planes_to_values4_avx2(const std::byte* v, std::size_t groups, std::size_t g,
+                                                    std::byte* out) noexcept {
+  constexpr std::size_t W = 4;
+  __m256i x[W][8];
+  for (std::size_t b = 0; b < W; ++b) {
+    __m256i a[8];
+    for (std::size_t s = 0; s < 8; ++s)
+      a[s] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(v + (8 * b + s) * groups + g));
+    const __m256i t0 = _mm256_unpacklo_epi8(a[0], a[1]), t1 = _mm256_unpackhi_epi8(a[0], a[1]);
+    const __m256i t2 = _mm256_unpacklo_epi8(a[2], a[3]), t3 = _mm256_unpackhi_epi8(a[2], a[3]);
+    const __m256i t4 = _mm256_unpacklo_epi8(a[4], a[5]), t5 = _mm256_unpackhi_epi8(a[4], a[5]);
+    const __m256i t6 = _mm256_unpacklo_epi8(a[6], a[7]), t7 = _mm256_unpackhi_epi8(a[6], a[7]);
+    const __m256i u0 = _mm256_unpacklo_epi16(t0, t2), u1 = _mm256_unpackhi_epi16(t0, t2);
+    const __m256i u2 = _mm256_unpacklo_epi16(t1, t3), u3 = _mm256_unpackhi_epi16(t1, t3);
+    const __m256i u4 = _mm256_unpacklo_epi16(t4, t6), u5 = _mm256_unpackhi_epi16(t4, t6);
+    const __m256i u6 = _mm256_unpacklo_epi16(t5, t7), u7 = _mm256_unpackhi_epi16(t5, t7);
+    x[b][0] = _mm256_unpacklo_epi32(u0, u4);
+    x[b][1] = _mm256_unpackhi_epi32(u0, u4);
+    x[b][2] = _mm256_unpacklo_epi32(u1, u5);
+    x[b][3] = _mm256_unpackhi_epi32(u1, u5);
+    x[b][4] = _mm256_unpacklo_epi32(u2, u6);
+    x[b][5] = _mm256_unpackhi_epi32(u2, u6);
+    x[b][6] = _mm256_unpacklo_epi32(u3, u7);
+    x[b][7] = _mm256_unpackhi_epi32(u3, u7);
+  }
+  for (std::size_t k = 0; k < 8; ++k) {
+    const __m256i lo01 = _mm256_unpacklo_epi64(x[0][k], x[1][k]), lo23 = _mm256_unpacklo_epi64(x[2][k], x[3][k]);
+    const __m256i hi01 = _mm256_unpackhi_epi64(x[0][k], x[1][k]), hi23 = _mm256_unpackhi_epi64(x[2][k], x[3][k]);
+    __m256i planes[4] = {_mm256_permute2x128_si256(lo01, lo23, 0x20), _mm256_permute2x128_si256(hi01, hi23, 0x20),
+                         _mm256_permute2x128_si256(lo01, lo23, 0x31), _mm256_permute2x128_si256(hi01, hi23, 0x31)};
+    std::byte* const o[4] = {out + 8 * (g + 2 * k) * W, out + 8 * (g + 2 * k + 1) * W, out + 8 * (g + 16 + 2 * k) * W,
+                             out + 8 * (g + 17 + 2 * k) * W};
+    for (std::size_t j = 8; j-- > 0;) {
+      for (std::size_t q = 0; q < 4; ++q) {
+        const auto m = static_cast<std::uint32_t>(_mm256_movemask_epi8(planes[q]));
+        std::memcpy(o[q] + j * W, &m, W);
+        planes[q] = _mm256_add_epi8(planes[q], planes[q]);  // next lower bit to the top
+      }
+    }
+  }
+}
+
+const bool kHaveAvx2 = [] {
+  __builtin_cpu_init();  // a static initializer may run before libgcc's own
+  return __builtin_cpu_supports("avx2") != 0;
+}();
 #endif
 
-// Bit planes of n values of W bytes at v, in place: `to_planes` makes
-// them, false undoes it. Per group of 8 values: their bytes transposed
-// (word b = byte b of each value), then each word's bits (transpose8x8),
+// Bit planes of n values of W bytes at v: `to_planes` makes them in
+// place; false undoes them into `scratch` (n * W bytes). Per group of 8
+// values: their bytes transposed (word b = byte b of each value), then each
+// word's bits (transpose8x8),
 // whose 8 bytes are the group's byte in planes 8b..8b+7. The group's values
 // are loaded and stored whole, not byte by byte: this runs on every chunk
 // the writer thread stores and every chunk analyze reads.
@@ -179,8 +237,13 @@ void bit_planes(std::byte* v, std::size_t n, bool to_planes, std::vector<std::by
       for (std::size_t b = 0; b < W; ++b) scatter8(out + 8 * b * groups + g, groups, transpose8x8(x[b]));
     } else {
 #if defined(__SSE2__)
-      // 16 (then 8) groups at once with SSE2 (planes_to_values_sse2), the
-      // rest one at a time.
+      // 32 groups at once with AVX2 (4-byte values), then 16 and 8 with SSE2
+      // (planes_to_values_sse2), the rest one at a time.
+      if (W == 4 && kHaveAvx2 && g + 32 <= groups) {
+        planes_to_values4_avx2(v, groups, g, out);
+        g += 31;
+        continue;
+      }
       if (g + 16 <= groups) {
         planes_to_values_sse2<W>(v, groups, g, out, false);
         g += 15;
@@ -199,7 +262,9 @@ void bit_planes(std::byte* v, std::size_t n, bool to_planes, std::vector<std::by
     }
   }
   std::memcpy(out + groups * 8 * W, v + groups * 8 * W, (n - groups * 8) * W);
-  std::memcpy(v, out, n * W);
+  // Undoing, the caller takes the values from scratch (with its sums, in
+  // the same pass); making planes, they go back in place.
+  if (to_planes) std::memcpy(v, out, n * W);
 }
 
 // Differences modulo 2^bits, in place (first value kept), and their sums.
@@ -213,12 +278,13 @@ void differences(std::byte* v, std::size_t n) {
     std::memcpy(v + i * sizeof(U), &d, sizeof d);
   }
 }
+// The running sums of the differences at `from`, to `to`.
 template <typename U>
-void sums(std::byte* v, std::size_t n) {
+void sums(const std::byte* from, std::byte* to, std::size_t n) {
   U prev = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    prev = static_cast<U>(prev + load<U>(v + i * sizeof(U)));
-    std::memcpy(v + i * sizeof(U), &prev, sizeof prev);
+    prev = static_cast<U>(prev + load<U>(from + i * sizeof(U)));
+    std::memcpy(to + i * sizeof(U), &prev, sizeof prev);
   }
 }
 
@@ -254,21 +320,18 @@ void precondition(std::span<std::byte> body, std::size_t n, bool forward, std::v
     if (!forward && (only & (ChannelSet{1} << c)) == 0) continue;
     // Differences for every channel but a residual dt; planes for all.
     const bool differenced = !(c == kPeriod && residual_dt);
-    const auto diff = [&](bool sum) {
-      if (!differenced) return;
-      if (g.width == 4) sum ? sums<std::uint32_t>(g.values, n) : differences<std::uint32_t>(g.values, n);
-      else sum ? sums<std::uint64_t>(g.values, n) : differences<std::uint64_t>(g.values, n);
-    };
     const auto planes = [&](bool to_planes) {
       if (g.width == 4) bit_planes<4>(g.values, n, to_planes, scratch);
       else bit_planes<8>(g.values, n, to_planes, scratch);
     };
     if (forward) {
-      diff(false);
+      if (differenced) g.width == 4 ? differences<std::uint32_t>(g.values, n) : differences<std::uint64_t>(g.values, n);
       planes(true);
     } else {
-      planes(false);
-      diff(true);
+      planes(false);  // the differences, in scratch
+      if (!differenced) std::memcpy(g.values, scratch.data(), n * g.width);
+      else if (g.width == 4) sums<std::uint32_t>(scratch.data(), g.values, n);
+      else sums<std::uint64_t>(scratch.data(), g.values, n);
     }
   }
   if (!forward && residual_dt && (only & (ChannelSet{1} << kPeriod)) != 0)

@@ -114,6 +114,23 @@ std::span<const StoredSample> TrialChunks::next(int instrument) {
   return std::span<const StoredSample>(st.window).first(n);
 }
 
+ColumnWindow TrialChunks::next_columns(int instrument) {
+  Stream& st = stream_[instrument];
+  if (st.pos >= st.chunk.size() && !load_next(instrument)) return {};
+  ColumnWindow w;
+  w.size = std::min(kChunkWindow, st.chunk.size() - st.pos);
+  const ChannelSet read = st.chunk.channels();
+  if ((read & (ChannelSet{1} << kChannelT)) != 0) {
+    if (st.t_s.size() < w.size) st.t_s.resize(kChunkWindow);
+    st.chunk.read_t(st.pos, st.pos + w.size, st.t_s.data());
+    w.t_s = st.t_s.data();
+  }
+  for (std::size_t c = kChannelRawFirst; c < kChannelEngineStatus; ++c)
+    if ((read & (ChannelSet{1} << c)) != 0) w.channel[c] = st.chunk.column(c, st.pos);
+  st.pos += w.size;
+  return w;
+}
+
 void read_samples(Database& db, std::int64_t trial_id, int instrument, std::vector<StoredSample>& out,
                   std::vector<BadChunk>& bad) {
   TrialChunks chunks(db, trial_id, instrument);

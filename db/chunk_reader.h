@@ -30,6 +30,16 @@ inline constexpr std::size_t kChunkWindow = 4096;
 
 class ReadSnapshot;  // chunk_reader.cc
 
+// A window of one instrument's samples as columns (TrialChunks::
+// next_columns): t_s and the float channels of the reader's set, in place
+// in the chunk; the other channels' columns are empty (values nullptr).
+struct ColumnWindow {
+  std::size_t size = 0;
+  const double* t_s = nullptr;  // size values, when t_s is in the set
+  std::array<FloatColumn, kChunkChannels> channel{};
+  bool empty() const noexcept { return size == 0; }
+};
+
 // One trial's chunks, read a window at a time per instrument.
 class TrialChunks {
  public:
@@ -53,6 +63,11 @@ class TrialChunks {
   // skipped and added to bad(). Valid until the next call for the same
   // instrument.
   std::span<const StoredSample> next(int instrument);
+  // The same samples as next() (the same bits), as columns: what analyze
+  // reads, without copying every update into a StoredSample. Valid until
+  // the next call for the same instrument; one instrument's windows come
+  // from one of the two calls only.
+  ColumnWindow next_columns(int instrument);
   // The updates in the instrument's well-placed chunks (what next() gives
   // unless a chunk turns out damaged).
   std::size_t updates(int instrument) const noexcept { return layout_.updates[instrument]; }
@@ -65,6 +80,7 @@ class TrialChunks {
     std::size_t pos = 0;  // next sample of the loaded chunk
     ChunkDecoder chunk;
     std::vector<StoredSample> window;  // never shrinks: fields outside channels_ keep their blank
+    std::vector<double> t_s;           // next_columns()'s
   };
   bool load_next(int instrument);
 

@@ -348,28 +348,7 @@ void ChunkDecoder::read(std::size_t begin, std::size_t end, StoredSample* s) noe
   for (std::size_t i = 0; i < n; ++i) s[i].tick = first_tick_ + begin + i;
   if (wanted(0))
     fill<std::uint64_t>(tag(0), at(0), begin, n, [&](std::size_t i, std::uint64_t v) { s[i].dt_s = std::bit_cast<double>(v); });
-  if (!wanted(1)) {
-    // t_s not asked for
-  } else if (tag(1) == kRunningSum) {
-    // t[i] = t[i-1] + dt[i] from t[0]: carried over from the previous
-    // window when this one follows it, else summed again from the start.
-    const auto dt = [&](std::size_t k) {
-      return std::bit_cast<double>(le<std::uint64_t>(at(0) + (tag(0) == kConstant ? 0 : k * 8)));
-    };
-    if (t_next_ == 0 || begin < t_next_) {
-      t_prev_ = std::bit_cast<double>(le<std::uint64_t>(at(1)));
-      t_next_ = 1;
-    }
-    for (; t_next_ < begin; ++t_next_) t_prev_ += dt(t_next_);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t k = begin + i;
-      if (k > 0) t_prev_ += s[i].dt_s;
-      s[i].t_s = t_prev_;
-      t_next_ = k + 1;
-    }
-  } else {
-    fill<std::uint64_t>(tag(1), at(1), begin, n, [&](std::size_t i, std::uint64_t v) { s[i].t_s = std::bit_cast<double>(v); });
-  }
+  if (wanted(1)) times(begin, n, [&](std::size_t i, double t) { s[i].t_s = t; });
   for (std::size_t c = kFirstFloat; c < kEndFloat; ++c) {
     if (!wanted(c)) continue;
     fill<std::uint32_t>(tag(c), at(c), begin, n, [&](std::size_t i, std::uint32_t v) {
@@ -385,6 +364,42 @@ void ChunkDecoder::read(std::size_t begin, std::size_t end, StoredSample* s) noe
   if (wanted(kInContact))
     fill<std::uint8_t>(tag(kInContact), at(kInContact), begin, n,
                        [&](std::size_t i, std::uint8_t v) { s[i].value.in_contact = v != 0; });
+}
+
+template <typename Set>
+void ChunkDecoder::times(std::size_t begin, std::size_t n, Set set) noexcept {
+  const std::byte* const dt_at = body_.data() + channels_[kChannelDt].offset;
+  const std::byte* const t_at = body_.data() + channels_[kChannelT].offset;
+  if (channels_[kChannelT].tag != kRunningSum) {
+    fill<std::uint64_t>(channels_[kChannelT].tag, t_at, begin, n,
+                        [&](std::size_t i, std::uint64_t v) { set(i, std::bit_cast<double>(v)); });
+    return;
+  }
+  // t[i] = t[i-1] + dt[i] from t[0]: carried over from the previous window
+  // when this one follows it, else summed again from the start.
+  const std::size_t dt_stride = channels_[kChannelDt].tag == kConstant ? 0 : 8;
+  const auto dt = [&](std::size_t k) { return std::bit_cast<double>(le<std::uint64_t>(dt_at + k * dt_stride)); };
+  if (t_next_ == 0 || begin < t_next_) {
+    t_prev_ = std::bit_cast<double>(le<std::uint64_t>(t_at));
+    t_next_ = 1;
+  }
+  for (; t_next_ < begin; ++t_next_) t_prev_ += dt(t_next_);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t k = begin + i;
+    if (k > 0) t_prev_ += dt(k);
+    set(i, t_prev_);
+    t_next_ = k + 1;
+  }
+}
+
+void ChunkDecoder::read_t(std::size_t begin, std::size_t end, double* out) noexcept {
+  times(begin, end - begin, [&](std::size_t i, double t) { out[i] = t; });
+}
+
+FloatColumn ChunkDecoder::column(std::size_t c, std::size_t begin) const noexcept {
+  const Channel& ch = channels_[c];
+  const std::size_t stride = ch.tag == kConstant ? 0 : 4;
+  return {body_.data() + ch.offset + begin * stride, stride};
 }
 
 void decode_chunk(const ChunkPlace& place, std::span<const std::byte> blob, std::vector<StoredSample>& out) {

@@ -81,6 +81,7 @@
 #include <vector>
 
 #include "core/common/crc32c.h"
+#include "core/common/float_column.h"
 #include "core/loop/loop_sample.h"
 
 namespace hapticlab::db {
@@ -188,6 +189,14 @@ class ChunkDecoder {
   void read(std::size_t begin, std::size_t end, StoredSample* out) noexcept;
   // The channels read() writes (load()'s, with what they depend on).
   ChannelSet channels() const noexcept { return channels_read_; }
+  // Without copying into StoredSample, for readers that take a few channels
+  // of many updates (analyze): float channel c (kChannelRawFirst <= c <
+  // kChannelEngineStatus, one of channels()) from update `begin` on, the
+  // same values read() gives; valid until the next load().
+  FloatColumn column(std::size_t c, std::size_t begin) const noexcept;
+  // t_s of updates begin .. end - 1 into out[0 .. end - begin - 1], as
+  // read() gives them (kChannelT must be in channels()).
+  void read_t(std::size_t begin, std::size_t end, double* out) noexcept;
 
  private:
   struct Channel {
@@ -195,6 +204,9 @@ class ChunkDecoder {
     std::size_t offset = 0;  // of the channel's first value in body_
   };
   void unpack(const ChunkPlace& place, std::span<const std::byte> blob, bool readable, ChannelSet channels);
+  // t_s of updates begin .. begin + n - 1, to set(i, t).
+  template <typename Set>
+  void times(std::size_t begin, std::size_t n, Set set) noexcept;
 
   std::vector<std::byte> body_;  // the plain layout (format 0: after its legacy byte)
   std::vector<std::byte> scratch_;

@@ -180,6 +180,7 @@ double unix_now_s() noexcept {
 StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
     : db_(path, options.read_only ? Database::Mode::kReadOnly : Database::Mode::kReadWriteCreate) {
   refuse_non_sqlite_file(db_);
+  if (options.mmap_bytes > 0) db_.exec("PRAGMA mmap_size = " + std::to_string(options.mmap_bytes));
   // The check comes before anything else reads the schema, so a damaged
   // file is reported as damaged, with SQLite's findings, and not as the
   // failure of whichever statement happened to trip over it first.

@@ -140,11 +140,23 @@ struct LoopTimingRow {
   std::uint64_t dropped_events = 0;
 };
 
+// What a bulk reader (analyze, export) maps: SQLite clamps it to its
+// compile-time SQLITE_MAX_MMAP_SIZE (Debian's: just under 2 GiB) and reads
+// the rest of a larger file with read().
+inline constexpr std::uint64_t kBulkReadMmapBytes = std::uint64_t{1} << 32;
+
 struct OpenOptions {
   enum class Integrity { kFull, kQuick, kSkip };
   Integrity integrity = Integrity::kFull;
   bool recover = true;     // of dead sessions only; see the header comment
   bool read_only = false;  // no migration and no recovery; the file must be current
+  // Read the file's pages through a memory map of up to this many bytes
+  // (SQLite's mmap_size; 0: read() into SQLite's page cache). Saves the
+  // kernel's copy of every page a bulk reader touches; the price is that
+  // an I/O error of the disk under a mapped page ends the process (SIGBUS)
+  // instead of failing the query. For readers only: SQLite still writes
+  // with write(), so nothing stored depends on it.
+  std::uint64_t mmap_bytes = 0;
 };
 
 struct RecoveryReport {

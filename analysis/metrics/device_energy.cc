@@ -53,7 +53,7 @@ void EnergyAccumulator::add(const std::array<double, 5>& raw_position, const std
   // compute, which is most of this function's cost.
   const bool touching = ve_force_N[0] != 0.0 || ve_force_N[1] != 0.0 || ve_force_N[2] != 0.0;
   const JointVector f_ve =
-      touching ? world_to_joint(JointVector(raw_position[0], raw_position[1], raw_position[2]),
+      touching ? world_to_joint(tool_pose(raw_position[0], pitch_(raw_position[1]), yaw_(raw_position[2])),
                                 Eigen::Vector3d(ve_force_N[0], ve_force_N[1], ve_force_N[2]))
                : JointVector::Zero();
   for (int j = 0; j < 3; ++j) {

@@ -26,6 +26,8 @@
 #include <array>
 #include <cstddef>
 
+#include "core/models/sin_cos.h"
+
 namespace hapticlab::analysis {
 
 struct AxisEnergy {
@@ -67,6 +69,9 @@ class EnergyAccumulator {
   std::array<double, 3> q_{};         // previous joints
   std::array<double, 3> f_{};         // previous command
   std::array<double, 3> f_ve_{};      // previous VE force in joint space
+  // The pose's sines and cosines: a hand held still in contact reads the
+  // same float32 angles update after update (the same bits as sincos()).
+  SinCosMemo pitch_, yaw_;
 };
 
 }  // namespace hapticlab::analysis

@@ -8,8 +8,6 @@
 
 namespace hapticlab::analysis {
 
-double norm3(const Vec3d& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
-
 TaskWindowResult task_window(std::span<const TaskEvent> events, double trial_end_s) {
   // Stable: two events of one update keep the order the VE reported them in.
   std::vector<TaskEvent> sorted(events.begin(), events.end());

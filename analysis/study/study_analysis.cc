@@ -307,6 +307,7 @@ StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const Ana
   db::OpenOptions open;
   open.recover = false;  // reading must never abort a trial another process is running
   open.integrity = db::OpenOptions::Integrity::kSkip;
+  open.mmap_bytes = db::kBulkReadMmapBytes;
   db::StudyDb db(db_path, open);  // migrates an old file first
   // The full check (quick_check does not compare indexes with their tables,
   // and a damaged index silently hides rows from the queries that use it)
@@ -320,6 +321,7 @@ StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const Ana
       check_open.recover = false;
       check_open.read_only = true;
       check_open.integrity = db::OpenOptions::Integrity::kFull;
+      check_open.mmap_bytes = db::kBulkReadMmapBytes;
       db::StudyDb checked(db_path, check_open);
     } catch (...) {
       damage = std::current_exception();

@@ -72,11 +72,20 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
   // A window of samples at a time, each hand's in tick order; misplaced
   // and damaged chunks are left out and named.
   db::TrialChunks chunks(db.connection(), row.id, -1, kMetricChannels);
+  // As columns, in place in the chunk: the same values as StoredSample's
+  // fields (the two raw joints outside the set read NaN there too).
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t hand = 0; hand < 2; ++hand) {
-    for (auto window = chunks.next(static_cast<int>(hand)); !window.empty(); window = chunks.next(static_cast<int>(hand))) {
-      for (const db::StoredSample& x : window) {
-        buf.trial.add(hand, x.t_s, x.value.tip_position_m, x.value.tip_velocity_m_per_s, x.value.ve_force_N);
-        buf.trial.add_device(hand, x.value.raw_position, x.value.joint_force, x.value.ve_force_N);
+    const int instrument = static_cast<int>(hand);
+    for (db::ColumnWindow w = chunks.next_columns(instrument); !w.empty(); w = chunks.next_columns(instrument)) {
+      const auto three = [&](std::size_t first, std::size_t i) {
+        return Vec3d{w.channel[first][i], w.channel[first + 1][i], w.channel[first + 2][i]};
+      };
+      for (std::size_t i = 0; i < w.size; ++i) {
+        const Vec3d force_N = three(db::kChannelVeForceFirst, i);
+        buf.trial.add(hand, w.t_s[i], three(db::kChannelTipFirst, i), three(db::kChannelTipVelocityFirst, i), force_N);
+        const Vec3d raw = three(db::kChannelRawFirst, i);
+        buf.trial.add_device(hand, {raw[0], raw[1], raw[2], kNaN, kNaN}, three(db::kChannelJointForceFirst, i), force_N);
       }
     }
   }
@@ -218,6 +227,7 @@ std::vector<TrialRecord> read_trials(db::StudyDb& db, const std::vector<db::Tria
         open.recover = false;
         open.read_only = true;
         open.integrity = db::OpenOptions::Integrity::kSkip;
+        open.mmap_bytes = db::kBulkReadMmapBytes;
         db::StudyDb conn(path, open);
         work(conn);
       });

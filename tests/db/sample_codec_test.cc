@@ -412,8 +412,9 @@ std::vector<std::byte> planes_by_definition(const std::byte* values, std::size_t
 TEST(SampleCodec, FormatThreeBitPlanesFollowTheirDefinitionForAnyLength) {
   std::mt19937_64 rng(7);
   // 64, 128, 191, 200, 1000: the decoder's 8- and 16-group blocks (SSE2)
-  // with and without groups and values left over.
-  for (std::size_t n : {8u, 9u, 16u, 23u, 64u, 128u, 191u, 200u, 1000u, 1003u}) {
+  // with and without groups and values left over; 256, 263, 520, 1000: its
+  // 32-group blocks (AVX2, where the CPU has it) alone and with the others.
+  for (std::size_t n : {8u, 9u, 16u, 23u, 64u, 128u, 191u, 200u, 256u, 263u, 520u, 1000u, 1003u}) {
     std::vector<StoredSample> in(n);
     for (std::size_t i = 0; i < n; ++i) {
       in[i].tick = i;
@@ -644,6 +645,40 @@ TEST(SampleCodec, ChunkDecoderDecodesTheChannelsAskedForAndLeavesTheRestAlone) {
               whole[i].value.displayed_force_N[1], "displayed force y", i);
         check(channel_range(kChannelJointForceFirst, 3), got[i].value.joint_force[0], whole[i].value.joint_force[0],
               "joint force 0", i);
+      }
+    }
+  }
+}
+
+// The columns (ChunkDecoder::column, read_t) are the values read() gives,
+// to the bit, from any first update: per-update and constant float
+// channels, t_s stored per update (the wall clock's) and as a running sum
+// (carried across windows, also out of order), in format 3 and format 1.
+TEST(SampleCodec, ChunkDecoderColumnsAreWhatReadGives) {
+  std::vector<StoredSample> wall = instrument_samples(40, 1000, 0);
+  for (std::size_t i = 0; i < wall.size(); ++i) {
+    wall[i].dt_s = 1e-3 * (1.0 + 0.37 * std::sin(static_cast<double>(i)));
+    wall[i].value.displayed_force_N = {0.5, -0.25, 0.0};  // stored once
+  }
+  const auto same = [](double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); };
+  for (const auto& in : {instrument_samples(40, 1000, 0, 0x1p-10), wall}) {
+    for (const std::uint8_t format : {kChunkFormat, kChunkFormatPlain}) {
+      const std::vector<std::byte> blob = encode_chunk(kTrial, kHand, in, format);
+      std::vector<StoredSample> whole;
+      decode_chunk(at(40, 1000), blob, whole);
+      ChunkDecoder decoder;
+      decoder.load(at(40, 1000), blob);
+      for (const std::size_t begin : {0u, 333u, 999u, 5u}) {  // the last out of order
+        const std::size_t end = std::min<std::size_t>(begin + 400, 1000);
+        std::vector<double> t(end - begin);
+        decoder.read_t(begin, end, t.data());
+        for (std::size_t i = begin; i < end; ++i) {
+          ASSERT_TRUE(same(t[i - begin], whole[i].t_s)) << "t_s update " << i << " from " << begin;
+          const std::vector<double> want = float_channels(whole[i].value);
+          for (std::size_t c = kChannelRawFirst; c < kChannelEngineStatus; ++c)
+            ASSERT_TRUE(same(decoder.column(c, begin)[i - begin], want[c - kChannelRawFirst]))
+                << kChannelNames[c] << " update " << i << " from " << begin << " format " << int{format};
+        }
       }
     }
   }
