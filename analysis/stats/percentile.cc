@@ -86,16 +86,30 @@ namespace {
 
 // Puts the order statistics at ranks[lo, hi) (ascending, absolute indices)
 // in place: nth_element on the middle rank, then each side with its ranks.
+// A rank next to one just placed (a percentile between two order
+// statistics asks for both) is the largest of what lies below it, or the
+// smallest of what lies above: one pass, not another nth_element.
 void select_ranks(std::vector<double>::iterator base, std::size_t first, std::size_t last,
                   const std::vector<std::size_t>& ranks, std::size_t lo, std::size_t hi) {
+  const auto at = [&](std::size_t i) { return base + static_cast<std::ptrdiff_t>(i); };
   while (lo < hi && first < last) {
     const std::size_t mid = lo + (hi - lo) / 2;
     const std::size_t r = ranks[mid];
-    std::nth_element(base + static_cast<std::ptrdiff_t>(first), base + static_cast<std::ptrdiff_t>(r),
-                     base + static_cast<std::ptrdiff_t>(last));
-    select_ranks(base, first, r, ranks, lo, mid);
+    std::nth_element(at(first), at(r), at(last));
+    std::size_t left_end = r, left_hi = mid;
+    if (left_hi > lo && ranks[left_hi - 1] + 1 == r) {
+      std::iter_swap(std::max_element(at(first), at(r)), at(r - 1));
+      --left_end;
+      --left_hi;
+    }
+    select_ranks(base, first, left_end, ranks, lo, left_hi);
     first = r + 1;
     lo = mid + 1;
+    if (lo < hi && ranks[lo] == first && first < last) {
+      std::iter_swap(std::min_element(at(first), at(last)), at(first));
+      ++first;
+      ++lo;
+    }
   }
 }
 

@@ -127,13 +127,24 @@ TEST(PercentileTest, SelectionMatchesSortingExactly) {
     state = state * 6364136223846793005ULL + 1442695040888963407ULL;
     return static_cast<double>(state >> 11) * 0x1.0p-53;
   };
-  std::vector<double> ps;
-  for (int i = 0; i <= 200; ++i) ps.push_back(i * 0.5);
-  ps.push_back(95.0);
-  ps.push_back(12.345);
-  for (std::size_t n : {1u, 2u, 3u, 7u, 100u, 1001u}) {
+  std::vector<double> all_ps;
+  for (int i = 0; i <= 200; ++i) all_ps.push_back(i * 0.5);
+  all_ps.push_back(95.0);
+  all_ps.push_back(12.345);
+  // Without ties too, so a misplaced order statistic cannot pass as its
+  // equal neighbour; and the two percentiles analyze asks for alone.
+  struct Case {
+    std::size_t n;
+    bool ties, grid;
+  };
+  std::vector<Case> cases;
+  for (std::size_t n : {1u, 2u, 3u, 7u, 100u, 1001u, 1002u, 1009u})
+    for (const bool ties : {true, false})
+      for (const bool grid : {true, false}) cases.push_back({n, ties, grid});
+  for (const auto& [n, ties, grid] : cases) {
     std::vector<double> values;
-    for (std::size_t i = 0; i < n; ++i) values.push_back(std::round(next() * 40.0) / 4.0);
+    for (std::size_t i = 0; i < n; ++i) values.push_back(ties ? std::round(next() * 40.0) / 4.0 : next());
+    const std::vector<double> ps = grid ? all_ps : std::vector<double>{50.0, 95.0};
     std::vector<double> sorted = values;
     std::sort(sorted.begin(), sorted.end());
     for (auto method : {PercentileMethod::kMatlab, PercentileMethod::kR7, PercentileMethod::kR6,
@@ -143,7 +154,7 @@ TEST(PercentileTest, SelectionMatchesSortingExactly) {
       ASSERT_EQ(selected.size(), ps.size());
       for (std::size_t k = 0; k < ps.size(); ++k) {
         ASSERT_EQ(selected[k], percentile_sorted(sorted, ps[k], method))
-            << "n " << n << " p " << ps[k] << " method " << percentile_method_name(method);
+            << "n " << n << " ties " << ties << " p " << ps[k] << " method " << percentile_method_name(method);
       }
     }
   }
