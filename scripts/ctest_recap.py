@@ -5,8 +5,10 @@ at the very end of the log.
 ctest --output-on-failure prints a failed test's output when it ends, which
 under -j lies hundreds of lines above the summary; a CI page that keeps only
 the log's tail then shows which test failed but not why. This prints, for
-each test of Testing/Temporary/LastTestsFailed.log, the last LINES lines of
-its output as ctest stored them in Testing/Temporary/LastTest.log.
+each test of Testing/Temporary/LastTestsFailed.log, LINES lines of its
+output as ctest stored them in Testing/Temporary/LastTest.log: from its
+first GoogleTest failure ("file:line: Failure") when it has one, else the
+last.
 
 usage: ctest_recap.py BUILD_DIR [LINES]
 """
@@ -41,9 +43,16 @@ def main():
         if text is None:
             print(f"==> {name} failed; ctest stored no output for it")
             continue
-        tail = text.rstrip("\n").splitlines()[-lines:]
-        print(f"==> {name} failed; the last {len(tail)} lines of its output:")
-        for line in tail:
+        out = text.rstrip("\n").splitlines()
+        # GoogleTest ends with its summary; what failed is at "file:line:
+        # Failure" and the lines after it.
+        at = next((i for i, line in enumerate(out) if line.endswith(": Failure")), None)
+        if at is not None:
+            shown, what = out[at:at + lines], "its first failure"
+        else:
+            shown, what = out[-lines:], f"the last {min(lines, len(out))} lines of its output"
+        print(f"==> {name} failed; {what}:")
+        for line in shown:
             print("    " + line[:600])
     return 0
 

@@ -352,12 +352,15 @@ void SessionRun::watch_for_hang(HapticLoop& loop, const db::TrialRow& trial, Tri
   const std::string what = watch.hung_call != DeviceCall::kNone
                                ? "device " + std::string(to_string(watch.hung_call)) + "() has not returned"
                                : std::string("the haptic loop has completed no update");
-  if (options_.on_alert)
-    options_.on_alert(what + " for " + ms_text(limit_s) + (tripped ? "" : " of wall time") + " in trial " +
-                      std::to_string(trial.id) + (tripped ? "; the watchdog halted the device (zero force)" : ""));
+  // Recorded before it is announced: an operator who kills the session on
+  // seeing the alert leaves the cause for the next session to find (in the
+  // other order a kill between the two lost it; seen under load in CI).
   if (watch.hung_call != DeviceCall::kNone)
     session_.record_pending_reason("device " + std::string(to_string(watch.hung_call)) + " hung for at least " +
                                    ms_text(limit_s) + " (the session ended before it returned)");
+  if (options_.on_alert)
+    options_.on_alert(what + " for " + ms_text(limit_s) + (tripped ? "" : " of wall time") + " in trial " +
+                      std::to_string(trial.id) + (tripped ? "; the watchdog halted the device (zero force)" : ""));
 }
 
 // The loop thread is inside the device's code: record the trial and the

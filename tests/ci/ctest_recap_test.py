@@ -1,7 +1,8 @@
 """scripts/ctest_recap.py against a real ctest run: a small project with a
-passing test and two failing ones (one a crash), run by ctest -j2 as
-scripts/test.sh runs the suite; the recap names each failed test with its
-last lines, and not the passing one.
+passing test and three failing ones (one a crash, one a GoogleTest
+failure above its summary), run by ctest -j2 as scripts/test.sh runs the
+suite; the recap names each failed test with its last lines (a GoogleTest
+one with its failure), and not the passing one.
 
 usage: ctest_recap_test.py SOURCE_DIR WORK_DIR
 """
@@ -16,6 +17,7 @@ enable_testing()
 add_test(NAME quiet_pass COMMAND sh -c "echo all fine here")
 add_test(NAME slow_fail COMMAND sh -c "for i in $(seq 1 40); do echo noise $i; done; echo 'FAIL: timed out after 60 s waiting for the plots'; exit 1")
 add_test(NAME crash COMMAND sh -c "echo before the crash; kill -SEGV $$")
+add_test(NAME gtest_fail COMMAND sh -c "echo '[ RUN      ] A.B'; echo 'a_test.cc:12: Failure'; echo 'Expected equality of these values:'; echo '  reasons[0]'; for i in 1 2 3 4 5 6 7 8 9; do echo summary $i; done; exit 1")
 """
 
 
@@ -42,10 +44,12 @@ def main():
     lines = out.splitlines()
     heads = [l for l in lines if l.startswith("==> ")]
     if sorted(heads) != ["==> crash failed; the last 1 lines of its output:",
+                         "==> gtest_fail failed; its first failure:",
                          "==> slow_fail failed; the last 8 lines of its output:"]:
         fail(f"the recap's headings: {heads}\n{out}")
-    if lines[-1] not in ("    FAIL: timed out after 60 s waiting for the plots", "    before the crash"):
-        fail(f"the recap does not end with a failed test's last line:\n{out}")
+    if "    a_test.cc:12: Failure\n    Expected equality of these values:\n      reasons[0]\n    summary 1" not in out \
+            or "summary 6" in out:
+        fail(f"the recap does not show the GoogleTest failure and the 7 lines after it:\n{out}")
     if "FAIL: timed out after 60 s waiting for the plots" not in out or "noise 34" not in out or "noise 33" in out:
         fail(f"the recap is not slow_fail's last 8 lines:\n{out}")
     if "all fine here" in out:

@@ -121,6 +121,7 @@ def main():
 
     background = []
     failures = 0
+    failed = []  # named again at the end, where a CI log's tail shows them
     try:
         for original, command in runnable:
             shown = command if command == original else f"{command}    (README: {original})"
@@ -138,6 +139,7 @@ def main():
                 if proc.poll() is not None:
                     print(f"  FAILED: the server exited with {proc.returncode}")
                     failures += 1
+                    failed.append(f"$ {command} (exited {proc.returncode}: {first.strip()[:200]})")
                 continue
             result = subprocess.run(["bash", "-c", command], cwd=work, capture_output=True,
                                     text=True, timeout=300)
@@ -149,6 +151,8 @@ def main():
             if result.returncode != 0:
                 failures += 1
                 print("  FAILED; its whole output:\n" + result.stdout + result.stderr)
+                said = (tail[-1] if tail else "")[:200]
+                failed.append(f"$ {command} (exit {result.returncode} after {took:.1f} s: {said})")
     finally:
         for proc in background:
             os.killpg(proc.pid, 2)
@@ -157,6 +161,8 @@ def main():
             except subprocess.TimeoutExpired:
                 os.killpg(proc.pid, 9)
                 proc.wait()
+    for line in failed:
+        print("FAILED " + line)
     print(f"{len(runnable)} README commands run, {failures} failed")
     if not args.work_dir:
         shutil.rmtree(work, ignore_errors=True)
