@@ -160,14 +160,16 @@ def status_of(c, sock=None):
     return r[2] if r and isinstance(r[2], dict) else {}
 
 
-def wait_for(what, predicate, timeout_s):
+def wait_for(what, predicate, timeout_s, explain=None):
+    """`explain`, if given, returns what a timeout's message adds (the
+    server's state then), so a failure under load says why."""
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         v = predicate()
         if v:
             return v
         time.sleep(0.02)
-    fail(f"timed out after {timeout_s} s waiting for {what}")
+    fail(f"timed out after {timeout_s} s waiting for {what}" + (f"; {explain()}" if explain else ""))
 
 
 def percentile(values, q):
@@ -495,8 +497,13 @@ def start_device_hangs(cli, source, work, plugin, consoles):
             else:
                 expect("a session on the hanging device", request(
                     s.port, "POST", "/api/session/start", {"participant": "S1"}, token=s.token), 200)
+            # The alert comes 20 ms after the hang, which comes 100 reads
+            # into the trial; the time is the session's or free trial's
+            # start, which took over 10 s beside the whole suite and two
+            # busy processes on 2 cores (a failure seen so).
             seen = wait_for(f"the {what}'s device alert", lambda: (j := device_view(c)).get("device_alert") and
-                            ("device read()" in j["device_alert"] or not j["running"]) and j, 10)
+                            ("device read()" in j["device_alert"] or not j["running"]) and j, 30,
+                            lambda: f"its status: {json.dumps(device_view(c))[:800]}")
             # (On a busy machine the loop's watchdog can end a free trial, or
             # a session after three trials, before the hang: started again.)
             if "device read() has not returned for" in seen["device_alert"]:
