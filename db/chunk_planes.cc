@@ -219,10 +219,10 @@ const bool kHaveAvx2 = [] {
 // Bit planes of n values of W bytes at v: `to_planes` makes them in
 // place; false undoes them into `scratch` (n * W bytes). Per group of 8
 // values: their bytes transposed (word b = byte b of each value), then each
-// word's bits (transpose8x8),
-// whose 8 bytes are the group's byte in planes 8b..8b+7. The group's values
-// are loaded and stored whole, not byte by byte: this runs on every chunk
-// the writer thread stores and every chunk analyze reads.
+// word's bits (transpose8x8), whose 8 bytes are the group's byte in planes
+// 8b..8b+7. The group's values are loaded and stored whole, not byte by
+// byte: this runs on every chunk the writer thread stores and every chunk
+// analyze reads.
 template <std::size_t W>
 void bit_planes(std::byte* v, std::size_t n, bool to_planes, std::vector<std::byte>& scratch) {
   static_assert(W == 4 || W == 8);
