@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "console/served_file.h"
+#include "sessions/trial_end.h"
 #include "core/common/utc_time.h"
 #include "core/common/output_file.h"
 
@@ -195,31 +196,82 @@ bool ConsoleTuning::poll_free_trial(SimRig& rig, int repetition, int& polls, boo
   return !stop_.load();
 }
 
+std::optional<SimTrialConfig> ConsoleTuning::next_repetition(TaskKind task, int& repetition) {
+  SimTrialConfig c;
+  {
+    std::lock_guard lock(mutex_);
+    if (elapsed_s_ >= config_.max_s) return std::nullopt;
+    repetition = ++free_trial_;
+    live_.clear();
+    c.settings = engine_;
+    if (changed_ || applied_t_s_) applied_t_s_ = 0.0;  // every change is in from the start
+    changed_ = false;
+    c.trial_seed = static_cast<std::uint64_t>(free_trial_);
+    c.max_duration_s = config_.max_s - elapsed_s_;
+  }
+  c.task = task;
+  c.device = config_.device;
+  c.participant_seed = kPilotParticipantSeed;
+  c.practice_trials = kPilotPracticeTrials;
+  c.clock = config_.clock;
+  c.rate_Hz = config_.rate_Hz;
+  c.realtime = config_.realtime;
+  c.safety.force_limits = config_.force_limits;
+  c.safety.rate.tolerance_fraction = config_.rate_tolerance_fraction;
+  return c;
+}
+
+bool ConsoleTuning::goes_on_after(const SimTrialResult& r, int repetition, bool alerted, int& host_trips_in_a_row,
+                                  std::string& error) {
+  if (r.device_hung) {
+    char hung[32];
+    std::snprintf(hung, sizeof hung, "%.0f ms", 1e3 * r.hung_s);
+    error = "device " + std::string(to_string(r.hung_call)) + " hung for " + hung + " in free trial " +
+            std::to_string(repetition) + " and had not returned when the console gave up on it (zero force since " +
+            "the watchdog halted it)";
+    device_.mark_hung(error);
+    return false;
+  }
+  // A trip the polls missed (the loop ended before the next): said now,
+  // never not at all.
+  if (!alerted && r.stop_reason == StopReason::kWatchdog)
+    device_.alert("the watchdog halted the device (zero force) in free trial " + std::to_string(repetition) + ": " +
+                  describe(r.safety_trip));
+  std::lock_guard lock(mutex_);
+  elapsed_s_ += r.duration_s;
+  last_timing_ = r.timing;
+  if (r.device_refused) {
+    error = "the device could not be activated (" + std::string(to_string(r.device_status)) + ")";
+    return false;
+  }
+  if (r.stop_reason == StopReason::kWatchdog && r.safety_trip.kind != SafetyTripKind::kDeviceCallHung) {
+    // The host fell behind (a late update, a stalled step), as a session's
+    // trial can: zero force was commanded and the alert shown; this
+    // repetition ended, logged, and the free trial goes on with the next,
+    // unless it keeps happening (as a session does).
+    append_log("watchdog", "", describe(r.safety_trip));
+    if (++host_trips_in_a_row < sessions::kMaxWatchdogTripsInARow) return true;
+    error = "the free trial stopped: watchdog (zero force), " + std::to_string(host_trips_in_a_row) +
+            " repetitions in a row; this machine cannot keep the loop's timing now";
+    return false;
+  }
+  host_trips_in_a_row = 0;
+  if (r.stop_reason != StopReason::kTaskComplete && r.stop_reason != StopReason::kStopRequested &&
+      r.stop_reason != StopReason::kMaxDuration) {
+    error = std::string("the free trial stopped: ") + to_string(r.stop_reason) + " (zero force)";
+    return false;
+  }
+  return true;
+}
+
 void ConsoleTuning::run(TaskKind task) {
   std::string error;
+  int host_trips_in_a_row = 0;
   try {
     while (!stop_.load()) {
-      SimTrialConfig c;
-      {
-        std::lock_guard lock(mutex_);
-        if (elapsed_s_ >= config_.max_s) break;
-        ++free_trial_;
-        live_.clear();
-        c.settings = engine_;
-        if (changed_ || applied_t_s_) applied_t_s_ = 0.0;  // every change is in from the start
-        changed_ = false;
-        c.trial_seed = static_cast<std::uint64_t>(free_trial_);
-        c.max_duration_s = config_.max_s - elapsed_s_;
-      }
-      c.task = task;
-      c.device = config_.device;
-      c.participant_seed = kPilotParticipantSeed;
-      c.practice_trials = kPilotPracticeTrials;
-      c.clock = config_.clock;
-      c.rate_Hz = config_.rate_Hz;
-      c.realtime = config_.realtime;
-      c.safety.force_limits = config_.force_limits;
-      c.safety.rate.tolerance_fraction = config_.rate_tolerance_fraction;
+      int repetition = 0;
+      const std::optional<SimTrialConfig> c = next_repetition(task, repetition);
+      if (!c) break;
       SimTrialSink sink;
       sink.on_sample = [this](const LoopSample& s) {
         std::lock_guard lock(mutex_);
@@ -227,42 +279,11 @@ void ConsoleTuning::run(TaskKind task) {
       };
       int polls = 0;
       bool alerted = false;
-      int repetition = 0;
-      {
-        std::lock_guard lock(mutex_);
-        repetition = free_trial_;
-      }
       sink.device_hang_grace_s = config_.device_hang_grace_s;
       sink.between_drains = [this, &polls, &alerted, repetition](SimRig& rig) {
         return poll_free_trial(rig, repetition, polls, alerted);
       };
-      const SimTrialResult r = run_sim_trial(c, sink);
-      if (r.device_hung) {
-        char hung[32];
-        std::snprintf(hung, sizeof hung, "%.0f ms", 1e3 * r.hung_s);
-        error = "device " + std::string(to_string(r.hung_call)) + " hung for " + hung + " in free trial " +
-                std::to_string(repetition) + " and had not returned when the console gave up on it (zero force since " +
-                "the watchdog halted it)";
-        device_.mark_hung(error);
-        break;
-      }
-      // A trip the polls above missed (the loop ended before the next):
-      // said now, never not at all.
-      if (!alerted && r.stop_reason == StopReason::kWatchdog)
-        device_.alert("the watchdog halted the device (zero force) in free trial " + std::to_string(repetition) +
-                      ": " + describe(r.safety_trip));
-      std::lock_guard lock(mutex_);
-      elapsed_s_ += r.duration_s;
-      last_timing_ = r.timing;
-      if (r.device_refused) {
-        error = "the device could not be activated (" + std::string(to_string(r.device_status)) + ")";
-        break;
-      }
-      if (r.stop_reason != StopReason::kTaskComplete && r.stop_reason != StopReason::kStopRequested &&
-          r.stop_reason != StopReason::kMaxDuration) {
-        error = std::string("the free trial stopped: ") + to_string(r.stop_reason) + " (zero force)";
-        break;
-      }
+      if (!goes_on_after(run_sim_trial(*c, sink), repetition, alerted, host_trips_in_a_row, error)) break;
     }
   } catch (const std::exception& e) {
     error = e.what();

@@ -97,6 +97,13 @@ class ConsoleTuning {
   // thread): says a watchdog trip at once, hands the loop the operator's
   // changes, keeps the timing; false when the operator stopped.
   bool poll_free_trial(SimRig& rig, int repetition, int& polls, bool& alerted);
+  // The next repetition's trial (its number to `repetition`), or none when
+  // the free trial's time is used up.
+  std::optional<SimTrialConfig> next_repetition(TaskKind task, int& repetition);
+  // Whether the free trial goes on after a repetition that ended so; when
+  // not, `error` says why ("" for none).
+  bool goes_on_after(const SimTrialResult& r, int repetition, bool alerted, int& host_trips_in_a_row,
+                     std::string& error);
   void append_log(const std::string& field, const std::string& from, const std::string& to);  // holds mutex_
 
   const ConsoleTuningConfig config_;

@@ -584,7 +584,9 @@ def main():
         level.send_keys("80\t")  # above the documented 50 N
         wait_for("the refusal on the page", lambda: "must be >= 0 and <= 50" in driver.find_element(By.ID, "message").text, 10)
         wait_for("the box back at the server's value", lambda: level.get_attribute("value") == "0.3", 10)
-        log = json.loads(c.get("/api/tuning"))["log"]
+        # (A loop watchdog trip on a busy machine ends a repetition, logged
+        # as "watchdog", and the free trial goes on: not a change.)
+        log = [e for e in json.loads(c.get("/api/tuning"))["log"] if e["field"] != "watchdog"]
         if [e["field"] for e in log[1:]] != ["translation.friction.enabled", "translation.friction.dynamic_level_N"] \
                 or log[2]["to"] != "0.3" or log[2]["free_trial"] < 1:
             fail(f"the tuning log: {log}")
