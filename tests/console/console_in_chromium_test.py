@@ -249,9 +249,13 @@ def main():
         driver.get(c.url)
         driver.find_element(By.CSS_SELECTOR, "nav button[data-page=session]").click()
         Select(driver.find_element(By.ID, "participant")).select_by_value("S1")
+        # The stopped session's result is still in the status until the
+        # new one starts (the click's request may come after the first
+        # poll): the end waited for is the one of another result.
+        stopped_result = status()["result"]
         click("start")  # the rest of the schedule, not in step mode
-        wait_for("the session's end", lambda: (s := status()).get("result") and not s["running"], 120)
-        s = status()
+        s = wait_for("the session's end", lambda: (s := status()).get("result") not in (None, stopped_result)
+                     and not s["running"] and s, 120, lambda: json.dumps(status())[:600])
         if s["result"]["trials_left"] != 0 or [r[2] for r in trials(db)].count("complete") != 20:
             fail(f"the quick session did not complete its 20 trials: {s}, {trials(db)}")
         wait_for("the result on the page", lambda: "0 left" in driver.find_element(By.ID, "status").text, 10)
