@@ -65,8 +65,8 @@ class TrialChunks {
   std::span<const StoredSample> next(int instrument);
   // The same samples as next() (the same bits), as columns: what analyze
   // reads, without copying every update into a StoredSample. Valid until
-  // the next call for the same instrument; one instrument's windows come
-  // from one of the two calls only.
+  // the next call for the same instrument (either call takes the window
+  // after the last one given).
   ColumnWindow next_columns(int instrument);
   // The updates in the instrument's well-placed chunks (what next() gives
   // unless a chunk turns out damaged).

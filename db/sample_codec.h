@@ -81,8 +81,8 @@
 #include <vector>
 
 #include "core/common/crc32c.h"
-#include "core/common/float_column.h"
 #include "core/loop/loop_sample.h"
+#include "db/float_column.h"
 
 namespace hapticlab::db {
 

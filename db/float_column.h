@@ -1,7 +1,7 @@
 #pragma once
 // A column of float32 values read in place, widened to double: how the
-// chunk decoder (db/sample_codec.h) hands a channel to the analysis without
-// copying it. Value i is at `values` + i * `stride_bytes`, little-endian
+// chunk decoder (sample_codec.h, chunk_reader.h) hands a channel to a
+// reader without copying it. Value i is at `values` + i * `stride_bytes`, little-endian
 // (stride 0: one value for every update, a channel stored once).
 
 #include <bit>
@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <cstring>
 
-namespace hapticlab {
+namespace hapticlab::db {
 
 struct FloatColumn {
   const std::byte* values = nullptr;
@@ -22,4 +22,4 @@ struct FloatColumn {
   }
 };
 
-}  // namespace hapticlab
+}  // namespace hapticlab::db
