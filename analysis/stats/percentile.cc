@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "analysis/stats/data_error.h"
+#include "analysis/stats/order_statistics.h"
 
 namespace hapticlab::analysis {
 namespace {
@@ -82,39 +83,6 @@ double percentile_sorted(std::span<const double> sorted, double p_percent, Perce
   return value_at(pos, sorted[pos.lower], sorted[pos.upper]);
 }
 
-namespace {
-
-// Puts the order statistics at ranks[lo, hi) (ascending, absolute indices)
-// in place: nth_element on the middle rank, then each side with its ranks.
-// A rank next to one just placed (a percentile between two order
-// statistics asks for both) is the largest of what lies below it, or the
-// smallest of what lies above: one pass, not another nth_element.
-void select_ranks(std::vector<double>::iterator base, std::size_t first, std::size_t last,
-                  const std::vector<std::size_t>& ranks, std::size_t lo, std::size_t hi) {
-  const auto at = [&](std::size_t i) { return base + static_cast<std::ptrdiff_t>(i); };
-  while (lo < hi && first < last) {
-    const std::size_t mid = lo + (hi - lo) / 2;
-    const std::size_t r = ranks[mid];
-    std::nth_element(at(first), at(r), at(last));
-    std::size_t left_end = r, left_hi = mid;
-    if (left_hi > lo && ranks[left_hi - 1] + 1 == r) {
-      std::iter_swap(std::max_element(at(first), at(r)), at(r - 1));
-      --left_end;
-      --left_hi;
-    }
-    select_ranks(base, first, left_end, ranks, lo, left_hi);
-    first = r + 1;
-    lo = mid + 1;
-    if (lo < hi && ranks[lo] == first && first < last) {
-      std::iter_swap(std::min_element(at(first), at(last)), at(first));
-      ++first;
-      ++lo;
-    }
-  }
-}
-
-}  // namespace
-
 std::vector<double> percentiles_select(std::vector<double>& values, std::span<const double> p_percents,
                                        PercentileMethod method) {
   std::vector<PercentilePosition> positions;
@@ -127,10 +95,13 @@ std::vector<double> percentiles_select(std::vector<double>& values, std::span<co
   }
   std::sort(ranks.begin(), ranks.end());
   ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
-  select_ranks(values.begin(), 0, values.size(), ranks, 0, ranks.size());
+  const std::vector<double> at_rank = order_statistics(values, ranks);
+  const auto value_of = [&](std::size_t rank) {
+    return at_rank[static_cast<std::size_t>(std::lower_bound(ranks.begin(), ranks.end(), rank) - ranks.begin())];
+  };
   std::vector<double> out;
   out.reserve(positions.size());
-  for (const auto& pos : positions) out.push_back(value_at(pos, values[pos.lower], values[pos.upper]));
+  for (const auto& pos : positions) out.push_back(value_at(pos, value_of(pos.lower), value_of(pos.upper)));
   return out;
 }
 

@@ -50,10 +50,10 @@ struct PercentilePosition {
 PercentilePosition percentile_position(std::size_t n, double p_percent,
                                        PercentileMethod method = PercentileMethod::kMatlab);
 
-// Several percentiles of unsorted values by selection (nth_element) rather
-// than a full sort: the same order statistics, so the very results of
-// percentile_sorted on the sorted values, in O(n log k) for k percentiles.
-// Reorders `values`; values non-empty and finite (not checked).
+// Several percentiles of unsorted values by selection (order_statistics.h)
+// rather than a full sort: the same order statistics, so the very results of
+// percentile_sorted on the sorted values. May reorder `values`; values
+// non-empty and finite (not checked).
 std::vector<double> percentiles_select(std::vector<double>& values, std::span<const double> p_percents,
                                        PercentileMethod method = PercentileMethod::kMatlab);
 
