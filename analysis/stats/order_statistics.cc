@@ -60,6 +60,37 @@ std::vector<std::uint32_t>& bucket_table() {
   return table;
 }
 
+// A bucket that holds wanted ranks.
+struct Wanted {
+  std::uint32_t key;
+  std::size_t below;  // values in lower buckets
+  std::size_t size;   // values in this bucket
+  std::size_t offset = 0;
+};
+struct Located {
+  std::vector<Wanted> wanted;            // ascending
+  std::vector<std::size_t> slot_of_rank;  // ranks[i] is in wanted[slot_of_rank[i]]
+};
+
+// Which bucket holds each rank, and how many values lie in buckets below it.
+Located locate(const std::vector<std::uint32_t>& count, std::uint32_t low, std::uint32_t high,
+               std::span<const std::size_t> ranks) {
+  Located out;
+  out.slot_of_rank.resize(ranks.size());
+  std::size_t below = 0, next = 0;
+  for (std::uint32_t key = low; key <= high && next < ranks.size(); ++key) {
+    const std::size_t c = count[key];
+    if (ranks[next] >= below + c) {
+      below += c;
+      continue;
+    }
+    out.wanted.push_back({key, below, c});
+    while (next < ranks.size() && ranks[next] < below + c) out.slot_of_rank[next++] = out.wanted.size() - 1;
+    below += c;
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<double> order_statistics(std::vector<double>& values, std::span<const std::size_t> ranks) {
@@ -86,28 +117,9 @@ std::vector<double> order_statistics(std::vector<double>& values, std::span<cons
     return by_nth_element(values, ranks);
   }
 
-  // Which bucket holds each rank, and how many values lie in buckets below it.
-  struct Wanted {
-    std::uint32_t key;
-    std::size_t below;  // values in lower buckets
-    std::size_t size;   // values in this bucket
-    std::size_t offset = 0;
-  };
-  std::vector<Wanted> wanted;
-  std::vector<std::size_t> slot_of_rank(ranks.size());
-  {
-    std::size_t below = 0, next = 0;
-    for (std::uint32_t key = low; key <= high && next < ranks.size(); ++key) {
-      const std::size_t c = count[key];
-      if (ranks[next] >= below + c) {
-        below += c;
-        continue;
-      }
-      wanted.push_back({key, below, c});
-      while (next < ranks.size() && ranks[next] < below + c) slot_of_rank[next++] = wanted.size() - 1;
-      below += c;
-    }
-  }
+  Located located = locate(count, low, high, ranks);
+  std::vector<Wanted>& wanted = located.wanted;
+  const std::vector<std::size_t>& slot_of_rank = located.slot_of_rank;
   std::size_t gathered = 0;
   for (std::size_t s = 0; s < wanted.size(); ++s) {
     wanted[s].offset = gathered;
