@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "core/loop/force_guard.h"
 #include "core/settings/settings.h"
 #include "core/sim/population.h"
 #include "core/sim/practice.h"
@@ -59,6 +60,9 @@ struct TransferOptions {
   double max_trial_s = 300.0;  // per-trial time limit
   PopulationParams population;
   LearningModel learning;
+  // The protocol's "safety" object: the force limits session run applies
+  // to every trial of the study, so the simulated ones feel them too.
+  OperatorForceLimits force_limits;
 };
 
 enum class TransferPhase : std::uint8_t { kFamiliarization, kPreTest, kTraining, kPostTest, kRetention };

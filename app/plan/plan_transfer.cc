@@ -96,6 +96,7 @@ int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptio
   options.simulation.max_trial_s = o.max_trial_s;
   options.simulation.population = population.point;
   options.simulation.learning.force_free_share = share;
+  options.simulation.force_limits = protocol.safety;
   std::filesystem::create_directories(o.out);
   std::vector<TaskPower> tasks;
   int timed_out = 0, trials = 0;

@@ -98,6 +98,31 @@ TEST(TransferStudyTest, TrainingWithoutForceFeedbackTransfersLessOnlyWhenLearnin
   for (int i = n; i < 2 * n; ++i) EXPECT_EQ(hf.participants[i].pre_s, nff.participants[i].pre_s) << i;
 }
 
+// The protocol's force limits reach every simulated trial, as session run
+// applies them: the same study under a 0.2 N insertion limit and 2 mN·m on
+// pitch and yaw is another study (the hand feels the limited force), and
+// under limits that are the device's own it is the same, bit for bit.
+TEST(TransferStudyTest, TheProtocolsForceLimitsAreFelt) {
+  const TransferStudy free = simulate_transfer_study(design("high_fidelity"), 2, 5, options(1.0));
+  TransferOptions same = options(1.0);
+  same.force_limits.peak_force_fraction = 1.0;  // the default: the device's own limits
+  const TransferStudy unchanged = simulate_transfer_study(design("high_fidelity"), 2, 5, same);
+  TransferOptions strict = options(1.0);
+  strict.force_limits.insertion_force_N = 0.2;
+  strict.force_limits.pitch_yaw_torque_Nm = 0.002;
+  const TransferStudy limited = simulate_transfer_study(design("high_fidelity"), 2, 5, strict);
+  int differing = 0;
+  for (std::size_t i = 0; i < free.participants.size(); ++i) {
+    ASSERT_EQ(free.participants[i].trials.size(), limited.participants[i].trials.size());
+    for (std::size_t k = 0; k < free.participants[i].trials.size(); ++k) {
+      EXPECT_EQ(unchanged.participants[i].trials[k].time_s, free.participants[i].trials[k].time_s) << i << " " << k;
+      if (limited.participants[i].trials[k].time_s != free.participants[i].trials[k].time_s) ++differing;
+    }
+  }
+  std::printf("  trials whose time the limits changed: %d\n", differing);
+  EXPECT_GT(differing, 0);
+}
+
 TEST(TransferStudyTest, BadDesignsAreRefusedByName) {
   auto refused = [](TransferDesign d, int per_group, const std::string& named) {
     try {
