@@ -22,7 +22,7 @@
 #include "core/common/input_file.h"
 #include "db/study_db.h"
 #include "protocols/protocol_json.h"
-#include "protocols/safety_json.h"
+#include "protocols/loop_protections.h"
 #include "sessions/study_progress.h"
 
 namespace hapticlab::console {
@@ -247,9 +247,8 @@ class Console {
     // The rig of the study's sessions: the protocol's force limits and rate
     // tolerance (a free trial held to the default 10 % stopped as
     // rate_violation where the study's sessions went on).
-    const std::string& protocol = at_start.study.protocol_json;
-    c.force_limits = protocols::safety_from_protocol_text(protocol, config.session.db.string());
-    c.rate_tolerance_fraction = protocols::rate_tolerance_from_protocol_text(protocol, config.session.db.string());
+    c.protections =
+        protocols::loop_protections_from_protocol_text(at_start.study.protocol_json, config.session.db.string());
     c.out_dir = config.session.db.parent_path() / (config.session.db.stem().string() + "-console-tuning");
     return c;
   }

@@ -216,8 +216,7 @@ std::optional<SimTrialConfig> ConsoleTuning::next_repetition(TaskKind task, int&
   c.clock = config_.clock;
   c.rate_Hz = config_.rate_Hz;
   c.realtime = config_.realtime;
-  c.safety.force_limits = config_.force_limits;
-  c.safety.rate.tolerance_fraction = config_.rate_tolerance_fraction;
+  c.safety = config_.protections;
   return c;
 }
 
@@ -300,7 +299,7 @@ nlohmann::json ConsoleTuning::status() const {
                       {"settings", settings_}, {"free_trial", free_trial_}, {"log", log_},
                       {"saved", saved_},     {"error", error_}};
   j["rate_Hz"] = config_.rate_Hz;
-  j["rate_tolerance_fraction"] = config_.rate_tolerance_fraction;
+  j["rate_tolerance_fraction"] = config_.protections.rate.tolerance_fraction;
   if (running_) j["loop_t_s"] = live_.newest_t_s();
   if (running_ && applied_t_s_) j["applied_t_s"] = *applied_t_s_;
   j.update(device_.status());

@@ -32,11 +32,10 @@ struct ConsoleTuningConfig {
   DeviceSpec device;                      // as the console's sessions
   ClockKind clock = ClockKind::kWall;     // virtual only in tests: it runs as fast as it can
   double rate_Hz = 1000.0;                // 150..2000; the sessions' rate
-  // The achieved rate may lie this fraction off rate_Hz (wall clock;
-  // RateCheck): the protocol's rate_tolerance_fraction, as in its sessions.
-  double rate_tolerance_fraction = RateCheck::kDefaultToleranceFraction;  // 0.001..0.5
   RealtimeOptions realtime;
-  OperatorForceLimits force_limits;       // the protocol's "safety" object
+  // The loop's protections, as in the study's sessions: the protocol's
+  // force limits and rate tolerance (protocols/loop_protections.h).
+  LoopSafetyConfig protections;
   std::filesystem::path out_dir;          // tuning-log.csv and the saved settings files
   double max_s = 3600.0;                  // a free trial stops after this much loop time (> 0)
   // A device call still not returned this long after the loop's watchdog

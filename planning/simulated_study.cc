@@ -16,6 +16,7 @@
 #include "analysis/study/trial_reader.h"
 #include "core/sim/trial_runner.h"
 #include "db/sample_codec.h"
+#include "protocols/loop_protections.h"
 #include "protocols/schedule.h"
 #include "sessions/session_runner.h"
 
@@ -137,7 +138,7 @@ class StudySimulator {
     c.clock = ClockKind::kVirtual;
     c.rate_Hz = options_.rate_Hz;
     c.max_duration_s = options_.max_trial_s;
-    c.safety.force_limits = p_.safety;
+    c.safety = protocols::loop_protections(p_);
     return c;
   }
 

@@ -87,7 +87,7 @@ TransferStudy simulate_transfer_study(const TransferDesign& design, int per_grou
         c.learning = options.learning;
         c.rate_Hz = options.rate_Hz;
         c.max_duration_s = options.max_trial_s;
-        c.safety.force_limits = options.force_limits;
+        c.safety = options.protections;
         c.publish_samples = false;
         const SimTrialResult r = run_sim_trial(c);
         TransferTrial t;

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "core/loop/force_guard.h"
+#include "core/loop/haptic_loop.h"
 #include "core/settings/settings.h"
 #include "core/sim/population.h"
 #include "core/sim/practice.h"
@@ -60,9 +60,10 @@ struct TransferOptions {
   double max_trial_s = 300.0;  // per-trial time limit
   PopulationParams population;
   LearningModel learning;
-  // The protocol's "safety" object: the force limits session run applies
-  // to every trial of the study, so the simulated ones feel them too.
-  OperatorForceLimits force_limits;
+  // The loop's protections session run gives every trial of the study
+  // (protocols::loop_protections: the protocol's force limits among them),
+  // so the simulated trials feel them too.
+  LoopSafetyConfig protections;
 };
 
 enum class TransferPhase : std::uint8_t { kFamiliarization, kPreTest, kTraining, kPostTest, kRetention };

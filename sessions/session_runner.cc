@@ -19,7 +19,7 @@
 #include "sessions/trial_end.h"
 #include "protocols/protocol_json.h"
 #include "protocols/rng.h"
-#include "protocols/safety_json.h"
+#include "protocols/loop_protections.h"
 
 namespace hapticlab::sessions {
 namespace {
@@ -154,8 +154,7 @@ class SessionRun {
   int training_per_task_ = 0;
   std::int64_t training_setting_ = 0;
   int scheduled_ = 0;
-  OperatorForceLimits force_limits_;
-  double rate_tolerance_ = 0.0;
+  LoopSafetyConfig protections_;  // the protocol's (protocols/loop_protections.h)
   int watchdog_trips_in_a_row_ = 0;
   Clock::time_point session_start_ = Clock::now();
   std::set<std::string> trained_;
@@ -186,8 +185,7 @@ SessionRun::SessionRun(const std::filesystem::path& db_path, const SessionOption
   scheduled_ = session_.scheduled() + (staircase_spec ? staircase_spec->max_trials : 0);
   result_.session_id = session_.session_id();
   if (options_.on_session_opened) options_.on_session_opened(result_.session_id);
-  force_limits_ = protocols::safety_from_protocol_text(study_.protocol_json, db_.path());
-  rate_tolerance_ = protocols::rate_tolerance_from_protocol_text(study_.protocol_json, db_.path());
+  protections_ = protocols::loop_protections_from_protocol_text(study_.protocol_json, db_.path());
   if (gate_.override_detail) {
     db::OperatorActionRow action;
     action.session_id = result_.session_id;
@@ -221,8 +219,7 @@ SimTrialConfig SessionRun::base_config(const std::string& task, const NamedSetti
   c.rate_Hz = options_.rate_Hz;
   c.realtime = options_.realtime;
   c.max_duration_s = options_.max_trial_s;
-  c.safety.force_limits = force_limits_;
-  c.safety.rate.tolerance_fraction = rate_tolerance_;
+  c.safety = protections_;
   return c;
 }
 

@@ -16,6 +16,7 @@
 #include "core/common/csv_format.h"
 #include "core/common/output_file.h"
 #include "planning/transfer_plan.h"
+#include "protocols/loop_protections.h"
 #include "planning/transfer_power.h"
 
 namespace hapticlab::app {
@@ -96,7 +97,7 @@ int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptio
   options.simulation.max_trial_s = o.max_trial_s;
   options.simulation.population = population.point;
   options.simulation.learning.force_free_share = share;
-  options.simulation.force_limits = protocol.safety;
+  options.simulation.protections = protocols::loop_protections(protocol);
   std::filesystem::create_directories(o.out);
   std::vector<TaskPower> tasks;
   int timed_out = 0, trials = 0;

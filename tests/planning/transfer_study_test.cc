@@ -105,11 +105,11 @@ TEST(TransferStudyTest, TrainingWithoutForceFeedbackTransfersLessOnlyWhenLearnin
 TEST(TransferStudyTest, TheProtocolsForceLimitsAreFelt) {
   const TransferStudy free = simulate_transfer_study(design("high_fidelity"), 2, 5, options(1.0));
   TransferOptions same = options(1.0);
-  same.force_limits.peak_force_fraction = 1.0;  // the default: the device's own limits
+  same.protections.force_limits.peak_force_fraction = 1.0;  // the default: the device's own limits
   const TransferStudy unchanged = simulate_transfer_study(design("high_fidelity"), 2, 5, same);
   TransferOptions strict = options(1.0);
-  strict.force_limits.insertion_force_N = 0.2;
-  strict.force_limits.pitch_yaw_torque_Nm = 0.002;
+  strict.protections.force_limits.insertion_force_N = 0.2;
+  strict.protections.force_limits.pitch_yaw_torque_Nm = 0.002;
   const TransferStudy limited = simulate_transfer_study(design("high_fidelity"), 2, 5, strict);
   int differing = 0;
   for (std::size_t i = 0; i < free.participants.size(); ++i) {
