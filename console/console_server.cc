@@ -21,8 +21,8 @@
 #include "console/stop_route.h"
 #include "core/common/input_file.h"
 #include "db/study_db.h"
-#include "protocols/protocol_json.h"
 #include "protocols/loop_protections.h"
+#include "protocols/protocol_json.h"
 #include "sessions/study_progress.h"
 
 namespace hapticlab::console {

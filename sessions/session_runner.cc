@@ -17,9 +17,9 @@
 #include "sessions/staircase_planner.h"
 #include "sessions/study_session.h"
 #include "sessions/trial_end.h"
+#include "protocols/loop_protections.h"
 #include "protocols/protocol_json.h"
 #include "protocols/rng.h"
-#include "protocols/loop_protections.h"
 
 namespace hapticlab::sessions {
 namespace {

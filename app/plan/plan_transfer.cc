@@ -16,8 +16,8 @@
 #include "core/common/csv_format.h"
 #include "core/common/output_file.h"
 #include "planning/transfer_plan.h"
-#include "protocols/loop_protections.h"
 #include "planning/transfer_power.h"
+#include "protocols/loop_protections.h"
 
 namespace hapticlab::app {
 namespace {
