@@ -19,6 +19,7 @@
 #include "core/sim/trial_runner.h"
 #include "db/replay_frames.h"
 #include "db/study_db.h"
+#include "protocols/loop_protections.h"
 #include "sessions/session_runner.h"
 
 namespace hapticlab::app {
@@ -44,6 +45,9 @@ struct Recording {
   NamedSettings settings;
   std::string what;  // for the summary line
   std::optional<double> recorded_rate_Hz;  // a database trial's loop rate
+  // A database trial's: its study's force limits (the logged commands are
+  // the limited ones); a CSV's: the defaults.
+  LoopSafetyConfig protections;
 };
 
 // The loop rate a trial was recorded at: the median period between its
@@ -76,6 +80,7 @@ Recording from_database(const SimReplayOptions& opt) {
       if (t.id != *opt.trial) continue;
       r.frames = db::load_replay_frames(db, t.id);  // throws for a trial without samples
       r.recorded_rate_Hz = recorded_rate_Hz(r.frames);
+      r.protections = protocols::loop_protections_from_protocol_text(study.protocol_json, opt.db);
       r.task = t.task;
       r.trial_seed = opt.trial_seed.value_or(
           sessions::trial_seed(sessions::participant_seed(study.seed, t.participant_code), t.id));
@@ -113,6 +118,7 @@ int run(const SimReplayOptions& opt) {
   config.task = parse_task_kind(rec.task);
   config.settings = rec.settings.engine;
   config.trial_seed = rec.trial_seed;
+  config.safety = rec.protections;
   config.rate_Hz = opt.rate_Hz.value_or(rec.recorded_rate_Hz.value_or(1000.0));
   const char* rate_source = opt.rate_Hz ? "" : rec.recorded_rate_Hz ? ", the recording's rate" : ", the default";
   // The whole recording, and a little more: the loop ends at its last frame.

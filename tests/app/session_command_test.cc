@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -255,6 +256,57 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
   }
   EXPECT_GT(ve_peak_N, 0.1);
   EXPECT_EQ(displayed_peak_N, 0.0);
+}
+
+// A trial of a study whose protocol lowers the force limits was driven with
+// the limited commands, and its replay is too: the commanded insertion
+// force and pitch/yaw torques it logged come back (to the float32 the
+// database stores, see the tolerances below), the limits reached in
+// places. Without the study's limits the replay commanded more than the
+// session did.
+TEST_F(SessionCommandTest, AReplayIsDrivenUnderItsStudysForceLimits) {
+  const fs::path protocol = dir_ / "limited.json";
+  std::ofstream(protocol) << R"({"study": "limited", "tasks": ["dissection"], "repetitions": {"dissection": 1},
+    "settings": [{"name": "High Fidelity"}, {"name": "Copy"}], "participants": ["A"], "training_trials": 0,
+    "design": {"type": "complete"}, "seed": 5,
+    "safety": {"max_insertion_force_N": 0.05, "max_pitch_yaw_torque_Nm": 0.002}})";
+  const std::string db = (dir_ / "limited.db").string();
+  auto [status, out] = testing::run_cli(kBinary, "study create --protocol " + protocol.string() + " --db " + db);
+  ASSERT_EQ(status, 0) << out;
+  std::tie(status, out) =
+      testing::run_cli(kBinary, "session run --db " + db + " --participant A --max-trials 1 --rate-hz 250");
+  ASSERT_EQ(status, 0) << out;
+  const fs::path replay_csv = dir_ / "replay.csv";
+  std::tie(status, out) = testing::run_cli(kBinary, "sim replay --db " + db + " --trial 1 --out " + replay_csv.string());
+  ASSERT_EQ(status, 0) << out;
+  std::tie(status, out) =
+      testing::run_cli(kBinary, "export --db " + db + " --trial 1 --format csv --out " + (dir_ / "export").string());
+  ASSERT_EQ(status, 0) << out;
+  fs::path samples_csv;
+  for (const auto& e : fs::directory_iterator(dir_ / "export"))
+    if (e.path().string().ends_with("_samples.csv")) samples_csv = e.path();
+  ASSERT_FALSE(samples_csv.empty());
+  const auto recorded = testing::read_csv_rows(samples_csv);
+  const auto replayed = testing::read_csv_rows(replay_csv);
+  ASSERT_EQ(recorded.size(), replayed.size());
+  int at_limit = 0;
+  std::array<double, 3> worst{};
+  const char* columns[] = {"insertion_force_N", "pitch_torque_Nm", "yaw_torque_Nm"};
+  for (std::size_t k = 0; k < recorded.size(); ++k) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      worst[c] = std::max(worst[c], std::abs(std::stod(replayed[k].at(columns[c])) - std::stod(recorded[k].at(columns[c]))));
+    }
+    if (std::abs(std::stod(recorded[k].at("insertion_force_N"))) >= 0.05 * (1 - 1e-6)) ++at_limit;
+  }
+  std::printf("  worst differences: insertion %.3g N, pitch %.3g N·m, yaw %.3g N·m; %d rows at the insertion limit\n",
+              worst[0], worst[1], worst[2], at_limit);
+  EXPECT_GT(at_limit, 0) << "the insertion limit was never reached: the test shows nothing";
+  // As ALoggedTrialReplaysWithItsRecordedForces: the positions come back as
+  // float32 (measured here: 3e-6 N, 2e-8 and 9e-8 N·m; without the
+  // study's limits 1.4 N and 0.07 N·m).
+  EXPECT_LT(worst[0], 1e-4);
+  EXPECT_LT(worst[1], 1e-5);
+  EXPECT_LT(worst[2], 1e-5);
 }
 
 TEST_F(SessionCommandTest, ReplayNamesWhatIsMissing) {
