@@ -186,6 +186,19 @@ double magnitude(const testing::CsvRow& row, const std::string& prefix) {
   return std::sqrt(s);
 }
 
+// The samples `export` writes for one trial of `db` (into dir/export), as
+// rows; empty when the export failed or wrote none.
+std::vector<testing::CsvRow> exported_samples(const std::string& db, std::int64_t trial, const fs::path& dir) {
+  const auto [status, out] = testing::run_cli(
+      kBinary, "export --db " + db + " --trial " + std::to_string(trial) + " --format csv --out " +
+                   (dir / "export").string());
+  EXPECT_EQ(status, 0) << out;
+  if (status != 0) return {};
+  for (const auto& e : fs::directory_iterator(dir / "export"))
+    if (e.path().string().ends_with("_samples.csv")) return testing::read_csv_rows(e.path());
+  return {};
+}
+
 // A trial a session logged, replayed through its own setting and task
 // layout, gives back the VE forces it recorded: the database holds the raw
 // positions as float32 (at most 6 nm on a 0.1 m insertion), which against
@@ -217,17 +230,9 @@ TEST_F(SessionCommandTest, ALoggedTrialReplaysWithItsRecordedForces) {
   EXPECT_THAT(summary, HasSubstr("end_of_data"));
   EXPECT_THAT(summary, HasSubstr("task complete"));
 
-  const auto [status3, exported] = testing::run_cli(
-      kBinary, "export --db " + db_ + " --trial " + std::to_string(trial) + " --format csv --out " +
-                   (dir_ / "export").string());
-  ASSERT_EQ(status3, 0) << exported;
-  fs::path samples_csv;
-  for (const auto& e : fs::directory_iterator(dir_ / "export"))
-    if (e.path().string().ends_with("_samples.csv")) samples_csv = e.path();
-  ASSERT_FALSE(samples_csv.empty());
-
   // One layout: a row per instrument and update, in the same order.
-  const auto recorded = testing::read_csv_rows(samples_csv);
+  const auto recorded = exported_samples(db_, trial, dir_);
+  ASSERT_FALSE(recorded.empty());
   const auto replayed = testing::read_csv_rows(replay_csv);
   ASSERT_EQ(recorded.size(), replayed.size());
   double worst_N = 0.0, peak_N = 0.0;
@@ -279,14 +284,8 @@ TEST_F(SessionCommandTest, AReplayIsDrivenUnderItsStudysForceLimits) {
   const fs::path replay_csv = dir_ / "replay.csv";
   std::tie(status, out) = testing::run_cli(kBinary, "sim replay --db " + db + " --trial 1 --out " + replay_csv.string());
   ASSERT_EQ(status, 0) << out;
-  std::tie(status, out) =
-      testing::run_cli(kBinary, "export --db " + db + " --trial 1 --format csv --out " + (dir_ / "export").string());
-  ASSERT_EQ(status, 0) << out;
-  fs::path samples_csv;
-  for (const auto& e : fs::directory_iterator(dir_ / "export"))
-    if (e.path().string().ends_with("_samples.csv")) samples_csv = e.path();
-  ASSERT_FALSE(samples_csv.empty());
-  const auto recorded = testing::read_csv_rows(samples_csv);
+  const auto recorded = exported_samples(db, 1, dir_);
+  ASSERT_FALSE(recorded.empty());
   const auto replayed = testing::read_csv_rows(replay_csv);
   ASSERT_EQ(recorded.size(), replayed.size());
   int at_limit = 0;
