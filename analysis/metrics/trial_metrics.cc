@@ -1,9 +1,5 @@
 #include "analysis/metrics/trial_metrics.h"
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -126,7 +122,10 @@ void WindowAccumulator::add(double t, const Vec3d& p, const Vec3d& velocity_m_pe
   // A NaN would otherwise fail the threshold test and vanish silently.
   // (|p| is finite exactly when |p|² is: no square root needed to know.)
   if (!std::isfinite(force) || !std::isfinite(speed) || !std::isfinite(p[0] * p[0] + p[1] * p[1] + p[2] * p[2])) {
-    throw_not_finite(i, t, force, speed);
+    throw DataError("task window: sample " + std::to_string(i) + " at t_s = " + std::to_string(t) +
+                    " has a non-finite " +
+                    (!std::isfinite(force) ? "ve_force_N" : !std::isfinite(speed) ? "tip_velocity_m_per_s"
+                                                                                   : "tip_position_m"));
   }
   if (force >= min_force_N_) out.force_N.push_back(force);
   out.speed_m_per_s.push_back(speed);
@@ -136,90 +135,6 @@ void WindowAccumulator::add(double t, const Vec3d& p, const Vec3d& velocity_m_pe
   }
   previous_m_ = p;
   have_previous_ = true;
-}
-
-void WindowAccumulator::throw_not_finite(std::size_t i, double t_s, double force, double speed) const {
-  throw DataError("task window: sample " + std::to_string(i) + " at t_s = " + std::to_string(t_s) +
-                  " has a non-finite " +
-                  (!std::isfinite(force) ? "ve_force_N" : !std::isfinite(speed) ? "tip_velocity_m_per_s"
-                                                                                 : "tip_position_m"));
-}
-
-namespace {
-
-// out[i] = sqrt(a[i]·a[i] + b[i]·b[i] + c[i]·c[i]), norm3's arithmetic in
-// its order (the build does not contract a·a + b·b into a fused
-// multiply-add: -std=c++20 means -ffp-contract=off).
-void norms(std::size_t n, const double* a, const double* b, const double* c, double* out) {
-  std::size_t i = 0;
-#if defined(__SSE2__)
-  for (; i + 2 <= n; i += 2) {
-    const __m128d x = _mm_loadu_pd(a + i), y = _mm_loadu_pd(b + i), z = _mm_loadu_pd(c + i);
-    const __m128d sum = _mm_add_pd(_mm_add_pd(_mm_mul_pd(x, x), _mm_mul_pd(y, y)), _mm_mul_pd(z, z));
-    _mm_storeu_pd(out + i, _mm_sqrt_pd(sum));
-  }
-#endif
-  for (; i < n; ++i) out[i] = norm3(Vec3d{a[i], b[i], c[i]});
-}
-
-}  // namespace
-
-void WindowAccumulator::add_run(const Run& run) {
-  const std::size_t n = run.size;
-  if (n == 0) return;
-  force_norm_.resize(n);
-  speed_norm_.resize(n);
-  step_norm_.resize(n);
-  norms(n, run.force_N[0], run.force_N[1], run.force_N[2], force_norm_.data());
-  norms(n, run.velocity_m_per_s[0], run.velocity_m_per_s[1], run.velocity_m_per_s[2], speed_norm_.data());
-  // step_norm_[i]: from sample i − 1 to i (0 unused).
-  {
-    const auto& p = run.position_m;
-    std::size_t i = 1;
-#if defined(__SSE2__)
-    for (; i + 2 <= n; i += 2) {
-      const __m128d dx = _mm_sub_pd(_mm_loadu_pd(p[0] + i), _mm_loadu_pd(p[0] + i - 1));
-      const __m128d dy = _mm_sub_pd(_mm_loadu_pd(p[1] + i), _mm_loadu_pd(p[1] + i - 1));
-      const __m128d dz = _mm_sub_pd(_mm_loadu_pd(p[2] + i), _mm_loadu_pd(p[2] + i - 1));
-      const __m128d sum = _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)), _mm_mul_pd(dz, dz));
-      _mm_storeu_pd(step_norm_.data() + i, _mm_sqrt_pd(sum));
-    }
-#endif
-    for (; i < n; ++i) {
-      step_norm_[i] = norm3(Vec3d{p[0][i] - p[0][i - 1], p[1][i] - p[1][i - 1], p[2][i] - p[2][i - 1]});
-    }
-  }
-  WindowValues& out = *values_;
-  bool previous_is_last = false;  // previous_m_ is sample i − 1 of this run
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t i = index_++;
-    const double t = run.t_s[k];
-    if (!std::isfinite(t)) {
-      throw DataError("task window: t_s of sample " + std::to_string(i) + " is not finite");
-    }
-    if (t < window_.start_s || t > window_.end_s) {
-      previous_is_last = false;
-      continue;
-    }
-    ++out.samples;
-    const double force = force_norm_[k];
-    const double speed = speed_norm_[k];
-    const Vec3d pos{run.position_m[0][k], run.position_m[1][k], run.position_m[2][k]};
-    if (!std::isfinite(force) || !std::isfinite(speed) ||
-        !std::isfinite(pos[0] * pos[0] + pos[1] * pos[1] + pos[2] * pos[2])) {
-      throw_not_finite(i, t, force, speed);
-    }
-    if (force >= min_force_N_) out.force_N.push_back(force);
-    out.speed_m_per_s.push_back(speed);
-    if (have_previous_) {
-      out.path_length_m +=
-          previous_is_last ? step_norm_[k]
-                           : norm3(Vec3d{pos[0] - previous_m_[0], pos[1] - previous_m_[1], pos[2] - previous_m_[2]});
-    }
-    previous_m_ = pos;
-    have_previous_ = true;
-    previous_is_last = true;
-  }
 }
 
 namespace {

@@ -96,20 +96,8 @@ class WindowAccumulator {
   void start(const TaskWindow& window, double min_force_N, WindowValues& values);
   // The hand's next sample in time order. Throws DataError as window_values.
   void add(double t_s, const Vec3d& position_m, const Vec3d& velocity_m_per_s, const Vec3d& force_N);
-  // The hand's next `size` samples as columns: add() on each in turn, to
-  // the bit (the norms of the whole run come first, two at a time: a packed
-  // square root rounds as sqrt() does).
-  struct Run {
-    std::size_t size = 0;
-    const double* t_s = nullptr;
-    std::array<const double*, 3> position_m{}, velocity_m_per_s{}, force_N{};
-  };
-  void add_run(const Run& run);
 
  private:
-  [[noreturn]] void throw_not_finite(std::size_t i, double t_s, double force, double speed) const;
-
-  std::vector<double> force_norm_, speed_norm_, step_norm_;  // add_run's, capacity reused
   TaskWindow window_;
   double min_force_N_ = kMinContactForce_N;
   WindowValues* values_ = nullptr;

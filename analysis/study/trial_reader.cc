@@ -1,10 +1,8 @@
 #include "analysis/study/trial_reader.h"
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <cmath>
-#include <cstring>
 #include <exception>
 #include <limits>
 #include <mutex>
@@ -51,24 +49,7 @@ constexpr db::ChannelSet kMetricChannels =
 // Per thread, reused from trial to trial (a trial-hand is ~10^5 samples).
 struct Buffers {
   TrialAccumulator trial;
-  std::array<std::vector<double>, 9> widened;  // tip position, velocity, VE force of a window
 };
-
-// A float column widened to doubles (exact), for WindowAccumulator::add_run.
-const double* widen(const db::FloatColumn& column, std::size_t n, std::vector<double>& out) {
-  out.resize(n);
-  if (column.stride_bytes == sizeof(float)) {  // the usual case: a loop the compiler vectorises
-    const std::byte* in = column.values;
-    for (std::size_t i = 0; i < n; ++i) {
-      float v;
-      std::memcpy(&v, in + i * sizeof(float), sizeof v);
-      out[i] = double{v};
-    }
-  } else {
-    for (std::size_t i = 0; i < n; ++i) out[i] = column[i];
-  }
-  return out.data();
-}
 
 TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOptions& options, Buffers& buf) {
   TrialRecord rec;
@@ -100,17 +81,9 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
       const auto three = [&](std::size_t first, std::size_t i) {
         return Vec3d{w.channel[first][i], w.channel[first + 1][i], w.channel[first + 2][i]};
       };
-      WindowAccumulator::Run run;
-      run.size = w.size;
-      run.t_s = w.t_s;
-      for (std::size_t a = 0; a < 3; ++a) {
-        run.position_m[a] = widen(w.channel[db::kChannelTipFirst + a], w.size, buf.widened[a]);
-        run.velocity_m_per_s[a] = widen(w.channel[db::kChannelTipVelocityFirst + a], w.size, buf.widened[3 + a]);
-        run.force_N[a] = widen(w.channel[db::kChannelVeForceFirst + a], w.size, buf.widened[6 + a]);
-      }
-      buf.trial.add_run(hand, run);
       for (std::size_t i = 0; i < w.size; ++i) {
-        const Vec3d force_N{run.force_N[0][i], run.force_N[1][i], run.force_N[2][i]};
+        const Vec3d force_N = three(db::kChannelVeForceFirst, i);
+        buf.trial.add(hand, w.t_s[i], three(db::kChannelTipFirst, i), three(db::kChannelTipVelocityFirst, i), force_N);
         const Vec3d raw = three(db::kChannelRawFirst, i);
         buf.trial.add_device(hand, {raw[0], raw[1], raw[2], kNaN, kNaN}, three(db::kChannelJointForceFirst, i), force_N);
       }

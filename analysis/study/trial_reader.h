@@ -45,19 +45,6 @@ class TrialAccumulator {
       fail(e.what());
     }
   }
-  // The hand's next run of samples as columns: add() on each in turn.
-  void add_run(std::size_t hand, const WindowAccumulator::Run& run) {
-    samples_ += run.size;
-    for (std::size_t i = 0; i < run.size; ++i) {
-      if (run.t_s[i] > trial_end_s_) trial_end_s_ = run.t_s[i];
-    }
-    if (!accumulate_) return;
-    try {
-      acc_[hand].add_run(run);
-    } catch (const DataError& e) {
-      fail(e.what());
-    }
-  }
   // The same sample's device values, for the energy measure
   // (device_energy.h): joints as read, commanded joint forces, VE force.
   void add_device(std::size_t hand, const std::array<double, 5>& raw_position,

@@ -1,10 +1,7 @@
 #include "analysis/metrics/trial_metrics.h"
 
-#include <array>
 #include <cmath>
-#include <cstdint>
 #include <limits>
-#include <string>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -128,74 +125,6 @@ TEST(WindowAccumulatorTest, StreamsWhatWindowValuesComputesAndReusesItsBuffers) 
   EXPECT_EQ(values.samples, 5u);
   EXPECT_EQ(values.force_N, (std::vector<double>{0.5, 2.0, 3.0, 70.0}));
   EXPECT_NEAR(values.path_length_m, 17.0 + std::sqrt(9569.0), kMetricsTolerance);
-}
-
-// add_run gives add()'s values to the bit: runs of every length from 0 to
-// 9 (odd ones end outside the two-at-a-time loops), samples leaving and
-// re-entering the window mid-run (t_s not monotonic), forces under and over
-// the contact threshold, and a non-finite value named as add() names it.
-TEST(WindowAccumulatorTest, RunsGiveWhatOneSampleAtATimeGives) {
-  std::uint64_t state = 99;
-  auto unit = [&state] {
-    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-    return static_cast<double>(state >> 11) * 0x1.0p-53;
-  };
-  const std::size_t n = 400;
-  std::vector<double> t(n);
-  std::array<std::vector<double>, 9> col;
-  for (auto& c : col) c.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    t[i] = unit() < 0.1 ? 10.0 * unit() : 0.01 * static_cast<double>(i);
-    for (std::size_t a = 0; a < 3; ++a) {
-      col[a][i] = 0.1 * unit() - 0.05;
-      col[3 + a][i] = unit() - 0.5;
-      col[6 + a][i] = unit() < 0.5 ? 0.0 : 3e-3 * (unit() - 0.5);
-    }
-  }
-  const TaskWindow window{0.5, 3.0};
-  for (const bool poisoned : {false, true}) {
-    if (poisoned) col[4][250] = std::numeric_limits<double>::infinity();  // t = 2.5, in the window
-    WindowValues one, runs;
-    WindowAccumulator a, b;
-    a.start(window, kMinContactForce_N, one);
-    b.start(window, kMinContactForce_N, runs);
-    std::string one_error, run_error;
-    try {
-      for (std::size_t i = 0; i < n; ++i) {
-        a.add(t[i], {col[0][i], col[1][i], col[2][i]}, {col[3][i], col[4][i], col[5][i]},
-              {col[6][i], col[7][i], col[8][i]});
-      }
-    } catch (const DataError& e) {
-      one_error = e.what();
-    }
-    try {
-      for (std::size_t first = 0, len = 0; first < n; first += len, len = (len + 1) % 10) {
-        WindowAccumulator::Run run;
-        run.size = std::min(len, n - first);
-        run.t_s = t.data() + first;
-        for (std::size_t k = 0; k < 3; ++k) {
-          run.position_m[k] = col[k].data() + first;
-          run.velocity_m_per_s[k] = col[3 + k].data() + first;
-          run.force_N[k] = col[6 + k].data() + first;
-        }
-        b.add_run(run);
-      }
-    } catch (const DataError& e) {
-      run_error = e.what();
-    }
-    EXPECT_EQ(run_error, one_error);
-    if (poisoned) {
-      EXPECT_THAT(one_error, HasSubstr("sample 250 at t_s = 2.5"));
-      EXPECT_THAT(one_error, HasSubstr("tip_velocity_m_per_s"));
-    } else {
-      EXPECT_GT(one.force_N.size(), 10u);
-      EXPECT_LT(one.force_N.size(), one.speed_m_per_s.size());
-    }
-    EXPECT_EQ(runs.samples, one.samples);
-    EXPECT_EQ(runs.force_N, one.force_N);
-    EXPECT_EQ(runs.speed_m_per_s, one.speed_m_per_s);
-    EXPECT_EQ(runs.path_length_m, one.path_length_m);  // the same sums in the same order: equal, not near
-  }
 }
 
 // The percentile definition is the caller's: R type 7 puts the 95th of
