@@ -86,10 +86,10 @@ SimDeviceParams sim_backend_params() {
 
 namespace {
 
-// The probe of an isolated plugin runs in its host, not in a fork of this
-// process (whose other threads, the console's say, may hold a lock the
-// child would inherit), and says what the fork's probe says.
-void probe_isolated_plugin(const DeviceSpec& spec, const DeviceConfig& config) {
+// The probe in the plugin host: a fresh process (posix_spawn, exec), not a
+// fork of this one, whose other threads (the console's, say) may hold a
+// lock the child would inherit; says what the fork's probe says.
+void probe_in_host(const DeviceSpec& spec, const DeviceConfig& config) {
   const std::string nothing_started = "; nothing was started";
   try {
     IsolatedPluginDevice device(plugin_host_executable(), spec.path, spec.options);
@@ -108,7 +108,10 @@ void probe_isolated_plugin(const DeviceSpec& spec, const DeviceConfig& config) {
 
 void probe_device(const DeviceSpec& spec, const DeviceConfig& config) {
   if (spec.kind != DeviceSpec::Kind::kPlugin) return;
-  if (spec.isolated()) probe_isolated_plugin(spec, config);
+  // An in-process plugin is probed in the host too whenever there is one
+  // (the hapticlab command): the forked probe is safe only in a process
+  // with one thread, and refuses otherwise.
+  if (spec.isolated() || !plugin_host_executable().empty()) probe_in_host(spec, config);
   else probe_plugin(spec.path, spec.options, config);
 }
 

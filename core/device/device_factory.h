@@ -25,8 +25,10 @@ void check_device_spec(const DeviceSpec& spec);
 // Before a session or a check: a device plugin is loaded, created and
 // configured (with `config`) in a child process, so one that crashes is
 // reported ("plugin PATH crashed (SIGSEGV) in configure; nothing was
-// started") instead of taking the session down: a fork of this process for
-// an in-process plugin, its host process for an isolated one. Other
+// started") instead of taking the session down: in the plugin host
+// (plugin_host_executable(), a fresh process) whenever one is registered,
+// else (an isolated plugin is then refused) in a fork of this process,
+// which probe_plugin refuses if the process has other threads. Other
 // backends: nothing. Throws std::runtime_error with the message.
 void probe_device(const DeviceSpec& spec, const DeviceConfig& config);
 

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
 #include <vector>
 
 #include "core/common/signal_name.h"
@@ -327,10 +328,29 @@ void report_stage(void* context, const char* stage) {
   ::_exit(0);
 }
 
+// The threads of this process (Linux's /proc/self/task); 0 if unknown.
+std::size_t thread_count() {
+  std::error_code error;
+  std::size_t n = 0;
+  for (std::filesystem::directory_iterator it("/proc/self/task", error), end; !error && it != end;
+       it.increment(error))
+    ++n;
+  return error ? 0 : n;
+}
+
 }  // namespace
 
 void probe_plugin(const std::string& path, const std::map<std::string, std::string>& options,
                   const DeviceConfig& config, double timeout_s) {
+  // The child loads the plugin (dlopen, malloc): after fork, a lock another
+  // thread held at that moment (the allocator's, the loader's) stays held
+  // in the child for good, and the probe would blame the plugin for the
+  // hang. So never fork a process with other threads.
+  if (const std::size_t threads = thread_count(); threads != 1)
+    throw std::runtime_error("plugin " + path + ": cannot probe it in a fork of this process, which runs " +
+                             (threads == 0 ? std::string("an unknown number of") : std::to_string(threads)) +
+                             " threads (a lock another thread holds would hang the copy); register a plugin "
+                             "host (set_plugin_host_executable), as the hapticlab command does; nothing was started");
   int fds[2];
   if (::pipe(fds) != 0)
     throw std::runtime_error("plugin " + path + ": cannot probe it (pipe: " + std::strerror(errno) + ")");

@@ -85,8 +85,11 @@ class PluginDevice final : public Device, public HandAttachment {
 // `source`, the instrument, the joint, the field and its value.
 std::string check_ratings(const std::string& source, const DeviceRatings& ratings);
 
-// Loads the plugin in a child process and runs create, configure (with
-// `config`), ratings and destroy there; the parent only waits. Returns
+// Loads the plugin in a child process (a fork of this one) and runs create,
+// configure (with `config`), ratings and destroy there; the parent only
+// waits. Only in a process with one thread: with more it refuses (a fork
+// inherits the locks other threads hold); probe_device() then uses the
+// plugin host, a fresh process. Returns
 // normally if all succeeded. Throws std::runtime_error with the loader's
 // message for a plugin that is refused, and for one that crashes, exits or
 // hangs (longer than timeout_s) in a step:

@@ -7,10 +7,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -217,6 +219,22 @@ TEST(PluginProbeTest, TheLoadersOwnMessagesComeBackFromTheChild) {
               HasSubstr("right grip peak_force 0.05 must be >= continuous_force 0.1"));
   EXPECT_THAT(thrown<std::runtime_error>([] { probe_plugin(kFake, {{"colour", "red"}}, DeviceConfig{}); }),
               HasSubstr("'colour' is not an option of the fake device"));
+}
+
+// A fork of a process with other threads inherits the locks they hold (the
+// allocator's, the loader's) and can hang on one: the forked probe refuses
+// such a process by name rather than blame the plugin for a hang.
+TEST(PluginProbeTest, TheForkedProbeRefusesAProcessWithOtherThreads) {
+  std::promise<void> release;
+  std::thread waiting([done = release.get_future()] { done.wait(); });
+  const std::string refusal = thrown<std::runtime_error>([] { probe_plugin(kFake, {}, DeviceConfig{}); });
+  release.set_value();
+  waiting.join();
+  EXPECT_EQ(refusal, "plugin " + kFake +
+                         ": cannot probe it in a fork of this process, which runs 2 threads (a lock another thread "
+                         "holds would hang the copy); register a plugin host (set_plugin_host_executable), as the "
+                         "hapticlab command does; nothing was started");
+  EXPECT_NO_THROW(probe_plugin(kFake, {}, DeviceConfig{}));  // alone again
 }
 
 TEST(PluginProbeTest, OpenDeviceLoadsAPluginSpec) {
