@@ -244,6 +244,7 @@ class Console {
     c.device = config.session.device;
     c.realtime = config.session.realtime;
     c.clock = ClockKind::kWall;  // a free trial is felt (or watched) as it happens
+    c.population = config.session.population;
     // The rig of the study's sessions: the protocol's force limits and rate
     // tolerance (a free trial held to the default 10 % stopped as
     // rate_violation where the study's sessions went on).

@@ -285,6 +285,7 @@ void ConsoleSession::run(std::string participant) {
   options.max_trial_s = config_.max_trial_s;
   options.training_trials = config_.training_trials;
   options.realtime = config_.realtime;
+  options.population = config_.population;
   options.stop = &stop_;
   options.training_ends = &training_ends_;
   // At once, while the trial still runs (a device call that has not returned).

@@ -46,6 +46,10 @@ struct ConsoleSessionConfig {
   double max_trial_s = 300.0;
   std::optional<int> training_trials;  // nullopt: the protocol's
   RealtimeOptions realtime;         // the loop thread's scheduling (core/loop/realtime.h)
+  // The population a simulated participant is drawn from, for the sessions
+  // and the free trial alike: as `session run --population` (the command
+  // reads the fitted population file; core/sim/population.h).
+  PopulationParams population;
   double live_rate_Hz = 100.0;      // points kept per instrument and second (the plots draw at >= 30 Hz)
   double live_window_s = 10.0;      // how much the live view keeps
 };

@@ -212,6 +212,7 @@ std::optional<SimTrialConfig> ConsoleTuning::next_repetition(TaskKind task, int&
   c.task = task;
   c.device = config_.device;
   c.participant_seed = kPilotParticipantSeed;
+  c.population = config_.population;
   c.practice_trials = kPilotPracticeTrials;
   c.clock = config_.clock;
   c.rate_Hz = config_.rate_Hz;

@@ -36,6 +36,7 @@ struct ConsoleTuningConfig {
   // The loop's protections, as in the study's sessions: the protocol's
   // force limits and rate tolerance (protocols/loop_protections.h).
   LoopSafetyConfig protections;
+  PopulationParams population;            // the pilot participant's, as the sessions' (core/sim/population.h)
   std::filesystem::path out_dir;          // tuning-log.csv and the saved settings files
   double max_s = 3600.0;                  // a free trial stops after this much loop time (> 0)
   // A device call still not returned this long after the loop's watchdog

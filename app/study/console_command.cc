@@ -11,6 +11,7 @@
 #include "app/cli/cli_checks.h"
 #include "app/cli/insecure_flag.h"
 #include "app/cli/interrupt_flag.h"
+#include "app/cli/population_option.h"
 #include "console/console_server.h"
 #include "core/common/secret_file.h"
 #include "core/device/device_factory.h"
@@ -34,6 +35,7 @@ struct ConsoleOptions {
   double max_trial_s = 300.0;
   int training_trials = -1;
   bool realtime = false;
+  std::string population;  // --population (app/cli/population_option.h)
 };
 
 // The token of `path`, read with the checks every secret file gets
@@ -59,6 +61,9 @@ int run(const ConsoleOptions& opt) {
   config.session.max_trial_s = opt.max_trial_s;
   if (opt.training_trials >= 0) config.session.training_trials = opt.training_trials;
   config.session.realtime.enabled = opt.realtime;
+  // As `session run`: a study's simulated participants are drawn from one
+  // population whichever command runs their sessions.
+  config.session.population = choose_population(opt.population).point;
   if (opt.realtime) {
     RealtimeResult granted;
     std::fprintf(stderr, "%s\n", prepare_realtime(config.session.realtime, &granted).c_str());
@@ -128,6 +133,7 @@ void add_console_command(CLI::App& app) {
   cmd->add_option("--training-trials", opt->training_trials,
                   "Simulated training trials per task (default: the protocol's)")
       ->check(whole_number_in(0, 1000));
+  add_population_option(cmd, opt->population);
   cmd->add_flag("--realtime", opt->realtime,
                 "Run the haptic loop with SCHED_FIFO, pinned to one CPU, memory locked, as `session run --realtime` "
                 "(recommended when browsers watch on the same machine: BENCHMARKS.md)");

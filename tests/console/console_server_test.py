@@ -55,10 +55,10 @@ BENCH = False  # --bench: measure, check nothing
 
 
 class Console:
-    """A `hapticlab console` process on free ports (wall clock)."""
+    """A `hapticlab console` process on free ports (wall clock unless told)."""
 
-    def __init__(self, cli, db, *extra):
-        self.proc = subprocess.Popen([cli, "console", "--db", db, "--port", "0", "--clock", "wall",
+    def __init__(self, cli, db, *extra, clock="wall"):
+        self.proc = subprocess.Popen([cli, "console", "--db", db, "--port", "0", "--clock", clock,
                                       "--training-trials", "0", *extra],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         lines = []
