@@ -5,8 +5,11 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
+#include <map>
 #include <thread>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -197,6 +200,55 @@ TEST_F(ConsoleTuningTest, ATunedDevicePresetDropsItsSource) {
   const NamedSettings back = load_settings_file(dir_ / tuning.save("Falcon with less friction"));
   EXPECT_FALSE(back.source.has_value());
   EXPECT_DOUBLE_EQ(back.engine.translation.friction.dynamic_level, 1.0);
+}
+
+// The free trial's pilot participant is drawn from the configured
+// population (the console passes the sessions' one): in the first 3 s of
+// loop time of the first repetition, the instrument is where it was at the
+// same loop time under the same population, and elsewhere under another.
+// (Compared at equal loop times: on the virtual clock the loop can run
+// ahead of the live view's drain, which then skips samples.)
+TEST_F(ConsoleTuningTest, ThePilotParticipantComesFromTheConfiguredPopulation) {
+  using Pose = std::array<float, 3>;
+  const auto first_seconds = [this](const PopulationParams& population) {
+    ConsoleTuningConfig config = config_;
+    config.population = population;
+    ConsoleTuning tuning(config, device_);
+    tuning.start("clip", high_fidelity());
+    std::map<double, Pose> pose;  // the left instrument's, by loop time
+    double last_t = -1.0;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (last_t < 3.0 && tuning.status()["free_trial"] <= 1 && std::chrono::steady_clock::now() < deadline) {
+      for (const LivePoint& p : tuning.live_since(last_t)[0]) {
+        if (p.t_s <= 3.0) pose[p.t_s] = {p.insertion_m, p.pitch_rad, p.yaw_rad};
+        last_t = p.t_s;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    tuning.stop();
+    EXPECT_GE(last_t, 3.0) << "the first repetition ended, or the loop stalled, before 3 s of loop time";
+    return pose;
+  };
+  // {points at the same loop time, of which at another pose}
+  const auto compare = [](const std::map<double, Pose>& a, const std::map<double, Pose>& b) {
+    std::pair<int, int> n{0, 0};
+    for (const auto& [t_s, pose] : a)
+      if (const auto it = b.find(t_s); it != b.end()) {
+        ++n.first;
+        n.second += it->second != pose;
+      }
+    return n;
+  };
+  PopulationParams other;
+  other.consistency_median = 0.1;
+  other.visual_gain_mean = 0.9;
+  const auto a = first_seconds(other);
+  const auto [common, moved] = compare(a, first_seconds(other));
+  EXPECT_GE(common, 100) << "too few points at equal loop times to compare";
+  EXPECT_EQ(moved, 0) << "the same population, another motion";
+  const auto [common_default, moved_default] = compare(a, first_seconds(PopulationParams{}));
+  EXPECT_GE(common_default, 100);
+  EXPECT_GT(moved_default, common_default / 2) << "another population, the same motion: it did not reach the trial";
 }
 
 }  // namespace
