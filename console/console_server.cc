@@ -245,6 +245,7 @@ class Console {
     c.realtime = config.session.realtime;
     c.clock = ClockKind::kWall;  // a free trial is felt (or watched) as it happens
     c.population = config.session.population;
+    c.rate_Hz = config.session.rate_Hz;
     // The rig of the study's sessions: the protocol's force limits and rate
     // tolerance (a free trial held to the default 10 % stopped as
     // rate_violation where the study's sessions went on).

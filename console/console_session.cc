@@ -282,6 +282,7 @@ void ConsoleSession::run(std::string participant) {
   options.participant = participant;
   options.device = config_.device;
   options.clock = config_.clock;
+  options.rate_Hz = config_.rate_Hz;
   options.max_trial_s = config_.max_trial_s;
   options.training_trials = config_.training_trials;
   options.realtime = config_.realtime;

@@ -43,6 +43,7 @@ struct ConsoleSessionConfig {
   std::filesystem::path db;
   DeviceSpec device;                // as `session run --device`
   ClockKind clock = ClockKind::kVirtual;
+  double rate_Hz = 1000.0;          // the haptic loop's, 150..2000, as `session run --rate-hz`
   double max_trial_s = 300.0;
   std::optional<int> training_trials;  // nullopt: the protocol's
   RealtimeOptions realtime;         // the loop thread's scheduling (core/loop/realtime.h)

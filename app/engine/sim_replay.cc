@@ -109,6 +109,11 @@ int run(const SimReplayOptions& opt) {
   if (opt.db.empty() == opt.csv.empty())
     throw std::invalid_argument("give either --db with --trial, or --csv with --task and --settings");
   if (!opt.db.empty() && !opt.trial) throw std::invalid_argument("--trial: required with --db");
+  // Refused rather than ignored: a database trial has its own task, and a
+  // CSV holds one recording.
+  if (!opt.db.empty() && !opt.task.empty())
+    throw std::invalid_argument("--task: not with --db (the trial's own task, recorded in the study, is replayed)");
+  if (!opt.csv.empty() && opt.trial) throw std::invalid_argument("--trial: only with --db (a CSV is one recording)");
   // Replacing the database by the output would lose the study.
   for (const auto& [input, option] : {std::pair{&opt.db, "--db"}, {&opt.csv, "--csv"}, {&opt.settings, "--settings"}})
     if (!input->empty()) refuse_output_over_input(*input, opt.output, option, "--out");

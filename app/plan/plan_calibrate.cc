@@ -251,6 +251,12 @@ void add_calibrate_design_options(CLI::App* calibrate, PlanCalibrateOptions& cal
       ->check(whole_number_in(2, 100000));
   add_seed_option(*calibrate, cal.seed, "Seed: the same seed gives the same participants and table");
   add_jobs_option(*calibrate, cal.jobs, "Groups of 10 participants simulated at once (0: two per core)");
+  // Refused rather than ignored: the fit draws its own participants (its
+  // design populations), and --fit-studies means nothing without it.
+  CLI::Option* fit = calibrate->get_option("--fit");
+  for (const char* unused_by_the_fit : {"--population", "--participants"})
+    calibrate->get_option(unused_by_the_fit)->excludes(fit);
+  calibrate->get_option("--fit-studies")->needs(fit);
 }
 
 }  // namespace
@@ -275,6 +281,9 @@ void add_plan_calibrate_subcommand(CLI::App* plan) {
     cal->command = "hapticlab plan calibrate --fit --fit-studies " + std::to_string(cal->fit_studies) + " --seed " +
                    std::to_string(cal->seed) +
                    (cal->rate_Hz > 0.0 ? " --rate-hz " + format_number(cal->rate_Hz) : std::string()) +
+                   (cal->max_trial_s != PlanCalibrateOptions{}.max_trial_s
+                        ? " --max-trial-s " + format_number(cal->max_trial_s)
+                        : std::string()) +
                    (cal->protocol.empty() ? std::string() : " --protocol " + cal->protocol) + " --out " + cal->out;
     (void)run_plan_calibrate(*cal);
   });

@@ -10,6 +10,7 @@
 
 #include "app/cli/cli_checks.h"
 #include "app/cli/insecure_flag.h"
+#include "app/cli/option_shapes.h"
 #include "app/cli/interrupt_flag.h"
 #include "app/cli/population_option.h"
 #include "console/console_server.h"
@@ -32,6 +33,7 @@ struct ConsoleOptions {
   std::vector<std::string> device_options;
   bool insecure = false;
   std::string clock = "virtual";
+  double rate_Hz = 1000.0;
   double max_trial_s = 300.0;
   int training_trials = -1;
   bool realtime = false;
@@ -58,6 +60,7 @@ int run(const ConsoleOptions& opt) {
   // opened only then).
   check_device_spec(config.session.device);
   config.session.clock = parse_clock_kind(opt.clock);
+  config.session.rate_Hz = opt.rate_Hz;
   config.session.max_trial_s = opt.max_trial_s;
   if (opt.training_trials >= 0) config.session.training_trials = opt.training_trials;
   config.session.realtime.enabled = opt.realtime;
@@ -126,6 +129,9 @@ void add_console_command(CLI::App& app) {
   add_insecure_flag(cmd, opt->insecure);
   cmd->add_option("--clock", opt->clock, "virtual (simulated device, as fast as it runs) or wall")
       ->check(CLI::IsMember({"virtual", "wall"}))
+      ->capture_default_str();
+  add_loop_rate_option(*cmd, opt->rate_Hz, "Haptic loop rate of the sessions and the free trial [Hz], 150..2000, "
+                                           "as `session run --rate-hz`")
       ->capture_default_str();
   cmd->add_option("--max-trial-s", opt->max_trial_s, "Time limit per trial [s]")
       ->check(positive_number())

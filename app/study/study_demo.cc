@@ -240,10 +240,13 @@ void add_study_demo_command(CLI::App& app) {
       "Interrupted (Ctrl-C, kill), it resumes where it stopped when run again with the same --out.");
   cmd->add_option("--out", opt->out, "Directory for study.db, metrics.csv, report.html, report.md, figures/")
       ->capture_default_str();
-  cmd->add_flag("--quick", opt->quick, "A smaller run (2 repetitions per task) for tests and a first look");
+  CLI::Option* quick =
+      cmd->add_flag("--quick", opt->quick, "A smaller run (2 repetitions per task) for tests and a first look");
+  // Refused rather than ignored: --quick picks the smaller shipped protocol.
   cmd->add_option("--protocol", opt->protocol,
                   "Run another protocol file instead of the shipped thesis study")
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingFile)
+      ->excludes(quick);
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; },
                 "Tables only (no gnuplot needed)");
   add_population_option(cmd, opt->population);

@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -139,6 +141,39 @@ TEST_F(NamedRefusalsTest, PlanCalibrateChecksItsOutputFolderBeforeSimulating) {
   EXPECT_EQ(rc, 1);
   EXPECT_THAT(text, AllOf(HasSubstr("--out '" + out.string() + "': cannot make the folder"),
                           HasSubstr("nothing was simulated"), Not(HasSubstr("simulating"))));
+}
+
+// Options a command would not use are refused by name, not ignored: the
+// fit draws its own participants; --quick picks a shipped protocol; a
+// database trial has its own task; a CSV holds one recording. Each is
+// refused before anything is written.
+TEST_F(NamedRefusalsTest, OptionsThatWouldBeIgnoredAreRefused) {
+  const std::string out = (dir_ / "out").string();
+  for (const auto& [args, why] : std::vector<std::pair<std::string, std::string>>{
+           {"plan calibrate --fit --population unfitted --out " + out, "--fit excludes --population"},
+           {"plan calibrate --fit --participants 7 --out " + out, "--fit excludes --participants"},
+           {"plan calibrate --fit-studies 3 --out " + out, "--fit-studies requires --fit"},
+           {"demo --quick --protocol " + protocol("q.json", two_settings()).string() + " --out " + out,
+            "--quick excludes --protocol"}}) {
+    const auto [rc, text] = cli(args);
+    EXPECT_EQ(rc, 2) << args;
+    EXPECT_THAT(text, HasSubstr(why)) << args;
+  }
+  const fs::path db = dir_ / "s.db";
+  ASSERT_EQ(cli("study create --protocol " + protocol("s.json", two_settings()).string() + " --db " + db.string()).first,
+            0);
+  ASSERT_EQ(cli("session run --db " + db.string() + " --participant A --training-trials 0 --max-trials 1").first, 0);
+  auto [rc, text] = cli("sim replay --db " + db.string() + " --trial 1 --task dissection --out " + out + ".csv");
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, HasSubstr("--task: not with --db (the trial's own task, recorded in the study, is replayed)"));
+  const fs::path csv = dir_ / "trajectory.csv";
+  std::ofstream(csv) << "t_s\n";
+  std::tie(rc, text) = cli("sim replay --csv " + csv.string() + " --trial 1 --task clip --settings " +
+                           (kSettings / "high_fidelity.json").string() + " --out " + out + ".csv");
+  EXPECT_EQ(rc, 1);
+  EXPECT_THAT(text, HasSubstr("--trial: only with --db (a CSV is one recording)"));
+  EXPECT_FALSE(fs::exists(out)) << "a refused command wrote its output";
+  EXPECT_FALSE(fs::exists(out + ".csv")) << "a refused command wrote its output";
 }
 
 TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseAndSpaces) {

@@ -44,6 +44,8 @@ TEST_F(PlanPowerTest, ATransferDesignGetsPowerPerGroupSizeAndTestFromOneRun) {
   const auto [rc, text] = testing::run_cli(HAPTICLAB_CLI_PATH, base + (dir_ / "a").string() + " --jobs 1");
   ASSERT_EQ(rc, 0) << text;
   EXPECT_THAT(text, HasSubstr("force_free_share 0.25, an assumption, not a fit"));
+  // The population's point estimate, said (a within-participant plan samples the model's uncertainty by default).
+  EXPECT_THAT(text, HasSubstr("its point estimate (a transfer design's studies do not sample the model's uncertainty"));
   EXPECT_THAT(text, HasSubstr("| dissection | 2 | post | trained on the Falcon |"));
   EXPECT_THAT(text, HasSubstr("| clip | 2 | retention | control |"));
   const std::string csv = testing::slurp(dir_ / "a" / "transfer_power.csv");
@@ -63,6 +65,7 @@ TEST_F(PlanPowerTest, ATransferDesignGetsPowerPerGroupSizeAndTestFromOneRun) {
   ASSERT_EQ(rc3, 0) << json_text;
   const nlohmann::json j = nlohmann::json::parse(json_text);
   EXPECT_EQ(j.at("force_free_share"), 0.25);
+  EXPECT_EQ(j.at("model_uncertainty"), false);
   EXPECT_EQ(j.at("rows").size(), 8u);
 }
 
