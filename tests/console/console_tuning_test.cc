@@ -219,7 +219,8 @@ TEST_F(ConsoleTuningTest, ThePilotParticipantComesFromTheConfiguredPopulation) {
     double last_t = -1.0;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
     while (last_t < 3.0 && tuning.status()["free_trial"] <= 1 && std::chrono::steady_clock::now() < deadline) {
-      for (const LivePoint& p : tuning.live_since(last_t)[0]) {
+      const auto fresh = tuning.live_since(last_t);  // (a range-for over [0] of the temporary would dangle)
+      for (const LivePoint& p : fresh[0]) {
         if (p.t_s <= 3.0) pose[p.t_s] = {p.insertion_m, p.pitch_rad, p.yaw_rad};
         last_t = p.t_s;
       }
