@@ -57,7 +57,8 @@ void print_table(const std::vector<TaskPower>& tasks, double share, int studies,
   std::printf("Transfer design: power of the post-test and retention comparisons, each group against '%s', on the "
               "change of trial time from the pre-test (exact rank test, alpha 0.05), %d simulated studies per size.\n"
               "Model: %s, its point estimate (a transfer design's studies do not sample the model's uncertainty, "
-              "so the intervals below are the simulation's alone); learning from force information with force_free_share %.2f, an assumption, not a fit "
+              "so the intervals below are the simulation's alone); learning from force information with "
+              "force_free_share %.2f, an assumption, not a fit "
               "(docs/simulation.md, \"Simulated learners\").\n\n",
               tasks.front().power.rows.empty() ? "" : tasks.front().power.rows.front().reference.c_str(), studies,
               population.c_str(), share);
