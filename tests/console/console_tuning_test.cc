@@ -70,35 +70,50 @@ TEST_F(ConsoleTuningTest, AChangeReachesTheRunningLoopBetweenTwoUpdates) {
       last_t = fresh[0][i].t_s;
     }
   };
-  int pushing = 0;
-  while (pushing < 20 && std::chrono::steady_clock::now() < deadline) {
-    collect();
-    pushing = 0;
-    for (const auto& [l, r] : points) pushing += max_force(l, r, true) > 0.1f;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  ASSERT_GE(pushing, 20) << "no contact with force feedback within 60 s";
-  const int changed_in = repetition;
-  tuning.set("tip_force_saturation.limit_N", 0.0);
-  tuning.set("tip_force_saturation.enabled", true);
-  // When the loop had the change: not the newest point drained at set()
-  // (on the virtual clock the loop may run far ahead of the drain), but the
-  // loop time the console read after handing it over.
+  // On the virtual clock a repetition can end between the change and the
+  // loop taking it (or within the 2 s after): then feedback is switched back
+  // on and the change is made again in a later repetition.
+  tuning.set("tip_force_saturation.limit_N", 0.0);  // no effect while saturation is off
+  int changed_in = -1;
   double applied_t_s = -1.0;
-  while (applied_t_s < 0.0 && std::chrono::steady_clock::now() < deadline) {
-    const nlohmann::json status = tuning.status();
-    if (status.contains("applied_t_s") && status["free_trial"] == changed_in) applied_t_s = status["applied_t_s"];
-    if (status["free_trial"] != changed_in) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  // Collect until 2 s of loop time after the change have passed in the same repetition.
-  while (repetition == changed_in && applied_t_s >= 0.0 && (points.empty() || points.back().first.t_s < applied_t_s + 2.0) &&
-         std::chrono::steady_clock::now() < deadline) {
-    collect();
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  int attempts = 0;
+  for (; attempts < 5 && std::chrono::steady_clock::now() < deadline; ++attempts) {
+    if (attempts > 0) tuning.set("tip_force_saturation.enabled", false);
+    const int after = repetition;
+    int pushing = 0;
+    while ((pushing < 20 || repetition == after) && std::chrono::steady_clock::now() < deadline) {
+      collect();
+      pushing = 0;
+      for (const auto& [l, r] : points) pushing += max_force(l, r, true) > 0.1f;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_GE(pushing, 20) << "no contact with force feedback within 60 s";
+    changed_in = repetition;
+    tuning.set("tip_force_saturation.enabled", true);
+    // When the loop had the change: not the newest point drained at set()
+    // (on the virtual clock the loop may run far ahead of the drain), but the
+    // loop time the console read after handing it over.
+    applied_t_s = -1.0;
+    while (applied_t_s < 0.0 && std::chrono::steady_clock::now() < deadline) {
+      const nlohmann::json status = tuning.status();
+      if (status["free_trial"] != changed_in) break;
+      if (status.contains("applied_t_s")) applied_t_s = status["applied_t_s"];
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    // Collect until 2 s of loop time after the change have passed in the same repetition.
+    while (repetition == changed_in && applied_t_s >= 0.0 &&
+           (points.empty() || points.back().first.t_s < applied_t_s + 2.0) &&
+           std::chrono::steady_clock::now() < deadline) {
+      collect();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    if (repetition == changed_in && applied_t_s >= 0.0 && !points.empty() &&
+        points.back().first.t_s >= applied_t_s + 2.0)
+      break;
   }
   tuning.stop();
-  ASSERT_EQ(repetition, changed_in) << "the task ended within 2 s of the change; nothing to compare";
+  ASSERT_LT(attempts, 5) << "in 5 repetitions the task ended within 2 s of the change every time";
+  ASSERT_EQ(repetition, changed_in);
   ASSERT_GE(applied_t_s, 0.0);
   ASSERT_GE(points.back().first.t_s, applied_t_s + 2.0);
   std::size_t last_felt = 0;  // index of the last point with any displayed force
@@ -119,8 +134,9 @@ TEST_F(ConsoleTuningTest, AChangeReachesTheRunningLoopBetweenTwoUpdates) {
   ASSERT_GE(log.size(), 3u);
   EXPECT_EQ(log[1]["field"], "tip_force_saturation.limit_N");
   EXPECT_EQ(log[1]["to"], "0.0");
-  EXPECT_EQ(log[2]["field"], "tip_force_saturation.enabled");
-  EXPECT_EQ(log[2]["free_trial"], changed_in);
+  EXPECT_EQ(log.back()["field"], "tip_force_saturation.enabled");
+  EXPECT_EQ(log.back()["to"], "true");
+  EXPECT_EQ(log.back()["free_trial"], changed_in);
   const std::string csv = testing::slurp(dir_ / "tuning-log.csv");
   EXPECT_THAT(csv, HasSubstr("utc,free_trial,loop_t_s,field,from,to\n"));
   EXPECT_THAT(csv, HasSubstr(",\"tip_force_saturation.enabled\",\"false\",\"true\"\n"));
