@@ -94,7 +94,8 @@ db::OperatorActionRow ConsoleSession::action_row(const char* action, std::string
 }
 
 StopSnapshot ConsoleSession::stop() {
-  // The runner polls this flag every 2 ms and asks the loop to stop; the
+  // The runner polls this flag every 2 ms in a trial (after each drain in
+  // training) and asks the loop to stop; the
   // loop commands zero force in the update that sees the request.
   stop_.store(true);
   std::lock_guard lock(mutex_);

@@ -105,6 +105,7 @@ std::string practice_cut_short_reason(const SimTrialResult& r, double max_trial_
       return r.safety_trip.kind == SafetyTripKind::kDeviceCallHung ? describe(r.safety_trip)
                                                                    : "watchdog: " + describe(r.safety_trip);
     case StopReason::kDeviceFault: return std::string("device fault: ") + to_string(r.device_status);
+    case StopReason::kStopRequested: return "operator stopped the session";
     default: return std::string("ended before the task was complete (") + to_string(r.stop_reason) + ")";
   }
 }
@@ -139,6 +140,8 @@ class SessionRun {
   [[noreturn]] void give_up_on_hung_device(HapticLoop& loop, std::unique_ptr<SimRig>& rig_owner,
                                            const db::TrialRow& trial, const TrialWatch& watch,
                                            db::TrialOutcome& outcome, std::optional<CrashNote>& crash_note);
+  [[noreturn]] void give_up_on_hung_training(const SimTrialResult& practice, const db::TrialRow& trial,
+                                             db::TrainingRow& row, double trained_s, int done);
   SimTrialConfig base_config(const std::string& task, const NamedSettings& settings, std::uint64_t seed,
                              int practice) const;
   [[noreturn]] void refuse(DeviceStatus status, const std::string& what);
@@ -283,8 +286,24 @@ bool SessionRun::train(const db::TrialRow& trial) {
   for (int k = 0; k < training_per_task_ && !stop_requested(options_) && !(k > 0 && operator_ended()); ++k) {
     SimTrialConfig c = base_config(trial.task, control, training_seed(who_, trial.task, k), k);
     c.publish_samples = false;
-    const SimTrialResult practice = run_sim_trial(c);
+    // A stop (the operator's STOP, Ctrl-C) ends the practice trial now, as
+    // it ends a trial: the device is at zero force within a drain, not
+    // after up to max_trial_s of practice.
+    SimTrialSink sink;
+    bool alerted = false;
+    sink.between_drains = [&](SimRig& rig) {
+      // Said while it happens, as in a trial: the operator is near the device.
+      if (!alerted && rig.loop().watchdog_tripped() && options_.on_alert) {
+        alerted = true;
+        options_.on_alert("the watchdog halted the device (zero force) in the training before trial " +
+                          std::to_string(trial.id) + ": " + describe(rig.loop().safety_trip()));
+      }
+      return !stop_requested(options_);
+    };
+    sink.device_hang_grace_s = options_.device_hang_grace_s;
+    const SimTrialResult practice = run_sim_trial(c, sink);
     if (practice.device_refused) refuse(practice.device_status, "the training for trial " + std::to_string(trial.id));
+    if (practice.device_hung) give_up_on_hung_training(practice, trial, row, trained_s, done);
     trained_s += practice.duration_s;
     ++done;
     // Recorded as what it was: a practice trial cut short is not one done.
@@ -300,6 +319,26 @@ bool SessionRun::train(const db::TrialRow& trial) {
   result_.training_trials += done;
   result_.training_cut_short += row.cut_short;
   return !stop_requested(options_);
+}
+
+// A practice trial's device call that never returned: run_sim_trial left
+// the rig to the stuck thread. The training done so far is recorded, the
+// session is interrupted, and the process must end (DeviceHungError).
+void SessionRun::give_up_on_hung_training(const SimTrialResult& practice, const db::TrialRow& trial,
+                                          db::TrainingRow& row, double trained_s, int done) {
+  const std::string why = "device " + std::string(to_string(practice.hung_call)) + " hung for " +
+                          ms_text(practice.hung_s) + " and had not returned when the session gave up on it";
+  row.ended_unix_s = db::unix_now_s();
+  row.duration_s = trained_s + practice.duration_s;
+  row.cut_short += 1;
+  row.cut_short_reason = why;
+  row.trials = done - row.cut_short + 1;
+  db_.add_training(row);
+  session_.end(db::SessionStatus::kInterrupted);
+  throw DeviceHungError(why + " (in the training before trial " + std::to_string(trial.id) +
+                        ", which stays planned). The device's code cannot be stopped inside this process: restart "
+                        "the device, then run the session again; an isolated plugin (docs/devices.md) is killed and "
+                        "restarted instead");
 }
 
 // The operator's actions since the last poll go into the trial's record; an

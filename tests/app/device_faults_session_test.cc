@@ -225,6 +225,34 @@ TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsIsAnnouncedAtOnceAndRecorded
   EXPECT_THAT(reasons[1], HasSubstr(" ms and had not returned when the session gave up on it"));
 }
 
+// The same hang in the training before the first trial: said at once, and
+// given up on after the grace period as in a trial (before, the practice
+// trial waited for the call for good, and the session with it). The trial
+// stays planned; the training is recorded as cut short by the hang.
+TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsInTrainingIsGivenUpOnAndTheTrialStaysPlanned) {
+  const std::string db = create_study();
+  std::string args = session(db, "--clock wall --max-trial-s 10 --device-option fault=hang_in_read "
+                                 "--device-option after=100");
+  args.replace(args.find("--training-trials 0"), std::string("--training-trials 0").size(), "--training-trials 1");
+  const auto start = std::chrono::steady_clock::now();
+  const auto [status, out] = testing::run_cli(kBinary, args);
+  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(status, 3) << out;
+  EXPECT_THAT(out, HasSubstr("the watchdog halted the device (zero force) in the training before trial "));
+  EXPECT_THAT(out, HasSubstr("had not returned when the session gave up on it (in the training before trial "));
+  EXPECT_LT(took_s, 15.0) << out;
+  for (const db::TrialRow& t : trials_of(db)) EXPECT_EQ(t.status, db::TrialStatus::kPlanned) << t.id;
+  db::OpenOptions open;
+  open.read_only = true;
+  db::StudyDb study(db, open);
+  EXPECT_EQ(study.session(1).status, db::SessionStatus::kInterrupted);  // the study's only session
+  const auto training = study.training(1);
+  ASSERT_EQ(training.size(), 1u);
+  EXPECT_EQ(training[0].trials, 0);
+  EXPECT_EQ(training[0].cut_short, 1);
+  EXPECT_THAT(training[0].cut_short_reason, StartsWith("device read hung for "));
+}
+
 }  // namespace
 }  // namespace hapticlab
 

@@ -57,9 +57,9 @@ BENCH = False  # --bench: measure, check nothing
 class Console:
     """A `hapticlab console` process on free ports (wall clock unless told)."""
 
-    def __init__(self, cli, db, *extra, clock="wall"):
+    def __init__(self, cli, db, *extra, clock="wall", training_trials=0):
         self.proc = subprocess.Popen([cli, "console", "--db", db, "--port", "0", "--clock", clock,
-                                      "--training-trials", "0", *extra],
+                                      "--training-trials", str(training_trials), *extra],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         lines = []
         while not any("participant screen: http://" in l for l in lines):
@@ -596,6 +596,33 @@ def free_trial_goes_on_after_a_host_stall(cli, source, work, consoles):
     print(f"  a 0.3 s host stall ended free trial repetition {repetition} ({trip['to']}); the free trial went on")
 
 
+def stop_during_training(cli, source, work, consoles):
+    """STOP while the participant practises (the training before a task's
+    first trial, a practice trial of up to --max-trial-s on the device):
+    the practice trial ends at once, as a trial does, not when it is done;
+    the training is recorded as cut short by the stop."""
+    protocol = os.path.join(source, "examples/protocols/thesis_quick.json")
+    db = os.path.join(work, "training.db")
+    subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+    c = Console(cli, db, training_trials=2)
+    consoles.append(c)
+    expect("start", request(c.port, "POST", "/api/session/start", {"participant": "S1"}, token=c.token), 200)
+    wait_for("the training", lambda: status_of(c).get("phase") == "training", 30)
+    time.sleep(0.5)  # the practice trial's loop is running
+    t0 = time.monotonic()
+    expect("STOP in training", request(c.port, "POST", "/api/session/stop", token=c.token), 200)
+    wait_for("the session's end after STOP in training", lambda: not status_of(c).get("running"), 30)
+    ended_s = time.monotonic() - t0
+    print(f"  STOP during training: the session ended {1e3 * ended_s:.0f} ms after STOP")
+    if ended_s > LOADED_BOUND_S:
+        fail(f"STOP during training: the session ran on for {ended_s:.2f} s (bound {LOADED_BOUND_S} s)")
+    rows = sqlite3.connect(db).execute("SELECT trials, cut_short, cut_short_reason FROM training").fetchall()
+    if rows != [(0, 1, "operator stopped the session")]:
+        fail(f"the training cut short by STOP, as stored: {rows}")
+    c.kill()
+    consoles.remove(c)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("cli")
@@ -905,6 +932,7 @@ def main():
         if hung:
             check_device_hangs(hung, consoles)
         free_trial_goes_on_after_a_host_stall(a.cli, a.source, a.work, consoles)
+        stop_during_training(a.cli, a.source, a.work, consoles)
     finally:
         for c in consoles:
             c.kill()
