@@ -9,6 +9,7 @@
 #include "analysis/study/metrics_csv.h"
 #include "analysis/study/study_analysis.h"
 #include "console/served_file.h"
+#include "core/common/output_file.h"
 #include "db/export_csv.h"
 #include "db/study_db.h"
 
@@ -19,10 +20,10 @@ namespace {
 constexpr const char* kReportStamp = "made-from.txt";
 constexpr const char* kExportStamp = "exports/made-from.txt";
 
+// Complete or absent (output_file.h): a stamp cut short by a full disk
+// would name no database, or another one.
 void write_stamp(const std::filesystem::path& path, const std::string& identity) {
-  std::ofstream out(path, std::ios::trunc);
-  out << identity;
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  write_file_atomically(path, identity);
 }
 
 }  // namespace

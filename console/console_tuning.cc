@@ -138,6 +138,7 @@ void ConsoleTuning::append_log(const std::string& field, const std::string& from
   };
   out << entry["utc"].get<std::string>() << ',' << free_trial_ << ',' << loop_t_s << ',' << quoted(field) << ','
       << quoted(from) << ',' << quoted(to) << '\n';
+  out.close();  // the line reaches the file here: checked after, not before
   if (!out) error_ = "cannot append to " + path.string() + " (disk full?): the tuning log is incomplete";
 }
 

@@ -19,14 +19,10 @@ namespace {
 namespace fs = std::filesystem;
 
 void write_power_csv(const fs::path& path, const std::vector<PowerRow>& rows) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << power_csv_text(rows);
-    out.flush();
-    if (!out) throw std::runtime_error(tmp.string() + ": cannot write (disk full?)");
-  }
-  fs::rename(tmp, path);
+  // Complete or absent, with the cause of a failure (output_file.h): a
+  // fixed ".tmp" name, no check of the close and no fsync lost a table
+  // silently before.
+  write_file_atomically(path, power_csv_text(rows));
 }
 
 // One task's figure data: a gnuplot block per setting (pairwise rows of

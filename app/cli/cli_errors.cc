@@ -1,8 +1,12 @@
 #include "app/cli/cli_errors.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <iostream>
+#include <string>
 
 #include "app/cli/cli_checks.h"
 
@@ -130,7 +134,23 @@ void add_help_command(CLI::App& app) {
   });
 }
 
-int run_command_line(CLI::App& app, int argc, char** argv) {
+namespace {
+
+// What a command printed reaches a file or a pipe only when the buffer is
+// written: a full disk (`> /dev/full`) or an error of the file under `>`
+// left the output incomplete, which exit status 0 would hide.
+int with_stdout_checked(int status) {
+  std::cout.flush();
+  errno = 0;
+  const bool flushed = std::fflush(stdout) == 0;
+  const int error = errno;
+  if (flushed && !std::ferror(stdout) && std::cout.good()) return status;
+  std::fprintf(stderr, "hapticlab: error: cannot write to standard output%s; what the command printed is incomplete\n",
+               error != 0 ? (std::string(" (") + std::strerror(error) + ")").c_str() : "");
+  return status == 0 ? 1 : status;
+}
+
+int parse_and_run(CLI::App& app, int argc, char** argv) {
   if (argc == 1) {
     std::fputs(app.help().c_str(), stdout);
     return 0;
@@ -154,6 +174,12 @@ int run_command_line(CLI::App& app, int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int run_command_line(CLI::App& app, int argc, char** argv) {
+  return with_stdout_checked(parse_and_run(app, argc, argv));
 }
 
 }  // namespace hapticlab::app

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -178,6 +179,9 @@ void write_group_design_study(const an::StudyAnalysis& analysis, const std::file
               out.c_str());
 }
 
+void write_within_participant_report(const an::StudyAnalysis& analysis, const std::filesystem::path& out,
+                                     const an::ReportOptions& report, const AnalyzeOptions& o);
+
 void run_analyze(const AnalyzeOptions& o) {
   an::AnalysisOptions options;
   if (o.study >= 0) options.study_id = o.study;
@@ -216,7 +220,22 @@ void run_analyze(const AnalyzeOptions& o) {
   std::filesystem::create_directories(out, ec);
   if (ec) throw an::DataError("--out is '" + o.out + "', but it cannot be created: " + ec.message());
   an::write_metrics_csv(analysis, out / "metrics.csv");
-  if (analysis.group_design) return write_group_design_study(analysis, out, report.plots, o.json, o.quiet);
+  if (analysis.group_design) write_group_design_study(analysis, out, report.plots, o.json, o.quiet);
+  else write_within_participant_report(analysis, out, report, o);
+  // The outputs hold everything that could be read; trials whose measures
+  // are missing change the results, which a script must not miss: exit 1,
+  // as export does.
+  if (analysis.counts.damaged_chunks > 0) {
+    std::fflush(stdout);
+    throw std::runtime_error(o.db + ": " + std::to_string(analysis.counts.damaged_chunks) +
+                             " damaged sample chunk(s) left out, listed above: the results in " + o.out +
+                             " are without those trials' measures; `hapticlab study check --db " + o.db +
+                             "` lists every damaged chunk");
+  }
+}
+
+void write_within_participant_report(const an::StudyAnalysis& analysis, const std::filesystem::path& out,
+                                     const an::ReportOptions& report, const AnalyzeOptions& o) {
   const an::ReportFiles files = an::write_report(analysis, out, report);
   if (o.json) {
     std::printf("%s\n", summary_json(analysis, out, files).dump(2).c_str());

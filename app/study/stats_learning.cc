@@ -16,6 +16,7 @@
 #include "analysis/report/gnuplot.h"
 #include "analysis/stats/data_error.h"
 #include "analysis/transfer/transfer_analysis.h"
+#include "core/common/output_file.h"
 
 namespace hapticlab::app {
 namespace {
@@ -59,11 +60,14 @@ struct LearningOptions {
   bool no_figures = false;
 };
 
+// Complete or absent, with the cause (output_file.h): written in place, a
+// full disk left a truncated curves.csv that looked like a result.
 void write_file(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-  out.close();
-  if (!out) throw an::DataError("cannot write " + path.string());
+  try {
+    write_file_atomically(path, text);
+  } catch (const OutputFileError& e) {
+    throw an::DataError(e.what());
+  }
 }
 
 void run_learning(const LearningOptions& opt) {

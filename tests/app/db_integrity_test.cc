@@ -110,11 +110,14 @@ TEST_F(DbIntegrityTest, ExportLeavesOutADamagedChunkNamesItAndExitsOne) {
   EXPECT_EQ(rows, 10);
 }
 
-TEST_F(DbIntegrityTest, AnalyzeLeavesOutTheDamagedTrialAndWarns) {
+// The outputs hold the rest; exit 1, as export, so that a script does not
+// take the results for the whole study's.
+TEST_F(DbIntegrityTest, AnalyzeLeavesOutTheDamagedTrialWarnsAndExitsOne) {
   flip_chunk_1();
   const fs::path out_dir = dir_.path() / "analysis";
   const auto [code, out] = cli("analyze --db " + db_.string() + " --out " + out_dir.string() + " --no-plots --no-ks");
-  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_THAT(out, HasSubstr("1 damaged sample chunk(s) left out, listed above: the results in "));
   EXPECT_THAT(out, AllOf(HasSubstr("warning: left out damaged sample chunk: trial 1, left instrument (0), ticks 0..9"),
                          HasSubstr("(1 damaged sample chunk(s) left out)")));
   EXPECT_THAT(testing::slurp(out_dir / "metrics.csv"), HasSubstr("1 damaged sample chunk(s) left out"));
@@ -136,7 +139,7 @@ TEST_F(DbIntegrityTest, AFrameThatDoesNotDecompressIsNamedLeftOutAndCounted) {
   const fs::path out_dir = dir_.path() / "analysis";
   const auto [analysed, analysis] =
       cli("analyze --db " + db_.string() + " --out " + out_dir.string() + " --no-plots --no-ks");
-  EXPECT_EQ(analysed, 0) << analysis;
+  EXPECT_EQ(analysed, 1) << analysis;
   EXPECT_THAT(analysis, AllOf(HasSubstr("left out damaged sample chunk: trial 1, left instrument (0), ticks 0..9"),
                               HasSubstr("(1 damaged sample chunk(s) left out)")));
 }

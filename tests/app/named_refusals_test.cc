@@ -176,6 +176,25 @@ TEST_F(NamedRefusalsTest, OptionsThatWouldBeIgnoredAreRefused) {
   EXPECT_FALSE(fs::exists(out + ".csv")) << "a refused command wrote its output";
 }
 
+// Standard output on a full disk (/dev/full): what a command printed is
+// lost, so it does not exit 0; the error says why. Help, a settings check
+// and a study's summary, each a command whose output is its result.
+TEST_F(NamedRefusalsTest, OutputThatCannotBeWrittenIsAFailureNotExitZero) {
+  const fs::path db = dir_ / "full.db";
+  ASSERT_EQ(cli("study create --protocol " + protocol("full.json", two_settings()).string() + " --db " + db.string()).first,
+            0);
+  for (const std::string& args : {std::string("study --help"),
+                                   "settings check " + (kSettings / "high_fidelity.json").string(),
+                                   "study show --db " + db.string()}) {
+    ASSERT_EQ(cli(args).first, 0) << args;  // the same command with a working stdout
+    const auto [rc, text] = testing::run_shell(std::string(HAPTICLAB_CLI_PATH) + " " + args + " 2>&1 >/dev/full");
+    EXPECT_EQ(rc, 1) << args;
+    EXPECT_THAT(text, AllOf(HasSubstr("hapticlab: error: cannot write to standard output"),
+                            HasSubstr("what the command printed is incomplete")))
+        << args;
+  }
+}
+
 TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseAndSpaces) {
   const fs::path p = protocol("case.json", "\"" + (kSettings / "high_fidelity.json").string() +
                                                R"(", {"name": " high fidelity", "translation": {"friction": {}}})");

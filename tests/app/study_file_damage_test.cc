@@ -324,10 +324,15 @@ TEST_F(StudyFileDamageTest, EveryReaderRefusesEveryDamageAndNamesIt) {
     expect_named_by(exported, named, "export", c.path);
 
     // analyze: a damaged chunk is left out, named, its trial's measures
-    // missing; a damaged file is refused.
+    // missing, the rest written and exit 1 (as export); a damaged file is
+    // refused.
     const auto [analyze_status, analysed] =
         run_hapticlab("analyze --db " + db + " --out " + sh_quote(out_dir + "/analysis") + " --no-plots --no-ks");
-    EXPECT_EQ(analyze_status, c.whole_file ? 1 : 0) << analysed;
+    EXPECT_EQ(analyze_status, clean ? 0 : 1) << analysed;
+    if (!clean && !c.whole_file) {
+      EXPECT_THAT(analysed, HasSubstr("damaged sample chunk(s) left out, listed above: the results in ")) << analysed;
+      EXPECT_TRUE(fs::exists(out_dir + "/analysis/metrics.csv")) << "the readable trials' results were not written";
+    }
     expect_named_by(analysed, named, "analyze", c.path);
     if (!c.whole_file) {
       for (const Damage* d : c.damage) {

@@ -42,6 +42,17 @@ TEST(StatsLearningProcess, LearningTransferAndRefusals) {
   for (const char* f : {"curves.csv", "cusum.csv", "curve_1.svg", "cusum_6.svg", "group_medians.svg"})
     EXPECT_TRUE(fs::exists(out_dir / f)) << f;
 
+  // A full disk (a file size limit fails the write part-way as one does):
+  // curves.csv complete or absent, the file and the cause named.
+  const std::uintmax_t limit_bytes = fs::file_size(out_dir / "curves.csv") / 2;
+  const fs::path limited = dir / "limited";
+  std::tie(rc, text) = testing::run_cli("prlimit --fsize=" + std::to_string(limit_bytes) + " " + cli,
+                                        "stats learning " + csv.string() + " --no-figures --out " + limited.string());
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, HasSubstr((limited / "curves.csv").string() + ": cannot write: File too large"));
+  EXPECT_FALSE(fs::exists(limited / "curves.csv")) << "a truncated curves.csv was left";
+  EXPECT_TRUE(fs::is_empty(limited)) << "a temporary file was left";
+
   std::tie(rc, text) = testing::run_cli(cli, "stats transfer " + csv.string() + " --reference-group hifi");
   EXPECT_EQ(rc, 0) << text;
   // Changes: hifi (60 + p) -> (30 + p) = -30 each, lofi (60 + p) -> (25 + p) =
