@@ -141,9 +141,9 @@ GroupDesignFiles write_group_design(const std::vector<TaskGroupAnalysis>& tasks,
     files.written.push_back(trials);
     files.written.push_back(curves);
     if (!gnuplot.empty() && !t.learning.participants.empty()) {
-      for (const std::string& f :
-           learning::write_learning_figures(t.learning, out / "figures" / ("learning_" + t.task), gnuplot))
-        files.written.push_back(f);
+      const std::filesystem::path dir = out / "figures" / ("learning_" + t.task);
+      for (const std::string& f : learning::write_learning_figures(t.learning, dir, gnuplot))
+        files.written.push_back(dir / f);  // the figures' names are relative to their folder
     }
   }
   write_file_atomically(files.markdown, md.str());

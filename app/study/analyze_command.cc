@@ -8,11 +8,13 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "app/cli/cli_checks.h"
 #include "app/cli/option_shapes.h"
+#include "core/common/output_record.h"
 #include "analysis/study/group_design.h"
 #include "analysis/study/headline_format.h"
 #include "analysis/report/gnuplot.h"
@@ -153,8 +155,9 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
 
 // A between-group design: the transfer analysis and learning curves
 // (analysis/study/group_design.h) instead of the within-participant report.
-void write_group_design_study(const an::StudyAnalysis& analysis, const std::filesystem::path& out, bool plots,
-                              bool json, bool quiet) {
+std::vector<std::filesystem::path> write_group_design_study(const an::StudyAnalysis& analysis,
+                                                            const std::filesystem::path& out, bool plots, bool json,
+                                                            bool quiet) {
   const std::vector<an::TaskGroupAnalysis> tasks = an::analyze_group_design(analysis);
   const an::GroupDesignFiles files = an::write_group_design(tasks, out, plots ? an::find_gnuplot() : "");
   if (json) {
@@ -164,7 +167,7 @@ void write_group_design_study(const an::StudyAnalysis& analysis, const std::file
                                         {"transfer", files.markdown.string()}, {"files", written}}
                             .dump(2)
                             .c_str());
-    return;
+    return files.written;
   }
   if (!quiet) {
     for (const an::TaskGroupAnalysis& t : tasks) {
@@ -177,10 +180,13 @@ void write_group_design_study(const an::StudyAnalysis& analysis, const std::file
   std::printf("\nbetween-group design: the within-participant tables do not apply; wrote %s, %s and %zu more "
               "file(s) in %s\n", (out / "metrics.csv").c_str(), files.markdown.c_str(), files.written.size() - 1,
               out.c_str());
+  return files.written;
 }
 
-void write_within_participant_report(const an::StudyAnalysis& analysis, const std::filesystem::path& out,
-                                     const an::ReportOptions& report, const AnalyzeOptions& o);
+std::vector<std::filesystem::path> write_within_participant_report(const an::StudyAnalysis& analysis,
+                                                                   const std::filesystem::path& out,
+                                                                   const an::ReportOptions& report,
+                                                                   const AnalyzeOptions& o);
 
 void run_analyze(const AnalyzeOptions& o) {
   an::AnalysisOptions options;
@@ -220,8 +226,15 @@ void run_analyze(const AnalyzeOptions& o) {
   std::filesystem::create_directories(out, ec);
   if (ec) throw an::DataError("--out is '" + o.out + "', but it cannot be created: " + ec.message());
   an::write_metrics_csv(analysis, out / "metrics.csv");
-  if (analysis.group_design) write_group_design_study(analysis, out, report.plots, o.json, o.quiet);
-  else write_within_participant_report(analysis, out, report, o);
+  std::vector<std::filesystem::path> written =
+      analysis.group_design ? write_group_design_study(analysis, out, report.plots, o.json, o.quiet)
+                            : write_within_participant_report(analysis, out, report, o);
+  written.push_back(out / "metrics.csv");
+  // One run's results in --out: another study's report, the figures of a
+  // run before --no-plots, are gone once this run's files are in place.
+  if (const auto removed = replace_output_record(out, written); !removed.empty())
+    std::fprintf(stderr, "removed %zu file(s) an earlier analyze wrote in %s and this one did not (%s%s)\n",
+                 removed.size(), o.out.c_str(), removed.front().c_str(), removed.size() > 1 ? ", ..." : "");
   // The outputs hold everything that could be read; trials whose measures
   // are missing change the results, which a script must not miss: exit 1,
   // as export does.
@@ -234,12 +247,28 @@ void run_analyze(const AnalyzeOptions& o) {
   }
 }
 
-void write_within_participant_report(const an::StudyAnalysis& analysis, const std::filesystem::path& out,
-                                     const an::ReportOptions& report, const AnalyzeOptions& o) {
+// The report's files: the HTML and markdown, the figures (SVG, PDF with
+// --pdf) and their script.
+std::vector<std::filesystem::path> report_files(const an::ReportFiles& files, const an::ReportOptions& report,
+                                                const std::filesystem::path& out) {
+  std::vector<std::filesystem::path> written = {files.html, files.markdown};
+  for (const std::filesystem::path& svg : files.figures) {
+    written.push_back(svg);
+    if (report.pdf) written.push_back(std::filesystem::path(svg).replace_extension(".pdf"));
+  }
+  if (report.plots) written.push_back(out / "figures" / "plots.gp");
+  return written;
+}
+
+std::vector<std::filesystem::path> write_within_participant_report(const an::StudyAnalysis& analysis,
+                                                                   const std::filesystem::path& out,
+                                                                   const an::ReportOptions& report,
+                                                                   const AnalyzeOptions& o) {
   const an::ReportFiles files = an::write_report(analysis, out, report);
+  const std::vector<std::filesystem::path> written = report_files(files, report, out);
   if (o.json) {
     std::printf("%s\n", summary_json(analysis, out, files).dump(2).c_str());
-    return;
+    return written;
   }
   if (!o.quiet) std::fputs(an::format_headline_tables(analysis).c_str(), stdout);
   // A merged multi-site study: whether its sites are confounded with its
@@ -248,6 +277,7 @@ void write_within_participant_report(const an::StudyAnalysis& analysis, const st
     std::printf("%s%s: sites %s\n", b.balanced() ? "" : "warning: ", b.task.c_str(), b.verdict().c_str());
   std::printf("\nwrote %s, %s, %s and %zu figure(s) in %s\n", (out / "metrics.csv").c_str(), files.html.c_str(),
               files.markdown.c_str(), files.figures.size(), (out / "figures").c_str());
+  return written;
 }
 
 }  // namespace

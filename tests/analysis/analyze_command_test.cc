@@ -2,9 +2,11 @@
 // --out, and bad input is an error naming it.
 #include "app/study/analyze_command.h"
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -55,6 +57,28 @@ TEST_F(AnalyzeCommandTest, WritesCsvAndReport) {
   }
   EXPECT_TRUE(std::filesystem::exists(out + "/report.html"));
   EXPECT_TRUE(std::filesystem::exists(out + "/report.md"));
+}
+
+// Run again into the same --out, now without figures: the figures of the
+// first run are removed (they would pass for this run's), a file of the
+// user's in the folder is not, and stderr says what went.
+TEST_F(AnalyzeCommandTest, ASecondRunIntoTheSameFolderLeavesNoFileOfTheFirstItDidNotWrite) {
+  namespace fs = std::filesystem;
+  const fs::path out = dir_.path() / "again";
+  const std::string args = "analyze --db " + db_ + " --quiet --no-ks --out " + out.string();
+  auto [status, text] = hapticlab::testing::run_cli(HAPTICLAB_CLI_PATH, args);
+  ASSERT_EQ(status, 0) << text;
+  std::size_t figures = 0;
+  for (const auto& e : fs::directory_iterator(out / "figures")) figures += e.path().extension() == ".svg";
+  ASSERT_GT(figures, 0u);
+  std::ofstream(out / "notes.txt") << "the user's";
+  std::tie(status, text) = hapticlab::testing::run_cli(HAPTICLAB_CLI_PATH, args + " --no-plots");
+  ASSERT_EQ(status, 0) << text;
+  EXPECT_THAT(text, HasSubstr("removed " + std::to_string(figures + 1) + " file(s) an earlier analyze wrote in " +
+                              out.string() + " and this one did not"));  // the figures and plots.gp
+  EXPECT_FALSE(fs::exists(out / "figures"));
+  for (const char* kept : {"metrics.csv", "report.html", "report.md", "notes.txt"})
+    EXPECT_TRUE(fs::exists(out / kept)) << kept;
 }
 
 TEST_F(AnalyzeCommandTest, JsonSummaryIsTheOnlyOutputAndAgreesWithTheCsv) {
