@@ -391,7 +391,8 @@ nlohmann::json ConsoleSession::operator_status() const {
                    {"trials_aborted", result_->trials_aborted},
                    {"trials_left", result_->trials_left},
                    {"stopped_by_operator", result_->stopped_by_operator},
-                   {"device_fault", result_->device_fault_reason}};
+                   {"device_fault", result_->device_fault_reason},
+                   {"warnings", result_->condition_warnings}};
   }
   return j;
 }

@@ -117,15 +117,16 @@ class Builder {
     collect();
     // Sessions: numbered by start time (then input order), with their site.
     Statement ins_session = out_.prepare(
-        "INSERT INTO session (id, participant_id, started_unix_s, ended_unix_s, device, clock, status, site) "
-        "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
+        "INSERT INTO session (id, participant_id, started_unix_s, ended_unix_s, device, clock, status, site, "
+        "rate_Hz, participant_model) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)");
     for (std::size_t k = 0; k < sessions_.size(); ++k) {
       const SessionSource& src = sessions_[k];
       const std::int64_t out_id = static_cast<std::int64_t>(k + 1);
       session_map_[{src.input, src.id}] = out_id;
       Input& in = inputs_[src.input];
       Statement s = in.db->prepare(
-          "SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status FROM session WHERE id = ?1");
+          "SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status, rate_Hz, participant_model "
+          "FROM session WHERE id = ?1");
       s.bind(1, src.id);
       s.step();
       ins_session.reset();
@@ -134,6 +135,10 @@ class Builder {
       if (s.is_null(2)) ins_session.bind_null(4);
       else ins_session.bind(4, s.column_double(2));
       ins_session.bind(5, s.column_text(3)).bind(6, s.column_text(4)).bind(7, s.column_text(5)).bind(8, src.site);
+      if (s.is_null(6)) ins_session.bind_null(9);
+      else ins_session.bind(9, s.column_double(6));
+      if (s.is_null(7)) ins_session.bind_null(10);
+      else ins_session.bind(10, s.column_text(7));
       ins_session.run();
       ++summary(src.input).sessions;
     }

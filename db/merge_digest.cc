@@ -30,13 +30,15 @@ using SessionIndex = std::map<std::int64_t, std::size_t>;
 SessionIndex add_sessions(Database& db, std::int64_t pid, std::string& text) {
   SessionIndex session_index;
   Statement s = db.prepare(
-      "SELECT id, started_unix_s, ended_unix_s, device, clock, status FROM session WHERE participant_id = ?1 "
+      "SELECT id, started_unix_s, ended_unix_s, device, clock, status, rate_Hz, participant_model FROM session "
+      "WHERE participant_id = ?1 "
       "ORDER BY started_unix_s, id");
   s.bind(1, pid);
   while (s.step()) {
     session_index[s.column_int64(0)] = session_index.size();
     text += "S|" + exact(s.column_double(1)) + "|" + real_or_null(s, 2) + "|" + s.column_text(3) + "|" +
-            s.column_text(4) + "|" + s.column_text(5) + "\n";
+            s.column_text(4) + "|" + s.column_text(5) + "|" + real_or_null(s, 6) + "|" +
+            text_or_null(s, 7) + "\n";
   }
   return session_index;
 }

@@ -263,6 +263,17 @@ constexpr const char* kV9 = R"sql(
 ALTER TABLE session ADD COLUMN site TEXT;
 )sql";
 
+// Version 10: what a session ran on beyond its device and clock -- the
+// haptic loop's rate, and the model its simulated participant was drawn
+// from (core/sim/population.h describe_participant_model; NULL when no
+// simulated participant held the device, a person did). Sessions of one
+// study that differ in either are not comparable, which `analyze` and
+// `study show` now say. Sessions recorded before: NULL, not known.
+constexpr const char* kV10 = R"sql(
+ALTER TABLE session ADD COLUMN rate_Hz REAL;
+ALTER TABLE session ADD COLUMN participant_model TEXT;
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
@@ -277,6 +288,7 @@ constexpr Migration kMigrations[] = {
      kV7, checksum_chunk_places},
     {8, "training: practice trials cut short counted apart (cut_short, cut_short_reason)", kV8},
     {9, "session.site: the site whose file a session was recorded in (multi-site merges)", kV9},
+    {10, "session.rate_Hz, session.participant_model: the loop's rate and the simulated participant's model", kV10},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 

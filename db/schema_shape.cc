@@ -20,7 +20,8 @@ constexpr ColumnShape kSetting[] = {{"id", "INTEGER", false},
 constexpr ColumnShape kSession[] = {{"id", "INTEGER", false},       {"participant_id", "INTEGER", true},
                                     {"started_unix_s", "REAL", true}, {"ended_unix_s", "REAL", false},
                                     {"device", "TEXT", true},       {"clock", "TEXT", true},
-                                    {"status", "TEXT", true},       {"site", "TEXT", false}};
+                                    {"status", "TEXT", true},       {"site", "TEXT", false},
+                                    {"rate_Hz", "REAL", false},     {"participant_model", "TEXT", false}};
 constexpr ColumnShape kTrial[] = {{"id", "INTEGER", false},        {"participant_id", "INTEGER", true},
                                   {"task", "TEXT", true},          {"setting_id", "INTEGER", true},
                                   {"repetition", "INTEGER", true}, {"block", "INTEGER", true},

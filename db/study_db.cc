@@ -364,11 +364,22 @@ NamedSettings StudyDb::setting(std::int64_t setting_id) {
 
 // --- sessions and training
 
-std::int64_t StudyDb::begin_session(std::int64_t participant_id, std::string_view device, std::string_view clock) {
+std::int64_t StudyDb::begin_session(std::int64_t participant_id, std::string_view device, std::string_view clock,
+                                    std::optional<double> rate_Hz) {
   Statement s = db_.prepare(
-      "INSERT INTO session (participant_id, started_unix_s, device, clock, status) VALUES (?1, ?2, ?3, ?4, 'open')");
-  s.bind(1, participant_id).bind(2, unix_now_s()).bind(3, device).bind(4, clock).run();
+      "INSERT INTO session (participant_id, started_unix_s, device, clock, status, rate_Hz) "
+      "VALUES (?1, ?2, ?3, ?4, 'open', ?5)");
+  s.bind(1, participant_id).bind(2, unix_now_s()).bind(3, device).bind(4, clock);
+  if (rate_Hz) s.bind(5, *rate_Hz);
+  else s.bind_null(5);
+  s.run();
   return db_.last_insert_rowid();
+}
+
+void StudyDb::set_session_participant_model(std::int64_t session_id, std::string_view model) {
+  Statement s = db_.prepare("UPDATE session SET participant_model = ?2 WHERE id = ?1");
+  s.bind(1, session_id).bind(2, model).run();
+  if (db_.changes() == 0) missing(db_, "session", session_id);
 }
 
 void StudyDb::end_session(std::int64_t session_id, SessionStatus status) {
@@ -377,27 +388,46 @@ void StudyDb::end_session(std::int64_t session_id, SessionStatus status) {
   if (db_.changes() == 0) missing(db_, "session", session_id);
 }
 
-SessionRow StudyDb::session(std::int64_t id) {
-  Statement s = db_.prepare(
-      "SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status, site FROM session WHERE id = ?1");
-  s.bind(1, id);
-  if (!s.step()) missing(db_, "session", id);
+namespace {
+
+constexpr const char* kSessionColumns =
+    "id, participant_id, started_unix_s, ended_unix_s, device, clock, status, site, rate_Hz, participant_model";
+
+SessionRow session_row(const std::string& path, Statement& s) {
   SessionRow r;
-  r.id = id;
-  r.participant_id = s.column_int64(0);
-  r.started_unix_s = s.column_double(1);
-  r.ended_unix_s = opt_double(s, 2);
-  r.device = s.column_text(3);
-  r.clock = s.column_text(4);
-  if (!s.is_null(6)) r.site = s.column_text(6);
+  r.id = s.column_int64(0);
+  r.participant_id = s.column_int64(1);
+  r.started_unix_s = s.column_double(2);
+  r.ended_unix_s = opt_double(s, 3);
+  r.device = s.column_text(4);
+  r.clock = s.column_text(5);
+  if (!s.is_null(7)) r.site = s.column_text(7);
+  r.rate_Hz = opt_double(s, 8);
+  if (!s.is_null(9)) r.participant_model = s.column_text(9);
   try {
-    r.status = parse_session_status(s.column_text(5));
+    r.status = parse_session_status(s.column_text(6));
   } catch (const DbError&) {
-    throw DbError(db_.path() + ": session " + std::to_string(id) + ": column session.status is '" +
-                  s.column_text(5).substr(0, 40) + "', but must be one of open, closed, interrupted; the file is "
+    throw DbError(path + ": session " + std::to_string(r.id) + ": column session.status is '" +
+                  s.column_text(6).substr(0, 40) + "', but must be one of open, closed, interrupted; the file is "
                   "damaged or was edited");
   }
   return r;
+}
+
+}  // namespace
+
+SessionRow StudyDb::session(std::int64_t id) {
+  Statement s = db_.prepare(std::string("SELECT ") + kSessionColumns + " FROM session WHERE id = ?1");
+  s.bind(1, id);
+  if (!s.step()) missing(db_, "session", id);
+  return session_row(db_.path(), s);
+}
+
+std::vector<SessionRow> StudyDb::sessions() {
+  Statement s = db_.prepare(std::string("SELECT ") + kSessionColumns + " FROM session ORDER BY id");
+  std::vector<SessionRow> out;
+  while (s.step()) out.push_back(session_row(db_.path(), s));
+  return out;
 }
 
 std::int64_t StudyDb::add_training(const TrainingRow& t) {

@@ -73,6 +73,13 @@ struct SessionRow {
   // The site whose file the session was recorded in (`study merge`); empty
   // for a session of a file never merged (NULL in the file).
   std::string site;
+  // The haptic loop's rate [Hz]; nullopt for a session recorded before
+  // schema 10.
+  std::optional<double> rate_Hz;
+  // The model a simulated participant of the session was drawn from
+  // (describe_participant_model); empty when none held the device (a
+  // person did) or before schema 10.
+  std::string participant_model;
 };
 
 struct TrainingRow {
@@ -197,7 +204,15 @@ class StudyDb {
   std::vector<std::pair<std::int64_t, std::string>> settings(std::int64_t study_id);
 
   // --- sessions and training
-  std::int64_t begin_session(std::int64_t participant_id, std::string_view device, std::string_view clock);
+  // rate_Hz: the haptic loop's, 150..2000; nullopt when not known (the C
+  // study API: the integrator's own loop).
+  std::int64_t begin_session(std::int64_t participant_id, std::string_view device, std::string_view clock,
+                             std::optional<double> rate_Hz);
+  // Once a simulated participant drove one of the session's trials (or its
+  // training): the model it was drawn from.
+  void set_session_participant_model(std::int64_t session_id, std::string_view model);
+  // Every session of the file, by id.
+  std::vector<SessionRow> sessions();
   void end_session(std::int64_t session_id, SessionStatus status = SessionStatus::kClosed);
   SessionRow session(std::int64_t id);
   std::int64_t add_training(const TrainingRow& training);

@@ -51,7 +51,7 @@ __all__ = [
 # The schema this module reads: version 9 (db/schema.h); since version 7 its chunk
 # checksums cover their trial and instrument. Older files are migrated by
 # any HapticLab command that opens them read-write (`hapticlab analyze`).
-SCHEMA_VERSION = 9
+SCHEMA_VERSION = 10
 APPLICATION_ID = 0x484C4142  # "HLAB"
 
 # Chunk formats (byte 0 of the blob).
@@ -73,7 +73,8 @@ TABLES = (
                  ("parameters_json", "TEXT", True))),
     ("session", (("id", "INTEGER", False), ("participant_id", "INTEGER", True), ("started_unix_s", "REAL", True),
                  ("ended_unix_s", "REAL", False), ("device", "TEXT", True), ("clock", "TEXT", True),
-                 ("status", "TEXT", True), ("site", "TEXT", False))),
+                 ("status", "TEXT", True), ("site", "TEXT", False), ("rate_Hz", "REAL", False),
+                 ("participant_model", "TEXT", False))),
     ("training", (("id", "INTEGER", False), ("session_id", "INTEGER", True), ("task", "TEXT", True),
                   ("started_unix_s", "REAL", True), ("ended_unix_s", "REAL", False), ("duration_s", "REAL", False),
                   ("trials", "INTEGER", True), ("cut_short", "INTEGER", True), ("cut_short_reason", "TEXT", False))),
@@ -703,7 +704,7 @@ class StudyDatabase:
             found = [(name, declared, bool(notnull)) for name, declared, notnull in self._conn.execute(
                 "SELECT name, type, \"notnull\" FROM pragma_table_info(?1, 'main') ORDER BY cid", (table,))]
             want = list(columns)
-            if [(n.lower(), t.upper(), nn) for n, t, nn in found] != [(n, t, nn) for n, t, nn in want]:
+            if [(n.lower(), t.upper(), nn) for n, t, nn in found] != [(n.lower(), t, nn) for n, t, nn in want]:
                 findings.append(f"table {table} has columns ({_describe_columns(found)}); expected "
                                 f"({_describe_columns(want)})")
         if findings:

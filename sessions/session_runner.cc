@@ -15,6 +15,8 @@
 #include "sessions/crash_note.h"
 #include "sessions/sitting_gate.h"
 #include "sessions/staircase_planner.h"
+#include "analysis/study/session_conditions.h"
+#include "core/sim/population.h"
 #include "sessions/study_session.h"
 #include "sessions/trial_end.h"
 #include "protocols/loop_protections.h"
@@ -145,6 +147,7 @@ class SessionRun {
   SimTrialConfig base_config(const std::string& task, const NamedSettings& settings, std::uint64_t seed,
                              int practice) const;
   [[noreturn]] void refuse(DeviceStatus status, const std::string& what);
+  void note_participant_model(SimRig& rig);
   void progress(SessionProgress p) const;
 
   const SessionOptions& options_;
@@ -161,6 +164,7 @@ class SessionRun {
   int watchdog_trips_in_a_row_ = 0;
   Clock::time_point session_start_ = Clock::now();
   std::set<std::string> trained_;
+  bool model_noted_ = false;
   double trial_wall_s_ = 0.0;  // wall time of trials finished in this session
   int trials_timed_ = 0;
   std::vector<OperatorEvent> actions_;
@@ -172,7 +176,7 @@ SessionRun::SessionRun(const std::filesystem::path& db_path, const SessionOption
       // Opening, the participant's lock, recovery, re-queueing and the
       // session row: the bookkeeping every runner shares (study_session.h).
       session_(db_path, options.participant, options.device.describe(),
-               options.clock == ClockKind::kVirtual ? "virtual" : "wall", refuse_external_ve),
+               options.clock == ClockKind::kVirtual ? "virtual" : "wall", options.rate_Hz, refuse_external_ve),
       db_(session_.db()),
       study_(session_.study()) {
   result_.stale_session = session_.stale_session();
@@ -224,6 +228,16 @@ SimTrialConfig SessionRun::base_config(const std::string& task, const NamedSetti
   c.max_duration_s = options_.max_trial_s;
   c.safety = protections_;
   return c;
+}
+
+// Once per session, when a simulated participant first holds the device:
+// the model it was drawn from, with the session (a person at the device
+// leaves it NULL). Sessions of one study drawn from different models are
+// not comparable; analyze and study show say so.
+void SessionRun::note_participant_model(SimRig& rig) {
+  if (model_noted_ || rig.participant() == nullptr) return;
+  model_noted_ = true;
+  db_.set_session_participant_model(result_.session_id, describe_participant_model(options_.population));
 }
 
 // The device would not be driven: nothing was started, so the session
@@ -298,6 +312,7 @@ bool SessionRun::train(const db::TrialRow& trial) {
         options_.on_alert("the watchdog halted the device (zero force) in the training before trial " +
                           std::to_string(trial.id) + ": " + describe(rig.loop().safety_trip()));
       }
+      note_participant_model(rig);
       return !stop_requested(options_);
     };
     sink.device_hang_grace_s = options_.device_hang_grace_s;
@@ -470,6 +485,7 @@ void SessionRun::run_trial(const db::TrialRow& trial) {
   // inside the rig, which then can never be destroyed (DeviceHungError).
   auto rig_owner = std::make_unique<SimRig>(config);
   SimRig& rig = *rig_owner;
+  note_participant_model(rig);
   HapticLoop& loop = rig.loop();
   // Powered before the trial is recorded as started, so a device that is
   // not calibrated or homed leaves the trial planned, not aborted.
@@ -543,6 +559,7 @@ SessionResult SessionRun::run() {
   session_.end(result_.device_fault ? db::SessionStatus::kInterrupted : db::SessionStatus::kClosed);
   result_.trials_requeued += session_.requeued();
   result_.trials_left = session_.trials_left();
+  result_.condition_warnings = analysis::read_session_conditions(db_, study_.id).warnings;
   return result_;
 }
 

@@ -157,6 +157,10 @@ struct SessionResult {
   // Set when this participant's previous session had died without
   // releasing its lock (killed, crashed): who it was, for the operator.
   std::optional<std::string> stale_session;
+  // The study's sessions now differ in the loop's rate or in who held the
+  // device (this session ran otherwise than earlier ones): one warning per
+  // difference, naming values and sessions (analysis/study/session_conditions.h).
+  std::vector<std::string> condition_warnings;
 };
 
 // The device refused to be driven when a trial (or training) was about to

@@ -85,6 +85,7 @@ StudyProgress study_progress(db::StudyDb& db) {
     out.participants.push_back(std::move(p));
   }
   add_sitting_progress(out.study, out.participants);
+  out.conditions = analysis::read_session_conditions(db, out.study.id);
   return out;
 }
 
@@ -103,6 +104,11 @@ std::string format_study_progress(const StudyProgress& progress, bool with_sched
                   p.aborted, p.running, p.planned);
     s += line;
   }
+  if (!progress.conditions.rate_text.starts_with("not recorded")) {
+    s += "sessions: loop rate " + progress.conditions.rate_text + "; who held the device: " +
+         progress.conditions.participant_text + "\n";
+  }
+  for (const std::string& w : progress.conditions.warnings) s += "warning: " + w + "\n";
   bool grouped = false;
   for (const auto& p : progress.participants) grouped = grouped || p.sitting.has_value();
   if (grouped) {
@@ -144,6 +150,9 @@ nlohmann::json study_progress_json(const StudyProgress& progress) {
                 {"protocol_sha256", progress.study.protocol_sha256},
                 {"software_version", progress.study.software_version},
                 {"created_utc", progress.study.created_utc}};
+  j["sessions"] = {{"rate", progress.conditions.rate_text},
+                   {"who_held_the_device", progress.conditions.participant_text},
+                   {"warnings", progress.conditions.warnings}};
   j["participants"] = nlohmann::json::array();
   for (const auto& p : progress.participants) {
     nlohmann::json trials = nlohmann::json::array();

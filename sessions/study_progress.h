@@ -9,6 +9,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "analysis/study/session_conditions.h"
 #include "db/study_db.h"
 
 namespace hapticlab::sessions {
@@ -39,6 +40,9 @@ struct ParticipantProgress {
 struct StudyProgress {
   db::StudyRow study;
   std::vector<ParticipantProgress> participants;
+  // The loop rate and who held the device over the sessions that ran a
+  // trial, with a warning for each that differs (analysis/study/session_conditions.h).
+  analysis::SessionConditions conditions;
 };
 
 // Reads the (single) study of the database. Throws std::runtime_error if

@@ -47,7 +47,7 @@ int requeue_aborted(db::StudyDb& db, const std::vector<db::TrialRow>& trials) {
 }
 
 StudySession::StudySession(const std::filesystem::path& db_path, const std::string& participant,
-                           std::string_view device, std::string_view clock,
+                           std::string_view device, std::string_view clock, std::optional<double> rate_Hz,
                            const std::function<void(const db::StudyRow&)>& check_study)
     : db_path_(db_path), participant_(participant), db_(open_without_recovery(db_path)) {
   const std::vector<db::StudyRow> studies = db_.studies();
@@ -89,7 +89,7 @@ StudySession::StudySession(const std::filesystem::path& db_path, const std::stri
     }
   }
   scheduled_ = static_cast<int>(slots.size());
-  session_id_ = db_.begin_session(participant_id_, device, clock);
+  session_id_ = db_.begin_session(participant_id_, device, clock, rate_Hz);
 }
 
 StudySession::~StudySession() = default;

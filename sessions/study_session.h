@@ -63,14 +63,16 @@ int requeue_aborted(db::StudyDb& db, const std::vector<db::TrialRow>& trials);
 class StudySession {
  public:
   // Opens the database and begins a session of `participant` (see above).
-  // `device` and `clock` are stored with the session row. Throws
+  // `device`, `clock` and the loop's `rate_Hz` (nullopt: not known) are
+  // stored with the session row. Throws
   // std::runtime_error for a missing database, a database without a study
   // or an unknown participant (listing the study's participants),
   // db::SessionBusyError when the participant has a live session elsewhere,
   // db::DbError for a database failure. `check_study`, if given, may refuse
   // the study (by throwing) before anything in the database changes.
   StudySession(const std::filesystem::path& db_path, const std::string& participant, std::string_view device,
-               std::string_view clock, const std::function<void(const db::StudyRow&)>& check_study = {});
+               std::string_view clock, std::optional<double> rate_Hz,
+               const std::function<void(const db::StudyRow&)>& check_study = {});
   // Without end() (an exception unwound the caller) the session row and a
   // running trial are left as they are, as a crash would leave them: the
   // participant's next session recovers them under the lock. Never throws.

@@ -236,6 +236,9 @@ pid_t spawn_gnuplot(const std::filesystem::path& gnuplot, const std::filesystem:
   // posix_spawn rather than system(): no shell, so no quoting of paths.
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
+  // Not the caller's stdin (the console's terminal): a script that pauses
+  // for input gets end of file and goes on.
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   // Output names in the script are relative to its directory, so it reruns there by hand.

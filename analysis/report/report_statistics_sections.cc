@@ -66,6 +66,8 @@ Section summary_section(const StudyAnalysis& a) {
             {{"Participants"}, {std::to_string(a.participants.size())}},
             {{"Tasks"}, {std::to_string(a.tasks.size())}},
             {{"Settings"}, {std::to_string(a.settings.size()) + " (control: " + a.control + ")"}},
+            {{"Haptic loop rate"}, {a.session_conditions.rate_text}},
+            {{"Who held the device"}, {a.session_conditions.participant_text}},
             {{"Trials analysed"}, {std::to_string(c.analysed)}},
             {{"Complete trials"}, {std::to_string(c.complete)}},
             {{"Aborted trials left out"}, {std::to_string(c.aborted_excluded)}},
@@ -80,6 +82,7 @@ Section summary_section(const StudyAnalysis& a) {
             (a.options.include_aborted ? " (none: --include-aborted was given)" : "") +
             ". Measures are computed over each trial's task window, from the first 20 mm insertion to the last "
             "tissue contact; the per-trial values are in metrics.csv.";
+  for (const std::string& w : a.session_conditions.warnings) s.intro += " Warning: " + w + ".";
   if (c.without_window > 0) {
     Table w;
     w.title = "Trials without measures";

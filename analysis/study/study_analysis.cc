@@ -296,6 +296,7 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   run_statistics(a);
   read_protocol_parts(db, *study, rows, a);
   read_sites(db, a);
+  a.session_conditions = read_session_conditions(db, a.study_id);
   return a;
 }
 

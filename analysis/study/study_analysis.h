@@ -34,6 +34,7 @@
 #include "analysis/stats/test_result.h"
 #include "protocols/protocol.h"
 #include "protocols/staircase.h"
+#include "analysis/study/session_conditions.h"
 #include "analysis/study/site_balance.h"
 
 namespace hapticlab::db {
@@ -315,6 +316,9 @@ struct StudyAnalysis {
   // per task the site x setting table with its verdict (site_balance.h).
   std::map<std::string, std::string> participant_sites;
   std::vector<SiteBalance> site_balance;
+  // The loop rate and who held the device, over the study's sessions, with
+  // a warning for each that differs between them (session_conditions.h).
+  SessionConditions session_conditions;
 };
 
 // Reads the study (options.study_id, or the only one) and runs everything.

@@ -281,7 +281,7 @@ std::size_t build_study(const std::filesystem::path& path, double rate_hz, std::
   std::size_t trials = 0;
   for (std::size_t p = 0; p < 3; ++p) {
     const std::int64_t pid = db.add_participant(study, "S" + std::to_string(p + 1));
-    const std::int64_t session = db.begin_session(pid, "sim", "virtual");
+    const std::int64_t session = db.begin_session(pid, "sim", "virtual", 1000.0);
     const double participant_force = 0.6 + 0.3 * static_cast<double>(p);
     int position = 0;
     for (const char* task : {"dissection", "clip"}) {

@@ -70,7 +70,7 @@ std::int64_t new_running_trial(const fs::path& path) {
   const std::int64_t participant = db.add_participant(study, "B01");
   const std::int64_t setting = db.add_setting_json(study, "All Degradations", "{}");
   const std::int64_t trial = db.add_trial({participant, "dissection", setting, 1, 1, 1});
-  db.start_trial(trial, db.begin_session(participant, "sim", "virtual"));
+  db.start_trial(trial, db.begin_session(participant, "sim", "virtual", 1000.0));
   return trial;
 }
 

@@ -149,6 +149,9 @@ nlohmann::json summary_json(const an::StudyAnalysis& a, const std::filesystem::p
           {"dose_response", dose_json(a)},
           {"staircase", staircase_rows_json(a)},
           {"sites", sites_json(a)},
+          {"sessions", {{"rate", a.session_conditions.rate_text},
+                        {"who_held_the_device", a.session_conditions.participant_text},
+                        {"warnings", a.session_conditions.warnings}}},
           {"files", {{"metrics_csv", (out / "metrics.csv").string()}, {"html", files.html.string()},
                      {"markdown", files.markdown.string()}, {"figures", files.figures.size()}}}};
 }
@@ -188,7 +191,7 @@ std::vector<std::filesystem::path> write_within_participant_report(const an::Stu
                                                                    const an::ReportOptions& report,
                                                                    const AnalyzeOptions& o);
 
-void run_analyze(const AnalyzeOptions& o) {
+an::AnalysisOptions analysis_options(const AnalyzeOptions& o) {
   an::AnalysisOptions options;
   if (o.study >= 0) options.study_id = o.study;
   options.percentile_method = an::parse_percentile_method(o.percentile_method);
@@ -206,7 +209,23 @@ void run_analyze(const AnalyzeOptions& o) {
   // The within-trial quantile grids feed only the CDF figures.
   if (o.no_plots) options.cdf_points = 0;
   options.validate();
+  return options;
+}
 
+// Said on stderr whatever the output format: the damaged chunks left out,
+// and a study whose sessions differ in more than their settings
+// (session_conditions.h).
+void warn_about_the_data(const an::StudyAnalysis& analysis) {
+  for (const an::TrialRecord& t : analysis.trials)
+    for (const std::string& c : t.damaged_chunks)
+      std::fprintf(stderr, "warning: left out damaged sample chunk: %s; trial %lld's measures are missing\n",
+                   c.c_str(), static_cast<long long>(t.trial_id));
+  for (const std::string& w : analysis.session_conditions.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  std::fflush(stderr);
+}
+
+void run_analyze(const AnalyzeOptions& o) {
+  const an::AnalysisOptions options = analysis_options(o);
   an::ReportOptions report;
   report.plots = !o.no_plots;
   report.pdf = o.pdf;
@@ -216,11 +235,7 @@ void run_analyze(const AnalyzeOptions& o) {
   if (report.plots) an::find_gnuplot();
 
   const an::StudyAnalysis analysis = an::analyze_study_file(o.db, options);
-  for (const an::TrialRecord& t : analysis.trials)
-    for (const std::string& c : t.damaged_chunks)
-      std::fprintf(stderr, "warning: left out damaged sample chunk: %s; trial %lld's measures are missing\n",
-                   c.c_str(), static_cast<long long>(t.trial_id));
-  if (analysis.counts.damaged_chunks > 0) std::fflush(stderr);
+  warn_about_the_data(analysis);
   const std::filesystem::path out(o.out);
   std::error_code ec;
   std::filesystem::create_directories(out, ec);

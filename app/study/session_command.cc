@@ -193,7 +193,8 @@ void print_session_json(const SessionCommandOptions& opt, const sessions::Sessio
                       {"updates_logged", r.samples_logged},
                       {"stopped_by_operator", r.stopped_by_operator},
                       {"device_fault", r.device_fault ? nlohmann::json(r.device_fault_reason) : nlohmann::json()},
-                      {"stale_session", r.stale_session ? nlohmann::json(*r.stale_session) : nlohmann::json()}};
+                      {"stale_session", r.stale_session ? nlohmann::json(*r.stale_session) : nlohmann::json()},
+                      {"warnings", r.condition_warnings}};
   if (r.staircase) j["staircase"] = session_staircase_json(r);
   std::printf("%s\n", j.dump(2).c_str());
 }
@@ -251,6 +252,8 @@ int run(const SessionCommandOptions& opt) {
     std::fprintf(stderr, "hapticlab session run: took over the lock of %s's previous session (%s), which had "
                          "ended without releasing it\n",
                  opt.participant.c_str(), r.stale_session->c_str());
+  // Told when the mixing happens, not first at the analysis.
+  for (const std::string& w : r.condition_warnings) std::fprintf(stderr, "hapticlab session run: warning: %s\n", w.c_str());
   if (opt.json)
     print_session_json(opt, options, r);
   else

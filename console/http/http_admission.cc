@@ -33,7 +33,7 @@ void Server::accept_all(std::size_t site) {
         // Out of descriptors with nothing to drop: take the connection and
         // close it, rather than leave it to make the listener ready for ever.
         ::close(spare_fd_);
-        const int refused = ::accept(l.fd, nullptr, nullptr);
+        const int refused = ::accept4(l.fd, nullptr, nullptr, SOCK_CLOEXEC);
         if (refused >= 0) ::close(refused);
         spare_fd_ = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
       }

@@ -199,6 +199,8 @@ function describe(s) {
   if (s.last_fault) h += `<br><span class="fault">FAULT in trial ${s.last_trial_number} (id ${s.last_trial_id}): ${text(s.last_fault)}</span> — aborted, re-queued`;
   else if (s.last_status) h += `<br>last trial: ${text(s.last_status)} ${text(s.last_abort_reason || "")}`;
   if (s.result) h += `<br>result: ${s.result.trials_complete} complete, ${s.result.trials_aborted} aborted, ${s.result.trials_left} left` + (s.result.stopped_by_operator ? " (stopped by the operator)" : "");
+  if (s.result && s.result.warnings)
+    for (const w of s.result.warnings) h += `<br><span class="ask">warning: ${text(w)}</span>`;
   if (s.loop) h += `<br>loop: ${s.loop.rate_Hz.toFixed(0)} Hz, period p99 ${s.loop.p99_period_ms.toFixed(3)} ms (max ${s.loop.max_period_ms.toFixed(3)} ms, ${s.loop.overruns} overruns), ${s.loop.dropped_samples} samples dropped; writer ${(1e3 * s.loop.writer_lag_s).toFixed(0)} ms behind`;
   if (s.error) h += `<br><span class="err">${text(s.error)}</span>`;
   if (s.last_stop && s.last_stop.recorded !== "stored")

@@ -1,6 +1,7 @@
 #include "core/device/plugin_device.h"
 
 #include <dlfcn.h>
+#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -352,7 +353,7 @@ void probe_plugin(const std::string& path, const std::map<std::string, std::stri
                              " threads (a lock another thread holds would hang the copy); register a plugin "
                              "host (set_plugin_host_executable), as the hapticlab command does; nothing was started");
   int fds[2];
-  if (::pipe(fds) != 0)
+  if (::pipe2(fds, O_CLOEXEC) != 0)  // not inherited by a process another thread starts meanwhile
     throw std::runtime_error("plugin " + path + ": cannot probe it (pipe: " + std::strerror(errno) + ")");
   const pid_t child = ::fork();
   if (child < 0) {

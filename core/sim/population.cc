@@ -1,6 +1,7 @@
 #include "core/sim/population.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -91,6 +92,19 @@ void PopulationParams::validate() const {
   require(novice_share >= 0.0 && novice_share <= 1.0, "novice_share", novice_share, "within 0..1");
   require(visual_noise_log_sd > 0.0 && visual_noise_log_sd <= 1.0, "visual_noise_log_sd", visual_noise_log_sd,
           "in (0, 1]");
+}
+
+std::string describe_participant_model(const PopulationParams& p) {
+  std::string text = "participant model " + std::to_string(kParticipantModelVersion) + "; population";
+  for (int i = 0; i < PopulationParams::kFields; ++i) {
+    const auto [name, value] = p.field(i);
+    char number[32];
+    // The shortest text that reads back as the same double: exact, so
+    // equal texts are equal models, and short enough to read.
+    const auto end = std::to_chars(number, number + sizeof number, value).ptr;
+    text += std::string(" ") + name + "=" + std::string(number, end);
+  }
+  return text;
 }
 
 std::pair<const char*, double> PopulationParams::field(int i) const noexcept {

@@ -61,6 +61,13 @@ struct PopulationParams {
   bool set_field(const std::string& name, double value) noexcept;
 };
 
+// The model a simulated participant is drawn from, as stored with a session
+// (db session.participant_model): the participant model's version and every
+// population field, exact ("participant model 2; population
+// visual_gain_mean=0.65 visual_gain_sd=0.1 ..."). Equal texts: the same
+// model; the file the fields came from is not part of it.
+std::string describe_participant_model(const PopulationParams& p);
+
 // Truncation ranges of the fitted traits' distributions.
 inline constexpr std::pair<double, double> kVisualGainRange{0.2, 1.0};
 inline constexpr std::pair<double, double> kConsistencyRange{0.02, 0.6};

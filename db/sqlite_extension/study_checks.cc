@@ -19,10 +19,10 @@ using db::TableShape;
 
 namespace {
 
-// The schema this module reads: version 9 (db/schema.h); since version 7 its chunks
+// The schema this module reads: version 10 (db/schema.h); since version 7 its chunks
 // checksums cover their trial and instrument. Older files are migrated by
 // any HapticLab command that opens them read-write (`hapticlab analyze`).
-constexpr int kSchemaVersion = 9;
+constexpr int kSchemaVersion = 10;
 constexpr std::int64_t kApplicationId = 0x484C4142;  // "HLAB"
 
 // The rows of `table` (restricted by `where`, with ?1 bound to `trial`)

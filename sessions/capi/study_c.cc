@@ -183,7 +183,8 @@ int hl_study_start_session(hl_study* study, const char* participant_code, const 
   }
   try {
     study->session = std::make_unique<hl::sessions::StudySession>(
-        study->db_path, participant_code, device != nullptr && *device != '\0' ? device : "external", "wall");
+        study->db_path, participant_code, device != nullptr && *device != '\0' ? device : "external", "wall",
+        std::nullopt);  // the integrator's own loop: its rate is not known here
     study->stop.store(false, std::memory_order_relaxed);
     std::string note;
     if (study->session->stale_session())

@@ -245,7 +245,12 @@ TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsInTrainingIsGivenUpOnAndTheT
   db::OpenOptions open;
   open.read_only = true;
   db::StudyDb study(db, open);
-  EXPECT_EQ(study.session(1).status, db::SessionStatus::kInterrupted);  // the study's only session
+  const db::SessionRow row = study.session(1);  // the study's only session
+  EXPECT_EQ(row.status, db::SessionStatus::kInterrupted);
+  // A device a person holds (the fake plugin has no simulated hand): no
+  // participant model with the session, and the loop's rate.
+  EXPECT_EQ(row.participant_model, "");
+  EXPECT_EQ(row.rate_Hz, 1000.0);
   const auto training = study.training(1);
   ASSERT_EQ(training.size(), 1u);
   EXPECT_EQ(training[0].trials, 0);

@@ -33,7 +33,7 @@ class ExportCommandTest : public ::testing::Test {
     const std::int64_t study = db.add_study({"Export test", "{}", 9, "test"});
     const std::int64_t p = db.add_participant(study, "S07");
     const std::int64_t s = db.add_setting_json(study, "No FFB", "{}");
-    const std::int64_t session = db.begin_session(p, "sim", "wall");
+    const std::int64_t session = db.begin_session(p, "sim", "wall", 1000.0);
     complete_ = db.add_trial({p, "clip", s, 1, 1, 1});
     running_ = db.add_trial({p, "clip", s, 2, 1, 2});
     planned_ = db.add_trial({p, "clip", s, 3, 2, 3});

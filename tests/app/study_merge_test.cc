@@ -312,7 +312,7 @@ TEST_F(StudyMergeTest, ATrialRenumberedKeepsItsSamplesUnderItsNewId) {
   for (const auto& [path, who] : {std::pair{a, "A1"}, std::pair{b, "B1"}}) {
     db::StudyDb db(path);
     const std::int64_t pid = *db.find_participant(1, who);
-    const std::int64_t session = db.begin_session(pid, "sim", "virtual");
+    const std::int64_t session = db.begin_session(pid, "sim", "virtual", 1000.0);
     const std::int64_t trial = db.add_trial({pid, "clip", 1, 3, 1, 5});
     ASSERT_EQ(trial, 9);
     db.start_trial(trial, session);

@@ -47,7 +47,7 @@ static_assert(std::atomic<double>::is_always_lock_free);
   try {
     StudyDb db(path);
     const TrialRow t = db.trial(trial);
-    db.start_trial(trial, db.begin_session(t.participant_id, "sim", "wall"));
+    db.start_trial(trial, db.begin_session(t.participant_id, "sim", "wall", 1000.0));
     SpscQueue<LoopSample> samples(1 << 14);
     SpscQueue<TaskEvent> events(1 << 10);
     SampleWriter writer(path, trial, samples, events);  // the default configuration, as the runner uses

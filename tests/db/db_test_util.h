@@ -157,7 +157,7 @@ inline std::int64_t make_trial(StudyDb& db, bool start = true, const std::string
   const std::int64_t participant = db.add_participant(study, "P01");
   const std::int64_t setting_id = db.add_setting_json(study, setting, "{}");
   const std::int64_t trial = db.add_trial({participant, "dissection", setting_id, 2, 2, 5});
-  if (start) db.start_trial(trial, db.begin_session(participant, "sim", "virtual"));
+  if (start) db.start_trial(trial, db.begin_session(participant, "sim", "virtual", 1000.0));
   return trial;
 }
 

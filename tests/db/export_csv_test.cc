@@ -92,7 +92,7 @@ struct Study {
     study = db.add_study({"Export, \"quoted\" study", "{}", 3, "test"});
     const std::int64_t p = db.add_participant(study, "P01");
     const std::int64_t s = db.add_setting_json(study, "All Degradations", "{}");
-    const std::int64_t session = db.begin_session(p, "sim", "virtual");
+    const std::int64_t session = db.begin_session(p, "sim", "virtual", 1000.0);
     complete = db.add_trial({p, "dissection", s, 1, 1, 1});
     aborted = db.add_trial({p, "clip", s, 2, 1, 2});
     planned = db.add_trial({p, "clip", s, 3, 2, 3});

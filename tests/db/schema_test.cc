@@ -437,7 +437,13 @@ TEST(Schema, MigratesAVersion8DatabaseGivingSessionsNoSite) {
   EXPECT_EQ(db.connection().pragma_int("user_version"), kSchemaVersion);
   EXPECT_EQ(db.session(1).status, SessionStatus::kClosed);
   EXPECT_EQ(db.session(1).site, "");
-  EXPECT_EQ(columns(db.connection(), "session").back(), "site TEXT");
+  // Version 10 after it: the loop's rate and the participant model, not known.
+  EXPECT_FALSE(db.session(1).rate_Hz.has_value());
+  EXPECT_EQ(db.session(1).participant_model, "");
+  const std::vector<std::string> cols = columns(db.connection(), "session");
+  ASSERT_GE(cols.size(), 3u);
+  EXPECT_EQ(std::vector<std::string>(cols.end() - 3, cols.end()),
+            (std::vector<std::string>{"site TEXT", "rate_Hz REAL", "participant_model TEXT"}));
   db.connection().exec("UPDATE session SET site = 'Basel'");
   EXPECT_EQ(db.session(1).site, "Basel");
 }

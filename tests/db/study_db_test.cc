@@ -54,7 +54,7 @@ TEST(StudyDb, TrialLifecycleAndSchedule) {
   EXPECT_THROW(db.add_trial({p, "clip", hf, 2, 2, 2}), DbError) << "position is unique per participant";
   EXPECT_EQ(db.next_planned_trial(p), t1);
 
-  const std::int64_t session = db.begin_session(p, "sim", "wall");
+  const std::int64_t session = db.begin_session(p, "sim", "wall", 1000.0);
   EXPECT_THROW(db.end_trial(t1, TrialStatus::kComplete), DbError) << "a planned trial cannot end";
   db.start_trial(t1, session);
   EXPECT_THROW(db.start_trial(t1, session), DbError) << "a running trial cannot start again";
@@ -87,7 +87,7 @@ TEST(StudyDb, AbortedTrialIsRequeuedInPlaceAndRunsBeforeLaterPositions) {
   const std::int64_t hf = db.add_setting_json(study, "High Fidelity", "{}");
   const std::int64_t t1 = db.add_trial({p, "clip", hf, 1, 1, 1});
   const std::int64_t t2 = db.add_trial({p, "clip", hf, 2, 1, 2});
-  const std::int64_t session = db.begin_session(p, "sim", "wall");
+  const std::int64_t session = db.begin_session(p, "sim", "wall", 1000.0);
   EXPECT_THROW(db.requeue_trial(t1), DbError) << "a planned trial is already queued";
 
   db.start_trial(t1, session);

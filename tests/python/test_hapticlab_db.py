@@ -274,7 +274,7 @@ class DamageTest(unittest.TestCase):
         conn = sqlite3.connect(path)
         conn.execute("PRAGMA user_version = 6")
         conn.close()
-        with self.assertRaisesRegex(ValueError, "schema version 6; this reader reads version 9.*hapticlab analyze"):
+        with self.assertRaisesRegex(ValueError, "schema version 6; this reader reads version 10.*hapticlab analyze"):
             h.open_study(path)
 
 

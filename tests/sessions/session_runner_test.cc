@@ -365,7 +365,7 @@ TEST_F(SessionFixture, ATimedOutSlotIsNotRequeuedEvenIfAnEarlierAttemptWasKilled
     db::StudyDb db(db_path_, open);
     const std::int64_t participant = *db.find_participant(db.studies().front().id, "A1");
     killed = *db.next_planned_trial(participant);
-    db.start_trial(killed, db.begin_session(participant, "sim", "virtual"));
+    db.start_trial(killed, db.begin_session(participant, "sim", "virtual", 1000.0));
   }
   SessionOptions o = options_for("A1");
   o.max_trial_s = 0.05;  // no simulated surgeon finishes a dissection in 50 ms

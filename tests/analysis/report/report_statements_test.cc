@@ -53,7 +53,7 @@ void build_study(const fs::path& path, const std::string& protocol_json, const s
   for (const Setting& s : settings) ids.push_back(db.add_setting_json(study, s.name, s.parameters_json));
   for (int p = 0; p < participants; ++p) {
     const std::int64_t pid = db.add_participant(study, "P" + std::to_string(p + 1));
-    const std::int64_t session = db.begin_session(pid, "sim", "virtual");
+    const std::int64_t session = db.begin_session(pid, "sim", "virtual", 1000.0);
     int position = 0;
     for (std::size_t s = 0; s < settings.size(); ++s) {
       const double f = force(p, static_cast<int>(s));

@@ -97,7 +97,7 @@ inline void build_synthetic_study(const std::filesystem::path& path) {
                                     db.add_setting_json(study, "Cogging", "{}")};
   for (int participant = 1; participant <= 2; ++participant) {
     const std::int64_t pid = db.add_participant(study, "P" + std::to_string(participant));
-    const std::int64_t session = db.begin_session(pid, "sim", "virtual");
+    const std::int64_t session = db.begin_session(pid, "sim", "virtual", 1000.0);
     const int n_settings = participant == 1 ? 3 : 2;
     int position = 0;
     // Interleave settings so the trial number is not the setting.
