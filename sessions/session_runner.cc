@@ -391,7 +391,10 @@ void SessionRun::watch_for_hang(HapticLoop& loop, const db::TrialRow& trial, Tri
         options_.on_alert("the device call of trial " + std::to_string(trial.id) + " returned after all; the trial goes on");
     }
   }
-  if (watch.hung_since) return;
+  // Once announced, a hang is not announced again -- unless it was the
+  // host's (no device call) and a device call now hangs too (deactivate()
+  // as the loop ends): that one is what may never return.
+  if (watch.hung_since && (watch.hung_call != DeviceCall::kNone || loop.watchdog_call() == DeviceCall::kNone)) return;
   const DeviceCall in_call = loop.device_call().load(std::memory_order_acquire);
   const bool tripped = loop.watchdog_tripped();
   const bool virtual_hang = options_.clock == ClockKind::kVirtual && in_call != DeviceCall::kNone &&

@@ -90,6 +90,17 @@ TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::i
       break;
     default: fault(device_fault_reason(loop, device)); break;
   }
+  // The trial's data is what it is; but a device that was not set to zero
+  // force or not switched off as the trial ended may still be powered: the
+  // session ends (exit 3), and the trial's record says so.
+  if (loop.shutdown_status() != DeviceStatus::kOk && !end.device_fault) {
+    const std::string reason = "device " + std::string(to_string(loop.shutdown_call())) + "() failed (" +
+                               to_string(loop.shutdown_status()) + ") as trial " + std::to_string(trial_id) +
+                               " ended: the device may still be powered; check it before the next session";
+    outcome.closing_events.push_back({trial_id, loop.elapsed_s(), "device_shutdown_fault", -1, 0, reason});
+    end.device_fault = true;
+    end.device_fault_reason = reason;
+  }
   return end;
 }
 

@@ -272,12 +272,25 @@ StopReason HapticLoop::trip(StopReason reason, const SafetyTrip& why) noexcept {
 }
 
 void HapticLoop::finish(StopReason reason) noexcept {
-  if (watchdog_) watchdog_->disarm();
-  // In a device call as any other write (a crash in it is the device's).
-  if (device_.calls_may_block()) device_call_.store(DeviceCall::kWrite, std::memory_order_release);
-  device_.write(DeviceCommand{});
+  // The last device calls are watched as any other (one that never returns
+  // is found, named and given up on: docs/safety.md), and what they answer
+  // is kept: a device that could not be set to zero force or switched off
+  // is a fault of the trial's end (shutdown_status), never a normal end.
+  if (watchdog_) watchdog_->watch_shutdown(kShutdownCallLimit_s);
+  device_call_.store(DeviceCall::kWrite, std::memory_order_release);
+  const DeviceStatus zeroed = device_.write(DeviceCommand{});
+  device_call_.store(DeviceCall::kDeactivate, std::memory_order_release);
+  const DeviceStatus off = device_.deactivate();
   device_call_.store(DeviceCall::kNone, std::memory_order_release);
-  device_.deactivate();
+  if (watchdog_) watchdog_->disarm();
+  if (off != DeviceStatus::kOk) shutdown_call_ = DeviceCall::kDeactivate;
+  else if (zeroed != DeviceStatus::kOk) shutdown_call_ = DeviceCall::kWrite;
+  shutdown_status_ = off != DeviceStatus::kOk ? off : zeroed;
+  if (shutdown_status_ == DeviceStatus::kOk && watchdog_ && watchdog_->shutdown_tripped()) {
+    // Returned, but only after the watchdog had halted the device.
+    shutdown_status_ = DeviceStatus::kTimeout;
+    shutdown_call_ = watchdog_->call();
+  }
   stop_reason_.store(reason, std::memory_order_release);
   running_.store(false, std::memory_order_release);
 }

@@ -62,6 +62,12 @@
 
 namespace hapticlab {
 
+// How long the loop's last device calls as it ends (the zero-force write
+// and deactivate()) may take together before the watchdog halts the device
+// and names the call [s] (wall clock; docs/safety.md). Longer than an
+// isolated plugin's own deactivate bound (2 s), which answers first.
+inline constexpr double kShutdownCallLimit_s = 2.5;
+
 enum class StopReason : std::uint8_t {
   kNotStopped = 0,
   kTaskComplete,    // the VE reported completion (after the linger time)
@@ -180,6 +186,11 @@ class HapticLoop {
   RealtimeResult realtime_result() const noexcept { return realtime_result_; }
   // Why kSafetyLimit or kWatchdog ended the loop; read once running() is false.
   const SafetyTrip& safety_trip() const noexcept { return trip_; }
+  // Once running() is false: what the loop's last device calls answered --
+  // the zero-force write and deactivate() -- and which failed (kNone: both
+  // kOk). A failure means the device may still be powered.
+  DeviceStatus shutdown_status() const noexcept { return shutdown_status_; }
+  DeviceCall shutdown_call() const noexcept { return shutdown_call_; }
   // Command entries the force limits (not the ramp) changed so far.
   std::uint64_t limited_commands() const noexcept { return limited_commands_.load(std::memory_order_relaxed); }
   // The guard the commands pass; valid after activate().
@@ -234,6 +245,8 @@ class HapticLoop {
   bool activated_ = false;  // control thread: activate() succeeded, loop not yet run
 
   std::atomic<DeviceCall> device_call_{DeviceCall::kNone};
+  DeviceStatus shutdown_status_ = DeviceStatus::kOk;  // written before running_ turns false
+  DeviceCall shutdown_call_ = DeviceCall::kNone;
   std::atomic<int> loop_tid_{0};
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> running_{false};

@@ -52,6 +52,7 @@ const char* to_string(DeviceCall call) noexcept {
     case DeviceCall::kNone: return "none";
     case DeviceCall::kRead: return "read";
     case DeviceCall::kWrite: return "write";
+    case DeviceCall::kDeactivate: return "deactivate";
   }
   return "unknown";
 }

@@ -33,8 +33,9 @@ enum class SafetyTripKind : std::uint8_t {
 };
 
 // Which device call a kDeviceCallHung trip was in.
-enum class DeviceCall : std::uint8_t { kNone = 0, kRead, kWrite };
-const char* to_string(DeviceCall call) noexcept;  // "read", "write", "none"
+// kDeactivate: the loop's last call as it ends (HapticLoop::finish).
+enum class DeviceCall : std::uint8_t { kNone = 0, kRead, kWrite, kDeactivate };
+const char* to_string(DeviceCall call) noexcept;  // "read", "write", "deactivate", "none"
 
 struct SafetyTrip {
   SafetyTripKind kind = SafetyTripKind::kNone;

@@ -25,6 +25,8 @@ void Watchdog::start() {
   stalled_for_s_.store(0.0, std::memory_order_release);
   tripped_call_.store(DeviceCall::kNone, std::memory_order_release);
   tripped_limit_s_.store(0.0, std::memory_order_release);
+  shutdown_since_ns_.store(0, std::memory_order_release);
+  shutdown_tripped_.store(false, std::memory_order_release);
   armed_.store(true, std::memory_order_release);
   thread_ = std::thread([this] { watch(); });
 }
@@ -36,6 +38,14 @@ void Watchdog::stop() noexcept {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+}
+
+void Watchdog::watch_shutdown(double limit_s) noexcept {
+  shutdown_limit_s_.store(limit_s, std::memory_order_release);
+  const auto now = std::chrono::steady_clock::now().time_since_epoch();
+  shutdown_since_ns_.store(std::max<std::int64_t>(1, std::chrono::duration_cast<std::chrono::nanoseconds>(now).count()),
+                           std::memory_order_release);
+  armed_.store(true, std::memory_order_release);
 }
 
 void Watchdog::watch() {
@@ -53,20 +63,26 @@ void Watchdog::watch() {
     if (stopping_) break;
     const std::uint64_t beat = heartbeat_.load(std::memory_order_relaxed);
     const Steady::time_point now = Steady::now();
-    if (beat != last_beat) {
+    const std::int64_t shutdown_ns = shutdown_since_ns_.load(std::memory_order_acquire);
+    if (beat != last_beat && shutdown_ns == 0) {
       last_beat = beat;
       last_change = now;
       continue;
     }
-    const std::chrono::duration<double> quiet = now - last_change;
     const DeviceCall in_call = call_ != nullptr ? call_->load(std::memory_order_acquire) : DeviceCall::kNone;
-    const auto limit = in_call == DeviceCall::kRead ? reading_timeout : timeout;
+    std::chrono::duration<double> quiet = now - last_change;
+    std::chrono::duration<double> limit = in_call == DeviceCall::kRead ? reading_timeout : timeout;
+    if (shutdown_ns != 0) {  // the last calls, timed from their start
+      quiet = now - Steady::time_point(std::chrono::duration_cast<Steady::duration>(std::chrono::nanoseconds(shutdown_ns)));
+      limit = std::chrono::duration<double>(shutdown_limit_s_.load(std::memory_order_acquire));
+    }
     if (quiet > limit && armed_.exchange(false, std::memory_order_acq_rel)) {
       // Cut the force first; the loop reads the flag when it comes back.
       device_.halt();
       tripped_call_.store(in_call, std::memory_order_release);
       tripped_limit_s_.store(limit.count(), std::memory_order_release);
       stalled_for_s_.store(quiet.count(), std::memory_order_release);
+      if (shutdown_ns != 0) shutdown_tripped_.store(true, std::memory_order_release);
       tripped_.store(true, std::memory_order_release);
     }
   }

@@ -50,6 +50,14 @@ class Watchdog {
   void stop() noexcept;
   // No halt from now on (the loop ended by itself).
   void disarm() noexcept { armed_.store(false, std::memory_order_release); }
+  // The loop's last device calls as it ends (the zero-force write,
+  // deactivate()): watched for `limit_s` from now instead of the heartbeat,
+  // armed again even if the watchdog already halted once (the call it then
+  // names replaces the earlier one), so a call that never returns is found
+  // and named. disarm() after them.
+  void watch_shutdown(double limit_s) noexcept;
+  // It halted during those last calls (they took longer than limit_s).
+  bool shutdown_tripped() const noexcept { return shutdown_tripped_.load(std::memory_order_acquire); }
 
   bool tripped() const noexcept { return tripped_.load(std::memory_order_acquire); }
   // How long the heartbeat had not moved when the watchdog halted [s].
@@ -78,6 +86,9 @@ class Watchdog {
   double read_allowance_s_;
   std::atomic<DeviceCall> tripped_call_{DeviceCall::kNone};
   std::atomic<double> tripped_limit_s_{0.0};
+  std::atomic<double> shutdown_limit_s_{0.0};
+  std::atomic<std::int64_t> shutdown_since_ns_{0};  // steady clock; 0: not shutting down
+  std::atomic<bool> shutdown_tripped_{false};
 };
 
 }  // namespace hapticlab

@@ -225,6 +225,46 @@ TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsIsAnnouncedAtOnceAndRecorded
   EXPECT_THAT(reasons[1], HasSubstr(" ms and had not returned when the session gave up on it"));
 }
 
+// The loop's last calls as a trial ends: a deactivate() that fails is a
+// device fault (the device may still be powered: exit 3, named, and an
+// event of the trial), not a normal end with exit 0.
+TEST_F(DeviceFaultSessionTest, ADeactivateThatFailsEndsTheSessionAsADeviceFault) {
+  const std::string db = create_study();
+  const auto [status, out] =
+      testing::run_cli(kBinary, session(db, "--clock virtual --max-trial-s 0.5 --device-option fault=fail_deactivate", 1));
+  EXPECT_EQ(status, 3) << out;
+  EXPECT_THAT(out, HasSubstr("device deactivate() failed (write_failed) as trial "));
+  EXPECT_THAT(out, HasSubstr("the device may still be powered"));
+  db::OpenOptions open;
+  open.read_only = true;
+  db::StudyDb study(db, open);
+  bool recorded = false;
+  for (const db::TrialRow& t : study.trials())
+    for (const db::EventRow& e : study.events(t.id)) recorded = recorded || e.type == "device_shutdown_fault";
+  EXPECT_TRUE(recorded) << "the trial's record does not say it";
+}
+
+// ... and one that never returns: the watchdog halts the device after
+// kShutdownCallLimit_s, the operator is told at once, and the session gives
+// up on it after the grace period (exit 3), as on a read that never returns;
+// before, the session waited for it for good, Ctrl-C included.
+TEST_F(DeviceFaultSessionTest, ADeactivateThatNeverReturnsIsAnnouncedAndGivenUpOn) {
+  const std::string db = create_study();
+  const auto start = std::chrono::steady_clock::now();
+  const auto [status, out] = testing::run_cli(
+      kBinary, session(db, "--clock wall --max-trial-s 0.3 --device-option fault=hang_in_deactivate", 1));
+  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(status, 3) << out;
+  EXPECT_THAT(out, HasSubstr("device deactivate() has not returned for 2500 ms"));
+  EXPECT_THAT(out, HasSubstr("had not returned when the session gave up on it"));
+  EXPECT_LT(took_s, 15.0) << out;
+  const std::vector<db::TrialRow> trials = trials_of(db);
+  const db::TrialRow* t = aborted(trials);
+  ASSERT_NE(t, nullptr) << out;
+  EXPECT_THAT(t->abort_reason, StartsWith("device deactivate hung for "));
+  EXPECT_TRUE(requeued(trials, *t));
+}
+
 // The same hang in the training before the first trial: said at once, and
 // given up on after the grace period as in a trial (before, the practice
 // trial waited for the call for good, and the session with it). The trial
