@@ -117,6 +117,7 @@ void ConsoleResults::run_export(std::string participant, std::uint64_t every, bo
       for (const db::BadChunk& c : bad) updates += c.count;
       message += "; " + std::to_string(bad.size()) + " damaged sample chunk(s) (" + std::to_string(updates) +
                  " updates) left out: `hapticlab study check` lists them";
+      state = "incomplete";  // as `hapticlab export` exits 1: the files are not the whole study
     }
   } catch (const std::exception& e) {
     state = "failed";
@@ -148,6 +149,14 @@ void ConsoleResults::run(bool plots) {
     write_stamp(out_dir_ / kReportStamp, identity);
     message = std::to_string(a.trials.size()) + " trials analysed; " + std::to_string(files.figures.size()) +
               " figures (KS bootstrap: run `hapticlab analyze`)";
+    if (a.counts.damaged_chunks > 0) {
+      // As `hapticlab analyze` exits 1: the results are not the whole study's.
+      state = "incomplete";
+      message += "; " + std::to_string(a.counts.damaged_chunks) +
+                 " damaged sample chunk(s) left out, their trials without measures: `hapticlab study check` lists "
+                 "them";
+    }
+    for (const std::string& w : a.session_conditions.warnings) message += "; warning: " + w;
   } catch (const std::exception& e) {
     state = "failed";
     message = e.what();

@@ -59,7 +59,9 @@ class ConsoleResults {
   mutable std::mutex mutex_;
   std::thread thread_;
   std::string job_;              // "analysis" or "export": the last one started
-  std::string state_ = "idle";  // idle, running, done, failed
+  // idle, running, done, incomplete (done, with damaged sample chunks left
+  // out), failed
+  std::string state_ = "idle";
   std::string message_;
   std::vector<std::string> exported_;  // files of the last export, relative to out_dir
 };

@@ -233,6 +233,11 @@ class Console {
   ConsoleOutcome shut_down() {
     session_.stop();
     tuning_.stop();
+    // A device call that hangs is marked so only as the session or free
+    // trial gives up on it: read after their threads end, or a Ctrl-C in
+    // the grace period would exit 0 after a hang.
+    session_.wait_until_ended();
+    tuning_.wait_until_ended();
     ConsoleOutcome outcome;
     outcome.device_hung = device_health_.hung();
     return outcome;

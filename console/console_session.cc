@@ -43,6 +43,10 @@ ConsoleSession::~ConsoleSession() {
   if (thread_.joinable()) thread_.join();
 }
 
+void ConsoleSession::wait_until_ended() {
+  if (thread_.joinable()) thread_.join();
+}
+
 void ConsoleSession::start(const std::string& participant, bool step) {
   std::lock_guard lock(mutex_);
   if (running_) throw ConsoleConflict("start: a session is running (" + participant_ + "); stop it first");

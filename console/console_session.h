@@ -79,6 +79,10 @@ class ConsoleSession {
   // (the loop thread of the server calls it); returns what ran, which
   // record_stop() then stores.
   StopSnapshot stop();
+  // After stop(), once nothing can start another session (the server has
+  // stopped): waits for the session's thread, which ends within the device
+  // hang grace even when a device call never returns (DeviceHungError).
+  void wait_until_ended();
   // Stores STOP's record on its own connection, waiting for another
   // connection's lock as long as the sample writer would (db/sample_writer.h,
   // kBusyPatience); returns "" once stored, else what failed. The status'

@@ -90,6 +90,10 @@ void ConsoleTuning::start(const std::string& task, const NamedSettings& from) {
 
 void ConsoleTuning::stop() { stop_.store(true); }
 
+void ConsoleTuning::wait_until_ended() {
+  if (thread_.joinable()) thread_.join();
+}
+
 void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
   std::lock_guard lock(mutex_);
   nlohmann::json edited = settings_;

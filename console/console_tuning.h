@@ -59,6 +59,9 @@ class ConsoleTuning {
   // ConsoleConflict when the device hung.
   void start(const std::string& task, const NamedSettings& from);
   void stop();  // zero force (the loop's stop), then the thread ends
+  // After stop(), once nothing can start another free trial: waits for it
+  // (bounded by the device hang grace, as a session).
+  void wait_until_ended();
   bool running() const;
 
   // Sets one field of the settings, by its path in a settings file:

@@ -274,7 +274,7 @@ async function refreshResults() {
   }
   const current = r.files.includes("report.html");
   if (!current && shownReport) { shownReport = ""; $("report").classList.remove("on"); $("report").src = "about:blank"; }
-  if (r.state === "done" && r.job === "analysis" && current && shownReport !== r.message) {
+  if ((r.state === "done" || r.state === "incomplete") && r.job === "analysis" && current && shownReport !== r.message) {
     const url = await ticketUrl("/results/report.html");
     if (!url) return;
     shownReport = r.message;

@@ -552,6 +552,39 @@ def check_device_hangs(hung, consoles):
           "its device, and exited with status 3")
 
 
+def ctrl_c_while_a_device_call_hangs(cli, source, work, plugin, consoles):
+    """Ctrl-C as soon as the alert of a hung device read shows, before the
+    session gives up on it: the console waits for the session to give up
+    (zero force was commanded at once) and exits with status 3, as it does
+    after the grace; it exited 0 before, the hang not yet marked."""
+    protocol = os.path.join(source, "examples/protocols/thesis_quick.json")
+    db = os.path.join(work, "ctrl_c_hang.db")
+    subprocess.run([cli, "study", "create", "--protocol", protocol, "--db", db], check=True, capture_output=True)
+    c = Console(cli, db, "--device", "plugin-inprocess:" + plugin, "--device-option", "fault=hang_in_read",
+                "--device-option", "after=100")
+    c.status_path = "/api/status"
+    consoles.append(c)
+    for attempt in range(3):
+        expect("a session on the hanging device",
+               request(c.port, "POST", "/api/session/start", {"participant": "S1"}, token=c.token), 200)
+        seen = wait_for("the device alert", lambda: (j := device_view(c)).get("device_alert") and
+                        ("device read()" in j["device_alert"] or not j["running"]) and j, 30,
+                        lambda: f"its status: {json.dumps(device_view(c))[:800]}")
+        if "device read() has not returned for" in seen["device_alert"]:
+            break
+    else:
+        fail(f"no hang in three sessions: {seen}")
+    c.proc.send_signal(signal.SIGINT)
+    try:
+        out, _ = c.proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        fail("the console did not end within 20 s of SIGINT during a device hang")
+    if c.proc.returncode != 3 or "the device hung" not in out:
+        fail(f"Ctrl-C during a device hang: the console ended with {c.proc.returncode}: {out[-600:]}")
+    consoles.remove(c)
+    print("  Ctrl-C while a device read hung: the console waited for the session to give up, exit status 3")
+
+
 def free_trial_goes_on_after_a_host_stall(cli, source, work, consoles):
     """The host falls behind during a free trial (the console frozen by
     SIGSTOP for 0.3 s, as a loaded machine would): the loop's watchdog ends
@@ -931,6 +964,7 @@ def main():
             fail(f"the export's operator_actions.csv: {exported[:500]}")
         if hung:
             check_device_hangs(hung, consoles)
+            ctrl_c_while_a_device_call_hangs(a.cli, a.source, a.work, a.fake_plugin, consoles)
         free_trial_goes_on_after_a_host_stall(a.cli, a.source, a.work, consoles)
         stop_during_training(a.cli, a.source, a.work, consoles)
     finally:
