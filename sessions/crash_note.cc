@@ -87,7 +87,9 @@ void on_crash(int sig) {
     sigemptyset(&alarm_action.sa_mask);
     ::sigaction(SIGALRM, &alarm_action, nullptr);
     ::alarm(1);
-    g_device->halt();
+    // Waited for: an isolated plugin's host dies with this process
+    // (PR_SET_PDEATHSIG), maybe before its halt thread reached the plugin.
+    g_device->halt_and_wait(0.5);
     ::alarm(0);
   }
   // SA_RESETHAND restored the default action: die of the signal itself.

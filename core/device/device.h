@@ -115,6 +115,15 @@ class Device {
   // off until the next activate(). Default: nothing beyond what write()
   // does, for devices without a separate way to cut the output.
   virtual void halt() noexcept {}
+  // halt(), and for a device whose halt runs elsewhere (an isolated
+  // plugin's host process) a wait of up to max_wait_s for it to be done.
+  // For a process about to die (its crash handler): the host would be
+  // killed with it, maybe before the halt reached the plugin.
+  // Async-signal-safe where halt() is. Default: halt().
+  virtual void halt_and_wait(double max_wait_s) noexcept {
+    (void)max_wait_s;
+    halt();
+  }
 
   // Real-time thread, once per loop run, before its first read(): the
   // clock's time of the loop's first update. The loop's t_s (the stored

@@ -255,25 +255,31 @@ bool IsolatedPluginDevice::child_ended(PluginCallOp op, std::uint32_t seq) const
   return true;
 }
 
-void IsolatedPluginDevice::kill_hung(PluginCallOp op, double waited_ms, double bound_s) const noexcept {
-  // Force off first, as the watchdog would: the host's halt thread still
-  // runs while its main thread hangs in the plugin.
+// Asks the host's halt thread for a halt and sleeps (futex, no spin: on a
+// 2-core machine with the loop at SCHED_FIFO a spin could be what keeps the
+// halt thread off a CPU) until it is done or max_wait_s passed.
+// Async-signal-safe: atomics, clock_gettime and futex calls only.
+void IsolatedPluginDevice::request_halt_and_wait(double max_wait_s) const noexcept {
   PluginChannel& ch = *channel_;
   const std::uint32_t asked = word(ch.halt).fetch_add(1) + 1;
   futex_wake(ch.halt);
-  // Asleep, not spinning: on a 2-core machine with the loop at SCHED_FIFO a
-  // spin here could be what keeps the halt thread off a CPU.
-  const auto grace_until =
-      Steady::now() + std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(bounds_.halt_grace_s));
+  const auto until =
+      Steady::now() + std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(max_wait_s));
   for (;;) {
     const std::uint32_t done = word(ch.halts_done).load();
     if (static_cast<std::int32_t>(done - asked) >= 0) break;
-    const auto left = grace_until - Steady::now();
+    const auto left = until - Steady::now();
     if (left <= Steady::duration::zero()) break;
     const auto left_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(left).count();
     const std::timespec ts{static_cast<std::time_t>(left_ns / 1'000'000'000), static_cast<long>(left_ns % 1'000'000'000)};
     futex_wait(ch.halts_done, done, &ts);
   }
+}
+
+void IsolatedPluginDevice::kill_hung(PluginCallOp op, double waited_ms, double bound_s) const noexcept {
+  // Force off first, as the watchdog would: the host's halt thread still
+  // runs while its main thread hangs in the plugin.
+  request_halt_and_wait(bounds_.halt_grace_s);
   ::kill(pid_, SIGKILL);
   fault_ = Fault{FaultKind::kHung, op, 0, true, waited_ms, bound_s};
   dead_ = true;
@@ -419,6 +425,11 @@ void IsolatedPluginDevice::halt() noexcept {
   // halt thread takes it. Harmless if the host is gone.
   word(channel_->halt).fetch_add(1);
   futex_wake(channel_->halt);
+}
+
+void IsolatedPluginDevice::halt_and_wait(double max_wait_s) noexcept {
+  if (dead_) return;  // the host is gone: nothing to wait for
+  request_halt_and_wait(max_wait_s);
 }
 
 std::string IsolatedPluginDevice::fault_detail() const {

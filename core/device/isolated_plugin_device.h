@@ -98,6 +98,7 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   DeviceStatus write(const DeviceCommand& command) noexcept override;
   DeviceStatus deactivate() noexcept override;
   void halt() noexcept override;
+  void halt_and_wait(double max_wait_s) noexcept override;
   const char* name() const noexcept override { return name_.c_str(); }
   DeviceRatings ratings() const noexcept override { return ratings_; }
   HandAttachment* hand_attachment() noexcept override { return has_sim_ ? this : nullptr; }
@@ -141,6 +142,7 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   DeviceStatus call(PluginCallOp op, double bound_s) const noexcept;
   // True, with fault_ filled in, if the child has ended (not reaped).
   bool child_ended(PluginCallOp op, std::uint32_t seq) const noexcept;
+  void request_halt_and_wait(double max_wait_s) const noexcept;
   void kill_hung(PluginCallOp op, double waited_ms, double bound_s) const noexcept;
   DeviceStatus fault_status() const noexcept;
   std::string process_end(const std::string& where) const;
