@@ -79,6 +79,7 @@ void SampleWriter::run() noexcept {
       } catch (...) {
         error_ = std::current_exception();
         failed_.store(true, std::memory_order_release);
+        if (config_.failed_flag != nullptr) config_.failed_flag->store(true, std::memory_order_release);
       }
     }
     if (error_ != nullptr) {

@@ -85,6 +85,10 @@ struct SampleWriterConfig {
   // watching costs the writer, never the haptic loop. May be empty; must
   // not throw or block for long.
   std::function<void(std::span<const LoopSample>)> observe;
+  // Set (true) too when the writer fails: a flag that outlives the writer,
+  // for a producer on another thread that must stop handing in data that
+  // is now lost (the C study API's log calls). May be null.
+  std::atomic<bool>* failed_flag = nullptr;
 };
 
 struct TrialOutcome {

@@ -70,6 +70,9 @@ struct hl_study {
   // engine is shared with hl_study_request_stop (any thread) under mutex.
   std::optional<hl::db::TrialRow> trial;
   std::atomic<bool> trial_open{false};
+  // The trial's sample writer failed (SampleWriterConfig::failed_flag): the
+  // log calls say so instead of accepting data that is thrown away.
+  std::atomic<bool> storage_failed{false};
   std::mutex engine_mutex;
   hl_engine* engine = nullptr;
 
@@ -129,6 +132,7 @@ void reset_trial_streams(hl_study& study) {
   study.dropped_events.store(0, std::memory_order_relaxed);
   study.rejected_samples.store(0, std::memory_order_relaxed);
   study.rejected_events.store(0, std::memory_order_relaxed);
+  study.storage_failed.store(false, std::memory_order_relaxed);
   study.have_tick = false;
   study.last_t_s.store(0.0, std::memory_order_relaxed);
   study.timing.reset();
@@ -244,7 +248,9 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
     hl_engine_set_ramp_in(engine, hl::ForceGuard::kDefaultRampIn_s);
     reset_trial_streams(*study);
     try {
-      session.start_trial(*next, study->samples, study->events);
+      hl::db::SampleWriterConfig writer;
+      writer.failed_flag = &study->storage_failed;
+      session.start_trial(*next, study->samples, study->events, writer);
     } catch (...) {
       hl_engine_destroy(engine);
       throw;
@@ -306,6 +312,9 @@ int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
     out.engine_status = in.engine_status;
     out.in_contact = in.in_contact != 0;
   }
+  // Checked before anything is counted: once storage failed, nothing this
+  // trial logs is kept, and the application must end the trial.
+  if (study->storage_failed.load(std::memory_order_acquire)) return HL_ERROR_DATABASE;
   study->timing.record(sample->dt_s, false);
   study->last_t_s.store(sample->t_s, std::memory_order_relaxed);
   if (!study->samples.try_push(s)) {
@@ -322,6 +331,7 @@ int hl_study_log_event(hl_study* study, double t_s, int type, int instrument, in
     study->rejected_events.fetch_add(1, std::memory_order_relaxed);
     return HL_ERROR_INVALID_ARGUMENT;
   }
+  if (study->storage_failed.load(std::memory_order_acquire)) return HL_ERROR_DATABASE;
   const hl::TaskEvent e{t_s, static_cast<hl::TaskEventType>(type), static_cast<std::int8_t>(instrument), index};
   if (!study->events.try_push(e)) {
     study->dropped_events.fetch_add(1, std::memory_order_relaxed);

@@ -5,6 +5,7 @@
 // `session run`.
 #include "hapticlab/study.h"
 
+#include <chrono>
 #include <cmath>
 #include <string>
 #include <thread>
@@ -12,6 +13,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "db/sqlite_handle.h"
 #include "db/study_db.h"
 #include "tests/sessions/session_fixture.h"
 
@@ -356,6 +358,34 @@ TEST_F(StudyApiTest, LoggingNeverBlocksAndEveryDropIsCounted) {
   ASSERT_TRUE(timing->timing.has_value());
   EXPECT_EQ(timing->timing->count, kPushed);  // the application's periods, all of them
   EXPECT_NEAR(timing->timing->mean_period_s, 0.001, 1e-12);
+}
+
+// The database fails mid-trial (a trigger refuses every chunk, as a full
+// disk would): the log calls say so (HL_ERROR_DATABASE) within the writer's
+// commit interval, instead of accepting updates that are thrown away until
+// the trial's end; before, they answered HL_OK to the end.
+TEST_F(StudyApiTest, OnceStorageFailsTheLogCallsSaySo) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  {
+    db::Database conn(db_path_);
+    conn.exec("CREATE TRIGGER refuse_chunks BEFORE INSERT ON sample_chunk "
+              "BEGIN SELECT RAISE(ABORT, 'database or disk is full (test)'); END");
+  }
+  int rc = HL_OK;
+  std::uint64_t tick = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (rc != HL_ERROR_DATABASE && std::chrono::steady_clock::now() < deadline) {
+    const hl_sample s = sample_at(tick++);
+    rc = hl_study_log_sample(study_, &s);
+    ASSERT_TRUE(rc == HL_OK || rc == HL_STUDY_DROPPED || rc == HL_ERROR_DATABASE) << rc;
+    if (tick % 1000 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(rc, HL_ERROR_DATABASE) << "the log calls never said that storage failed";
+  EXPECT_EQ(hl_study_log_event(study_, 0.001 * static_cast<double>(tick), HL_EVENT_CONTACT_START, 0, 0),
+            HL_ERROR_DATABASE);
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_DATABASE);
+  EXPECT_THAT(std::string(error_), HasSubstr("disk is full (test)"));
 }
 
 TEST_F(StudyApiTest, ClosingWithATrialOpenAbortsAndRequeuesIt) {

@@ -169,6 +169,8 @@ HL_API int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_
 /*
  * Logs one haptic update of the open trial. Real-time safe: copies into a
  * lock-free queue. HL_OK, HL_STUDY_DROPPED (queue full; counted),
+ * HL_ERROR_DATABASE once the trial's storage failed (a full disk: nothing
+ * logged from then on is kept; end the trial, hl_study_end_trial says why),
  * HL_ERROR_STATE without an open trial, HL_ERROR_INVALID_ARGUMENT for NULL
  * and, counted in hl_study_rejected, for a tick not greater than the last
  * one accepted in this trial or a t_s or dt_s that is NaN or infinite (the
