@@ -17,6 +17,7 @@
 #include "sessions/staircase_planner.h"
 #include "analysis/study/session_conditions.h"
 #include "core/sim/population.h"
+#include "sessions/session_protocol.h"
 #include "sessions/study_session.h"
 #include "sessions/trial_end.h"
 #include "protocols/loop_protections.h"
@@ -61,56 +62,7 @@ constexpr double kVirtualClockHang_s = 2.0;
 
 std::string ms_text(double s) { return std::to_string(static_cast<long long>(std::llround(1e3 * s))) + " ms"; }
 
-// The protocol's training trials for `code`: the participant entry's
-// training_trials, else the top-level one, else 0. The stored protocol was
-// validated when the study was created, so only the shape is read here.
-int protocol_training_trials(const std::string& protocol_json, const std::string& code) {
-  const nlohmann::json j = nlohmann::json::parse(protocol_json);
-  int trials = j.value("training_trials", 0);
-  for (const nlohmann::json& p : j.at("participants")) {
-    if (p.is_object() && p.value("code", std::string()) == code) trials = p.value("training_trials", trials);
-  }
-  return trials;
-}
 
-// The setting simulated participants train under: the protocol's first
-// (the control, High Fidelity in the thesis).
-std::int64_t training_setting_id(db::StudyDb& db, std::int64_t study_id) {
-  db::Statement q = db.connection().prepare("SELECT id FROM setting WHERE study_id = ? ORDER BY id LIMIT 1");
-  q.bind(1, study_id);
-  if (!q.step()) throw std::runtime_error(db.path() + ": the study has no settings");
-  return q.column_int64(0);
-}
-
-// The simulated rig has only its own VE's tasks: a study whose protocol
-// declares an external VE (its tasks are the lab's own) is run by the lab's
-// application through the study API. Refused before the session begins.
-void refuse_external_ve(const db::StudyRow& study) {
-  const nlohmann::json j = nlohmann::json::parse(study.protocol_json);
-  if (j.is_object() && j.value("ve", std::string("simulated")) == "external")
-    throw std::runtime_error("study '" + study.name +
-                             "': its protocol declares \"ve\": \"external\", so its tasks run in the lab's own "
-                             "VE; `session run` drives only the simulated VE (tasks dissection and clip). Run the "
-                             "study from the lab's application through the study API (hapticlab/study.h, see "
-                             "docs/ve_events.md).");
-}
-
-// Why a practice trial ended before its task was complete, said as a
-// trial's abort_reason would say it; empty when it was done in full.
-std::string practice_cut_short_reason(const SimTrialResult& r, double max_trial_s) {
-  if (r.task_complete) return {};
-  switch (r.stop_reason) {
-    case StopReason::kMaxDuration: return time_limit_reason(format_number(max_trial_s) + " s");
-    case StopReason::kSafetyLimit: return "safety limit: " + describe(r.safety_trip);
-    case StopReason::kRateViolation: return "rate_violation: " + describe(r.safety_trip);
-    case StopReason::kWatchdog:
-      return r.safety_trip.kind == SafetyTripKind::kDeviceCallHung ? describe(r.safety_trip)
-                                                                   : "watchdog: " + describe(r.safety_trip);
-    case StopReason::kDeviceFault: return std::string("device fault: ") + to_string(r.device_status);
-    case StopReason::kStopRequested: return "operator stopped the session";
-    default: return std::string("ended before the task was complete (") + to_string(r.stop_reason) + ")";
-  }
-}
 
 
 // One session, stage by stage: opening (StudySession), then per trial the
@@ -148,6 +100,7 @@ class SessionRun {
                              int practice) const;
   [[noreturn]] void refuse(DeviceStatus status, const std::string& what);
   void note_participant_model(SimRig& rig);
+  void record_late_operator_aborts();
   void progress(SessionProgress p) const;
 
   const SessionOptions& options_;
@@ -165,6 +118,8 @@ class SessionRun {
   Clock::time_point session_start_ = Clock::now();
   std::set<std::string> trained_;
   bool model_noted_ = false;
+  std::int64_t last_trial_id_ = 0;  // the last trial run, and its loop time at its end
+  double last_trial_end_t_s_ = 0.0;
   double trial_wall_s_ = 0.0;  // wall time of trials finished in this session
   int trials_timed_ = 0;
   std::vector<OperatorEvent> actions_;
@@ -356,6 +311,24 @@ void SessionRun::give_up_on_hung_training(const SimTrialResult& practice, const 
                         "restarted instead");
 }
 
+// An abort the operator sent as the session's last trial ended (accepted,
+// but after the runner's last poll of it): recorded on the trial it named as
+// missed, as one that reaches the next trial is, never dropped.
+void SessionRun::record_late_operator_aborts() {
+  if (!options_.take_operator_events) return;
+  actions_.clear();
+  options_.take_operator_events(actions_);
+  for (const OperatorEvent& a : actions_) {
+    if (!a.abort || a.trial_id == 0) continue;  // the rest is in operator_action already
+    db::EventRow e;
+    e.trial_id = a.trial_id;
+    e.t_s = a.trial_id == last_trial_id_ ? last_trial_end_t_s_ : 0.0;
+    e.type = "operator_abort_missed";
+    e.detail = "trial " + std::to_string(a.trial_id) + " had ended: " + a.detail;
+    db_.add_event(e);
+  }
+}
+
 // The operator's actions since the last poll go into the trial's record; an
 // abort of this trial ends it, one of a trial that has ended is recorded as
 // missed.
@@ -530,6 +503,8 @@ void SessionRun::run_trial(const db::TrialRow& trial) {
   // Throws, with the session recorded as interrupted, on a storage failure.
   result_.samples_logged += session_.finish_trial(outcome);
   const double trial_sim_s = loop.elapsed_s();
+  last_trial_id_ = trial.id;
+  last_trial_end_t_s_ = trial_sim_s;
   trial_wall_s_ += seconds_since(trial_start);
   ++trials_timed_;
   if (outcome.status == db::TrialStatus::kComplete) ++result_.trials_complete;
@@ -559,6 +534,7 @@ SessionResult SessionRun::run() {
     if (result_.device_fault) break;
   }
   if (stop_requested(options_)) result_.stopped_by_operator = true;
+  record_late_operator_aborts();
   session_.end(result_.device_fault ? db::SessionStatus::kInterrupted : db::SessionStatus::kClosed);
   result_.trials_requeued += session_.requeued();
   result_.trials_left = session_.trials_left();

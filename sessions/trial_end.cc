@@ -104,4 +104,19 @@ TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::i
   return end;
 }
 
+std::string practice_cut_short_reason(const SimTrialResult& r, double max_trial_s) {
+  if (r.task_complete) return {};
+  switch (r.stop_reason) {
+    case StopReason::kMaxDuration: return time_limit_reason(format_number(max_trial_s) + " s");
+    case StopReason::kSafetyLimit: return "safety limit: " + describe(r.safety_trip);
+    case StopReason::kRateViolation: return "rate_violation: " + describe(r.safety_trip);
+    case StopReason::kWatchdog:
+      return r.safety_trip.kind == SafetyTripKind::kDeviceCallHung ? describe(r.safety_trip)
+                                                                   : "watchdog: " + describe(r.safety_trip);
+    case StopReason::kDeviceFault: return std::string("device fault: ") + to_string(r.device_status);
+    case StopReason::kStopRequested: return "operator stopped the session";
+    default: return std::string("ended before the task was complete (") + to_string(r.stop_reason) + ")";
+  }
+}
+
 }  // namespace hapticlab::sessions

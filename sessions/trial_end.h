@@ -9,6 +9,7 @@
 
 #include "core/device/device.h"
 #include "core/loop/haptic_loop.h"
+#include "core/sim/trial_runner.h"
 #include "db/sample_writer.h"
 
 namespace hapticlab::sessions {
@@ -33,5 +34,10 @@ inline constexpr int kMaxWatchdogTripsInARow = 3;
 TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::int64_t trial_id,
                             const std::optional<std::string>& operator_abort, double max_trial_s,
                             int& watchdog_trips_in_a_row, db::TrialOutcome& outcome);
+
+// Why a practice trial (training, run by run_sim_trial) ended before its
+// task was complete, said as a trial's abort_reason would say it; empty
+// when it was done in full.
+std::string practice_cut_short_reason(const SimTrialResult& r, double max_trial_s);
 
 }  // namespace hapticlab::sessions

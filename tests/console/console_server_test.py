@@ -647,8 +647,11 @@ def stop_during_training(cli, source, work, consoles):
     wait_for("the session's end after STOP in training", lambda: not status_of(c).get("running"), 30)
     ended_s = time.monotonic() - t0
     print(f"  STOP during training: the session ended {1e3 * ended_s:.0f} ms after STOP")
-    if ended_s > LOADED_BOUND_S:
-        fail(f"STOP during training: the session ran on for {ended_s:.2f} s (bound {LOADED_BOUND_S} s)")
+    # The practice trial ends within a drain; the session's end then writes
+    # the training and closes the session (commits that a loaded CI machine
+    # can hold up). Without the fix the practice trial ran on for 25 s.
+    if ended_s > 5.0:
+        fail(f"STOP during training: the session ran on for {ended_s:.2f} s (bound 5 s)")
     rows = sqlite3.connect(db).execute("SELECT trials, cut_short, cut_short_reason FROM training").fetchall()
     if rows != [(0, 1, "operator stopped the session")]:
         fail(f"the training cut short by STOP, as stored: {rows}")

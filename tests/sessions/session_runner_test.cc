@@ -154,6 +154,38 @@ TEST_F(SessionFixture, OperatorEndsTrainingAfterTheCurrentTrial) {
   EXPECT_EQ(training[0].trials, 1);
 }
 
+// An abort the console accepted as the session's last trial ended, after
+// the runner's last poll of the trial: recorded on that trial as missed
+// (the trial stays complete), as one reaching the next trial is; it was
+// dropped before.
+TEST_F(SessionFixture, AnAbortThatArrivesAsTheLastTrialEndsIsRecordedAsMissed) {
+  SessionOptions o = options_for("A1");
+  o.max_trials = 1;
+  std::vector<OperatorEvent> pending;
+  std::int64_t finished = 0;
+  o.on_progress = [&](const SessionProgress& p) {
+    if (p.phase != SessionProgress::Phase::kTrialFinished) return;
+    finished = p.trial_id;
+    pending.push_back({"operator_abort", "too late", true, p.trial_id});
+  };
+  o.take_operator_events = [&](std::vector<OperatorEvent>& out) {
+    out.insert(out.end(), pending.begin(), pending.end());
+    pending.clear();
+  };
+  const SessionResult r = run_session(db_path_, o);
+  EXPECT_EQ(r.trials_complete, 1);
+  ASSERT_NE(finished, 0);
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(db_path_, open);
+  EXPECT_EQ(db.trial(finished).status, TrialStatus::kComplete);
+  const auto events = db.events(finished);
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.back().type, "operator_abort_missed");
+  EXPECT_EQ(events.back().detail, "trial " + std::to_string(finished) + " had ended: too late");
+  EXPECT_GT(events.back().t_s, 1.0);  // at the trial's end
+}
+
 TEST_F(SessionFixture, OperatorStopAbortsKeepsSamplesAndRequeues) {
   std::atomic<bool> stop{false};
   SessionOptions o = options_for("A1");
