@@ -48,7 +48,7 @@ __all__ = [
     "crc32c", "SCHEMA_VERSION",
 ]
 
-# The schema this module reads: version 9 (db/schema.h); since version 7 its chunk
+# The schema this module reads: version 10 (db/schema.h); since version 7 its chunk
 # checksums cover their trial and instrument. Older files are migrated by
 # any HapticLab command that opens them read-write (`hapticlab analyze`).
 SCHEMA_VERSION = 10
