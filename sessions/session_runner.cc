@@ -60,6 +60,11 @@ void check_options(const SessionOptions& options) {
 // hold a thread off the CPU, since here nothing real waits on the device.
 constexpr double kVirtualClockHang_s = 2.0;
 
+// What the operator does after a device call the session gave up on.
+constexpr const char* kHungDeviceAdvice =
+    ". The device's code cannot be stopped inside this process: restart the device, then run the session again; "
+    "an isolated plugin (docs/devices.md) is killed and restarted instead";
+
 std::string ms_text(double s) { return std::to_string(static_cast<long long>(std::llround(1e3 * s))) + " ms"; }
 
 
@@ -305,10 +310,8 @@ void SessionRun::give_up_on_hung_training(const SimTrialResult& practice, const 
   row.trials = done - row.cut_short + 1;
   db_.add_training(row);
   session_.end(db::SessionStatus::kInterrupted);
-  throw DeviceHungError(why + " (in the training before trial " + std::to_string(trial.id) +
-                        ", which stays planned). The device's code cannot be stopped inside this process: restart "
-                        "the device, then run the session again; an isolated plugin (docs/devices.md) is killed and "
-                        "restarted instead");
+  throw DeviceHungError(why + " (in the training before trial " + std::to_string(trial.id) + ", which stays planned)" +
+                        kHungDeviceAdvice);
 }
 
 // An abort the operator sent as the session's last trial ended (accepted,
@@ -411,9 +414,7 @@ void SessionRun::give_up_on_hung_device(HapticLoop& loop, std::unique_ptr<SimRig
   session_.end(db::SessionStatus::kInterrupted);
   (void)rig_owner.release();
   throw DeviceHungError(outcome.abort_reason + " (trial " + std::to_string(trial.id) +
-                        ", re-queued with its samples up to the hang). The device's code cannot be stopped inside "
-                        "this process: restart the device, then run the session again; an isolated plugin "
-                        "(docs/devices.md) is killed and restarted instead");
+                        ", re-queued with its samples up to the hang)" + kHungDeviceAdvice);
 }
 
 // Polls the running loop until it ends: the operator's actions, a hung
