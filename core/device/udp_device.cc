@@ -77,7 +77,7 @@ UdpDevice::UdpDevice(const UdpDeviceOptions& options)
   const std::int64_t end_ns = steady_ns() + std::int64_t{options.handshake_timeout_ms} * 1'000'000;
   bool answered = false;
   while (!answered && steady_ns() < end_ns) {
-    const std::uint32_t seq = send(udp::Type::kHello, 0.0);
+    const std::uint32_t seq = send(udp::Type::kHello, 0.0).sequence;
     answered = await(udp::Type::kHelloReply, seq, std::min(end_ns, steady_ns() + 100'000'000));
   }
   if (!answered) {
@@ -145,28 +145,32 @@ double UdpDevice::now_s() const noexcept {
 // driver drops the older one; that is only ever the watchdog's zero
 // COMMAND racing a loop that is not stuck after all, whose own next write
 // is zero (halted_) and whose next check ends the trial.
-std::uint32_t UdpDevice::send(udp::Type type, double time_s) noexcept {
+UdpDevice::Sent UdpDevice::send(udp::Type type, double time_s) noexcept {
   std::array<std::byte, udp::kMaxDatagramBytes> buf;
   const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s, host_nonce_,
                       device_nonce_};
-  send_datagram(udp::encode(h, key_, buf.data()), buf.data());
-  return h.sequence;
+  return {h.sequence, send_datagram(udp::encode(h, key_, buf.data()), buf.data())};
 }
 
 template <typename Payload>
-std::uint32_t UdpDevice::send(udp::Type type, double time_s, const Payload& payload) noexcept {
+UdpDevice::Sent UdpDevice::send(udp::Type type, double time_s, const Payload& payload) noexcept {
   std::array<std::byte, udp::kMaxDatagramBytes> buf;
   const udp::Header h{type, tx_sequence_.fetch_add(1, std::memory_order_relaxed) + 1, time_s, host_nonce_,
                       device_nonce_};
-  send_datagram(udp::encode(h, payload, key_, buf.data()), buf.data());
-  return h.sequence;
+  return {h.sequence, send_datagram(udp::encode(h, payload, key_, buf.data()), buf.data())};
 }
 
-void UdpDevice::send_datagram(std::size_t n, const std::byte* data) noexcept {
-  // A lost datagram shows up as a timeout of the request it belonged to.
+bool UdpDevice::send_datagram(std::size_t n, const std::byte* data) noexcept {
+  // A datagram lost on the way shows up as a timeout of its request; one
+  // the socket refused is known here, and said by name.
   if (::sendto(fd_, data, n, MSG_NOSIGNAL, reinterpret_cast<const sockaddr*>(&peer_), sizeof peer_) ==
-      static_cast<ssize_t>(n))
+      static_cast<ssize_t>(n)) {
     sent_.fetch_add(1, std::memory_order_relaxed);
+    return true;
+  }
+  last_send_errno_.store(errno, std::memory_order_relaxed);
+  send_failed_.fetch_add(1, std::memory_order_relaxed);
+  return false;
 }
 
 bool UdpDevice::await(udp::Type type, std::uint32_t sequence, std::int64_t deadline_ns) noexcept {
@@ -248,12 +252,14 @@ bool UdpDevice::await(udp::Type type, std::uint32_t sequence, std::int64_t deadl
 DeviceStatus UdpDevice::request_ack(udp::Type type, double time_s, const void* payload, int timeout_ms) noexcept {
   // The sequence the request went out with: a halt() on another thread may
   // take the next one meanwhile.
-  std::uint32_t seq = 0;
+  Sent sent;
   switch (type) {
-    case udp::Type::kConfigure: seq = send(type, time_s, *static_cast<const udp::Configure*>(payload)); break;
-    case udp::Type::kSetStartPose: seq = send(type, time_s, *static_cast<const udp::StartPose*>(payload)); break;
-    default: seq = send(type, time_s); break;
+    case udp::Type::kConfigure: sent = send(type, time_s, *static_cast<const udp::Configure*>(payload)); break;
+    case udp::Type::kSetStartPose: sent = send(type, time_s, *static_cast<const udp::StartPose*>(payload)); break;
+    default: sent = send(type, time_s); break;
   }
+  if (!sent.ok) return DeviceStatus::kWriteFailed;
+  const std::uint32_t seq = sent.sequence;
   if (!await(udp::Type::kAck, seq, steady_ns() + std::int64_t{timeout_ms} * 1'000'000)) {
     timeouts_.fetch_add(1, std::memory_order_relaxed);
     return DeviceStatus::kTimeout;
@@ -285,8 +291,9 @@ DeviceStatus UdpDevice::read(DeviceReading& reading) noexcept {
   const std::int64_t sent_ns = steady_ns();
   const double t_s = now_s();
   last_poll_time_s_.store(t_s, std::memory_order_relaxed);
-  const std::uint32_t seq = send(udp::Type::kPoll, t_s);
-  if (!await(udp::Type::kState, seq, sent_ns + std::int64_t{options_.timeout_ms} * 1'000'000)) {
+  const Sent poll = send(udp::Type::kPoll, t_s);
+  if (!poll.ok) return DeviceStatus::kReadFailed;
+  if (!await(udp::Type::kState, poll.sequence, sent_ns + std::int64_t{options_.timeout_ms} * 1'000'000)) {
     timeouts_.fetch_add(1, std::memory_order_relaxed);
     return DeviceStatus::kTimeout;
   }
@@ -310,8 +317,8 @@ DeviceStatus UdpDevice::write(const DeviceCommand& command) noexcept {
   for (const DeviceJoints& j : command.force)
     for (double v : j) finite = finite && std::isfinite(v);
   if (finite && !halted_.load(std::memory_order_acquire)) c.force = command.force;
-  send(udp::Type::kCommand, now_s(), c);
-  return finite ? DeviceStatus::kOk : DeviceStatus::kWriteFailed;
+  const bool sent = send(udp::Type::kCommand, now_s(), c).ok;
+  return finite && sent ? DeviceStatus::kOk : DeviceStatus::kWriteFailed;
 }
 
 void UdpDevice::halt() noexcept {
@@ -324,10 +331,13 @@ void UdpDevice::halt() noexcept {
 DeviceStatus UdpDevice::deactivate() noexcept {
   if (!active_) return DeviceStatus::kOk;
   active_ = false;
-  send(udp::Type::kCommand, now_s(), udp::Command{});
+  // A zero COMMAND the socket refused is a fault of the shutdown (the
+  // session names it), whatever the DEACTIVATE's fate.
+  const bool zero_sent = send(udp::Type::kCommand, now_s(), udp::Command{}).ok;
   // The driver may be gone (that is often why we stop): wait one read
   // timeout for its ACK, not a handshake's.
   const DeviceStatus s = request_ack(udp::Type::kDeactivate, now_s(), nullptr, options_.timeout_ms);
+  if (!zero_sent) return DeviceStatus::kWriteFailed;
   return s == DeviceStatus::kTimeout ? DeviceStatus::kOk : s;
 }
 
@@ -361,6 +371,7 @@ UdpDevice::Counts UdpDevice::counts() const noexcept {
   c.malformed = malformed_.load(std::memory_order_relaxed);
   c.timeouts = timeouts_.load(std::memory_order_relaxed);
   c.rejected_mac = rejected_mac_.load(std::memory_order_relaxed);
+  c.send_failed = send_failed_.load(std::memory_order_relaxed);
   c.wrong_nonce = wrong_nonce_.load(std::memory_order_relaxed);
   c.wrong_source = wrong_source_.load(std::memory_order_relaxed);
   return c;
@@ -384,7 +395,8 @@ std::vector<std::pair<std::string, std::uint64_t>> UdpDevice::counters() const {
       {"stale", c.stale},               {"out_of_order", c.out_of_order},
       {"malformed", c.malformed},       {"timeouts", c.timeouts},
       {"rejected_mac", c.rejected_mac}, {"wrong_nonce", c.wrong_nonce},
-      {"wrong_source", c.wrong_source}, {"authenticated", key_.keyed() ? 1u : 0u}};
+      {"wrong_source", c.wrong_source}, {"send_failed", c.send_failed},
+      {"authenticated", key_.keyed() ? 1u : 0u}};
   if (round_trips_ > 0) {
     out.emplace_back("round_trip_p50_us", static_cast<std::uint64_t>(std::lround(round_trip_quantile_s(0.5) * 1e6)));
     out.emplace_back("round_trip_p99_us", static_cast<std::uint64_t>(std::lround(round_trip_quantile_s(0.99) * 1e6)));
@@ -393,8 +405,14 @@ std::vector<std::pair<std::string, std::uint64_t>> UdpDevice::counters() const {
 }
 
 std::string UdpDevice::fault_detail() const {
-  if (timeouts_.load(std::memory_order_relaxed) == 0) return {};
-  return "no answer from " + endpoint_ + " within " + std::to_string(options_.timeout_ms) + " ms";
+  std::string out;
+  if (const std::uint64_t failed = send_failed_.load(std::memory_order_relaxed); failed > 0)
+    out = "sending to " + endpoint_ + " failed " + std::to_string(failed) + (failed == 1 ? " time" : " times") +
+          " (last: " + std::strerror(last_send_errno_.load(std::memory_order_relaxed)) + ")";
+  if (timeouts_.load(std::memory_order_relaxed) > 0)
+    out += (out.empty() ? "" : "; ") + std::string("no answer from ") + endpoint_ + " within " +
+           std::to_string(options_.timeout_ms) + " ms";
+  return out;
 }
 
 }  // namespace hapticlab

@@ -83,7 +83,9 @@ class UdpDevice final : public Device, public HandAttachment {
   DeviceStatus activate(const Clock& clock) override;
   DeviceStatus read(DeviceReading& reading) noexcept override;
   // A non-finite entry never leaves this process: a zero COMMAND goes out
-  // instead and the call returns kWriteFailed.
+  // instead and the call returns kWriteFailed. A COMMAND the socket refuses
+  // (sendto fails) is kWriteFailed, and a POLL it refuses makes read()
+  // kReadFailed at once: neither is left to look like a timeout.
   DeviceStatus write(const DeviceCommand& command) noexcept override;
   DeviceStatus deactivate() noexcept override;
   void halt() noexcept override;
@@ -105,6 +107,7 @@ class UdpDevice final : public Device, public HandAttachment {
     std::uint64_t sent = 0, received = 0;
     std::uint64_t stale = 0, out_of_order = 0, malformed = 0, timeouts = 0;
     std::uint64_t rejected_mac = 0, wrong_nonce = 0, wrong_source = 0;
+    std::uint64_t send_failed = 0;  // datagrams the socket refused (sendto failed): each is a fault of its call
   };
   Counts counts() const noexcept;
   // Round trip POLL -> STATE [s], from a histogram of 1 µs bins up to 10 ms
@@ -114,11 +117,17 @@ class UdpDevice final : public Device, public HandAttachment {
   bool authenticated() const noexcept { return key_.keyed(); }
 
  private:
-  // Each returns the sequence the datagram went out with.
-  std::uint32_t send(udp::Type type, double time_s) noexcept;
+  // The sequence a datagram was given, and whether the socket took it.
+  struct Sent {
+    std::uint32_t sequence = 0;
+    bool ok = false;
+  };
+  Sent send(udp::Type type, double time_s) noexcept;
   template <typename Payload>
-  std::uint32_t send(udp::Type type, double time_s, const Payload& payload) noexcept;
-  void send_datagram(std::size_t n, const std::byte* data) noexcept;
+  Sent send(udp::Type type, double time_s, const Payload& payload) noexcept;
+  // False when sendto failed: counted in send_failed_, its errno kept for
+  // fault_detail().
+  bool send_datagram(std::size_t n, const std::byte* data) noexcept;
   // Waits until `deadline_ns` (steady clock) for a datagram of `type`
   // echoing `sequence`; on success the datagram is in rx_ and its header
   // in rx_header_. Everything else that arrives is counted and dropped.
@@ -160,7 +169,8 @@ class UdpDevice final : public Device, public HandAttachment {
   // Counts are written by the loop thread and read after it: relaxed atomics
   // keep a concurrent read (a progress line) well defined.
   std::atomic<std::uint64_t> sent_{0}, received_{0}, stale_{0}, out_of_order_{0}, malformed_{0}, timeouts_{0};
-  std::atomic<std::uint64_t> rejected_mac_{0}, wrong_nonce_{0}, wrong_source_{0};
+  std::atomic<std::uint64_t> rejected_mac_{0}, wrong_nonce_{0}, wrong_source_{0}, send_failed_{0};
+  std::atomic<int> last_send_errno_{0};
   static constexpr int kRoundTripBins = 10001;  // 1 µs each; the last holds >= 10 ms
   std::array<std::uint32_t, kRoundTripBins> round_trip_us_{};
   std::uint64_t round_trips_ = 0;

@@ -4,6 +4,7 @@
 #include "core/device/udp_device.h"
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -12,6 +13,10 @@
 #include <sys/stat.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <set>
 #include <chrono>
 #include <fstream>
 #include <functional>
@@ -210,10 +215,11 @@ TEST(UdpDeviceTest, StaleOutOfOrderAndMalformedStatesAreIgnoredAndCounted) {
   EXPECT_EQ(c.timeouts, 0u);
   EXPECT_EQ(c.received, 3u + 3u * 5u);  // HELLO_REPLY, 2 ACKs, 5 per poll
   const auto counters = device.counters();
-  ASSERT_GE(counters.size(), 10u);
+  ASSERT_GE(counters.size(), 11u);
   EXPECT_EQ(counters[4], (std::pair<std::string, std::uint64_t>{"malformed", 3}));
   EXPECT_EQ(counters[6], (std::pair<std::string, std::uint64_t>{"rejected_mac", 3}));
-  EXPECT_EQ(counters[9], (std::pair<std::string, std::uint64_t>{"authenticated", 0}));
+  EXPECT_EQ(counters[9], (std::pair<std::string, std::uint64_t>{"send_failed", 0}));
+  EXPECT_EQ(counters[10], (std::pair<std::string, std::uint64_t>{"authenticated", 0}));
 }
 
 TEST(UdpDeviceTest, ForgedStatesAreIgnoredAndCountedByWhatGaveThemAway) {
@@ -394,6 +400,48 @@ TEST(UdpDeviceTest, NoStateWithinTheTimeoutIsDeviceTimeout) {
   EXPECT_LT(waited_s, 0.5);
   EXPECT_EQ(device.counts().timeouts, 1u);
   EXPECT_EQ(device.fault_detail(), "no answer from udp:127.0.0.1:" + std::to_string(driver.port()) + " within 20 ms");
+}
+
+// This process's open sockets (file descriptors). Only sockets: the
+// listing's own directory descriptor is there while it is read.
+std::set<int> open_sockets() {
+  std::set<int> out;
+  for (const auto& e : std::filesystem::directory_iterator("/proc/self/fd")) {
+    std::error_code ec;
+    const std::string target = std::filesystem::read_symlink(e.path(), ec).string();
+    if (!ec && target.rfind("socket:", 0) == 0) out.insert(std::stoi(e.path().filename()));
+  }
+  return out;
+}
+
+TEST(UdpDeviceTest, ADatagramTheSocketRefusesIsAFaultByNameNotATimeout) {
+  FakeDriver driver([](FakeDriver& d, const udp::Header& poll) { d.send_state(d.next_seq(), poll.sequence, 0.1); });
+  const std::set<int> before = open_sockets();
+  UdpDevice device(options_for(driver.port(), 20));
+  std::vector<int> opened;
+  for (int fd : open_sockets())
+    if (!before.count(fd)) opened.push_back(fd);
+  ASSERT_EQ(opened.size(), 1u);  // the device's socket
+  VirtualClock clock;
+  ASSERT_EQ(device.configure(DeviceConfig{}), DeviceStatus::kOk);
+  ASSERT_EQ(device.activate(clock), DeviceStatus::kOk);
+  DeviceReading r;
+  ASSERT_EQ(device.read(r), DeviceStatus::kOk);
+  // The socket swapped for /dev/null: every sendto fails (ENOTSOCK), as a
+  // socket whose interface went down or whose buffer is gone would.
+  const int null_fd = ::open("/dev/null", O_RDWR | O_CLOEXEC);
+  ASSERT_GE(::dup2(null_fd, opened.front()), 0);
+  ::close(null_fd);
+  // A POLL that never left is a failed read at once, not a wait for an
+  // answer that cannot come; a COMMAND that never left is a failed write.
+  EXPECT_EQ(device.read(r), DeviceStatus::kReadFailed);
+  EXPECT_EQ(device.write(DeviceCommand{}), DeviceStatus::kWriteFailed);
+  EXPECT_EQ(device.counts().timeouts, 0u);
+  EXPECT_EQ(device.counts().send_failed, 2u);
+  EXPECT_EQ(device.fault_detail(), "sending to udp:127.0.0.1:" + std::to_string(driver.port()) +
+                                       " failed 2 times (last: " + std::strerror(ENOTSOCK) + ")");
+  // The shutdown's zero COMMAND cannot leave either: a fault of the shutdown.
+  EXPECT_EQ(device.deactivate(), DeviceStatus::kWriteFailed);
 }
 
 TEST(UdpProtocolTest, DecodeRejectsEveryTruncationAndBitFlip) {
