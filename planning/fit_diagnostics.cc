@@ -71,6 +71,12 @@ FitFiles write_fit_files(const PopulationFitResult& r, const fs::path& out) {
   if (r.converged) {
     PopulationFile file = r.file;
     write_fit_file(f.population, population_file_text(file));
+  } else {
+    std::error_code ec;
+    f.removed_earlier_population = fs::remove(f.population, ec);
+    if (ec)
+      throw std::runtime_error("cannot remove " + f.population.string() + ", an earlier fit's population, beside " +
+                               "the diagnostics of this fit that did not converge: " + ec.message());
   }
   return f;
 }

@@ -7,6 +7,7 @@
 #include "analysis/stats/percentile.h"
 #include "core/common/build_info.h"
 #include "core/common/csv_format.h"
+#include "core/common/output_file.h"
 #include "core/common/sha256.h"
 #include "core/settings/settings_json.h"
 
@@ -199,6 +200,12 @@ std::vector<std::string> plan_differences(const PlanInputs& was, const PlanInput
   option("--shard", std::to_string(was.shard) + "/" + std::to_string(was.shards),
          std::to_string(now.shard) + "/" + std::to_string(now.shards));
   return out;
+}
+
+void write_inputs_record(const std::filesystem::path& file, const PlanInputs& inputs, const nlohmann::json& extra) {
+  nlohmann::json j = inputs.to_json();
+  for (const auto& [key, value] : extra.items()) j[key] = value;
+  write_file_atomically(file, j.dump(2) + "\n");
 }
 
 }  // namespace hapticlab::planning

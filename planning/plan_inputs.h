@@ -8,6 +8,7 @@
 // simulates. plan_power.db stores them; a resumed plan whose inputs differ
 // is refused, naming what changed, never mixed with the stored studies.
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
@@ -73,5 +74,12 @@ PlanInputs plan_inputs(const protocols::Protocol& protocol, const std::string& p
 // words ("settings[1] 'No Force Feedback' (no_force_feedback.json), now
 // 'High Fidelity'"), one per difference; empty when they are the same plan.
 std::vector<std::string> plan_differences(const PlanInputs& stored, const PlanInputs& now);
+
+// What a result table without a plan store (transfer_power.csv,
+// calibration.csv) was made from, written atomically to `file` as JSON:
+// the inputs' to_json() with `extra`'s keys added (options the inputs do
+// not hold). Throws OutputFileError naming the file when it cannot be
+// written.
+void write_inputs_record(const std::filesystem::path& file, const PlanInputs& inputs, const nlohmann::json& extra);
 
 }  // namespace hapticlab::planning

@@ -151,9 +151,13 @@ std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
     }
     double tau2 = 0.0;
     if (used > 1) tau2 = std::max(0.0, between / (used - 1) - sampling / used);
-    const double sd = std::sqrt(tau2 + p * (1.0 - p) / std::max(1, r.tests));
-    r.model_low = std::max(0.0, p - 1.96 * sd);
-    r.model_high = std::min(1.0, p + 1.96 * sd);
+    // The model's spread is added in quadrature to the Wilson half-widths,
+    // not to the normal approximation's: at a rate of 0 or 1 that
+    // approximation has no width at all, and an interval "with the model's
+    // uncertainty" must never be narrower than the sampling one alone.
+    const double model_half_width = 1.96 * std::sqrt(tau2);
+    r.model_low = std::max(0.0, p - std::hypot(p - r.wilson_low, model_half_width));
+    r.model_high = std::min(1.0, p + std::hypot(r.wilson_high - p, model_half_width));
   }
   return out;
 }

@@ -106,8 +106,11 @@ struct PowerRow {
 // draw_groups > 1: the studies were dealt to that many posterior draws by
 // draw_group(index); each row gets the model-uncertainty interval: the
 // between-group variance of the groups' rates, less what their binomial
-// sampling explains (method of moments, at least 0), added to the overall
-// rate's sampling variance, +-1.96 SD, clipped to [0, 1].
+// sampling explains (method of moments, at least 0, tau^2); its 1.96 tau
+// is added in quadrature to each half-width of the Wilson interval, clipped
+// to [0, 1]: never narrower than the Wilson interval, equal to it when the
+// groups agree (also at a rate of 0 or 1, where the normal approximation
+// would give an interval of no width).
 std::vector<PowerRow> summarize_power(const std::vector<StudyOutcome>& outcomes,
                                       const std::vector<std::string>& setting_order, int draw_groups = 1);
 

@@ -197,7 +197,13 @@ PowerStore::PowerStore(const std::filesystem::path& path, const PlanInputs& inpu
     const std::string any = dose_setting_name(protocol.staircase->base.settings.name, protocol.staircase->spec.field, 0.0);
     shape.staircase_prefix = any.substr(0, any.rfind(" = ") + 3);
   }
-  plan_sha256_ = sha256_hex(inputs.to_json().dump());
+  // The studies' digests are keyed by the plan without the protocol's path:
+  // the same protocol given by another path (a Slurm job's working folder,
+  // a copy) is the same plan (plan_inputs.h), and its stored studies must
+  // not then read as edited.
+  nlohmann::json identity = inputs.to_json();
+  identity.erase("protocol_file");
+  plan_sha256_ = sha256_hex(identity.dump());
 
   const bool empty = check_file(db_, path_);
   if (empty) {

@@ -18,6 +18,7 @@ ChosenPopulation choose_population(const std::string& value) {
   ChosenPopulation c;
   if (value == "unfitted") {
     c.describe = "the unfitted participant model " + std::to_string(kParticipantModelVersion);
+    c.key = "unfitted model " + std::to_string(kParticipantModelVersion);
     return c;
   }
   std::filesystem::path path = value;
@@ -31,12 +32,14 @@ ChosenPopulation choose_population(const std::string& value) {
                    path.c_str(), kParticipantModelVersion);
       c.describe = "the unfitted participant model " + std::to_string(kParticipantModelVersion) +
                    " (no fitted population found)";
+      c.key = "unfitted model " + std::to_string(kParticipantModelVersion);
       return c;
     }
   }
   c.file = planning::read_population_file(path);
   c.point = c.file->point;
   c.describe = "fitted population " + path.string() + " (sha256 " + c.file->sha256.substr(0, 12) + ")";
+  c.key = "sha256 " + c.file->sha256;
   return c;
 }
 

@@ -21,6 +21,7 @@ struct ChosenPopulation {
   PopulationParams point;                     // what a simulated participant is drawn from
   std::optional<planning::PopulationFile> file;  // empty: the unfitted model
   std::string describe;                       // "fitted population examples/... (sha256 0123...)"
+  std::string key;  // what a plan records of it: "sha256 <hex>" of the file, or "unfitted model <version>"
 };
 
 // Adds --population to `cmd`, storing into `value`.

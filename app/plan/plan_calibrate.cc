@@ -24,6 +24,7 @@
 #include "planning/calibration.h"
 #include "planning/fit_diagnostics.h"
 #include "planning/plan_folder.h"
+#include "planning/plan_inputs.h"
 #include "planning/population_fit.h"
 #include "protocols/protocol_json.h"
 
@@ -140,8 +141,9 @@ int run_plan_calibrate_fit(const PlanCalibrateOptions& o) {
   if (!r.converged) {
     std::string why;
     for (const auto& p : r.problems) why += "\n  - " + p;
-    throw std::runtime_error("the fit did not converge; no population.json was written (diagnostics are in " +
-                             o.out + "):" + why);
+    throw std::runtime_error(std::string("the fit did not converge; no population.json was written") +
+                             (files.removed_earlier_population ? " (an earlier fit's population.json was removed)" : "") +
+                             " (diagnostics are in " + o.out + "):" + why);
   }
   return 0;
 }
@@ -221,6 +223,13 @@ int run_plan_calibrate(const PlanCalibrateOptions& o) {
   const fs::path csv_path = fs::path(o.out) / "calibration.csv";
   try {
     write_file_atomically(csv_path, planning::calibration_csv(effects));
+    // What the table was made from: the protocol's and settings' hashes,
+    // the options, the population and the software.
+    planning::PlanInputs inputs = planning::plan_inputs(protocol, o.protocol, protocols::read_protocol_text(o.protocol),
+                                                        o.seed, {o.participants}, 1, sim);
+    inputs.population = chosen.key;
+    planning::write_inputs_record(fs::path(o.out) / "calibration.inputs.json", inputs,
+                                  {{"design", "calibration: one simulated population of --participants"}});
   } catch (const OutputFileError& e) {
     throw std::runtime_error(std::string(e.what()) + " (disk full?); nothing else was written");
   }

@@ -60,12 +60,6 @@ std::vector<int> power_plan_counts(const PlanPowerOptions& o, const protocols::P
   return counts;
 }
 
-// What a plan records of its population: the file's SHA-256, or the
-// unfitted model's version.
-std::string power_population_key(const ChosenPopulation& p) {
-  return p.file ? "sha256 " + p.file->sha256 : "unfitted model " + std::to_string(kParticipantModelVersion);
-}
-
 void check_shard_count(const PlanPowerOptions& o, std::size_t plan_size) {
   if (static_cast<std::size_t>(o.shards) > plan_size)
     throw std::runtime_error("--shard " + std::to_string(o.shard) + "/" + std::to_string(o.shards) + ": the plan has " +
@@ -92,7 +86,7 @@ PowerPlan prepare_power_plan(const PlanPowerOptions& o, protocols::Protocol prot
   p.design = planning::check_plan_design(p.protocol, o.protocol, counts, o.seed, p.sim);
   for (const std::string& note : p.design.notes) std::fprintf(stderr, "note: %s\n", note.c_str());
   p.inputs = planning::plan_inputs(p.protocol, o.protocol, protocol_text, o.seed, counts, o.studies, p.sim);
-  p.inputs.population = power_population_key(p.population);
+  p.inputs.population = p.population.key;
   p.inputs.model_uncertainty = p.model_uncertainty;
   p.inputs.shard = o.shard;
   p.inputs.shards = o.shards;

@@ -1,5 +1,6 @@
 #include "app/plan/plan_transfer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,9 +16,11 @@
 #include "app/cli/population_option.h"
 #include "core/common/csv_format.h"
 #include "core/common/output_file.h"
+#include "planning/plan_inputs.h"
 #include "planning/transfer_plan.h"
 #include "planning/transfer_power.h"
 #include "protocols/loop_protections.h"
+#include "protocols/protocol_json.h"
 
 namespace hapticlab::app {
 namespace {
@@ -84,6 +87,23 @@ std::string power_json(const std::vector<TaskPower>& tasks, double share) {
   return nlohmann::json{{"force_free_share", share}, {"model_uncertainty", false}, {"rows", rows}}.dump(2) + "\n";
 }
 
+// transfer_power.inputs.json: what the table was made from (the protocol's
+// and settings' hashes, the options, the population, the software).
+void write_transfer_inputs(const protocols::Protocol& protocol, const PlanPowerOptions& o,
+                           const planning::TransferPowerOptions& options, const std::string& population_key) {
+  planning::SimulatedStudyOptions sim;
+  sim.rate_Hz = options.simulation.rate_Hz;
+  sim.max_trial_s = options.simulation.max_trial_s;
+  sim.analysis.alpha = options.alpha;
+  planning::PlanInputs inputs = planning::plan_inputs(protocol, o.protocol, protocols::read_protocol_text(o.protocol),
+                                                      options.seed, options.per_group, options.studies, sim);
+  inputs.population = population_key;
+  planning::write_inputs_record(std::filesystem::path(o.out) / "transfer_power.inputs.json", inputs,
+                                {{"design", "transfer"},
+                                 {"participants_are", "per group"},
+                                 {"force_free_share", options.simulation.learning.force_free_share}});
+}
+
 }  // namespace
 
 int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptions& o) {
@@ -92,6 +112,10 @@ int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptio
   planning::TransferPowerOptions options;
   const double share = o.force_free_share.value_or(0.5);
   options.per_group = o.participants.empty() ? default_group_sizes(protocol) : o.participants;
+  // Each size once, in increasing order, as the within-participant plan
+  // (plan_inputs): "--participants 3,3" is one size, not two rows of it.
+  std::sort(options.per_group.begin(), options.per_group.end());
+  options.per_group.erase(std::unique(options.per_group.begin(), options.per_group.end()), options.per_group.end());
   options.studies = o.studies;
   options.seed = o.seed;
   options.jobs = o.jobs > 0 ? static_cast<int>(o.jobs) : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -110,6 +134,7 @@ int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptio
     trials += tasks.back().power.trials_run;
   }
   write_file_atomically(std::filesystem::path(o.out) / "transfer_power.csv", power_csv(tasks, share));
+  write_transfer_inputs(protocol, o, options, population.key);
   if (o.json) std::fputs(power_json(tasks, share).c_str(), stdout);
   else print_table(tasks, share, o.studies, population.describe);
   std::fprintf(o.json ? stderr : stdout,

@@ -40,8 +40,8 @@ std::filesystem::path small_transfer_protocol(const std::filesystem::path& dir) 
 TEST_F(PlanPowerTest, ATransferDesignGetsPowerPerGroupSizeAndTestFromOneRun) {
   protocol_ = small_transfer_protocol(dir_);
   const std::string base = "plan power --protocol " + protocol_.string() +
-                           " --rate-hz 250 --participants 2 --studies 2 --seed 3 --force-free-share 0.25 --out ";
-  const auto [rc, text] = testing::run_cli(HAPTICLAB_CLI_PATH, base + (dir_ / "a").string() + " --jobs 1");
+                           " --rate-hz 250 --studies 2 --seed 3 --force-free-share 0.25 --out ";
+  const auto [rc, text] = testing::run_cli(HAPTICLAB_CLI_PATH, base + (dir_ / "a").string() + " --participants 2 --jobs 1");
   ASSERT_EQ(rc, 0) << text;
   EXPECT_THAT(text, HasSubstr("force_free_share 0.25, an assumption, not a fit"));
   // The population's point estimate, said (a within-participant plan samples the model's uncertainty by default).
@@ -56,12 +56,24 @@ TEST_F(PlanPowerTest, ATransferDesignGetsPowerPerGroupSizeAndTestFromOneRun) {
   ASSERT_EQ(rows.size(), 1u + 2 * 2 * 2);  // header + 2 tasks x (post, retention) x 2 groups against the first
   EXPECT_EQ(rows[0].rfind("task,participants_per_group,test,group,reference,studies,significant,power", 0), 0u);
   EXPECT_EQ(rows[1].rfind("dissection,2,post,trained on the Falcon,trained on High Fidelity,2,", 0), 0u) << rows[1];
-  // Two threads: the same studies, the same rows.
-  const auto [rc2, text2] = testing::run_cli(HAPTICLAB_CLI_PATH, base + (dir_ / "b").string() + " --jobs 2");
+  // Beside it, what it was made from.
+  const nlohmann::json made = nlohmann::json::parse(testing::slurp(dir_ / "a" / "transfer_power.inputs.json"));
+  EXPECT_EQ(made.at("protocol_sha256").get<std::string>().size(), 64u);
+  EXPECT_EQ(made.at("seed"), "3");
+  EXPECT_EQ(made.at("participants"), nlohmann::json::array({2}));
+  EXPECT_EQ(made.at("studies"), 2);
+  EXPECT_EQ(made.at("force_free_share"), 0.25);
+  EXPECT_EQ(made.at("settings").size(), 2u);  // the shipped transfer study's two: High Fidelity, the Falcon
+  EXPECT_THAT(made.at("software").get<std::string>(), HasSubstr("hapticlab "));
+  EXPECT_FALSE(made.at("population").get<std::string>().empty());
+  // Two threads: the same studies, the same rows; a size given twice is
+  // one size (each row once).
+  const auto [rc2, text2] =
+      testing::run_cli(HAPTICLAB_CLI_PATH, base + (dir_ / "b").string() + " --participants 2,2 --jobs 2");
   ASSERT_EQ(rc2, 0) << text2;
   EXPECT_EQ(testing::slurp(dir_ / "b" / "transfer_power.csv"), csv);
   const auto [rc3, json_text] =
-      testing::run_cli_stdout(HAPTICLAB_CLI_PATH, base + (dir_ / "c").string() + " --jobs 2 --json");
+      testing::run_cli_stdout(HAPTICLAB_CLI_PATH, base + (dir_ / "c").string() + " --participants 2 --jobs 2 --json");
   ASSERT_EQ(rc3, 0) << json_text;
   const nlohmann::json j = nlohmann::json::parse(json_text);
   EXPECT_EQ(j.at("force_free_share"), 0.25);

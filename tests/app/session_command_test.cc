@@ -105,8 +105,9 @@ TEST_F(SessionCommandTest, ShowPrintsTheScheduleAndProgressSummaryOnlyProgress) 
 TEST_F(SessionCommandTest, TheStudyRecordsTheVersionAndCommitOfTheBuildThatCreatedIt) {
   const auto [status, version] = testing::run_cli(kBinary, "--version");
   ASSERT_EQ(status, 0) << version;
-  // "hapticlab 0.1.0 (commit 0123456789ab)", -dirty or "unknown" as the tree is.
-  EXPECT_THAT(version, ::testing::MatchesRegex("hapticlab [0-9]+\\.[0-9]+\\.[0-9]+ \\(commit [0-9a-f]{12}(-dirty)?\\)\n|"
+  // "hapticlab 0.1.0 (commit 0123456789ab)", -dirty with the changes' digest
+  // or "unknown" as the tree is.
+  EXPECT_THAT(version, ::testing::MatchesRegex("hapticlab [0-9]+\\.[0-9]+\\.[0-9]+ \\(commit [0-9a-f]{12}(-dirty-[0-9a-f]{12})?\\)\n|"
                                                "hapticlab [0-9.]+ \\(commit unknown\\)\n"));
   db::StudyDb db(db_);
   ASSERT_EQ(db.studies().size(), 1u);

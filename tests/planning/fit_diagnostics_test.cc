@@ -85,9 +85,14 @@ TEST(FitDiagnosticsTest, AFitThatDidNotConvergeWritesItsDiagnosticsButNoPopulati
   fs::remove_all(dir);
   fs::create_directories(dir);
   const PopulationFitResult r = fit_result();
+  // An earlier fit's population in the same folder goes: beside this fit's
+  // diagnostics it would be taken for this fit's.
+  std::ofstream(dir / "population.json") << "{}\n";
   const FitFiles files = write_fit_files(r, dir);
   EXPECT_EQ(files.population, dir / "population.json");
   EXPECT_FALSE(fs::exists(files.population));
+  EXPECT_TRUE(files.removed_earlier_population);
+  EXPECT_FALSE(write_fit_files(r, dir).removed_earlier_population);
   std::ifstream in(dir / "fit_targets.csv");
   std::ostringstream text;
   text << in.rdbuf();

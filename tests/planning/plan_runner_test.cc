@@ -75,6 +75,11 @@ TEST_F(PlanRunnerTest, TheSameStudiesOnAnyNumberOfThreadsAndAResumedRunDoesWhatI
     EXPECT_EQ(run_plan_studies(protocol_, {todo[2], todo[3]}, store, o).stored, 2u);
   }
   EXPECT_EQ(digests(dir_ / "one.db"), digests(dir_ / "two.db"));
+  // The same plan with its protocol given by another path (a Slurm job's
+  // working folder): its stored studies load, and are not called edited.
+  PlanInputs elsewhere = inputs();
+  elsewhere.protocol_file = "elsewhere/protocol.json";
+  EXPECT_EQ(PowerStore(dir_ / "one.db", elsewhere, protocol_).load().size(), 4u);
 }
 
 TEST_F(PlanRunnerTest, WithTheModelsUncertaintyEachGroupDrawsItsPopulation) {

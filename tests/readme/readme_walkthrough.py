@@ -49,8 +49,10 @@ def rewrites():
          "one study of 2 at a quarter of the rate shows it runs"),
         ("--studies 40 --participants 8,16", "--studies 1 --participants 2",
          "the transfer design's 80 studies take about 12 minutes on 2 cores; one of 2 per group shows it runs"),
-        ("--participants 100 --out calibration/", "--participants 2 --out calibration/",
-         "plan calibrate's 100 participants take about two minutes on 2 cores; 2 show it runs"),
+        ("--participants 100 --out calibration/",
+         "--participants 2 --out calibration/ && test -s calibration/calibration.inputs.json",
+         "plan calibrate's 100 participants take about two minutes on 2 cores; 2 show it runs "
+         "(and the table's record of what it was made from is written)"),
         ("plan calibrate --fit --out calibration/",
          "plan calibrate --fit --fit-studies 1 --rate-hz 150 --out calibration-fit/; "
          "test $? -eq 1 && test -f calibration-fit/fit_summary.json && test ! -e calibration-fit/population.json",
