@@ -115,14 +115,19 @@ void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
   } catch (const SettingsError& e) {
     throw std::invalid_argument(e.what());
   }
+  // Logged before it is made: a change the pilot's record cannot hold is
+  // not made (the page says why), rather than made and missing from it.
+  if (!append_log(field, before, value.dump())) {
+    log_.erase(log_.end() - 1);
+    throw std::runtime_error("the change of '" + field + "' was not made: " + error_);
+  }
   settings_ = std::move(edited);
   engine_ = parsed.engine;
   changed_ = true;
   applied_t_s_.reset();  // until the loop has this change too
-  append_log(field, before, value.dump());
 }
 
-void ConsoleTuning::append_log(const std::string& field, const std::string& from, const std::string& to) {
+bool ConsoleTuning::append_log(const std::string& field, const std::string& from, const std::string& to) {
   const double loop_t_s = running_ ? live_.newest_t_s() : 0.0;
   nlohmann::json entry = {{"utc", utc_now_iso8601()}, {"free_trial", free_trial_}, {"loop_t_s", loop_t_s},
                           {"field", field}, {"from", from}, {"to", to}};
@@ -143,7 +148,9 @@ void ConsoleTuning::append_log(const std::string& field, const std::string& from
   out << entry["utc"].get<std::string>() << ',' << free_trial_ << ',' << loop_t_s << ',' << quoted(field) << ','
       << quoted(from) << ',' << quoted(to) << '\n';
   out.close();  // the line reaches the file here: checked after, not before
-  if (!out) error_ = "cannot append to " + path.string() + " (disk full?): the tuning log is incomplete";
+  if (out) return true;
+  error_ = "cannot append to " + path.string() + " (disk full?): the tuning log is incomplete";
+  return false;
 }
 
 std::string ConsoleTuning::save(const std::string& name) {

@@ -68,7 +68,9 @@ class ConsoleTuning {
   // "translation.friction.dynamic_level_N" (a number) or a block's switch,
   // "translation.friction.enabled" (true/false). Throws
   // std::invalid_argument naming the field, the value and the allowed range
-  // (docs/settings.md), and then nothing changes. Without a running trial
+  // (docs/settings.md), and then nothing changes; std::runtime_error when
+  // the change cannot be written to tuning-log.csv (then it is not made
+  // either: the log is the pilot's record). Without a running trial
   // it edits what save() writes (start() begins again from its setting).
   // Logged with the free trial's repetition and the loop time of the newest
   // sample drained when it was handed over: the engine applies it at the
@@ -107,7 +109,9 @@ class ConsoleTuning {
   // not, `error` says why ("" for none).
   bool goes_on_after(const SimTrialResult& r, int repetition, bool alerted, int& host_trips_in_a_row,
                      std::string& error);
-  void append_log(const std::string& field, const std::string& from, const std::string& to);  // holds mutex_
+  // False (and error_ says why) when the line did not reach tuning-log.csv;
+  // the entry is in log_ either way. Holds mutex_.
+  bool append_log(const std::string& field, const std::string& from, const std::string& to);
 
   const ConsoleTuningConfig config_;
   DeviceHealth& device_;

@@ -164,6 +164,26 @@ TEST_F(ConsoleTuningTest, OutOfRangeOrMistypedChangesAreRefusedAndChangeNothing)
   EXPECT_TRUE(tuning.status()["log"].empty());
 }
 
+// A change the tuning log cannot record is not made: the answer says why
+// (the console answers 500 with it), the settings and the log stay as they
+// were. tuning-log.csv is a folder here, which no one can append to.
+TEST_F(ConsoleTuningTest, AChangeTheLogCannotRecordIsNotMade) {
+  ConsoleTuning tuning(config_, device_);
+  std::filesystem::create_directories(dir_ / "tuning-log.csv");
+  const nlohmann::json before = tuning.status()["settings"];
+  EXPECT_THAT([&] { tuning.set("translation.friction.enabled", true); },
+              ::testing::ThrowsMessage<std::runtime_error>(
+                  HasSubstr("the change of 'translation.friction.enabled' was not made: cannot append to")));
+  EXPECT_EQ(tuning.status()["settings"], before);
+  EXPECT_TRUE(tuning.status()["log"].empty());
+  EXPECT_THAT(tuning.status()["error"].get<std::string>(), HasSubstr("the tuning log is incomplete"));
+  // Once it can be written again, the same change is made and logged.
+  std::filesystem::remove(dir_ / "tuning-log.csv");
+  tuning.set("translation.friction.enabled", true);
+  EXPECT_EQ(tuning.status()["log"].size(), 1u);
+  EXPECT_NE(tuning.status()["settings"], before);
+}
+
 // The page's sliders come from the loader's table: every field of
 // docs/settings.md, with the same range.
 TEST_F(ConsoleTuningTest, ReferenceListsEveryFieldWithTheLoadersRange) {
