@@ -4,8 +4,10 @@
 // instrument (0 or 1), a first tick >= 0, a count of 1..kMaxChunkUpdates,
 // integer columns and a BLOB, and no two chunks of one instrument share a
 // tick (their ticks never overlap, so a reader never meets a tick twice or
-// a tick going backwards). Gaps are allowed: the writer leaves one, with a
-// samples_missing event, when the loop could not queue updates.
+// a tick going backwards). Gaps are allowed here: the writer leaves one,
+// with a samples_missing event, when the loop could not queue updates
+// (chunk_coverage.h checks each gap against those events, and the chunks
+// against the updates the loop ran).
 //
 // A chunk that breaks a rule is bad, named with its trial, instrument and
 // ticks (BadChunk); of two overlapping chunks both are, since nothing tells

@@ -1,5 +1,7 @@
 #include "db/chunk_reader.h"
 
+#include "db/chunk_coverage.h"
+
 #include <algorithm>
 #include <limits>
 #include <memory>
@@ -75,9 +77,16 @@ TrialChunks::TrialChunks(Database& db, std::int64_t trial_id, int only_instrumen
   }
   if ((channels & (ChannelSet{1} << kChannelT)) == 0) blank_.t_s = std::numeric_limits<double>::quiet_NaN();
   if ((channels & (ChannelSet{1} << kChannelDt)) == 0) blank_.dt_s = std::numeric_limits<double>::quiet_NaN();
-  std::vector<ChunkRow> rows = read_chunk_rows(db, trial_id);
-  if (only_instrument >= 0) std::erase_if(rows, [&](const ChunkRow& r) { return r.instrument != only_instrument; });
-  layout_ = layout_chunks(std::move(rows), bad_);
+  // Both instruments laid out and checked for what is missing (a chunk of
+  // one that the other has, a gap no event explains), then the one asked for kept.
+  layout_ = layout_chunks(read_chunk_rows(db, trial_id), bad_);
+  if (bad_.empty()) check_chunk_coverage(db, trial_id, layout_, bad_);
+  if (only_instrument == 0 || only_instrument == 1) {
+    const int other = 1 - only_instrument;
+    layout_.instrument[other].clear();
+    layout_.updates[other] = 0;
+    std::erase_if(bad_, [&](const BadChunk& b) { return b.instrument != only_instrument; });
+  }
 }
 
 TrialChunks::~TrialChunks() = default;
@@ -145,8 +154,10 @@ ChunkCheck check_all_chunks(Database& db) {
   std::vector<std::int64_t> trials;
   const ReadSnapshot snapshot(db);
   {
+    // Also the trials whose loop ran but that hold no chunk at all.
     Statement s = db.prepare(
-        "SELECT DISTINCT trial_id FROM sample_chunk WHERE typeof(trial_id) = 'integer' ORDER BY trial_id");
+        "SELECT trial_id FROM sample_chunk WHERE typeof(trial_id) = 'integer' UNION "
+        "SELECT trial_id FROM loop_timing WHERE typeof(trial_id) = 'integer' ORDER BY trial_id");
     while (s.step()) trials.push_back(s.column_int64(0));
   }
   Statement blob = db.prepare("SELECT data FROM sample_chunk WHERE id = ?1");
@@ -154,7 +165,9 @@ ChunkCheck check_all_chunks(Database& db) {
   for (const std::int64_t trial : trials) {
     std::vector<ChunkRow> rows = read_chunk_rows(db, trial);
     result.chunks += rows.size();
+    const std::size_t bad_before = result.bad.size();
     const ChunkLayout layout = layout_chunks(std::move(rows), result.bad);
+    if (result.bad.size() == bad_before) check_chunk_coverage(db, trial, layout, result.bad);
     for (const auto& instrument : layout.instrument) {
       for (const ChunkRow& r : instrument) {
         blob.reset();

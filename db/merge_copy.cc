@@ -11,6 +11,7 @@
 #include <tuple>
 #include <utility>
 
+#include "db/chunk_coverage.h"
 #include "db/chunk_layout.h"
 #include "db/chunk_reader.h"
 #include "db/sample_codec.h"
@@ -278,6 +279,7 @@ class Builder {
     Database& db = *in.db;
     std::vector<BadChunk> bad;
     const ChunkLayout layout = layout_chunks(read_chunk_rows(db, t.id), bad);
+    if (bad.empty()) check_chunk_coverage(db, t.id, layout, bad);
     if (!bad.empty())
       throw MergeError(in.path.string() + ": damaged sample chunk: " + describe(bad.front()) +
                        "; the site file is refused (nothing merged); `hapticlab study check --db " +

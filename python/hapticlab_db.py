@@ -845,14 +845,16 @@ class StudyDatabase:
         bad ones (empty: no damage), like `hapticlab study check`."""
         if trial_id is None:
             trials = [t for (t,) in self._conn.execute(
-                "SELECT DISTINCT trial_id FROM main.sample_chunk WHERE typeof(trial_id) = 'integer' "
-                "ORDER BY trial_id")]
+                "SELECT trial_id FROM main.sample_chunk WHERE typeof(trial_id) = 'integer' UNION "
+                "SELECT trial_id FROM main.loop_timing WHERE typeof(trial_id) = 'integer' ORDER BY trial_id")]
         else:
             trials = [trial_id]
         bad = []
         for trial in trials:
             with self._snapshot():
                 good, misplaced = _layout(self._chunk_rows(trial))
+                if not misplaced:
+                    misplaced = self._coverage(trial, good)
                 bad.extend(e.in_file(self.path) for e in misplaced)
                 for r, result in self._verified(good[0] + good[1]):
                     try:
@@ -862,6 +864,59 @@ class StudyDatabase:
                     except ChunkError as e:
                         bad.append(e.located(r[1], r[2], r[3], r[4], self.path))
         return bad
+
+    def _coverage(self, trial_id, good):
+        """The updates missing from a trial's well-placed chunks, as
+        db/chunk_coverage.h finds them: a gap between chunks that no
+        samples_missing event explains, and chunks holding fewer updates than
+        loop_timing says the loop ran (count + rejected_periods + 1 ticks,
+        less dropped_samples; one short at the end is allowed, the last
+        update of a trial that ended on a fault). [ChunkError]"""
+        logged = sorted(v for (v,) in self._conn.execute(
+            "SELECT item_index FROM main.event WHERE trial_id = ?1 AND type = 'samples_missing' "
+            "AND typeof(item_index) = 'integer'", (trial_id,)))
+        loop = self._conn.execute(
+            "SELECT count, rejected_periods, dropped_samples FROM main.loop_timing WHERE trial_id = ?1 AND "
+            "typeof(count) = 'integer' AND typeof(rejected_periods) = 'integer' AND "
+            "typeof(dropped_samples) = 'integer'", (trial_id,)).fetchone()
+        if loop is not None and (min(loop) < 0 or loop[0] + loop[1] == 0):
+            loop = None
+        out = []
+        for k in (0, 1):
+            rows = good[k]
+            unexplained = list(logged)
+            reported = 0
+            for a, b in zip(rows, rows[1:]):
+                start = a[3] + a[4]
+                length = b[3] - start
+                if length <= 0:
+                    continue
+                if length in unexplained:
+                    unexplained.remove(length)
+                    continue
+                reported += length
+                out.append(ChunkError("placement", "not stored, and no samples_missing event accounts for them "
+                                                   "(a chunk was removed)", trial_id, k, start, length))
+            if loop is None:
+                continue
+            ticks, dropped = loop[0] + loop[1] + 1, loop[2]
+            stored = sum(r[4] for r in rows)
+            short_by = ticks - dropped - stored - reported
+            if short_by <= 1:
+                continue
+            ran = (f"the loop ran {ticks} updates (ticks 0..{ticks - 1}) and could not queue {dropped}, but the "
+                   f"chunks hold {stored} (a chunk was removed)")
+            if dropped > 0:
+                out.append(ChunkError("placement", f"{short_by} of them not stored: {ran}", trial_id, k, 0, ticks))
+            elif not rows:
+                out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, 0, ticks))
+            else:
+                end = rows[-1][3] + rows[-1][4]
+                if rows[0][3] > 0:
+                    out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, 0, rows[0][3]))
+                if end < ticks - 1:
+                    out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, end, ticks - end))
+        return out
 
     def samples(self, trial_id, instrument=None):
         """Every stored update of a trial as a numpy structured array
@@ -875,10 +930,12 @@ class StudyDatabase:
         if self._conn.execute("SELECT count(*) FROM trial WHERE id = ?1", (trial_id,)).fetchone()[0] == 0:
             raise KeyError(f"{self.path}: no trial {trial_id}")
         with self._snapshot():
-            rows = self._chunk_rows(trial_id)
+            good, bad = _layout(self._chunk_rows(trial_id))
+            if not bad:
+                bad = self._coverage(trial_id, good)
             if instrument is not None:
-                rows = [r for r in rows if r[2] == instrument]
-            good, bad = _layout(rows)
+                bad = [e for e in bad if e.instrument == instrument]
+                good = tuple(g if k == instrument else [] for k, g in enumerate(good))
             if bad:
                 raise bad[0].in_file(self.path)
             wanted = (0, 1) if instrument is None else (instrument,)

@@ -34,9 +34,11 @@ TEST(TrialChunks, ColumnsAreTheSamplesOfNextToTheBit) {
   StudyDb db(":memory:");
   const std::int64_t trial = testing::make_trial(db);
   // Instrument 0: 5000 updates (two windows of kChunkWindow), then after a
-  // gap 300 more. Instrument 1: a chunk damaged, then a good one.
+  // gap 300 more (the gap logged, as the writer logs one). Instrument 1: a
+  // chunk damaged, then a good one.
   db.insert_chunk(trial, 0, samples(0, 5000, 0));
   db.insert_chunk(trial, 0, samples(5100, 300, 0));
+  db.add_event({trial, 5.1, "samples_missing", -1, 100, "updates 5000..5099 never reached the writer"});
   const std::int64_t damaged = db.insert_chunk(trial, 1, samples(0, 800, 1));
   db.insert_chunk(trial, 1, samples(800, 900, 1));
   testing::flip_chunk_byte(db.connection(), damaged, 40);

@@ -215,6 +215,35 @@ class DamageTest(unittest.TestCase):
             (bad,) = db.check_chunks()
             self.assertEqual((bad.trial_id, bad.instrument, bad.first_tick), (1, 1, first))
 
+    def test_a_removed_chunk_is_named_not_read_as_a_shorter_trial(self):
+        path = STUDY.copy("removed.db")
+        chunk_id, first, count = self.chunk(path, 0, 1)  # between two others
+        conn = sqlite3.connect(path)
+        conn.execute("DELETE FROM sample_chunk WHERE id = ?", (chunk_id,))
+        conn.commit()
+        conn.close()
+        with h.open_study(path) as db:
+            with self.assertRaises(h.ChunkError) as caught:
+                db.samples(1, instrument=0)
+            e = caught.exception
+            self.assertEqual((e.kind, e.instrument, e.first_tick, e.count), ("placement", 0, first, count))
+            self.assertIn("no samples_missing event accounts for them", str(e))
+            self.assertGreater(db.samples(1, instrument=1).size, 1000)  # the other hand's updates are all there
+            (bad,) = db.check_chunks()
+            self.assertEqual((bad.trial_id, bad.instrument, bad.first_tick), (1, 0, first))
+        # The last chunk removed: the loop's count says the trial was longer.
+        path = STUDY.copy("removed_last.db")
+        conn = sqlite3.connect(path)
+        last, = conn.execute("SELECT max(first_tick) FROM sample_chunk WHERE trial_id = 1 AND instrument = 1").fetchone()
+        conn.execute("DELETE FROM sample_chunk WHERE trial_id = 1 AND instrument = 1 AND first_tick = ?", (last,))
+        conn.commit()
+        conn.close()
+        with h.open_study(path) as db:
+            with self.assertRaises(h.ChunkError) as caught:
+                db.samples(1)
+            self.assertEqual((caught.exception.instrument, caught.exception.first_tick), (1, last))
+            self.assertIn("the loop ran", str(caught.exception))
+
     def test_a_damaged_format_byte_or_moved_chunk_is_damage_too(self):
         path = STUDY.copy("format.db")
         chunk_id, first, count = self.chunk(path, 0, 0)
@@ -231,9 +260,12 @@ class DamageTest(unittest.TestCase):
         conn.commit()
         conn.close()
         with h.open_study(path) as db:
-            with self.assertRaises(h.ChunkError) as caught:
+            with self.assertRaises(h.ChunkError):
                 db.samples(1)
-            self.assertEqual((caught.exception.kind, caught.exception.first_tick), ("checksum", first + 100000))
+            # Its checksum fails where it now claims to be, and its ticks are missing where it was.
+            found = {(e.kind, e.first_tick) for e in db.check_chunks()}
+            self.assertIn(("checksum", first + 100000), found)
+            self.assertIn(("placement", first), found)
 
     def test_a_migrated_chunk_decodes_and_an_unknown_format_is_named(self):
         with h.open_study(STUDY.db) as db:
