@@ -88,6 +88,12 @@ TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::i
                                   " trials in a row; this machine cannot keep the loop's timing now)";
       }
       break;
+    case StopReason::kEndOfData:
+      // A replay's normal end; from a live device (a plugin, a driver) a
+      // status it must not give, named as such rather than as "ok".
+      fault(std::string("device fault: ") + to_string(DeviceStatus::kEndOfData) +
+            ": the device said its data ran out, which only a replay may say");
+      break;
     default: fault(device_fault_reason(loop, device)); break;
   }
   // The trial's data is what it is; but a device that was not set to zero

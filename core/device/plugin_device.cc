@@ -277,6 +277,23 @@ std::string check_ratings(const std::string& source, const DeviceRatings& rating
         return where + "peak_force " + number(r.peak_force) + " must be >= continuous_force " +
                number(r.continuous_force);
       if (!(r.max_velocity > 0.0)) return where + "max_velocity " + number(r.max_velocity) + " must be > 0";
+      const bool translation = j == kJointInsertion;
+      const PlausibleRatings& p = kPlausibleRatings;
+      const double travel = translation ? p.translation_travel_m : p.rotation_travel_rad;
+      const double force = translation ? p.translation_force_N : p.rotation_torque_Nm;
+      const double speed = translation ? p.translation_speed_m_per_s : p.rotation_speed_rad_per_s;
+      const char* unit = translation ? " m" : " rad";
+      for (const auto& [field, value] : {std::pair{"min_position", r.min_position}, {"max_position", r.max_position}})
+        if (std::abs(value) > travel)
+          return where + field + " " + number(value) + " is beyond +-" + number(travel) + unit +
+                 ", more than any hand-held device travels (it would switch the range guard off)";
+      if (r.peak_force > force)
+        return where + "peak_force " + number(r.peak_force) + " is above " + number(force) +
+               (translation ? " N" : " N·m") + ", more than any hand-held device exerts (it would switch the force "
+                                             "clip off)";
+      if (r.max_velocity > speed)
+        return where + "max_velocity " + number(r.max_velocity) + " is above " + number(speed) + unit +
+               "/s, faster than any hand moves an instrument (it would switch the speed guard off)";
     }
   return "";
 }

@@ -81,9 +81,27 @@ class PluginDevice final : public Device, public HandAttachment {
 
 // The rules of DeviceRatings: every value finite, max_position >
 // min_position, continuous_force >= 0, peak_force >= continuous_force,
-// max_velocity > 0. Returns "" if they hold, else a message naming
-// `source`, the instrument, the joint, the field and its value.
+// max_velocity > 0, and every value within what a hand-held device can
+// be (kPlausibleRatings): a device's ratings set the loop's range and
+// speed guard and the host's force clip, so a rating of 1e308 would
+// switch them off. Returns "" if they hold, else a message naming
+// `source`, the instrument, the joint, the field, its value and the bound.
 std::string check_ratings(const std::string& source, const DeviceRatings& ratings);
+
+// The bounds of a plausible rating, per kind of joint. Ten times or more
+// beyond any laparoscopic or desktop haptic device (the workstation: 0.17 m
+// of travel, 5.6 N peak; the largest desktop devices about 40 N and a few
+// N·m, well under 1 m and 10 m/s), so that no real device is refused, and a
+// value past them is a plugin's or driver's mistake, not a device.
+struct PlausibleRatings {
+  double translation_travel_m = 1.0;     // |min_position|, |max_position| of insertion
+  double translation_force_N = 100.0;    // peak_force of insertion
+  double translation_speed_m_per_s = 10.0;
+  double rotation_travel_rad = 12.566370614359172;  // 4 pi: two turns each way (twist, grip, pitch, yaw)
+  double rotation_torque_Nm = 20.0;
+  double rotation_speed_rad_per_s = 100.0;
+};
+inline constexpr PlausibleRatings kPlausibleRatings{};
 
 // Loads the plugin in a child process (a fork of this one) and runs create,
 // configure (with `config`), ratings and destroy there; the parent only

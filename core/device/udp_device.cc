@@ -16,6 +16,7 @@
 
 #include "core/common/steady_ns.h"
 #include "core/common/clock.h"
+#include "core/device/plugin_device.h"
 
 namespace hapticlab {
 namespace {
@@ -94,6 +95,13 @@ UdpDevice::UdpDevice(const UdpDeviceOptions& options)
   name_ = hello.name;
   if (name_[0] == '\0') std::memcpy(name_.data(), "udp", 4);
   ratings_ = hello.ratings;
+  // The driver's ratings set the loop's range and speed guard: the same
+  // rules as a plugin's, before anything is driven.
+  if (const std::string bad = check_ratings("device " + endpoint_, ratings_); !bad.empty()) {
+    ::close(fd_);
+    fd_ = -1;
+    throw std::runtime_error(bad);
+  }
   simulated_ = (hello.flags & udp::kFlagSimulated) != 0;
 }
 

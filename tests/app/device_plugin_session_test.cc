@@ -113,6 +113,25 @@ TEST_F(DevicePluginSessionTest, AReadingThatJumpsStopsTheTrialWhichIsRequeuedWit
   EXPECT_EQ(study.samples(aborted_id, 0).size(), 100u);
 }
 
+// A live device that answers "end of data" (only a replay may) ends the
+// session as a device fault that says so, not as "device fault: ok".
+TEST_F(DevicePluginSessionTest, ALiveDeviceThatSaysItsDataRanOutIsAFaultNamedSo) {
+  const std::string db = create_study("eod.db");
+  const auto [status, out] = testing::run_cli(
+      kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5" +
+                   " --device plugin:" + kFake + " --device-option fault=end_of_data --device-option after=50");
+  EXPECT_EQ(status, 3) << out;
+  db::StudyDb study = open_read_only(db);
+  int aborted = 0;
+  for (const db::TrialRow& t : study.trials(1)) {
+    if (t.status != db::TrialStatus::kAborted) continue;
+    ++aborted;
+    EXPECT_EQ(t.abort_reason,
+              "device fault: end_of_data: the device said its data ran out, which only a replay may say");
+  }
+  EXPECT_EQ(aborted, 1);
+}
+
 // The trials of a study that are not planned any more, in id order.
 std::vector<db::TrialRow> run_trials(db::StudyDb& study) {
   std::vector<db::TrialRow> trials;

@@ -152,6 +152,22 @@ TEST(PluginDeviceTest, CheckRatingsNamesEachRule) {
             "plugin x.so reports invalid ratings: left pitch continuous_force -1 must be >= 0");
   EXPECT_EQ(broken([](DeviceJointRating& j) { j.max_velocity = 0.0; }),
             "plugin x.so reports invalid ratings: left pitch max_velocity 0 must be > 0");
+  // Finite but beyond any hand-held device: each would switch a guard off
+  // (a plugin reporting 1.8e308 everywhere drove force from a 5 m reading).
+  EXPECT_EQ(broken([](DeviceJointRating& j) { j.max_position = std::numeric_limits<double>::max(); }),
+            "plugin x.so reports invalid ratings: left pitch max_position 1.79769e+308 is beyond +-12.5664 rad, "
+            "more than any hand-held device travels (it would switch the range guard off)");
+  EXPECT_EQ(broken([](DeviceJointRating& j) { j.max_velocity = 101.0; }),
+            "plugin x.so reports invalid ratings: left pitch max_velocity 101 is above 100 rad/s, faster than any "
+            "hand moves an instrument (it would switch the speed guard off)");
+  EXPECT_EQ(broken([](DeviceJointRating& j) { j.peak_force = 21.0; }),
+            "plugin x.so reports invalid ratings: left pitch peak_force 21 is above 20 N·m, more than any hand-held "
+            "device exerts (it would switch the force clip off)");
+  DeviceRatings far = workstation_ratings();
+  far.joint[1][kJointInsertion].min_position = -1.5;
+  EXPECT_EQ(check_ratings("plugin x.so", far),
+            "plugin x.so reports invalid ratings: right insertion min_position -1.5 is beyond +-1 m, more than any "
+            "hand-held device travels (it would switch the range guard off)");
 }
 
 TEST(PluginDeviceTest, ANanReadingIsAFaultEvenWhenThePluginSaysOk) {
