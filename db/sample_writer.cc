@@ -145,7 +145,7 @@ void SampleWriter::store_sample(const LoopSample& sample) {
     missing_.fetch_add(missing, std::memory_order_relaxed);
     pending_events_.push_back({trial_id_, sample.t_s, "samples_missing", -1, static_cast<std::int64_t>(missing),
                                "updates " + std::to_string(last_tick_ + 1) + ".." + std::to_string(sample.tick - 1) +
-                                   " never reached the writer (sample queue full)"});
+                                   " never reached the writer (a full sample queue, or refused by the study API)"});
   }
   have_tick_ = true;
   last_tick_ = sample.tick;

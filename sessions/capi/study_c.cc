@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -86,6 +87,7 @@ struct hl_study {
   // The loop thread's own: the tick of the last sample accepted this trial.
   bool have_tick = false;
   std::uint64_t last_tick = 0;
+  double last_sample_t_s = 0.0;  // of the last sample accepted (the loop thread's)
   std::atomic<double> last_t_s{0.0};  // of the last sample logged: when a stop took effect
 };
 
@@ -134,6 +136,7 @@ void reset_trial_streams(hl_study& study) {
   study.rejected_events.store(0, std::memory_order_relaxed);
   study.storage_failed.store(false, std::memory_order_relaxed);
   study.have_tick = false;
+  study.last_sample_t_s = 0.0;
   study.last_t_s.store(0.0, std::memory_order_relaxed);
   study.timing.reset();
 }
@@ -279,19 +282,42 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
   }
 }
 
+namespace {
+
+// Whether a sample can be stored as given: its tick increases and fits the
+// file's 64-bit signed ticks, its time is a number that does not go back,
+// its period is a number >= 0, and every physical value is finite (a NaN
+// force or joint would be stored, exported and analysed as a value).
+bool storable(const hl_study& study, const hl_sample& s) {
+  if (s.tick > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return false;
+  if (study.have_tick && (s.tick <= study.last_tick || s.t_s < study.last_sample_t_s)) return false;
+  if (!std::isfinite(s.t_s) || !std::isfinite(s.dt_s) || s.dt_s < 0.0) return false;
+  for (const hl_sample_instrument& in : s.instrument) {
+    for (double v : in.raw_joints)
+      if (!std::isfinite(v)) return false;
+    for (const double* field : {in.degraded_joints, in.tip_position_m, in.tip_velocity_m_per_s, in.ve_force_N,
+                                in.displayed_force_N, in.joint_force})
+      for (int j = 0; j < 3; ++j)
+        if (!std::isfinite(field[j])) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
   if (study == nullptr || sample == nullptr) return HL_ERROR_INVALID_ARGUMENT;
   if (!study->trial_open.load(std::memory_order_acquire)) return HL_ERROR_STATE;
-  // A tick that does not increase (a repeated update, a counter reset) or a
-  // time that is not a number would put two samples at one place in the
-  // trial: refused here, and the trial goes on.
-  if ((study->have_tick && sample->tick <= study->last_tick) || !std::isfinite(sample->t_s) ||
-      !std::isfinite(sample->dt_s)) {
+  // A tick that does not increase (a repeated update, a counter reset), a
+  // time that goes back or is not a number, or a value that is not would
+  // put wrong samples in the trial: refused here, and the trial goes on.
+  if (!storable(*study, *sample)) {
     study->rejected_samples.fetch_add(1, std::memory_order_relaxed);
     return HL_ERROR_INVALID_ARGUMENT;
   }
   study->have_tick = true;
   study->last_tick = sample->tick;
+  study->last_sample_t_s = sample->t_s;
   hl::LoopSample s;
   s.tick = sample->tick;
   s.t_s = sample->t_s;

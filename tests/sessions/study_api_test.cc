@@ -7,6 +7,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <vector>
 #include <string>
 #include <thread>
 
@@ -150,6 +152,23 @@ TEST_F(StudyApiTest, ARepeatedTickOrAnUndefinedEventIsRefusedAtTheCallAndTheTria
   no_time.t_s = NAN;
   EXPECT_EQ(hl_study_log_sample(study_, &no_time), HL_ERROR_INVALID_ARGUMENT);
   ++refused;
+  // Each of these would be stored, exported and analysed as a value: a
+  // non-finite joint or force, a time that goes back, a negative period, a
+  // tick past the file's 64-bit signed ticks.
+  const std::vector<void (*)(hl_sample&)> wrong = {
+      [](hl_sample& s) { s.instrument[0].raw_joints[0] = NAN; },
+      [](hl_sample& s) { s.instrument[1].displayed_force_N[2] = INFINITY; },
+      [](hl_sample& s) { s.instrument[0].joint_force[0] = NAN; },
+      [](hl_sample& s) { s.instrument[1].tip_velocity_m_per_s[1] = -INFINITY; },
+      [](hl_sample& s) { s.t_s = -5.0; },
+      [](hl_sample& s) { s.dt_s = -1e-3; },
+      [](hl_sample& s) { s.tick = std::numeric_limits<std::uint64_t>::max() - 1; }};
+  for (std::size_t i = 0; i < wrong.size(); ++i) {
+    hl_sample s = sample_at(600);
+    wrong[i](s);
+    EXPECT_EQ(hl_study_log_sample(study_, &s), HL_ERROR_INVALID_ARGUMENT) << "case " << i;
+    ++refused;
+  }
   // 6..8 are the simulated VE's own types (tissue_removed, clip_applied,
   // clip_missed), 10 is operator_abort: none is defined by study.h.
   for (int type : {6, 7, 8, 10, 11, -1})
