@@ -116,18 +116,22 @@ std::string url_host(const std::string& bind) {
 
 // A control: token first (before any body byte is read), then the body,
 // on the control thread; `reply()` the status it answers with.
+// `fields`: the keys its body may hold; any other is refused before the
+// action (a misspelt one would be ignored).
 template <typename Action, typename Reply>
-Route control_route(const std::string& path, std::function<std::optional<Response>(Request&)> admit, Action action,
-                    Reply reply) {
+Route control_route(const std::string& path, std::vector<std::string> fields,
+                    std::function<std::optional<Response>(Request&)> admit, Action action, Reply reply) {
   Route r;
   r.method = "POST";
   r.path = path;
   r.max_body_bytes = kMaxBodyBytes;
   r.admit = std::move(admit);
   r.runs = Runs::kControl;
-  r.handle = [action, reply](const Request& req) {
+  r.handle = [path, fields = std::move(fields), action, reply](const Request& req) {
     try {
-      action(parse_control_body(req.body));
+      const nlohmann::json body = parse_control_body(req.body);
+      check_field_names(body, "POST " + path, fields);
+      action(body);
       return json_reply(reply());
     } catch (const ConsoleConflict& e) {
       return Response::error(409, e.what());
@@ -395,12 +399,14 @@ class Console {
 
   // --- controls
   template <typename Action>
-  void control(std::vector<Route>& op, const std::string& path, Action action) {
-    op.push_back(control_route(path, token_admit(), action, [this] { return session_.operator_status(); }));
+  void control(std::vector<Route>& op, const std::string& path, std::vector<std::string> fields, Action action) {
+    op.push_back(
+        control_route(path, std::move(fields), token_admit(), action, [this] { return session_.operator_status(); }));
   }
   template <typename Action>
-  void tuning_control(std::vector<Route>& op, const std::string& path, Action action) {
-    op.push_back(control_route(path, token_admit(), action, [this] { return tuning_.status(); }));
+  void tuning_control(std::vector<Route>& op, const std::string& path, std::vector<std::string> fields,
+                      Action action) {
+    op.push_back(control_route(path, std::move(fields), token_admit(), action, [this] { return tuning_.status(); }));
   }
   bool known_participant(const std::string& code) const {
     for (const auto& p : at_start_.participants)
@@ -409,7 +415,7 @@ class Console {
   }
 
   void add_session_controls(std::vector<Route>& op) {
-    control(op, "/api/session/start", [this](const nlohmann::json& body) {
+    control(op, "/api/session/start", {"participant", "step"}, [this](const nlohmann::json& body) {
       const std::string code = text_field(body, "participant", 64);
       const bool step = bool_field(body, "step", false);
       if (!known_participant(code)) {
@@ -425,7 +431,7 @@ class Console {
   }
 
   void add_tuning_controls(std::vector<Route>& op) {
-    tuning_control(op, "/api/tuning/start", [this](const nlohmann::json& body) {
+    tuning_control(op, "/api/tuning/start", {"task", "from"}, [this](const nlohmann::json& body) {
       const std::string task = text_field(body, "task", 64);
       const std::string from = text_field(body, "from", 200);
       const NamedSettings* start = nullptr;
@@ -441,41 +447,41 @@ class Console {
         throw ConsoleConflict("a session is running; the Tuning page is for pilot work outside one");
       tuning_.start(task, *start);
     });
-    tuning_control(op, "/api/tuning/stop", [this](const nlohmann::json&) { tuning_.stop(); });
-    tuning_control(op, "/api/tuning/set", [this](const nlohmann::json& body) {
+    tuning_control(op, "/api/tuning/stop", {}, [this](const nlohmann::json&) { tuning_.stop(); });
+    tuning_control(op, "/api/tuning/set", {"field", "value"}, [this](const nlohmann::json& body) {
       if (!body.contains("value"))
         throw std::invalid_argument("value: missing (a number, or true/false for \"enabled\")");
       tuning_.set(text_field(body, "field", 200), body["value"]);
     });
-    tuning_control(op, "/api/tuning/save",
+    tuning_control(op, "/api/tuning/save", {"name"},
                    [this](const nlohmann::json& body) { (void)tuning_.save(text_field(body, "name", 64)); });
   }
 
   // The session's other controls, and the results'.
   void add_other_controls(std::vector<Route>& op) {
-    control(op, "/api/session/next", [this](const nlohmann::json&) { session_.next_trial(); });
-    control(op, "/api/session/pause",
+    control(op, "/api/session/next", {}, [this](const nlohmann::json&) { session_.next_trial(); });
+    control(op, "/api/session/pause", {"paused"},
             [this](const nlohmann::json& body) { session_.set_paused(bool_field(body, "paused", true)); });
-    control(op, "/api/session/rest", [this](const nlohmann::json& body) {
+    control(op, "/api/session/rest", {"seconds"}, [this](const nlohmann::json& body) {
       session_.rest(number_field(body, "seconds", 1.0, 3600.0));
     });
-    control(op, "/api/session/end-training", [this](const nlohmann::json&) { session_.end_training(); });
-    control(op, "/api/session/abort", [this](const nlohmann::json& body) {
+    control(op, "/api/session/end-training", {}, [this](const nlohmann::json&) { session_.end_training(); });
+    control(op, "/api/session/abort", {"trial_id", "reason"}, [this](const nlohmann::json& body) {
       // The trial the operator saw running (0: none); absent: the one running now.
       std::optional<std::int64_t> trial_id;
       if (body.contains("trial_id")) trial_id = integer_field(body, "trial_id", 0, INT64_MAX, 0);
       session_.abort_trial(text_field(body, "reason", 500), trial_id);
     });
-    control(op, "/api/results/export", [this](const nlohmann::json& body) {
+    control(op, "/api/results/export", {"participant", "every", "gzip"}, [this](const nlohmann::json& body) {
       const std::string participant = optional_text_field(body, "participant", 64, "", true);
       if (!participant.empty() && !known_participant(participant))
         throw std::invalid_argument("participant: '" + participant + "' is not one of the study's");
       const std::int64_t every = integer_field(body, "every", 1, 1000000, 1);
       results_.start_export(participant, static_cast<std::uint64_t>(every), bool_field(body, "gzip", true));
     });
-    control(op, "/api/results/analyze",
+    control(op, "/api/results/analyze", {"plots"},
             [this](const nlohmann::json& body) { results_.start(bool_field(body, "plots", true)); });
-    control(op, "/api/session/note",
+    control(op, "/api/session/note", {"text"},
             [this](const nlohmann::json& body) { session_.note(text_field(body, "text", 2000)); });
   }
 

@@ -1,6 +1,9 @@
 #include "console/control_fields.h"
 
+#include <algorithm>
 #include <cmath>
+#include <set>
+#include <vector>
 #include <limits>
 #include <stdexcept>
 
@@ -49,10 +52,39 @@ std::string checked_text(const nlohmann::json& v, const char* name, std::size_t 
 
 nlohmann::json parse_control_body(const std::string& body) {
   if (body.empty()) return nlohmann::json::object();
-  nlohmann::json j = nlohmann::json::parse(body, nullptr, false);
+  // A key given twice would leave one of its values unread (the parser
+  // keeps the last): {"participant": "S1", "participant": "S2"} started S2.
+  std::vector<std::set<std::string>> keys;  // per open object
+  std::string twice;
+  const nlohmann::json::parser_callback_t note_keys = [&](int, nlohmann::json::parse_event_t event,
+                                                          nlohmann::json& parsed) {
+    using Event = nlohmann::json::parse_event_t;
+    if (event == Event::object_start) keys.emplace_back();
+    if (event == Event::object_end && !keys.empty()) keys.pop_back();
+    if (event == Event::key && !keys.empty() && !keys.back().insert(parsed.get<std::string>()).second &&
+        twice.empty())
+      twice = parsed.get<std::string>();
+    return true;
+  };
+  nlohmann::json j = nlohmann::json::parse(body, note_keys, false);
   if (j.is_discarded() || !j.is_object())
     throw std::invalid_argument("request body: not a JSON object (send {} or nothing for none; UTF-8 text)");
+  if (!twice.empty())
+    throw std::invalid_argument("request body: the field '" + twice + "' is given twice (which one was meant?)");
   return j;
+}
+
+void check_field_names(const nlohmann::json& body, const std::string& request,
+                       const std::vector<std::string>& fields) {
+  for (const auto& [key, value] : body.items()) {
+    if (std::find(fields.begin(), fields.end(), key) != fields.end()) continue;
+    std::string takes;
+    for (const std::string& f : fields) takes += (takes.empty() ? "" : ", ") + f;
+    std::string shown = key.size() > 64 ? key.substr(0, 61) + "..." : key;
+    throw std::invalid_argument("request body: unknown field '" + shown + "' (" + request + " takes " +
+                                (takes.empty() ? std::string("no field") : takes) +
+                                "; a misspelt field would otherwise be ignored and its default used)");
+  }
 }
 
 std::size_t utf8_chars(const std::string& text) {

@@ -9,14 +9,22 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 namespace hapticlab::console {
 
 // The body as a JSON object; an empty body (no Content-Length, or 0) is {}.
-// Throws std::invalid_argument for text that is not a JSON object.
+// Throws std::invalid_argument for text that is not a JSON object, and for
+// one that gives a key twice in an object (the parser would keep one value
+// and drop the other unread).
 nlohmann::json parse_control_body(const std::string& body);
+
+// Throws std::invalid_argument naming the first key of `body` that is not
+// one of `fields`, the fields `request` takes: a misspelt optional field
+// ("stepp") would otherwise be ignored and its default used.
+void check_field_names(const nlohmann::json& body, const std::string& request, const std::vector<std::string>& fields);
 
 // Code points of UTF-8 text.
 std::size_t utf8_chars(const std::string& text);

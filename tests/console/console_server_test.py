@@ -897,8 +897,17 @@ def main():
                 ("/api/session/note", {"text": "ab\u0000cd"}, "NUL character (U+0000) at character 3"),
                 ("/api/session/note", {"text": "\u00e9" * 2001}, "2001 characters (4002 bytes), must be 1..2000"),
                 ("/api/session/abort", {"reason": "x", "trial_id": 1.5}, "trial_id: a number with a fraction"),
-                ("/api/session/start", {"participant": "S1", "step": "no"}, "step: a string")):
+                ("/api/session/start", {"participant": "S1", "step": "no"}, "step: a string"),
+                # A misspelt field would be ignored and its default taken (step mode off).
+                ("/api/session/start", {"participant": "S1", "stepp": True},
+                 "unknown field 'stepp' (POST /api/session/start takes participant, step"),
+                ("/api/session/next", {"force": True}, "takes no field")):
             expect(f"{path} {json.dumps(body)[:60]}", request(c.port, "POST", path, body, token=c.token), 400, words)
+        # A field given twice: the parser would keep the last (S2's session started).
+        twice = b'{"participant": "S1", "participant": "S2"}'
+        expect("a field given twice", request(c.port, "POST", "/api/session/start", token=c.token, raw_body=twice,
+                                              extra=f"Content-Length: {len(twice)}\r\n".encode()),
+               400, "the field 'participant' is given twice")
         for path, body in (("/api/session/next", None), ("/api/session/pause", {"paused": True}),
                            ("/api/session/rest", {"seconds": 10}), ("/api/session/end-training", None),
                            ("/api/session/note", {"text": "x"}), ("/api/session/abort", {"reason": "x"})):
