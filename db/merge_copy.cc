@@ -125,9 +125,8 @@ class Builder {
       const std::int64_t out_id = static_cast<std::int64_t>(k + 1);
       session_map_[{src.input, src.id}] = out_id;
       Input& in = inputs_[src.input];
-      Statement s = in.db->prepare(
-          "SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status, rate_Hz, participant_model "
-          "FROM session WHERE id = ?1");
+      Statement s = in.db->prepare("SELECT participant_id, started_unix_s, ended_unix_s, device, clock, status, " +
+                                   in.session_conditions_expr() + " FROM session WHERE id = ?1");
       s.bind(1, src.id);
       s.step();
       ins_session.reset();

@@ -29,10 +29,13 @@ using SessionIndex = std::map<std::int64_t, std::size_t>;
 
 SessionIndex add_sessions(Database& db, std::int64_t pid, std::string& text) {
   SessionIndex session_index;
-  Statement s = db.prepare(
-      "SELECT id, started_unix_s, ended_unix_s, device, clock, status, rate_Hz, participant_model FROM session "
-      "WHERE participant_id = ?1 "
-      "ORDER BY started_unix_s, id");
+  // A site file of version 8 or 9 has no rate or model: NULL, as a merge
+  // copies them.
+  Statement has_rate = db.prepare("SELECT count(*) FROM pragma_table_info('session', 'main') WHERE name = 'rate_Hz'");
+  has_rate.step();
+  const std::string conditions = has_rate.column_int64(0) > 0 ? "rate_Hz, participant_model" : "NULL, NULL";
+  Statement s = db.prepare("SELECT id, started_unix_s, ended_unix_s, device, clock, status, " + conditions +
+                           " FROM session WHERE participant_id = ?1 ORDER BY started_unix_s, id");
   s.bind(1, pid);
   while (s.step()) {
     session_index[s.column_int64(0)] = session_index.size();

@@ -14,7 +14,8 @@ namespace fs = std::filesystem;
 namespace {
 
 // The oldest input schema read as it is: version 8 differs from 9 only by
-// session.site. Older files have other checksums; they are migrated first
+// session.site, 9 from 10 by session.rate_Hz and participant_model (read
+// as NULL: merge_input.h). Older files have other checksums; they are migrated first
 // by any command that opens them read-write (the merge writes no input).
 constexpr int kOldestInputVersion = 8;
 
@@ -30,10 +31,10 @@ void check_structure(Input& in) {
   if (found.empty()) {
     std::vector<Finding> more = check_foreign_keys(db, std::size_t{20});
     found.insert(found.end(), more.begin(), more.end());
-    if (in.version == kSchemaVersion) {
-      more = check_value_types(db, std::size_t{20});
-      found.insert(found.end(), more.begin(), more.end());
-    }
+    // Every version a merge reads: a value of the wrong type in an older
+    // file would be copied as a number (a text 'nan' event time as 0.0).
+    more = check_value_types(db, std::size_t{20}, in.version);
+    found.insert(found.end(), more.begin(), more.end());
   }
   for (const Finding& f : found) problems.push_back(f.message);
   if (problems.empty()) return;

@@ -43,6 +43,11 @@ struct Input {
   ino_t ino = 0;
 
   std::string site_expr() const { return version >= 9 ? "site" : "NULL"; }
+  // Version 10 added the session's loop rate and participant model (NULL
+  // before: not recorded).
+  std::string session_conditions_expr() const {
+    return version >= 10 ? "rate_Hz, participant_model" : "NULL, NULL";
+  }
 };
 
 std::string quoted(const std::filesystem::path& p);

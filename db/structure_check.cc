@@ -4,6 +4,7 @@
 
 #include "db/schema.h"
 #include "db/schema_shape.h"
+#include "db/value_rules.h"
 
 namespace hapticlab::db {
 namespace {
@@ -96,9 +97,21 @@ std::vector<Finding> check_foreign_keys(Database& db, std::size_t limit) {
   return out;
 }
 
-std::vector<Finding> check_value_types(Database& db, std::size_t limit) {
+std::vector<Finding> check_value_types(Database& db, std::size_t limit, int version) {
   std::vector<Finding> out;
-  for (const TableShape& table : schema_tables()) {
+  Statement has_column = db.prepare("SELECT count(*) FROM pragma_table_info(?1, 'main') WHERE name = ?2");
+  const auto exists = [&](const char* table, const char* column) {
+    has_column.reset();
+    has_column.bind(1, table).bind(2, column);
+    return has_column.step() && has_column.column_int64(0) > 0;
+  };
+  for (const TableShape& current : schema_tables()) {
+    if (current.since_version > version) continue;
+    // The columns the file has (all of them at the current version).
+    std::vector<ColumnShape> columns;
+    for (const ColumnShape& c : current.columns)
+      if (version == kSchemaVersion || exists(current.name, c.name)) columns.push_back(c);
+    const TableShape table{current.name, columns, current.since_version};
     Statement s = db.prepare(mistyped_rows_sql(table, {}, limit));
     std::vector<std::string> types(table.columns.size()), values(table.columns.size());
     while (s.step()) {
@@ -110,6 +123,13 @@ std::vector<Finding> check_value_types(Database& db, std::size_t limit) {
       }
       out.push_back(finding("type", table.name, rowid, trial, mistyped_row_message(table, rowid, trial, types, values)));
     }
+  }
+  for (const ValueRule& rule : schema_value_rules()) {
+    if (rule.checked_per_chunk || (version != kSchemaVersion && !exists(rule.table, rule.column))) continue;
+    Statement s = db.prepare(broken_rule_rows_sql(rule, limit));
+    while (s.step())
+      out.push_back(finding("type", rule.table, s.column_int64(0), opt_int(s, 1),
+                            broken_rule_message(rule, s.column_int64(0), opt_int(s, 1), s.column_text(2))));
   }
   return out;
 }

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "db/schema.h"
 #include "db/sqlite_handle.h"
 
 namespace hapticlab::db {
@@ -44,9 +45,13 @@ std::vector<Finding> check_tables(Database& db, int version);
 std::vector<Finding> check_foreign_keys(Database& db, std::size_t limit = 100);
 
 // Every value of every table of the current schema has its column's type
-// ("event row 17 of trial 3: t_s is text 'nan', expected a REAL"); at most
-// `limit` rows per table. Needs check_tables to have passed.
-std::vector<Finding> check_value_types(Database& db, std::size_t limit = 20);
+// ("event row 17 of trial 3: t_s is text 'nan', expected a REAL") and keeps
+// the schema's CHECKs (value_rules.h: "trial 3: status is 'done', which
+// breaks CHECK (...)"); at most `limit` rows per table and rule. Needs
+// check_tables to have passed. `version`: the file's schema version; an
+// older file (a site file a merge reads as it is) is checked on the tables
+// and columns it has.
+std::vector<Finding> check_value_types(Database& db, std::size_t limit = 20, int version = kSchemaVersion);
 
 // Throws DbError naming the file, the number of findings and the first few
 // of them; returns when there are none.

@@ -8,6 +8,11 @@ namespace hapticlab::sessions {
 namespace {
 
 // The device's own fault, said as specifically as the device can.
+// A live device (a plugin, a driver) that answers "end of data": named as
+// such rather than as "device fault: ok" (its status stays ok).
+constexpr const char* kLiveEndOfDataReason =
+    "device fault: end_of_data: the device said its data ran out, which only a replay may say";
+
 std::string device_fault_reason(const HapticLoop& loop, const Device& device) {
   if (loop.device_status() == DeviceStatus::kTimeout) {
     // "device_timeout" first, so a query can match the reason's start.
@@ -88,11 +93,8 @@ TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::i
                                   " trials in a row; this machine cannot keep the loop's timing now)";
       }
       break;
-    case StopReason::kEndOfData:
-      // A replay's normal end; from a live device (a plugin, a driver) a
-      // status it must not give, named as such rather than as "ok".
-      fault(std::string("device fault: ") + to_string(DeviceStatus::kEndOfData) +
-            ": the device said its data ran out, which only a replay may say");
+    case StopReason::kEndOfData:  // a replay's normal end; from a live device, a status it must not give
+      fault(kLiveEndOfDataReason);
       break;
     default: fault(device_fault_reason(loop, device)); break;
   }

@@ -262,7 +262,10 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   // A file of schema 8 (before sites) merges as it is, unchanged.
   fs::copy_file(b, dir_.path() / "v8.db");
   const std::string v8 = (dir_.path() / "v8.db").string();
-  testing::edit_with_sqlite(v8, "ALTER TABLE session DROP COLUMN site; PRAGMA user_version = 8");
+  // Genuinely of version 8: no site, no loop rate, no participant model
+  // (a merge read the last two as if every file had them: an SQL error).
+  testing::edit_with_sqlite(v8, "ALTER TABLE session DROP COLUMN site; ALTER TABLE session DROP COLUMN rate_Hz; "
+                                "ALTER TABLE session DROP COLUMN participant_model; PRAGMA user_version = 8");
   const std::string v8_bytes = testing::slurp(v8);
   {
     const auto [rc, text] = merge(a + " " + v8 + " --out " + out_db);
@@ -271,6 +274,14 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
     EXPECT_EQ(testing::slurp(v8), v8_bytes);
     fs::remove(out_db);
   }
+  // An older file's values are checked as a current one's: a text 'nan'
+  // event time was copied as 0.0 and the merged file then passed every check.
+  fs::copy_file(b, dir_.path() / "v9nan.db");
+  const std::string v9nan = (dir_.path() / "v9nan.db").string();
+  testing::edit_with_sqlite(v9nan, "ALTER TABLE session DROP COLUMN rate_Hz; ALTER TABLE session DROP COLUMN "
+                                   "participant_model; UPDATE event SET t_s = 'nan' WHERE id = (SELECT min(id) FROM "
+                                   "event); PRAGMA user_version = 9");
+  refused(a + " " + v9nan + " --out " + out_db, {v9nan + ": damaged site file", "t_s is text 'nan', expected a REAL"});
   // A session still open at a site (running, or killed and not recovered).
   fs::copy_file(b, dir_.path() / "open.db");
   const std::string open = (dir_.path() / "open.db").string();
