@@ -26,6 +26,45 @@ TEST(StudyCheck, ASoundFileHasNoFindingsAndItsChunksChecked) {
   EXPECT_FALSE(c.damaged());
 }
 
+// A trial whose session is another participant's: every reference exists,
+// so foreign_key_check passes; every reader took it as the trial's.
+TEST(StudyCheck, ATrialInAnotherParticipantsSessionIsAFinding) {
+  testing::TempDir dir;
+  const auto path = dir.file("other.db");
+  {
+    StudyDb made(path);
+    const std::int64_t trial = testing::make_trial(made);  // P01's, in P01's session 1
+    const std::int64_t p02 = made.add_participant(made.studies().front().id, "P02");
+    made.begin_session(p02, "sim", "virtual", 1000.0);  // session 2
+    made.connection().exec("UPDATE trial SET session_id = 2 WHERE id = " + std::to_string(trial));
+  }
+  Database conn(path, Database::Mode::kReadOnly);
+  const StudyFileCheck c = check_study_file(conn);
+  ASSERT_EQ(c.findings.size(), 1u);
+  EXPECT_EQ(c.findings[0].message, "trial 1: session_id 2 is participant 'P02''s session, but the trial is "
+                                   "participant 'P01''s");
+  // Every reader refuses the file at open, naming it.
+  EXPECT_THAT([&] { StudyDb(path, OpenOptions{.read_only = true}); },
+              ::testing::ThrowsMessage<DbError>(HasSubstr("session_id 2 is participant 'P02''s session")));
+}
+
+// A trial left 'running' in a session that has ended was counted as not
+// run by the analysis, its samples and all.
+TEST(StudyCheck, ATrialRunningInASessionThatEndedIsAFinding) {
+  testing::TempDir dir;
+  const auto path = dir.file("stale.db");
+  {
+    StudyDb made(path);
+    testing::make_trial(made);  // running, in session 1 (open)
+    made.connection().exec("UPDATE session SET status = 'closed'");
+  }
+  Database conn(path, Database::Mode::kReadOnly);
+  const StudyFileCheck c = check_study_file(conn);
+  ASSERT_EQ(c.findings.size(), 1u);
+  EXPECT_EQ(c.findings[0].message, "trial 1: status is 'running', but its session 1 is closed (a session ends after "
+                                   "its trials)");
+}
+
 TEST(StudyCheck, AViewInATablesPlaceIsAFindingAndNoQueryReadsTheChunks) {
   testing::TempDir dir;
   const auto path = dir.file("view.db");
