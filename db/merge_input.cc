@@ -124,6 +124,10 @@ void open_input(Input& in) {
     s.step();
     in.has_unsited_sessions = s.column_int64(0) > 0;
   }
+  if (in.version >= 9) {
+    Statement s = db.prepare("SELECT DISTINCT site FROM session WHERE site IS NOT NULL");
+    while (s.step()) in.stamped_sites.insert(s.column_text(0));
+  }
 }
 
 }  // namespace hapticlab::db::merge

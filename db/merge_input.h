@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -39,6 +40,8 @@ struct Input {
   std::vector<Participant> participants;  // by id
   std::vector<Setting> settings;          // by id
   bool has_unsited_sessions = false;
+  bool site_named = false;  // by --site FILE=NAME (else the file's name)
+  std::set<std::string> stamped_sites;  // sites its sessions already carry (an earlier merge's)
   dev_t dev = 0;
   ino_t ino = 0;
 

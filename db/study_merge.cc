@@ -172,6 +172,7 @@ std::vector<Input> open_inputs(const MergeOptions& options, const std::optional<
     Input in;
     in.path = given.path;
     in.site = given.site.empty() ? given.path.stem().string() : given.site;
+    in.site_named = !given.site.empty();
     check_site_name(in.site, given.path.string());
     in.index = inputs.size();
     merge::open_input(in);
@@ -203,6 +204,16 @@ void check_one_study(const std::vector<Input>& inputs) {
       if (inputs[a].has_unsited_sessions && inputs[b].has_unsited_sessions && inputs[a].site == inputs[b].site)
         throw MergeError(inputs[a].path.string() + " and " + inputs[b].path.string() + " would both be site '" +
                          inputs[a].site + "'; name each with --site FILE=NAME");
+  // A file's own sessions named after its file like sessions another file
+  // already carries from an earlier merge: the same station, or two under
+  // one name; only the operator knows, and says it with --site.
+  for (const Input& own : inputs)
+    for (const Input& other : inputs)
+      if (&own != &other && own.has_unsited_sessions && !own.site_named && other.stamped_sites.contains(own.site))
+        throw MergeError(own.path.string() + "'s own sessions would be site '" + own.site + "' (its file's name), but " +
+                         other.path.string() + " already holds sessions of site '" + own.site +
+                         "' from an earlier merge: if they are one station, say so with --site " + own.path.string() +
+                         "=" + own.site + "; if not, give it another name");
 }
 
 // Each participant's sessions from one file (code -> input); a file

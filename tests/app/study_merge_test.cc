@@ -243,6 +243,21 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   }
   refused(a + " " + b + " " + c + " --out " + out_db,
           {"participant 'A1' has sessions in two files: " + a + " (1) and " + c + " (1)", "one site's file"});
+  // A file named like a site an earlier merge already holds: one station or
+  // two under one name (the merge took them as one, silently).
+  const std::string earlier = (dir_.path() / "earlier.db").string();
+  ASSERT_EQ(merge(a + " --out " + earlier).first, 0);  // A1's sessions, site 'a'
+  fs::create_directories(dir_.path() / "second");
+  const std::string named_a = (dir_.path() / "second" / "a.db").string();
+  fs::copy_file(b, named_a);  // B1's sessions, unstamped: its own, site 'a' by its name
+  refused(earlier + " " + named_a + " --out " + out_db,
+          {named_a + "'s own sessions would be site 'a' (its file's name), but " + earlier +
+           " already holds sessions of site 'a' from an earlier merge", "--site " + named_a + "=a"});
+  {
+    const auto [rc, text] = merge(earlier + " " + named_a + " --site " + named_a + "=a --out " + out_db);
+    EXPECT_EQ(rc, 0) << text;  // said to be one station
+    fs::remove(out_db);
+  }
   // A damaged chunk: named with its trial, instrument and ticks.
   fs::copy_file(b, dir_.path() / "damaged.db");
   const std::string damaged = (dir_.path() / "damaged.db").string();
