@@ -353,7 +353,11 @@ int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
 int hl_study_log_event(hl_study* study, double t_s, int type, int instrument, int32_t index) {
   if (study == nullptr) return HL_ERROR_INVALID_ARGUMENT;
   if (!study->trial_open.load(std::memory_order_acquire)) return HL_ERROR_STATE;
-  if (!is_ve_event_type(type) || instrument < -1 || instrument > 1 || !std::isfinite(t_s)) {
+  // The task's completion is the task's (-1); the others are an instrument's
+  // (0 or 1): an event of the wrong kind would count for the wrong hand.
+  const bool task_event = type == HL_EVENT_TASK_COMPLETE;
+  if (!is_ve_event_type(type) || (task_event ? instrument != -1 : instrument != 0 && instrument != 1) ||
+      !std::isfinite(t_s) || index < 0) {
     study->rejected_events.fetch_add(1, std::memory_order_relaxed);
     return HL_ERROR_INVALID_ARGUMENT;
   }

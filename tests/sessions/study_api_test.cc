@@ -173,11 +173,16 @@ TEST_F(StudyApiTest, ARepeatedTickOrAnUndefinedEventIsRefusedAtTheCallAndTheTria
   // clip_missed), 10 is operator_abort: none is defined by study.h.
   for (int type : {6, 7, 8, 10, 11, -1})
     EXPECT_EQ(hl_study_log_event(study_, 0.2, type, -1, 0), HL_ERROR_INVALID_ARGUMENT) << "type " << type;
+  // The task's completion is the task's, a contact an instrument's; an item
+  // number is never negative.
+  EXPECT_EQ(hl_study_log_event(study_, 0.2, HL_EVENT_TASK_COMPLETE, 0, 0), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_log_event(study_, 0.2, HL_EVENT_CONTACT_START, -1, 0), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_log_event(study_, 0.2, HL_EVENT_CONTACT_START, 0, -3), HL_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(hl_study_log_event(study_, 0.010, HL_EVENT_INSERTION_PASSED, 0, 0), HL_OK);
   std::uint64_t rejected_samples = 0, rejected_events = 0;
   ASSERT_EQ(hl_study_rejected(study_, &rejected_samples, &rejected_events), HL_OK);
   EXPECT_EQ(rejected_samples, static_cast<std::uint64_t>(refused));
-  EXPECT_EQ(rejected_events, 6u);
+  EXPECT_EQ(rejected_events, 9u);
   const std::int64_t id = trial_.trial_id;
   ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
   // The session goes on: the next trial starts.
@@ -196,7 +201,7 @@ TEST_F(StudyApiTest, ARepeatedTickOrAnUndefinedEventIsRefusedAtTheCallAndTheTria
     return std::int64_t{-1};
   };
   EXPECT_EQ(counter("rejected_samples"), refused);
-  EXPECT_EQ(counter("rejected_events"), 6);
+  EXPECT_EQ(counter("rejected_events"), 9);
   ASSERT_EQ(db.events(id).size(), 1u);
 }
 

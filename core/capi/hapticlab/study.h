@@ -182,10 +182,12 @@ HL_API int hl_study_log_sample(hl_study* study, const hl_sample* sample);
 
 /*
  * Logs a task event of the open trial (HL_EVENT_*), at loop time t_s, of
- * instrument 0, 1 or -1; index: an item number where the VE has several
- * (0 otherwise). Real-time safe. Return codes as hl_study_log_sample; a
- * type other than the HL_EVENT_* above, a bad instrument or a non-finite
- * t_s is HL_ERROR_INVALID_ARGUMENT, counted in hl_study_rejected.
+ * instrument 0 or 1 (HL_EVENT_TASK_COMPLETE: -1, the task as a whole);
+ * index: an item number >= 0 where the VE has several (0 otherwise).
+ * Real-time safe. Return codes as hl_study_log_sample; a type other than
+ * the HL_EVENT_* above, an instrument other than the type's, a negative
+ * index or a non-finite t_s is HL_ERROR_INVALID_ARGUMENT, counted in
+ * hl_study_rejected.
  */
 HL_API int hl_study_log_event(hl_study* study, double t_s, int type, int instrument, int32_t index);
 
