@@ -133,6 +133,7 @@ PluginDevice::PluginDevice(const std::string& path, const std::map<std::string, 
       throw std::invalid_argument("plugin " + path + " refused its options: " +
                                   (error[0] != '\0' ? std::string(error) : std::string("(it gave no reason)")));
     }
+    keep_name(table_->name(device_));
   } catch (...) {
     ::dlclose(library_);
     throw;
@@ -225,9 +226,20 @@ DeviceStatus PluginDevice::deactivate() noexcept {
 
 void PluginDevice::halt() noexcept { table_->halt(device_); }
 
-const char* PluginDevice::name() const noexcept {
-  const char* n = table_->name(device_);
-  return n != nullptr ? n : "plugin";
+const char* PluginDevice::name() const noexcept { return name_.data(); }
+
+// The plugin's name, read once: at most kNameChars bytes (a name without
+// its NUL is not read further), each byte outside printable ASCII shown as
+// '?' (a newline or an escape sequence in it would forge lines on the
+// operator's terminal and in logs); "plugin" for none.
+void PluginDevice::keep_name(const char* name) noexcept {
+  name_.fill('\0');
+  const std::size_t n = name != nullptr ? ::strnlen(name, kNameChars) : 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = static_cast<unsigned char>(name[i]);
+    name_[i] = c >= 0x20 && c < 0x7f ? static_cast<char>(c) : '?';
+  }
+  if (n == 0) std::memcpy(name_.data(), "plugin", 7);
 }
 
 bool PluginDevice::set_start_pose(int instrument, const DeviceJoints& position) noexcept {

@@ -22,6 +22,7 @@
 // participant hold pointers to it, and the plugin's clock callback holds one
 // to the loop's clock.
 
+#include <array>
 #include <map>
 #include <string>
 
@@ -69,7 +70,11 @@ class PluginDevice final : public Device, public HandAttachment {
   const std::string& path() const noexcept { return path_; }
 
  private:
+  static constexpr std::size_t kNameChars = 63;
+  void keep_name(const char* name) noexcept;
+
   std::string path_;
+  std::array<char, kNameChars + 1> name_{};
   void* library_ = nullptr;
   const hl_device_plugin* table_ = nullptr;
   hl_device* device_ = nullptr;

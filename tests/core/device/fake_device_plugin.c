@@ -15,6 +15,7 @@
  *   after=N          calls that behave before a crash_in_* or hang_in_read fault strikes (default 200)
  *   hang_ms=N        how long hang_in_read or hang_in_deactivate blocks (default 0: for ever)
  *   write_delay_us=N how long slow_write's write() takes (default 5000)
+ *   name=TEXT        what name() answers (default "fake"), e.g. one with control characters
  *   report=PATH   at destroy and at every halt, write "writes N nonzero_writes M max_abs_force F halts H" to
  *                 PATH (at halt too, since a process that crashed never destroys its device)
  * Built three times (tests/core/device/CMakeLists.txt): as is, with
@@ -42,6 +43,7 @@ enum fault {
 struct hl_device {
   enum fault fault;
   char report[512];
+  char name[128];
   int configured, active;
   long reads, writes, nonzero_writes, halts;
   double max_abs_force;
@@ -98,6 +100,8 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
       }
     } else if (strcmp(keys[i], "report") == 0) {
       snprintf(d->report, sizeof d->report, "%s", values[i]);
+    } else if (strcmp(keys[i], "name") == 0) {
+      snprintf(d->name, sizeof d->name, "%s", values[i]);
     } else if (strcmp(keys[i], "after") == 0 || strcmp(keys[i], "hang_ms") == 0 ||
                strcmp(keys[i], "write_delay_us") == 0) {
       const long v = whole_number(values[i]);
@@ -212,10 +216,7 @@ static void fake_halt(hl_device* d) {
   write_report(d);
 }
 
-static const char* fake_name(const hl_device* d) {
-  (void)d;
-  return "fake";
-}
+static const char* fake_name(const hl_device* d) { return d->name[0] != '\0' ? d->name : "fake"; }
 
 static void fake_destroy(hl_device* d) {
   write_report(d);

@@ -170,6 +170,17 @@ TEST(PluginDeviceTest, CheckRatingsNamesEachRule) {
             "hand-held device travels (it would switch the range guard off)");
 }
 
+// A name with a newline or an escape sequence would forge lines on the
+// operator's terminal: read once, bounded, and shown with '?' for them.
+TEST(PluginDeviceTest, ThePluginsNameIsShownPrintableAndBounded) {
+  PluginDevice plain(kFake, {});
+  EXPECT_STREQ(plain.name(), "fake");
+  PluginDevice forged(kFake, {{"name", "fake\nOK: calibrated\x1b[0m"}});
+  EXPECT_STREQ(forged.name(), "fake?OK: calibrated?[0m");
+  PluginDevice longer(kFake, {{"name", std::string(100, 'x')}});
+  EXPECT_EQ(std::string(longer.name()), std::string(63, 'x'));
+}
+
 TEST(PluginDeviceTest, ANanReadingIsAFaultEvenWhenThePluginSaysOk) {
   PluginDevice device(kFake, {{"fault", "nan_read"}});
   VirtualClock clock;
