@@ -1,6 +1,9 @@
 #include "db/structure_check.h"
 
+#include <set>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "db/schema.h"
 #include "db/schema_shape.h"
@@ -30,6 +33,45 @@ std::string sql_name(const std::string& name) {
   std::string out = "\"";
   for (char c : name) out += c == '"' ? std::string("\"\"") : std::string(1, c);
   return out + "\"";
+}
+
+// The tasks a study's protocol names ("tasks": an array of strings), or
+// none when its text does not say (then nothing is compared).
+std::optional<std::set<std::string>> protocol_tasks(const std::string& protocol_json) {
+  const nlohmann::json p = nlohmann::json::parse(protocol_json, nullptr, false);
+  if (p.is_discarded() || !p.is_object() || !p.contains("tasks") || !p["tasks"].is_array()) return std::nullopt;
+  std::set<std::string> out;
+  for (const nlohmann::json& t : p["tasks"]) {
+    if (!t.is_string()) return std::nullopt;
+    out.insert(t.get<std::string>());
+  }
+  return out;
+}
+
+// Trials and training of a task their study's protocol does not name: a
+// trial edited to task 'foo' was analysed as a third task, and moved out of
+// its own task's comparisons.
+void add_tasks_outside_the_protocol(Database& db, std::size_t limit, std::vector<Finding>& out) {
+  Statement studies = db.prepare("SELECT id, protocol_json FROM main.study WHERE typeof(protocol_json) = 'text'");
+  while (studies.step()) {
+    const std::optional<std::set<std::string>> tasks = protocol_tasks(studies.column_text(1));
+    if (!tasks) continue;
+    std::string named;
+    for (const std::string& t : *tasks) named += (named.empty() ? "" : ", ") + t;
+    Statement rows = db.prepare(
+        "SELECT 'trial', t.id, t.id, t.task FROM main.trial t JOIN main.participant p ON p.id = t.participant_id "
+        "WHERE p.study_id = ?1 UNION ALL SELECT 'training', r.id, NULL, r.task FROM main.training r JOIN "
+        "main.session s ON s.id = r.session_id JOIN main.participant p ON p.id = s.participant_id "
+        "WHERE p.study_id = ?1");
+    rows.bind(1, studies.column_int64(0));
+    while (out.size() < limit && rows.step()) {
+      if (tasks->contains(rows.column_text(3))) continue;
+      const std::string table = rows.column_text(0);
+      out.push_back(finding("foreign_key", table, rows.column_int64(1), opt_int(rows, 2),
+                            row_name(table, rows.column_int64(1), opt_int(rows, 2)) + ": task '" +
+                                rows.column_text(3) + "' is not one of its study's protocol's tasks (" + named + ")"));
+    }
+  }
 }
 
 }  // namespace
@@ -117,6 +159,7 @@ std::vector<Finding> check_foreign_keys(Database& db, std::size_t limit) {
                           "trial " + std::to_string(stale.column_int64(0)) + ": status is 'running', but its session " +
                               std::to_string(stale.column_int64(1)) + " is " + stale.column_text(2) +
                               " (a session ends after its trials)"));
+  add_tasks_outside_the_protocol(db, limit, out);
   Statement action = db.prepare(
       "SELECT a.id, a.trial_id, a.session_id, t.session_id FROM main.operator_action a JOIN main.trial t ON "
       "t.id = a.trial_id WHERE a.session_id IS NOT NULL AND t.session_id IS NOT NULL AND a.session_id <> t.session_id "

@@ -48,6 +48,28 @@ TEST(StudyCheck, ATrialInAnotherParticipantsSessionIsAFinding) {
               ::testing::ThrowsMessage<DbError>(HasSubstr("session_id 2 is participant 'P02''s session")));
 }
 
+// A trial of a task its protocol does not name was analysed as a task of
+// its own, and left its own task's comparisons.
+TEST(StudyCheck, ATaskTheProtocolDoesNotNameIsAFinding) {
+  testing::TempDir dir;
+  const auto path = dir.file("task.db");
+  {
+    StudyDb made(path);
+    testing::make_trial(made);  // task "dissection"
+    made.connection().exec("UPDATE study SET protocol_json = '{\"study\": \"test\", \"tasks\": [\"clip\", "
+                           "\"dissection\"]}'");
+  }
+  {
+    Database conn(path, Database::Mode::kReadOnly);
+    EXPECT_TRUE(check_study_file(conn).findings.empty());
+  }
+  Database(path).exec("UPDATE trial SET task = 'foo'");
+  Database conn(path, Database::Mode::kReadOnly);
+  const StudyFileCheck c = check_study_file(conn);
+  ASSERT_EQ(c.findings.size(), 1u);
+  EXPECT_EQ(c.findings[0].message, "trial 1: task 'foo' is not one of its study's protocol's tasks (clip, dissection)");
+}
+
 // A trial left 'running' in a session that has ended was counted as not
 // run by the analysis, its samples and all.
 TEST(StudyCheck, ATrialRunningInASessionThatEndedIsAFinding) {
