@@ -74,6 +74,46 @@ void add_tasks_outside_the_protocol(Database& db, std::size_t limit, std::vector
   }
 }
 
+// References to rows that exist but do not fit (foreign_key_check passes
+// them): a trial run in another participant's session (every reader took
+// it; a merge dropped it without a word), a trial still running in a
+// session that has ended (sessions end after their trials, a dead one's
+// recovery ends both; readers counted it as not run, samples and all), a
+// task the protocol does not name, an action on a trial of another session.
+void add_misfit_references(Database& db, std::size_t limit, std::vector<Finding>& out) {
+  // Each query's columns: the row's id, its trial, then what its message names.
+  const auto add = [&](const char* table, const std::string& sql, auto message) {
+    Statement q = db.prepare(sql);
+    while (out.size() < limit && q.step())
+      out.push_back(finding("foreign_key", table, q.column_int64(0), opt_int(q, 1),
+                            row_name(table, q.column_int64(0), opt_int(q, 1)) + ": " + message(q)));
+  };
+  add("trial",
+      "SELECT t.id, t.id, t.session_id, q.code, p.code FROM main.trial t JOIN main.session s ON s.id = t.session_id "
+      "JOIN main.participant p ON p.id = t.participant_id JOIN main.participant q ON q.id = s.participant_id "
+      "WHERE s.participant_id <> t.participant_id ORDER BY t.id",
+      [](const Statement& q) {
+        return "session_id " + std::to_string(q.column_int64(2)) + " is participant '" + q.column_text(3) +
+               "''s session, but the trial is participant '" + q.column_text(4) + "''s";
+      });
+  add("trial",
+      "SELECT t.id, t.id, s.id, s.status FROM main.trial t JOIN main.session s ON s.id = t.session_id "
+      "WHERE t.status = 'running' AND s.status <> 'open' ORDER BY t.id",
+      [](const Statement& q) {
+        return "status is 'running', but its session " + std::to_string(q.column_int64(2)) + " is " +
+               q.column_text(3) + " (a session ends after its trials)";
+      });
+  add_tasks_outside_the_protocol(db, limit, out);
+  add("operator_action",
+      "SELECT a.id, a.trial_id, a.session_id, t.session_id FROM main.operator_action a JOIN main.trial t ON "
+      "t.id = a.trial_id WHERE a.session_id IS NOT NULL AND t.session_id IS NOT NULL AND a.session_id <> t.session_id "
+      "ORDER BY a.id",
+      [](const Statement& q) {
+        return "session_id " + std::to_string(q.column_int64(2)) + ", but its trial ran in session " +
+               std::to_string(q.column_int64(3));
+      });
+}
+
 }  // namespace
 
 std::vector<Finding> check_tables(Database& db, int version) {
@@ -136,39 +176,7 @@ std::vector<Finding> check_foreign_keys(Database& db, std::size_t limit) {
     out.push_back(finding("foreign_key", table, rowid, trial,
                           broken_reference_message(table, rowid.value_or(0), trial, column, value, parent)));
   }
-  // References to a row that exists but is another participant's: a trial
-  // run in another participant's session (every reader took it; a merge
-  // dropped it without a word), an action on a trial of another session.
-  Statement other = db.prepare(
-      "SELECT t.id, t.session_id, p.code, q.code FROM main.trial t JOIN main.session s ON s.id = t.session_id "
-      "JOIN main.participant p ON p.id = t.participant_id JOIN main.participant q ON q.id = s.participant_id "
-      "WHERE s.participant_id <> t.participant_id ORDER BY t.id");
-  while (out.size() < limit && other.step())
-    out.push_back(finding("foreign_key", "trial", other.column_int64(0), other.column_int64(0),
-                          "trial " + std::to_string(other.column_int64(0)) + ": session_id " +
-                              std::to_string(other.column_int64(1)) + " is participant '" + other.column_text(3) +
-                              "''s session, but the trial is participant '" + other.column_text(2) + "''s"));
-  // A trial still running in a session that has ended: sessions end after
-  // their trials (a dead one's recovery ends both), so the row was edited
-  // or damaged; readers counted it as not run, samples and all.
-  Statement stale = db.prepare(
-      "SELECT t.id, s.id, s.status FROM main.trial t JOIN main.session s ON s.id = t.session_id "
-      "WHERE t.status = 'running' AND s.status <> 'open' ORDER BY t.id");
-  while (out.size() < limit && stale.step())
-    out.push_back(finding("foreign_key", "trial", stale.column_int64(0), stale.column_int64(0),
-                          "trial " + std::to_string(stale.column_int64(0)) + ": status is 'running', but its session " +
-                              std::to_string(stale.column_int64(1)) + " is " + stale.column_text(2) +
-                              " (a session ends after its trials)"));
-  add_tasks_outside_the_protocol(db, limit, out);
-  Statement action = db.prepare(
-      "SELECT a.id, a.trial_id, a.session_id, t.session_id FROM main.operator_action a JOIN main.trial t ON "
-      "t.id = a.trial_id WHERE a.session_id IS NOT NULL AND t.session_id IS NOT NULL AND a.session_id <> t.session_id "
-      "ORDER BY a.id");
-  while (out.size() < limit && action.step())
-    out.push_back(finding("foreign_key", "operator_action", action.column_int64(0), action.column_int64(1),
-                          row_name("operator_action", action.column_int64(0), action.column_int64(1)) +
-                              ": session_id " + std::to_string(action.column_int64(2)) + ", but its trial ran in session " +
-                              std::to_string(action.column_int64(3))));
+  add_misfit_references(db, limit, out);
   return out;
 }
 

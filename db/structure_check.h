@@ -40,8 +40,11 @@ struct Finding {
 std::vector<Finding> check_tables(Database& db, int version);
 
 // PRAGMA foreign_key_check, each broken reference named with its column and
-// value ("trial 5: participant_id 9 refers to no participant row"); at most
-// `limit`. Needs check_tables to have passed.
+// value ("trial 5: participant_id 9 refers to no participant row"), then the
+// references that exist but do not fit: a trial in another participant's
+// session, a trial running in a session that has ended, a trial or training
+// of a task its protocol does not name, an action on a trial of another
+// session; at most `limit`. Needs check_tables to have passed.
 std::vector<Finding> check_foreign_keys(Database& db, std::size_t limit = 100);
 
 // Every value of every table of the current schema has its column's type
