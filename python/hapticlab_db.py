@@ -37,6 +37,7 @@ and ``hapticlab study check`` do), never returns wrong numbers.
 """
 
 import contextlib
+import json
 import sqlite3
 import struct
 import urllib.parse
@@ -64,6 +65,17 @@ MAX_CHUNK_UPDATES = 1 << 20
 
 # The current schema's tables: (name, ((column, declared type, NOT NULL), ...)),
 # as PRAGMA table_info reports them (db/schema_shape.cc holds the same).
+# The schema's CHECK constraints (db/value_rules.cc): SQLite does not check
+# them in integrity_check on a read-only connection. sample_chunk's are
+# checked chunk by chunk (_layout).
+VALUE_RULES = (
+    ("study", "protocol_sha256", "length(protocol_sha256) = 64"),
+    ("session", "clock", "clock IN ('virtual', 'wall')"),
+    ("session", "status", "status IN ('open', 'closed', 'interrupted')"),
+    ("trial", "status", "status IN ('planned', 'running', 'complete', 'aborted')"),
+    ("event", "instrument", "instrument IN (-1, 0, 1)"),
+)
+
 TABLES = (
     ("study", (("id", "INTEGER", False), ("name", "TEXT", True), ("protocol_json", "TEXT", True),
                ("protocol_sha256", "TEXT", True), ("seed", "TEXT", True), ("software_version", "TEXT", True),
@@ -720,9 +732,60 @@ class StudyDatabase:
             if table == "trial":
                 trial = rowid
             findings.append(f"{_row_name(table, rowid, trial)}: {column} {value} refers to no {parent} row")
+        findings.extend(self._misfit_references())
         for table, columns in TABLES:
             findings.extend(self._mistyped_rows(table, columns))
+        for table, column, condition in VALUE_RULES:
+            trial = "rowid" if table == "trial" else \
+                "trial_id" if any(c == "trial_id" for c, _, _ in dict(TABLES)[table]) else "NULL"
+            for rowid, row_trial, value in self._conn.execute(
+                    f"SELECT rowid, {trial}, substr(quote({column}), 1, 40) FROM main.{table} WHERE {column} IS NOT "
+                    f"NULL AND NOT ({condition}) ORDER BY rowid LIMIT 20"):
+                findings.append(f"{_row_name(table, rowid, row_trial)}: {column} is {value}, which breaks CHECK "
+                                f"({condition})")
         return findings
+
+    def _misfit_references(self):
+        """References that exist but do not fit, as db/structure_check.cc
+        finds them: a trial in another participant's session, a trial running
+        in a session that has ended, a trial or training of a task its
+        study's protocol does not name, an action on another session's trial."""
+        out = []
+        for t, session, theirs, own in self._conn.execute(
+                "SELECT t.id, t.session_id, q.code, p.code FROM main.trial t JOIN main.session s ON "
+                "s.id = t.session_id JOIN main.participant p ON p.id = t.participant_id JOIN main.participant q ON "
+                "q.id = s.participant_id WHERE s.participant_id <> t.participant_id ORDER BY t.id"):
+            out.append(f"trial {t}: session_id {session} is participant '{theirs}''s session, but the trial is "
+                       f"participant '{own}''s")
+        for t, session, status in self._conn.execute(
+                "SELECT t.id, s.id, s.status FROM main.trial t JOIN main.session s ON s.id = t.session_id "
+                "WHERE t.status = 'running' AND s.status <> 'open' ORDER BY t.id"):
+            out.append(f"trial {t}: status is 'running', but its session {session} is {status} (a session ends "
+                       f"after its trials)")
+        for study, text in self._conn.execute(
+                "SELECT id, protocol_json FROM main.study WHERE typeof(protocol_json) = 'text'").fetchall():
+            try:
+                tasks = json.loads(text).get("tasks")
+            except (ValueError, AttributeError):
+                continue
+            if not isinstance(tasks, list) or not all(isinstance(t, str) for t in tasks):
+                continue
+            named = ", ".join(sorted(set(tasks)))
+            for table, rowid, trial, task in self._conn.execute(
+                    "SELECT 'trial', t.id, t.id, t.task FROM main.trial t JOIN main.participant p ON "
+                    "p.id = t.participant_id WHERE p.study_id = ?1 UNION ALL SELECT 'training', r.id, NULL, r.task "
+                    "FROM main.training r JOIN main.session s ON s.id = r.session_id JOIN main.participant p ON "
+                    "p.id = s.participant_id WHERE p.study_id = ?1", (study,)):
+                if task not in tasks:
+                    out.append(f"{_row_name(table, rowid, trial)}: task '{task}' is not one of its study's "
+                               f"protocol's tasks ({named})")
+        for action, trial, session, ran in self._conn.execute(
+                "SELECT a.id, a.trial_id, a.session_id, t.session_id FROM main.operator_action a JOIN main.trial t "
+                "ON t.id = a.trial_id WHERE a.session_id IS NOT NULL AND t.session_id IS NOT NULL AND "
+                "a.session_id <> t.session_id ORDER BY a.id"):
+            out.append(f"{_row_name('operator_action', action, trial)}: session_id {session}, but its trial ran in "
+                       f"session {ran}")
+        return out
 
     def _mistyped_rows(self, table, columns, where="", params=(), limit=20):
         """Messages for the rows of `table` whose values do not have their

@@ -385,5 +385,43 @@ class FrameTest(unittest.TestCase):
             h.open_study(path)
 
 
+class ValueRulesTest(unittest.TestCase):
+    """The schema's CHECKs (not checked by SQLite's integrity_check on a
+    read-only connection) and the references that exist but do not fit, as
+    `hapticlab study check` finds them."""
+
+    def test_the_rules_are_the_schemas_checks(self):
+        conn = sqlite3.connect(STUDY.db)
+        found = set()
+        for table, sql in conn.execute("SELECT name, sql FROM sqlite_schema WHERE type = 'table'"):
+            at = sql.find("CHECK")
+            while at >= 0:
+                i = sql.index("(", at) + 1
+                depth, j = 1, i
+                while depth:
+                    depth += {"(": 1, ")": -1}.get(sql[j], 0)
+                    j += 1
+                found.add((table, sql[i:j - 1]))
+                at = sql.find("CHECK", j)
+        conn.close()
+        listed = {(t, c) for t, _, c in h.VALUE_RULES}
+        # sample_chunk's are checked chunk by chunk (_layout), not here.
+        self.assertEqual(listed, {f for f in found if f[0] != "sample_chunk"})
+
+    def test_an_edited_file_is_refused_naming_each_row(self):
+        path = STUDY.copy("edited.db")
+        conn = sqlite3.connect(path)
+        conn.execute("PRAGMA ignore_check_constraints = ON")
+        conn.execute("UPDATE session SET clock = 'bogus'")
+        conn.execute("UPDATE trial SET task = 'foo' WHERE id = 1")
+        conn.commit()
+        conn.close()
+        with self.assertRaises(h.StructureError) as caught:
+            h.open_study(path)
+        self.assertIn("session row 1: clock is 'bogus', which breaks CHECK (clock IN ('virtual', 'wall'))",
+                      str(caught.exception))
+        self.assertIn("trial 1: task 'foo' is not one of its study's protocol's tasks", str(caught.exception))
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)
