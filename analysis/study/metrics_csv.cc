@@ -44,7 +44,14 @@ void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
       const HandMetrics& h = t.hands[static_cast<std::size_t>(hand)];
       const bool have = t.window.has_value();
       std::string note = t.problem;
-      if (have && h.force_samples == 0) note = "no sample reached the contact threshold: force measures missing";
+      if (have && h.samples == 0)
+        // A window between the task's events holds samples of any real trial:
+        // none means its events and samples disagree (an edited or damaged
+        // file), not a light touch.
+        note = "the task window holds none of the trial's samples: its events and samples disagree; measures "
+               "missing, the completion time is the events' alone";
+      else if (have && h.force_samples == 0)
+        note = "no sample reached the contact threshold: force measures missing";
       out << t.trial_id << ',' << csv_text(t.participant) << ',';
       if (sites) {
         const auto it = a.participant_sites.find(t.participant);

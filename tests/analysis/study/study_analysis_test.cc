@@ -415,6 +415,15 @@ TEST(MetricsCsvTest, NumbersReadBackToTheSameDouble) {
   EXPECT_EQ(csv.number(0, csv.column("speed_median_m_per_s")), 1e-300 * 3.0);
   EXPECT_EQ(csv.number(0, csv.column("path_length_m")), 123456.78901234567);
   EXPECT_EQ(csv.text(1, csv.column("force_median_N")), "");  // missing stays empty
+  EXPECT_EQ(csv.text(1, csv.column("note")), "no sample reached the contact threshold: force measures missing");
+  // A window with no sample at all: the events and samples disagree (the
+  // note blamed the contact threshold).
+  a.trials.front().hands[1] = {0, 0, std::nan(""), std::nan(""), std::nan(""), std::nan("")};
+  std::ostringstream again;
+  write_metrics_csv(a, again);
+  EXPECT_EQ(LongCsv::parse(again.str(), "metrics.csv").text(1, csv.column("note")),
+            "the task window holds none of the trial's samples: its events and samples disagree; measures missing, "
+            "the completion time is the events' alone");
 }
 
 TEST_F(StudyAnalysisTest, HeadlineTablesShowThesisLayout) {
