@@ -117,22 +117,23 @@ void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
   }
   // Logged before it is made: a change the pilot's record cannot hold is
   // not made (the page says why), rather than made and missing from it.
-  if (!append_log(field, before, value.dump())) {
-    log_.erase(log_.end() - 1);
-    throw std::runtime_error("the change of '" + field + "' was not made: " + error_);
-  }
+  if (const std::string failed = append_log(field, before, value.dump(), false); !failed.empty())
+    throw std::runtime_error("the change of '" + field + "' was not made: " + failed);
   settings_ = std::move(edited);
   engine_ = parsed.engine;
   changed_ = true;
   applied_t_s_.reset();  // until the loop has this change too
 }
 
-bool ConsoleTuning::append_log(const std::string& field, const std::string& from, const std::string& to) {
+std::string ConsoleTuning::append_log(const std::string& field, const std::string& from, const std::string& to,
+                                      bool happened) {
   const double loop_t_s = running_ ? live_.newest_t_s() : 0.0;
   nlohmann::json entry = {{"utc", utc_now_iso8601()}, {"free_trial", free_trial_}, {"loop_t_s", loop_t_s},
                           {"field", field}, {"from", from}, {"to", to}};
-  log_.push_back(entry);
-  if (log_.size() > kLogEntries) log_.erase(log_.begin());
+  const auto keep = [&] {
+    log_.push_back(entry);
+    if (log_.size() > kLogEntries) log_.erase(log_.begin());
+  };
   // The whole log in a file beside the saved settings: a pilot's record.
   std::error_code ec;
   std::filesystem::create_directories(config_.out_dir, ec);
@@ -148,9 +149,15 @@ bool ConsoleTuning::append_log(const std::string& field, const std::string& from
   out << entry["utc"].get<std::string>() << ',' << free_trial_ << ',' << loop_t_s << ',' << quoted(field) << ','
       << quoted(from) << ',' << quoted(to) << '\n';
   out.close();  // the line reaches the file here: checked after, not before
-  if (out) return true;
-  error_ = "cannot append to " + path.string() + " (disk full?): the tuning log is incomplete";
-  return false;
+  if (out) {
+    keep();
+    return {};
+  }
+  const std::string failed = "cannot append to " + path.string() + " (disk full?)";
+  if (!happened) return failed;  // not made: nothing is missing from the log
+  keep();
+  error_ = failed + ": the tuning log is incomplete";
+  return failed;
 }
 
 std::string ConsoleTuning::save(const std::string& name) {

@@ -109,9 +109,13 @@ class ConsoleTuning {
   // not, `error` says why ("" for none).
   bool goes_on_after(const SimTrialResult& r, int repetition, bool alerted, int& host_trips_in_a_row,
                      std::string& error);
-  // False (and error_ says why) when the line did not reach tuning-log.csv;
-  // the entry is in log_ either way. Holds mutex_.
-  bool append_log(const std::string& field, const std::string& from, const std::string& to);
+  // Appends the entry to tuning-log.csv and log_; returns "" or why the line
+  // did not reach the file. `happened`: the entry is of something already
+  // done (a start, a watchdog trip, a save), kept in log_ and error_ says
+  // the file is incomplete; else (a change not yet made) nothing is kept.
+  // Holds mutex_.
+  std::string append_log(const std::string& field, const std::string& from, const std::string& to,
+                         bool happened = true);
 
   const ConsoleTuningConfig config_;
   DeviceHealth& device_;

@@ -36,6 +36,7 @@ checksum, nothing after the frame). A damaged or misplaced chunk raises
 and ``hapticlab study check`` do), never returns wrong numbers.
 """
 
+import collections
 import contextlib
 import json
 import sqlite3
@@ -935,7 +936,7 @@ class StudyDatabase:
         loop_timing says the loop ran (count + rejected_periods + 1 ticks,
         less dropped_samples; one short at the end is allowed, the last
         update of a trial that ended on a fault). [ChunkError]"""
-        logged = sorted(v for (v,) in self._conn.execute(
+        logged = collections.Counter(v for (v,) in self._conn.execute(
             "SELECT item_index FROM main.event WHERE trial_id = ?1 AND type = 'samples_missing' "
             "AND typeof(item_index) = 'integer'", (trial_id,)))
         loop = self._conn.execute(
@@ -947,15 +948,15 @@ class StudyDatabase:
         out = []
         for k in (0, 1):
             rows = good[k]
-            unexplained = list(logged)
+            unexplained = collections.Counter(logged)
             reported = 0
             for a, b in zip(rows, rows[1:]):
                 start = a[3] + a[4]
                 length = b[3] - start
                 if length <= 0:
                     continue
-                if length in unexplained:
-                    unexplained.remove(length)
+                if unexplained[length] > 0:
+                    unexplained[length] -= 1
                     continue
                 reported += length
                 out.append(ChunkError("placement", "not stored, and no samples_missing event accounts for them "
