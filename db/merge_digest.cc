@@ -27,13 +27,10 @@ std::string real_or_null(const Statement& s, int c) { return s.is_null(c) ? std:
 // stands for its id in the digest.
 using SessionIndex = std::map<std::int64_t, std::size_t>;
 
-SessionIndex add_sessions(Database& db, std::int64_t pid, std::string& text) {
+// `conditions`: Input::session_conditions_expr() (NULL, NULL in a site file
+// of version 8 or 9, as a merge copies them).
+SessionIndex add_sessions(Database& db, std::int64_t pid, const std::string& conditions, std::string& text) {
   SessionIndex session_index;
-  // A site file of version 8 or 9 has no rate or model: NULL, as a merge
-  // copies them.
-  Statement has_rate = db.prepare("SELECT count(*) FROM pragma_table_info('session', 'main') WHERE name = 'rate_Hz'");
-  has_rate.step();
-  const std::string conditions = has_rate.column_int64(0) > 0 ? "rate_Hz, participant_model" : "NULL, NULL";
   Statement s = db.prepare("SELECT id, started_unix_s, ended_unix_s, device, clock, status, " + conditions +
                            " FROM session WHERE participant_id = ?1 ORDER BY started_unix_s, id");
   s.bind(1, pid);
@@ -133,9 +130,10 @@ void add_operator_actions(Database& db, std::int64_t pid, SessionIndex& session_
 
 }  // namespace
 
-std::string participant_digest(Database& db, std::int64_t pid) {
+std::string participant_digest(const Input& in, std::int64_t pid) {
+  Database& db = *in.db;
   std::string text;
-  SessionIndex session_index = add_sessions(db, pid, text);
+  SessionIndex session_index = add_sessions(db, pid, in.session_conditions_expr(), text);
   add_training(db, pid, session_index, text);
   add_trials(db, pid, session_index, text);
   add_operator_actions(db, pid, session_index, text);

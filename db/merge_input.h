@@ -68,6 +68,6 @@ void open_input(Input& in);
 // Everything recorded of one participant in one file, without ids or site:
 // two files with the same digest hold the same sessions (a file named
 // twice under two names, or a site's file beside an earlier merge of it).
-std::string participant_digest(Database& db, std::int64_t pid);
+std::string participant_digest(const Input& in, std::int64_t pid);
 
 }  // namespace hapticlab::db::merge

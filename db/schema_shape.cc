@@ -109,16 +109,17 @@ bool allowed(const ColumnShape& c, std::string_view type_of) {
          (t == "TEXT" && type_of == "text") || (t == "BLOB" && type_of == "blob");
 }
 
+
+}  // namespace
+
+std::span<const TableShape> schema_tables() { return kTables; }
+
 std::string trial_expression(const TableShape& table) {
   if (same_name(table.name, "trial")) return "rowid";
   for (const ColumnShape& c : table.columns)
     if (same_name(c.name, "trial_id")) return "CASE typeof(trial_id) WHEN 'integer' THEN trial_id END";
   return "NULL";
 }
-
-}  // namespace
-
-std::span<const TableShape> schema_tables() { return kTables; }
 
 const TableShape* find_schema_table(std::string_view name) {
   for (const TableShape& t : kTables)

@@ -51,6 +51,10 @@ struct FoundColumn {
 // reads it", "table event has columns (...); expected (...)".
 std::string shape_problem(const TableShape& table, std::string_view kind, const std::vector<FoundColumn>& columns);
 
+// SQL for a row's trial: rowid in table trial, trial_id (when an integer)
+// where the table has one, else NULL.
+std::string trial_expression(const TableShape& table);
+
 // SQL listing the rows of `table` (at most `limit`) with a value whose type
 // is not its column's: INTEGER holds an integer, REAL a real, TEXT text,
 // BLOB a blob, and NULL only where the column allows it. Result columns:

@@ -239,8 +239,8 @@ std::map<std::string, std::size_t> choose_sources(const std::vector<Input>& inpu
       const Participant* q = nullptr;
       for (const Participant& x : other.participants)
         if (x.code == p.code) q = &x;
-      if (digest[p.code].empty()) digest[p.code] = merge::participant_digest(*other.db, q->id);
-      if (merge::participant_digest(*in.db, p.id) == digest[p.code]) {
+      if (digest[p.code].empty()) digest[p.code] = merge::participant_digest(other, q->id);
+      if (merge::participant_digest(in, p.id) == digest[p.code]) {
         result.notes.push_back("participant '" + p.code + "': the same " + std::to_string(p.sessions) +
                                " session(s) in " + other.path.string() + " and " + in.path.string() + "; taken once");
         continue;

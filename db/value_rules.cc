@@ -17,24 +17,17 @@ constexpr std::array<ValueRule, 7> kRules = {{
     {"event", "instrument", "instrument IN (-1, 0, 1)"},
 }};
 
-// The row's trial: itself in table trial, its trial_id where it has one.
-std::string trial_of_row(std::string_view table) {
-  if (table == "trial") return "rowid";
-  if (const TableShape* shape = find_schema_table(table))
-    for (const ColumnShape& c : shape->columns)
-      if (std::string_view(c.name) == "trial_id") return "trial_id";
-  return "NULL";
-}
-
 }  // namespace
 
 std::span<const ValueRule> schema_value_rules() { return kRules; }
 
 std::string broken_rule_rows_sql(const ValueRule& rule, std::size_t limit, std::string_view schema) {
   // The names are the list's own (no quoting needed), the schema the caller's.
-  return "SELECT rowid, " + trial_of_row(rule.table) + ", substr(quote(" + rule.column + "), 1, 40) FROM \"" +
-         std::string(schema) + "\"." + rule.table + " WHERE " + rule.column + " IS NOT NULL AND NOT (" +
-         rule.condition + ") ORDER BY rowid LIMIT " + std::to_string(limit);
+  const TableShape* shape = find_schema_table(rule.table);
+  const std::string trial = shape != nullptr ? trial_expression(*shape) : std::string("NULL");
+  return "SELECT rowid, " + trial + ", substr(quote(" + rule.column + "), 1, 40) FROM \"" + std::string(schema) +
+         "\"." + rule.table + " WHERE " + rule.column + " IS NOT NULL AND NOT (" + rule.condition +
+         ") ORDER BY rowid LIMIT " + std::to_string(limit);
 }
 
 std::string broken_rule_message(const ValueRule& rule, std::int64_t rowid, std::optional<std::int64_t> trial,
