@@ -10,7 +10,9 @@ and its bytes, and its zstd frame (content size within the row's count, the
 content-checksum flag, exactly one frame; zstd verifies the content
 checksum); decode the channels the metrics read; compute the per-trial
 metrics (task window, median and 95th-percentile |F| over samples with |F|
->= 1 mN, median |v|, path length; percentiles as MATLAB's prctile); run the
+>= 1 mN, median |v|, path length; percentiles as MATLAB's prctile) and the
+energy each hand's device gave and took over the whole trial (per axis, and
+the engine's part: analysis/metrics/device_energy.h); run the
 Table 3.4 Friedman tests (per participant and task: both hands as blocks,
 then each hand alone; repetitions as replicates, as MATLAB's friedman(X,
 reps)). A damaged or misplaced chunk stops it with a message naming the
@@ -29,9 +31,10 @@ single-threaded, and zstd and the CRC are called one chunk at a time):
 - zstd by python3-zstandard's one-shot decompress() into a buffer of the
   frame's stated size, after its header is checked;
 - column projection: of the 28 channels only those the metrics read are
-  decoded (t_s, tip position, tip velocity, tissue force; dt_s only when
-  t_s is stored as a running sum); the others' tags are walked past, never
-  undone;
+  decoded (t_s, tip position, tip velocity, tissue force, the first three
+  raw joints, the joint forces; dt_s only when t_s is stored as a running
+  sum); the others' tags are walked past (every tag and size checked, as
+  analyze does), never undone;
 - bit planes undone for all chunks of a batch of trials at once, grouped by
   (value width, update count): the planes of a group are gathered into one
   (chunks, width, 8, count/8) array, transposed so that each 64-bit word
@@ -42,6 +45,12 @@ single-threaded, and zstd and the CRC are called one chunk at a time):
   float64 cumsum per group (sequential, as the format defines them);
 - percentiles by np.partition on the two order statistics prctile needs
   (the same values as sorting, to the bit), not a full sort;
+- the energy sums vectorised per hand: the VE force's joint components
+  (J^T F) only for samples in contact, the pose's sines and cosines by
+  math.sin/math.cos (the C library's bits; numpy's SVML ones differ) once
+  per distinct angle after collapsing runs of one value; the 12 sums of a
+  hand by one float64 cumsum along rows (sequential, as analyze adds
+  them; np.sum would add pairwise and differ in the last bits);
 - no scipy: ranks with ties averaged by one argsort, the chi-square tail
   in closed form (math.erfc / exp series), since importing scipy.stats
   alone takes longer than most of the analysis.
@@ -76,8 +85,16 @@ PER_HAND = {"force_median_N", "force_p95_N", "speed_median_m_per_s", "path_lengt
 
 # Channel numbers in the body (db/README.md, "The chunk format").
 DT, T = 0, 1
-FLOAT_CHANNELS = tuple(range(10, 19))  # tip_x..z, tip_vx..vz, ve_force_x..z: rows 0..8 of the float output
-LAST_NEEDED = 18
+# The float32 channels the metrics read, rows 0..14 of the float output:
+# tip_x..z, tip_vx..vz, ve_force_x..z (the task-window measures), then
+# raw_insertion, raw_pitch, raw_yaw and the joint forces (the energy
+# measures). The others' tags are walked past.
+FLOAT_CHANNELS = tuple(range(10, 19)) + (2, 3, 4) + (22, 23, 24)
+ROW = {c: row for row, c in enumerate(FLOAT_CHANNELS)}
+TIP, VELOCITY, VE_FORCE, RAW, JOINT_FORCE = range(0, 3), range(3, 6), range(6, 9), range(9, 12), range(12, 15)
+LAST_NEEDED = max(FLOAT_CHANNELS)
+ENERGY_COLUMNS = ("device_out_insertion_J", "device_in_insertion_J", "device_out_pitch_J", "device_in_pitch_J",
+                  "device_out_yaw_J", "device_in_yaw_J", "engine_out_J", "engine_in_J")
 WIDTH = [np.dtype(code).itemsize for _, code in hapticlab_db.CHANNELS]
 HEADER = hapticlab_db.HEADER_BYTES
 MAX_BODY_PER_UPDATE = sum(WIDTH)
@@ -169,7 +186,7 @@ def check_frame(frame, count):
 
 class Batch:
     """The decoded channels of some trials' chunks, laid end to end in chunk
-    order: t (float64), and the nine float32 channels as float32."""
+    order: t (float64), and the float32 channels of FLOAT_CHANNELS."""
 
     def __init__(self, chunks, dctx):
         self.total = sum(c[3] for c in chunks)
@@ -237,13 +254,14 @@ class Batch:
         self.f32 = f32.view(np.float32)
 
     def _walk(self, body, count, start, planes, running, dt, f32):
-        """Walks the tags of channels 0..18 of a preconditioned body, noting
-        where each needed per-update channel's planes are and filling the
+        """Walks the tags of all 28 channels of a preconditioned body (as
+        analyze does: a wrong tag or size anywhere is damage), noting where
+        each needed per-update channel's planes are and filling the
         constants."""
         pos = 0
         t_tag = None
         size = len(body)
-        for c in range(LAST_NEEDED + 1):
+        for c in range(len(WIDTH)):
             if pos >= size:
                 raise ChunkDamage("blob too short for its count")
             tag = body[pos]
@@ -256,8 +274,8 @@ class Batch:
                     planes.setdefault((8, count), []).append((body, pos, self.t.view(np.uint64), start))
                 elif c == DT:
                     dt_at = pos
-                elif c >= FLOAT_CHANNELS[0]:
-                    planes.setdefault((4, count), []).append((body, pos, f32[c - FLOAT_CHANNELS[0]], start))
+                elif c in ROW:
+                    planes.setdefault((4, count), []).append((body, pos, f32[ROW[c]], start))
                 pos += count * width
             elif tag == hapticlab_db.TAG_CONSTANT:
                 if pos + width > size:
@@ -266,8 +284,8 @@ class Batch:
                     self.t[start:start + count] = struct.unpack_from("<d", body, pos)[0]
                 elif c == DT:
                     dt[start:start + count] = struct.unpack_from("<Q", body, pos)[0]
-                elif c >= FLOAT_CHANNELS[0]:
-                    f32[c - FLOAT_CHANNELS[0], start:start + count] = struct.unpack_from("<I", body, pos)[0]
+                elif c in ROW:
+                    f32[ROW[c], start:start + count] = struct.unpack_from("<I", body, pos)[0]
                 pos += width
             elif tag == hapticlab_db.TAG_RUNNING_SUM and c == T:
                 running.append((start, count, struct.unpack_from("<d", body, pos)[0]))
@@ -278,6 +296,8 @@ class Batch:
                 dt_tag = tag
             if c == T:
                 t_tag = tag
+        if pos != size:
+            raise ChunkDamage(f"{size - pos} bytes follow the last channel")
         # dt_s is needed only for a running-sum t_s, and then it is plain differences.
         if t_tag == hapticlab_db.TAG_RUNNING_SUM and dt_tag == hapticlab_db.TAG_PER_UPDATE:
             planes.setdefault((8, count), []).append((body, dt_at, dt, start))
@@ -353,6 +373,82 @@ def hand_metrics(t, f32, window):
     }
 
 
+def libm_sin_cos(angles):
+    """sin and cos of float64 angles, with the bits of the C library's
+    sin() and cos(), which analyze calls: numpy's own float64 sin and cos
+    (SVML on AVX-512) differ from them in the last bit for about half of
+    all angles. So math.sin and math.cos, once per distinct angle: the
+    angles are widened float32 readings, so a hand held still repeats them
+    (demo study: 7.0 M angles in 1.3 M runs of one value, 0.29 M distinct).
+    Angles are told apart by their bits (sin(-0.0) is -0.0)."""
+    bits = angles.view(np.uint64)
+    change = np.empty(bits.size, dtype=bool)
+    change[:1] = True
+    np.not_equal(bits[1:], bits[:-1], out=change[1:])
+    run = np.cumsum(change) - 1
+    distinct, back = np.unique(bits[change], return_inverse=True)
+    values = distinct.view(np.float64).tolist()
+    sines = np.fromiter(map(math.sin, values), dtype=np.float64, count=len(values))[back]
+    cosines = np.fromiter(map(math.cos, values), dtype=np.float64, count=len(values))[back]
+    return sines[run], cosines[run]
+
+
+def hand_energy(f32):
+    """The energy columns of one hand's samples (all of its trial, tick
+    order), as analysis/metrics/device_energy.cc computes them: for each
+    interval whose two updates are finite, W = F_prev·Δq per axis (device)
+    and (F_prev − F_ve,prev)·Δq (engine), with F_ve the VE force in joint
+    space (J^T F, core/engine/joint_transform.h, written out in its order);
+    positive W summed as given out, negative as taken in, each in sample
+    order from +0.0 (one float64 cumsum per sum: sequential, not numpy's
+    pairwise sum)."""
+    if f32.shape[1] == 0:
+        return dict.fromkeys(ENERGY_COLUMNS, 0.0)
+    q = f32[RAW.start:RAW.stop].astype(np.float64)
+    f = f32[JOINT_FORCE.start:JOINT_FORCE.stop].astype(np.float64)
+    ve = f32[VE_FORCE.start:VE_FORCE.stop].astype(np.float64)
+    finite = np.isfinite(q).all(axis=0) & np.isfinite(f).all(axis=0) & np.isfinite(ve).all(axis=0)
+    f_ve = np.zeros_like(q)
+    touching = np.flatnonzero(finite & ((ve[0] != 0.0) | (ve[1] != 0.0) | (ve[2] != 0.0)))
+    if touching.size:
+        insertion = q[0, touching]
+        sp, cp = libm_sin_cos(q[1, touching])
+        sy, cy = libm_sin_cos(q[2, touching])
+        f0, f1, f2 = ve[0, touching], ve[1, touching], ve[2, touching]
+        # R_w's columns (e_yaw, e_pitch, -d_in) dotted with F, row 0 first.
+        dot0 = (cy * f0 + 0.0 * f1) + sy * f2
+        dot1 = ((-sy) * sp * f0 + cp * f1) + (cy * sp) * f2
+        dot2 = ((-sy) * cp * f0 + (-sp) * f1) + (cy * cp) * f2
+        f_ve[0, touching] = -dot2
+        f_ve[1, touching] = insertion * dot1
+        f_ve[2, touching] = (insertion * cp) * dot0
+    counted = finite[1:] & finite[:-1]
+    every = bool(counted.all())
+    dq = q[:, 1:] - q[:, :-1]
+    # Column 0 is each sum's +0.0 start, so the sign of a zero term never
+    # shows (+0.0 + -0.0 is +0.0): a term is the work when positive (given)
+    # or its negation (taken), else a zero of either sign, which changes no
+    # sum after it.
+    terms = np.zeros((12, q.shape[1]), dtype=np.float64)
+    for axis in range(3):
+        for k, work in enumerate((f[axis, :-1] * dq[axis], (f[axis, :-1] - f_ve[axis, :-1]) * dq[axis])):
+            if not every:
+                work = np.where(counted, work, 0.0)
+            row = 4 * axis + 2 * k
+            np.maximum(work, 0.0, out=terms[row, 1:])
+            np.minimum(work, 0.0, out=terms[row + 1, 1:])
+            np.negative(terms[row + 1, 1:], out=terms[row + 1, 1:])
+    sums = np.cumsum(terms, axis=1)[:, -1].tolist()
+    # per axis: device out, device in, engine out, engine in
+    out = {}
+    for axis, name in enumerate(("insertion", "pitch", "yaw")):
+        out[f"device_out_{name}_J"] = sums[4 * axis]
+        out[f"device_in_{name}_J"] = sums[4 * axis + 1]
+    out["engine_out_J"] = (sums[2] + sums[6]) + sums[10]
+    out["engine_in_J"] = (sums[3] + sums[7]) + sums[11]
+    return out
+
+
 def check_layout(chunks):
     """chunks: (trial, instrument, first_tick, count) in (trial, instrument,
     first_tick) order; raises ChunkDamage for a chunk out of place."""
@@ -418,6 +514,12 @@ def trial_metrics(conn):
                     lo, hi = hands[hand]
                     row.update(hand_metrics(batch.t[lo:hi], batch.f32[:, lo:hi], window))
                     row["completion_time_s"] = window[1] - window[0]
+                # Over the whole trial, window or not (a hand without samples: none given or taken).
+                if ends:
+                    lo, hi = hands[hand] or (0, 0)
+                    row.update(hand_energy(batch.f32[:, lo:hi]))
+                else:
+                    row.update({c: float("nan") for c in ENERGY_COLUMNS})
                 out.append(row)
     return out
 

@@ -21,6 +21,8 @@ import study_fixture as fx
 
 COMPARATOR = fx.SOURCE_DIR / "bench" / "analyze_numpy.py"
 MEASURES = ("completion_time_s", "force_median_N", "force_p95_N", "speed_median_m_per_s", "path_length_m")
+ENERGY = ("device_out_insertion_J", "device_in_insertion_J", "device_out_pitch_J", "device_in_pitch_J",
+          "device_out_yaw_J", "device_in_yaw_J", "engine_out_J", "engine_in_J")
 
 
 def read_rows(path):
@@ -83,6 +85,19 @@ class ComparatorTest(unittest.TestCase):
                     # The same float64 operations in the same order: equal to the bit.
                     self.assertEqual(a, b, f"{key} {m}")
         self.assertGreater(checked, 150)
+
+    def test_energy_is_equal_to_the_bit(self):
+        # Sums in sample order from +0.0 on both sides, the pose's sines
+        # from the C library on both: equal, not close.
+        checked = 0
+        for key, ours in self.hapticlab.items():
+            theirs = self.numpy[key]
+            for column in ENERGY:
+                a, b = number(ours[column]), number(theirs[column])
+                self.assertEqual(a.hex(), b.hex(), f"{key} {column}: {a!r} vs {b!r}")
+                checked += a != 0.0
+        # Every hand moved and touched: most sums are not zero.
+        self.assertGreater(checked, 200)
 
     def test_a_chunk_that_fails_its_checksum_stops_it_naming_the_chunk(self):
         # The stored CRC changed, nothing else: only the CRC-32C check can
