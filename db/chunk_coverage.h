@@ -17,6 +17,8 @@
 // Each shortfall is added to `bad` as a missing range of the instrument
 // (ChunkError::Kind::kPlacement), e.g. "ticks 1000..1999 are not stored,
 // and no samples_missing event accounts for them (a chunk was removed)".
+// The rules themselves, without SQLite, are in chunk_coverage_rules.h
+// (the SQL extension applies them too).
 #include <cstdint>
 #include <vector>
 

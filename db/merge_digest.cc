@@ -90,7 +90,10 @@ struct TrialRowsQueries {
     timing.bind(1, tid);
     while (timing.step()) {
       text += "L";
-      for (int c = 0; c < 9; ++c) text += "|" + (c == 0 || c >= 5 ? text_or_null(timing, c) : real_or_null(timing, c));
+      for (int c = 0; c < 9; ++c) {
+        text += '|';  // on its own: GCC 12 -O3 warns, wrongly, about "|" + std::string
+        text += c == 0 || c >= 5 ? text_or_null(timing, c) : real_or_null(timing, c);
+      }
       text += "\n";
     }
     counters.reset();

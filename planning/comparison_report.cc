@@ -145,7 +145,7 @@ std::string comparison_markdown(const std::vector<ReportVariant>& variants, cons
     md += "| " + measure + " | " + setting + " |";
     for (int n : o.participants)
       for (const ReportVariant& v : variants)
-        md += " " + change_cell(find_change(v, n, task, setting, measure)) + " | " +
+        md += ' ' + change_cell(find_change(v, n, task, setting, measure)) + " | " +
               power_cell(find_power(v, n, o.method, task, setting, measure)) + " |";
     md += "\n";
   }

@@ -391,7 +391,7 @@ class FigureBuilder {
   }
 
  private:
-  std::string block_name() const { return "d" + std::to_string(block_); }
+  std::string block_name() const { return 'd' + std::to_string(block_); }
 
   void add(Section& s, const std::string& file, const std::string& commands, const std::string& caption,
            int width = 640, int height = 420) {

@@ -131,7 +131,11 @@ class StrictChecker {
       if (f.object) {
         out += (out.empty() ? "" : ".") + f.key;
       } else {
-        out += "[" + std::to_string(f.count == 0 ? 0 : f.count - 1) + "]";
+        // Appended piecewise: GCC 12 at -O3 warns, wrongly, about
+        // "[" + std::to_string(...) (a string inserted at its front).
+        out += '[';
+        out += std::to_string(f.count == 0 ? 0 : f.count - 1);
+        out += ']';
       }
     }
     return out;

@@ -76,7 +76,9 @@ AtomicOutputFile::AtomicOutputFile(std::filesystem::path path) : path_(std::move
     const std::string stem = path_.filename().string() + "." + std::to_string(::getpid());
     for (int attempt = 0; fd_ < 0; ++attempt) {
       temp_ = path_;
-      temp_.replace_filename(stem + (attempt == 0 ? "" : "-" + std::to_string(attempt)) + ".tmp");
+      std::string name = stem;
+      if (attempt > 0) name += '-' + std::to_string(attempt);  // not "-" + ...: GCC 12 -O3's false warning
+      temp_.replace_filename(name + ".tmp");
       fd_ = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
       if (fd_ < 0 && (errno != EEXIST || attempt >= 100)) {
         throw OutputFileError(path_.string() + ": cannot create the file (as " + temp_.string() + " first): " +

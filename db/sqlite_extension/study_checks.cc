@@ -3,9 +3,11 @@
 // refers to are sound, and every chunk of the trial verifies.
 #include "db/sqlite_extension/study_checks.h"
 
+#include <map>
 #include <optional>
 #include <span>
 
+#include "db/chunk_coverage_rules.h"
 #include "db/sample_codec.h"
 #include "db/schema_shape.h"
 
@@ -96,9 +98,38 @@ void check_trial_row(sqlite3* db, std::int64_t trial, bool asked) {
   check_value_types(db, *hapticlab::db::find_schema_table("event"), "trial_id = ?1", trial);
 }
 
+namespace {
+
+// Whether the well-placed chunks hold every update the file says the trial
+// stored (db/chunk_coverage_rules.h): a removed chunk is named, not read as
+// a shorter trial. The layout holds the asked instrument's rows alone when
+// one was asked, so only its findings count.
+void check_coverage(sqlite3* db, std::int64_t trial, int only_instrument, const hapticlab::db::ChunkLayout& layout,
+                    std::vector<BadChunk>& bad) {
+  std::map<std::int64_t, std::int64_t> logged;
+  Stmt gaps;
+  prepare(gaps, db, hapticlab::db::logged_gaps_sql("main"));
+  sqlite3_bind_int64(gaps.get(), 1, trial);
+  while (step(db, gaps.get())) ++logged[sqlite3_column_int64(gaps.get(), 0)];
+  hapticlab::db::LoopCount loop;
+  Stmt timing;
+  prepare(timing, db, hapticlab::db::loop_count_sql("main"));
+  sqlite3_bind_int64(timing.get(), 1, trial);
+  if (step(db, timing.get()))
+    loop = hapticlab::db::loop_count(sqlite3_column_int64(timing.get(), 0), sqlite3_column_int64(timing.get(), 1),
+                                     sqlite3_column_int64(timing.get(), 2));
+  std::vector<BadChunk> found;
+  hapticlab::db::add_coverage_findings(trial, layout, logged, loop, found);
+  for (BadChunk& b : found)
+    if (only_instrument < 0 || b.instrument == only_instrument) bad.push_back(std::move(b));
+}
+
+}  // namespace
+
 // The trial's chunks, every check made before its first row, so a damaged
 // trial gives an error and no row at all rather than rows up to the
-// damage: the rows' types and places (db/chunk_layout.h), then every chunk
+// damage: the rows' types and places (db/chunk_layout.h), whether one is
+// missing (db/chunk_coverage_rules.h), then every chunk
 // of the instruments asked for verified and decompressed (checksum, frame
 // checksum, structure; not decoded). Returns each instrument's good rows.
 std::array<std::vector<ChunkRow>, 2> check_chunks(sqlite3* db, std::int64_t trial, int only_instrument) {
@@ -121,6 +152,7 @@ std::array<std::vector<ChunkRow>, 2> check_chunks(sqlite3* db, std::int64_t tria
   }
   std::vector<BadChunk> bad;
   hapticlab::db::ChunkLayout layout = hapticlab::db::layout_chunks(std::move(rows), bad);
+  if (bad.empty()) check_coverage(db, trial, only_instrument, layout, bad);
   Stmt blob;
   prepare(blob, db, "SELECT data FROM main.sample_chunk WHERE id = ?1");
   ChunkDecoder decoder;

@@ -249,6 +249,46 @@ TEST_F(SqliteExtensionTest, AChunkThatDoesNotDecodeLateInTheTrialGivesNoRow) {
   }
 }
 
+// A removed chunk left nothing to verify: samples(1) returned the trial
+// 1,000 rows shorter. The extension checks what the file says the trial
+// stored (db/chunk_coverage_rules.h), like every other reader.
+TEST_F(SqliteExtensionTest, ARemovedChunkIsAnErrorNamingTheMissingTicksNotAShorterTrial) {
+  for (const char* which : {"OFFSET 1", "DESC"}) {  // between two chunks; the last one
+    const std::string copy = copy_of_study("removed.db");
+    std::int64_t first = 0, count = 0;
+    {
+      Database conn(copy);
+      Statement s = conn.prepare(std::string("SELECT id, first_tick, count FROM sample_chunk WHERE trial_id = 1 AND "
+                                             "instrument = 0 ORDER BY first_tick ") +
+                                 (std::string(which) == "DESC" ? "DESC LIMIT 1" : "LIMIT 1 OFFSET 1"));
+      ASSERT_TRUE(s.step());
+      first = s.column_int64(1);
+      count = s.column_int64(2);
+      conn.exec("DELETE FROM sample_chunk WHERE id = " + std::to_string(s.column_int64(0)));
+    }
+    const std::string ticks = "trial 1, left instrument (0), ticks " + std::to_string(first) + "..";
+    for (const char* query : {"SELECT tick FROM samples(1)", "SELECT tick FROM samples(1, 0)",
+                              "SELECT count(*) FROM samples WHERE trial_id = 1"}) {
+      const auto [status, out] = sql(copy, {".headers off", query});
+      EXPECT_NE(status, 0) << which << ": " << query << "\n" << out.substr(0, 300);
+      EXPECT_THAT(out, AllOf(HasSubstr(ticks), HasSubstr("not stored"), HasSubstr("(a chunk was removed)"),
+                             HasSubstr("no row of the trial is returned")))
+          << which << ": " << query;
+      EXPECT_THAT(out, Not(::testing::ContainsRegex("^[0-9]"))) << query << "\n" << out.substr(0, 200);
+    }
+    // The right instrument's updates are all there: it still reads.
+    const auto [status, out] = sql(copy, {".headers off", "SELECT count(*) > 1000 FROM samples(1, 1)"});
+    EXPECT_EQ(status, 0) << out;
+    EXPECT_EQ(out, "1\n") << which;
+    if (std::string(which) == "OFFSET 1") {
+      // The gap's own ticks, exactly.
+      const auto [gap_status, gap_out] = sql(copy, {".headers off", "SELECT 1 FROM samples(1, 0)"});
+      EXPECT_THAT(gap_out, HasSubstr(ticks + std::to_string(first + count - 1) + ": not stored, and no "
+                                     "samples_missing event accounts for them"));
+    }
+  }
+}
+
 TEST_F(SqliteExtensionTest, WrongArgumentsAndForeignFilesAreNamedErrors) {
   {
     const auto [status, out] = sql(*db_, {"SELECT * FROM samples(99)"});
