@@ -339,7 +339,7 @@ DeviceStatus IsolatedPluginDevice::configure(const DeviceConfig& config) {
     return s;
   }
   const PluginCall& c = channel_->call;
-  const DeviceStatus status = from_host(c.status, DeviceStatus::kInvalidConfig);
+  const DeviceStatus status = answer(DeviceStatus::kInvalidConfig);
   if (status != DeviceStatus::kOk) {
     configure_error_ = bounded_text(c);
     if (configure_error_.empty())
@@ -358,7 +358,7 @@ DeviceStatus IsolatedPluginDevice::activate(const Clock& clock) {
   if (active_) return DeviceStatus::kOk;
   clock_ = &clock;
   if (const DeviceStatus s = call(PluginCallOp::kActivate, bounds_.control_s); s != DeviceStatus::kOk) return s;
-  const DeviceStatus status = from_host(channel_->call.status, DeviceStatus::kInvalidConfig);
+  const DeviceStatus status = answer(DeviceStatus::kInvalidConfig);
   active_ = status == DeviceStatus::kOk;
   return status;
 }
@@ -382,7 +382,7 @@ DeviceStatus IsolatedPluginDevice::read(DeviceReading& reading) noexcept {
   }
   if (const DeviceStatus s = call(PluginCallOp::kRead, loop_bound_s()); s != DeviceStatus::kOk) return s;
   const PluginCall& c = channel_->call;
-  const DeviceStatus status = from_host(c.status, DeviceStatus::kReadFailed);
+  const DeviceStatus status = answer(DeviceStatus::kReadFailed);
   if (status != DeviceStatus::kOk) return status;
   bool finite = true;
   for (std::size_t i = 0; i < 2; ++i)
@@ -409,7 +409,7 @@ DeviceStatus IsolatedPluginDevice::write(const DeviceCommand& command) noexcept 
   if (!finite) out = DeviceCommand{};
   if (const DeviceStatus s = call(PluginCallOp::kWrite, loop_bound_s()); s != DeviceStatus::kOk) return s;
   if (!finite) return DeviceStatus::kWriteFailed;
-  return from_host(channel_->call.status, DeviceStatus::kWriteFailed);
+  return answer(DeviceStatus::kWriteFailed);
 }
 
 DeviceStatus IsolatedPluginDevice::deactivate() noexcept {
@@ -417,7 +417,7 @@ DeviceStatus IsolatedPluginDevice::deactivate() noexcept {
   const DeviceStatus s = call(PluginCallOp::kDeactivate, bounds_.deactivate_s);
   clock_ = nullptr;
   if (s != DeviceStatus::kOk) return s;
-  return from_host(channel_->call.status, DeviceStatus::kWriteFailed);
+  return answer(DeviceStatus::kWriteFailed);
 }
 
 void IsolatedPluginDevice::halt() noexcept {
@@ -432,10 +432,23 @@ void IsolatedPluginDevice::halt_and_wait(double max_wait_s) noexcept {
   request_halt_and_wait(max_wait_s);
 }
 
+DeviceStatus IsolatedPluginDevice::answer(DeviceStatus unknown) const noexcept {
+  const PluginCall& c = channel_->call;
+  // The host's PluginDevice keeps the plugin's last code outside the ABI;
+  // kept here for fault_detail(), which may be asked from another thread.
+  if (c.unknown_op != 0) {
+    unknown_code_.store(c.unknown_code, std::memory_order_relaxed);
+    unknown_op_.store(c.unknown_op, std::memory_order_relaxed);
+  }
+  return from_host(c.status, unknown);
+}
+
 std::string IsolatedPluginDevice::fault_detail() const {
   const std::string op = to_string(fault_.op);
   switch (fault_.kind) {
-    case FaultKind::kNone: return "";
+    case FaultKind::kNone:
+      return describe_unknown_status({unknown_op_.load(std::memory_order_relaxed),
+                                      unknown_code_.load(std::memory_order_relaxed)});
     case FaultKind::kHung: return "device " + op + " hung for " + format_ms(fault_.waited_ms) + " ms";
     case FaultKind::kSignal:
     case FaultKind::kExit: {

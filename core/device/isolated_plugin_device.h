@@ -33,6 +33,7 @@
 
 #include <sys/types.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <map>
@@ -150,6 +151,9 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   // Control thread: waits for the child to end (killing it after
   // `patience_s`) and reaps it.
   void reap(double patience_s) noexcept;
+  // The status of the call just answered (`unknown` for a code outside the
+  // ABI), keeping the plugin's own code of that kind for fault_detail().
+  DeviceStatus answer(DeviceStatus unknown) const noexcept;
   // Cleans up and throws E("plugin PATH " + what).
   template <typename E = std::runtime_error>
   [[noreturn]] void fail_create(const std::string& what);
@@ -164,6 +168,9 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   mutable std::uint32_t seq_ = 0;
   mutable bool dead_ = false;  // the child ended or was killed: nothing more is sent
   mutable Fault fault_;
+  // The last status code outside the ABI the plugin returned (the host
+  // says which call, as PluginDevice::UnknownStatus; op 0: none).
+  mutable std::atomic<std::int32_t> unknown_op_{0}, unknown_code_{0};
   mutable bool sched_copied_ = false;
   const Clock* clock_ = nullptr;
   bool active_ = false;

@@ -75,6 +75,10 @@ struct PluginCall {
   HandCouplings hand;
   DeviceJoints joints;
   std::int32_t status;  // the answer: a DeviceStatus, or a PluginCreateResult
+  // The plugin's last status code outside the ABI and its call, as the
+  // host's PluginDevice::unknown_status() gives them (op 0: none yet).
+  std::int32_t unknown_op;
+  std::int32_t unknown_code;
   std::int32_t result;  // kSetStartPose: 1 taken; kCreate: 1 with the simulation extension
   std::uint32_t text_bytes;
   char text[kPluginChannelTextBytes];

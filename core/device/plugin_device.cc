@@ -45,12 +45,20 @@ namespace {
 constexpr const char* kJointNames[kNumDeviceJoints] = {"insertion", "pitch", "yaw", "twist", "grip"};
 constexpr const char* kInstrumentNames[2] = {"left", "right"};
 
-// HL_DEVICE_CRASHED and HL_DEVICE_HUNG are HapticLab's word about a plugin's
-// process, not the plugin's own: from a plugin they count as unknown.
-DeviceStatus to_status(hl_device_status status, DeviceStatus unknown) noexcept {
-  if (status < 0 || status > HL_DEVICE_TIMEOUT) return unknown;
-  return static_cast<DeviceStatus>(status);
-}
+// The calls whose status is checked, by PluginDevice::UnknownStatus::op
+// (0: none), with the status an unknown code of each counts as.
+struct CheckedCall {
+  const char* name;
+  DeviceStatus taken_as;
+};
+constexpr CheckedCall kCheckedCalls[] = {{"", DeviceStatus::kOk},
+                                         {"configure", DeviceStatus::kInvalidConfig},
+                                         {"ratings", DeviceStatus::kInvalidConfig},
+                                         {"activate", DeviceStatus::kInvalidConfig},
+                                         {"read", DeviceStatus::kReadFailed},
+                                         {"write", DeviceStatus::kWriteFailed},
+                                         {"deactivate", DeviceStatus::kWriteFailed}};
+enum CallOp : std::int32_t { kOpConfigure = 1, kOpRatings, kOpActivate, kOpRead, kOpWrite, kOpDeactivate };
 
 double clock_now_s(void* context) { return static_cast<const Clock*>(context)->now_s(); }
 
@@ -150,14 +158,14 @@ DeviceStatus PluginDevice::configure(const DeviceConfig& config) {
   configure_error_.clear();
   if (active_) return DeviceStatus::kInvalidConfig;
   const DeviceStatus status =
-      to_status(table_->configure(device_, config.nominal_rate_Hz, config.seed), DeviceStatus::kInvalidConfig);
+      checked(table_->configure(device_, config.nominal_rate_Hz, config.seed), DeviceStatus::kInvalidConfig, kOpConfigure);
   if (status != DeviceStatus::kOk) {
     configure_error_ = "plugin " + path_ + " refused its configuration (" + to_string(status) + ") at rate_Hz " +
                        number(config.nominal_rate_Hz);
     return status;
   }
   hl_device_ratings raw{};
-  const DeviceStatus rated = to_status(table_->ratings(device_, &raw), DeviceStatus::kInvalidConfig);
+  const DeviceStatus rated = checked(table_->ratings(device_, &raw), DeviceStatus::kInvalidConfig, kOpRatings);
   if (rated != DeviceStatus::kOk) {
     configure_error_ = "plugin " + path_ + " gave no ratings (" + std::string(to_string(rated)) + ")";
     return DeviceStatus::kInvalidConfig;
@@ -178,14 +186,14 @@ DeviceStatus PluginDevice::configure(const DeviceConfig& config) {
 DeviceStatus PluginDevice::activate(const Clock& clock) {
   if (active_) return DeviceStatus::kOk;
   clock_ = {const_cast<Clock*>(&clock), &clock_now_s};
-  const DeviceStatus status = to_status(table_->activate(device_, &clock_), DeviceStatus::kInvalidConfig);
+  const DeviceStatus status = checked(table_->activate(device_, &clock_), DeviceStatus::kInvalidConfig, kOpActivate);
   active_ = status == DeviceStatus::kOk;
   return status;
 }
 
 DeviceStatus PluginDevice::read(DeviceReading& reading) noexcept {
   hl_device_reading raw;
-  const DeviceStatus status = to_status(table_->read(device_, &raw), DeviceStatus::kReadFailed);
+  const DeviceStatus status = checked(table_->read(device_, &raw), DeviceStatus::kReadFailed, kOpRead);
   if (status != DeviceStatus::kOk) return status;
   bool finite = true;
   for (int i = 0; i < 2; ++i)
@@ -216,15 +224,33 @@ DeviceStatus PluginDevice::write(const DeviceCommand& command) noexcept {
     table_->write(device_, &raw);
     return DeviceStatus::kWriteFailed;
   }
-  return to_status(table_->write(device_, &raw), DeviceStatus::kWriteFailed);
+  return checked(table_->write(device_, &raw), DeviceStatus::kWriteFailed, kOpWrite);
 }
 
 DeviceStatus PluginDevice::deactivate() noexcept {
   active_ = false;
-  return to_status(table_->deactivate(device_), DeviceStatus::kWriteFailed);
+  return checked(table_->deactivate(device_), DeviceStatus::kWriteFailed, kOpDeactivate);
 }
 
 void PluginDevice::halt() noexcept { table_->halt(device_); }
+
+// HL_DEVICE_CRASHED and HL_DEVICE_HUNG are HapticLab's word about a plugin's
+// process, not the plugin's own: from a plugin they count as unknown.
+DeviceStatus PluginDevice::checked(hl_device_status status, DeviceStatus unknown, std::int32_t op) noexcept {
+  if (status >= 0 && status <= HL_DEVICE_TIMEOUT) return static_cast<DeviceStatus>(status);
+  unknown_code_.store(static_cast<std::int32_t>(status), std::memory_order_relaxed);
+  unknown_op_.store(op, std::memory_order_relaxed);
+  return unknown;
+}
+
+std::string PluginDevice::fault_detail() const { return describe_unknown_status(unknown_status()); }
+
+std::string describe_unknown_status(PluginDevice::UnknownStatus unknown) {
+  if (unknown.op <= 0 || unknown.op >= static_cast<std::int32_t>(std::size(kCheckedCalls))) return "";
+  const CheckedCall& call = kCheckedCalls[unknown.op];
+  return std::string("the plugin's ") + call.name + " returned " + std::to_string(unknown.code) +
+         ", which is no hl_device_status (taken as " + to_string(call.taken_as) + ")";
+}
 
 const char* PluginDevice::name() const noexcept { return name_.data(); }
 

@@ -13,7 +13,9 @@
 // non-finite force is never passed on (zero force is sent instead and
 // write() returns kWriteFailed), and a force beyond the rated peak_force is
 // clipped to it before the plugin sees it. A status code the ABI does not define
-// counts as the call's failure status.
+// counts as the call's failure status, and fault_detail() names the code
+// and the call ("the plugin's read returned 42, which is no hl_device_status
+// (taken as read_failed)").
 //
 // A plugin with the simulation extension is also a HandAttachment, so the
 // simulated participant holds it exactly as it holds the built-in sim.
@@ -23,6 +25,8 @@
 // to the loop's clock.
 
 #include <array>
+#include <atomic>
+#include <cstdint>
 #include <map>
 #include <string>
 
@@ -58,6 +62,7 @@ class PluginDevice final : public Device, public HandAttachment {
   const char* name() const noexcept override;
   DeviceRatings ratings() const noexcept override { return ratings_; }
   HandAttachment* hand_attachment() noexcept override { return table_->sim != nullptr ? this : nullptr; }
+  std::string fault_detail() const override;
 
   // --- HandAttachment (only with the plugin's simulation extension)
   bool set_start_pose(int instrument, const DeviceJoints& position) noexcept override;
@@ -67,11 +72,23 @@ class PluginDevice final : public Device, public HandAttachment {
 
   // Why the last configure() failed, for the operator ("" after a success).
   const std::string& configure_error() const noexcept { return configure_error_; }
+  // The last status code outside the ABI's that a call returned: `op` is
+  // 0 when none did, else the call's number (kOpNames in plugin_device.cc).
+  struct UnknownStatus {
+    std::int32_t op = 0;
+    std::int32_t code = 0;
+  };
+  UnknownStatus unknown_status() const noexcept {
+    return {unknown_op_.load(std::memory_order_relaxed), unknown_code_.load(std::memory_order_relaxed)};
+  }
   const std::string& path() const noexcept { return path_; }
 
  private:
   static constexpr std::size_t kNameChars = 63;
   void keep_name(const char* name) noexcept;
+  // The plugin's answer as a DeviceStatus; a code the ABI does not define
+  // is `unknown`, and is kept (with the call) for fault_detail().
+  DeviceStatus checked(hl_device_status status, DeviceStatus unknown, std::int32_t op) noexcept;
 
   std::string path_;
   std::array<char, kNameChars + 1> name_{};
@@ -82,7 +99,14 @@ class PluginDevice final : public Device, public HandAttachment {
   DeviceRatings ratings_ = workstation_ratings();
   std::string configure_error_;
   bool active_ = false;
+  // Written by the loop's thread, read by whoever reports the fault.
+  std::atomic<std::int32_t> unknown_op_{0}, unknown_code_{0};
 };
+
+// "the plugin's read returned 42, which is no hl_device_status (taken as
+// read_failed)": `op` as PluginDevice::UnknownStatus gives it; "" for op 0
+// or one out of range.
+std::string describe_unknown_status(PluginDevice::UnknownStatus unknown);
 
 // The rules of DeviceRatings: every value finite, max_position >
 // min_position, continuous_force >= 0, peak_force >= continuous_force,

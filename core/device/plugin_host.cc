@@ -210,6 +210,9 @@ class Host {
         return true;
       default: call.status = static_cast<std::int32_t>(DeviceStatus::kInvalidConfig); break;
     }
+    const PluginDevice::UnknownStatus unknown = device_->unknown_status();
+    call.unknown_op = unknown.op;
+    call.unknown_code = unknown.code;
     return false;
   }
 

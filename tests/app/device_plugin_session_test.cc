@@ -132,6 +132,30 @@ TEST_F(DevicePluginSessionTest, ALiveDeviceThatSaysItsDataRanOutIsAFaultNamedSo)
   EXPECT_EQ(aborted, 1);
 }
 
+// A status code the ABI does not define ends the trial as the call's
+// failure, and the stored reason names the code and the call, in a
+// process of its own and in HapticLab's.
+TEST_F(DevicePluginSessionTest, AStatusCodeTheAbiDoesNotDefineIsNamedInTheReason) {
+  for (const std::string mode : {"plugin-isolated", "plugin-inprocess"}) {
+    const std::string db = create_study(mode + "_unknown_status.db");
+    const auto [status, out] = testing::run_cli(
+        kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5" +
+                     " --device " + mode + ":" + kFake + " --device-option fault=unknown_status --device-option after=50");
+    EXPECT_EQ(status, 3) << out;
+    db::StudyDb study = open_read_only(db);
+    int aborted = 0;
+    for (const db::TrialRow& t : study.trials(1)) {
+      if (t.status != db::TrialStatus::kAborted) continue;
+      ++aborted;
+      EXPECT_EQ(t.abort_reason,
+                "device fault: read_failed: the plugin's read returned 42, which is no hl_device_status (taken as "
+                "read_failed)")
+          << mode;
+    }
+    EXPECT_EQ(aborted, 1) << mode;
+  }
+}
+
 // The trials of a study that are not planned any more, in id order.
 std::vector<db::TrialRow> run_trials(db::StudyDb& study) {
   std::vector<db::TrialRow> trials;

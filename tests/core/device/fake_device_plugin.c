@@ -3,7 +3,8 @@
  * misbehaves on request. Written in C, against the installed-style header,
  * as a lab's plugin would be. Options:
  *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create|jump|
- *         crash_in_read|crash_in_write|hang_in_read|slow_write|fail_deactivate|hang_in_deactivate|end_of_data
+ *         crash_in_read|crash_in_write|hang_in_read|slow_write|fail_deactivate|hang_in_deactivate|end_of_data|
+ *         unknown_status
  *     (jump: from the 101st read on, the left insertion reads 1 m further, as a slipped encoder would;
  *      crash_in_read, crash_in_write: SIGSEGV in that call once `after` calls of it have returned;
  *      hang_in_read: from then on read() does not return for hang_ms (0: never);
@@ -11,7 +12,8 @@
  *      fail_deactivate: deactivate() answers HL_DEVICE_WRITE_FAILED (the amplifiers would not switch off);
  *      hang_in_deactivate: deactivate() does not return for hang_ms (0: never);
  *      end_of_data: read() answers HL_DEVICE_END_OF_DATA once `after` reads have returned, which only a
- *      replay may say)
+ *      replay may say;
+ *      unknown_status: read() answers 42, no hl_device_status, once `after` reads have returned)
  *   after=N          calls that behave before a crash_in_* or hang_in_read fault strikes (default 200)
  *   hang_ms=N        how long hang_in_read or hang_in_deactivate blocks (default 0: for ever)
  *   write_delay_us=N how long slow_write's write() takes (default 5000)
@@ -37,7 +39,8 @@
 
 enum fault {
   NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS, JUMP,
-  CRASH_IN_READ, CRASH_IN_WRITE, HANG_IN_READ, SLOW_WRITE, FAIL_DEACTIVATE, HANG_IN_DEACTIVATE, END_OF_DATA
+  CRASH_IN_READ, CRASH_IN_WRITE, HANG_IN_READ, SLOW_WRITE, FAIL_DEACTIVATE, HANG_IN_DEACTIVATE, END_OF_DATA,
+  UNKNOWN_STATUS
 };
 
 struct hl_device {
@@ -92,6 +95,7 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
       else if (strcmp(v, "fail_deactivate") == 0) d->fault = FAIL_DEACTIVATE;
       else if (strcmp(v, "hang_in_deactivate") == 0) d->fault = HANG_IN_DEACTIVATE;
       else if (strcmp(v, "end_of_data") == 0) d->fault = END_OF_DATA;
+      else if (strcmp(v, "unknown_status") == 0) d->fault = UNKNOWN_STATUS;
       else if (strcmp(v, "exit_in_create") == 0) exit(7);
       else {
         snprintf(error, error_size, "fault: '%s' is not a fault of the fake device", v);
@@ -164,6 +168,7 @@ static hl_device_status fake_read(hl_device* d, hl_device_reading* reading) {
     sleep_us(d->hang_ms * 1000);
   }
   if (d->fault == END_OF_DATA && d->reads >= d->after) return HL_DEVICE_END_OF_DATA;
+  if (d->fault == UNKNOWN_STATUS && d->reads >= d->after) return (hl_device_status)42;
   if (d->fault != JUMP) ++d->reads;
   for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
     for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) reading->position[i][j] = kPose[j];
