@@ -434,12 +434,11 @@ void IsolatedPluginDevice::halt_and_wait(double max_wait_s) noexcept {
 
 DeviceStatus IsolatedPluginDevice::answer(DeviceStatus unknown) const noexcept {
   const PluginCall& c = channel_->call;
-  // The host's PluginDevice keeps the plugin's last code outside the ABI;
-  // kept here for fault_detail(), which may be asked from another thread.
-  if (c.unknown_op != 0) {
-    unknown_code_.store(c.unknown_code, std::memory_order_relaxed);
-    unknown_op_.store(c.unknown_op, std::memory_order_relaxed);
-  }
+  // The host's PluginDevice keeps the plugin's last code outside the ABI
+  // (since the trial's activate); mirrored here for fault_detail(), which
+  // may be asked from another thread.
+  unknown_code_.store(c.unknown_code, std::memory_order_relaxed);
+  unknown_op_.store(c.unknown_op, std::memory_order_relaxed);
   return from_host(c.status, unknown);
 }
 

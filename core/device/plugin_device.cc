@@ -158,14 +158,14 @@ DeviceStatus PluginDevice::configure(const DeviceConfig& config) {
   configure_error_.clear();
   if (active_) return DeviceStatus::kInvalidConfig;
   const DeviceStatus status =
-      checked(table_->configure(device_, config.nominal_rate_Hz, config.seed), DeviceStatus::kInvalidConfig, kOpConfigure);
+      checked(table_->configure(device_, config.nominal_rate_Hz, config.seed), kOpConfigure);
   if (status != DeviceStatus::kOk) {
     configure_error_ = "plugin " + path_ + " refused its configuration (" + to_string(status) + ") at rate_Hz " +
                        number(config.nominal_rate_Hz);
     return status;
   }
   hl_device_ratings raw{};
-  const DeviceStatus rated = checked(table_->ratings(device_, &raw), DeviceStatus::kInvalidConfig, kOpRatings);
+  const DeviceStatus rated = checked(table_->ratings(device_, &raw), kOpRatings);
   if (rated != DeviceStatus::kOk) {
     configure_error_ = "plugin " + path_ + " gave no ratings (" + std::string(to_string(rated)) + ")";
     return DeviceStatus::kInvalidConfig;
@@ -186,14 +186,17 @@ DeviceStatus PluginDevice::configure(const DeviceConfig& config) {
 DeviceStatus PluginDevice::activate(const Clock& clock) {
   if (active_) return DeviceStatus::kOk;
   clock_ = {const_cast<Clock*>(&clock), &clock_now_s};
-  const DeviceStatus status = checked(table_->activate(device_, &clock_), DeviceStatus::kInvalidConfig, kOpActivate);
+  // A trial's fault names a code of its own calls, not one of an earlier
+  // trial's (each trial activates the device).
+  unknown_op_.store(0, std::memory_order_relaxed);
+  const DeviceStatus status = checked(table_->activate(device_, &clock_), kOpActivate);
   active_ = status == DeviceStatus::kOk;
   return status;
 }
 
 DeviceStatus PluginDevice::read(DeviceReading& reading) noexcept {
   hl_device_reading raw;
-  const DeviceStatus status = checked(table_->read(device_, &raw), DeviceStatus::kReadFailed, kOpRead);
+  const DeviceStatus status = checked(table_->read(device_, &raw), kOpRead);
   if (status != DeviceStatus::kOk) return status;
   bool finite = true;
   for (int i = 0; i < 2; ++i)
@@ -224,23 +227,23 @@ DeviceStatus PluginDevice::write(const DeviceCommand& command) noexcept {
     table_->write(device_, &raw);
     return DeviceStatus::kWriteFailed;
   }
-  return checked(table_->write(device_, &raw), DeviceStatus::kWriteFailed, kOpWrite);
+  return checked(table_->write(device_, &raw), kOpWrite);
 }
 
 DeviceStatus PluginDevice::deactivate() noexcept {
   active_ = false;
-  return checked(table_->deactivate(device_), DeviceStatus::kWriteFailed, kOpDeactivate);
+  return checked(table_->deactivate(device_), kOpDeactivate);
 }
 
 void PluginDevice::halt() noexcept { table_->halt(device_); }
 
 // HL_DEVICE_CRASHED and HL_DEVICE_HUNG are HapticLab's word about a plugin's
 // process, not the plugin's own: from a plugin they count as unknown.
-DeviceStatus PluginDevice::checked(hl_device_status status, DeviceStatus unknown, std::int32_t op) noexcept {
+DeviceStatus PluginDevice::checked(hl_device_status status, std::int32_t op) noexcept {
   if (status >= 0 && status <= HL_DEVICE_TIMEOUT) return static_cast<DeviceStatus>(status);
   unknown_code_.store(static_cast<std::int32_t>(status), std::memory_order_relaxed);
   unknown_op_.store(op, std::memory_order_relaxed);
-  return unknown;
+  return kCheckedCalls[op].taken_as;
 }
 
 std::string PluginDevice::fault_detail() const { return describe_unknown_status(unknown_status()); }

@@ -72,8 +72,9 @@ class PluginDevice final : public Device, public HandAttachment {
 
   // Why the last configure() failed, for the operator ("" after a success).
   const std::string& configure_error() const noexcept { return configure_error_; }
-  // The last status code outside the ABI's that a call returned: `op` is
-  // 0 when none did, else the call's number (kOpNames in plugin_device.cc).
+  // The last status code outside the ABI's that a call returned since the
+  // last activate(): `op` is 0 when none did, else the call's number
+  // (kCheckedCalls in plugin_device.cc).
   struct UnknownStatus {
     std::int32_t op = 0;
     std::int32_t code = 0;
@@ -86,9 +87,10 @@ class PluginDevice final : public Device, public HandAttachment {
  private:
   static constexpr std::size_t kNameChars = 63;
   void keep_name(const char* name) noexcept;
-  // The plugin's answer as a DeviceStatus; a code the ABI does not define
-  // is `unknown`, and is kept (with the call) for fault_detail().
-  DeviceStatus checked(hl_device_status status, DeviceStatus unknown, std::int32_t op) noexcept;
+  // The plugin's answer to call `op` as a DeviceStatus; a code the ABI does
+  // not define is the call's failure status, and is kept (with the call)
+  // for fault_detail().
+  DeviceStatus checked(hl_device_status status, std::int32_t op) noexcept;
 
   std::string path_;
   std::array<char, kNameChars + 1> name_{};
