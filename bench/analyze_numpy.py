@@ -15,8 +15,8 @@ energy each hand's device gave and took over the whole trial (per axis, and
 the engine's part: analysis/metrics/device_energy.h); run the
 Table 3.4 Friedman tests (per participant and task: both hands as blocks,
 then each hand alone; repetitions as replicates, as MATLAB's friedman(X,
-reps)). A damaged or misplaced chunk stops it with a message naming the
-chunk (exit 1): its numbers would be wrong.
+reps)). A damaged, misplaced or missing chunk stops it with a message
+naming the chunk or the ticks (exit 1): its numbers would be wrong.
 
 How it is made fast (one thread throughout; numpy's own operations are
 single-threaded, and zstd and the CRC are called one chunk at a time):
@@ -61,6 +61,7 @@ Its metrics are checked against analyze's in CI, to the bit
     analyze_numpy.py STUDY.db [--metrics-out CSV] [--friedman-out CSV]
 """
 import argparse
+import collections
 import csv
 import math
 import os
@@ -466,6 +467,50 @@ def check_layout(chunks):
                           f"count 1..{hapticlab_db.MAX_CHUNK_UPDATES}, no tick shared by two chunks")
 
 
+def check_coverage(conn, by_trial):
+    """Every update each complete trial stored is in its chunks, as
+    db/chunk_coverage_rules.h says (analyze leaves a trial with a removed
+    chunk out): each gap between an instrument's chunks is a logged
+    samples_missing gap, and the chunks hold the updates loop_timing says
+    the loop ran, less those it dropped, but one. Two queries for the whole
+    study; raises ChunkDamage naming the missing ticks."""
+    logged = {}
+    for trial_id, length in conn.execute(
+            "SELECT e.trial_id, e.item_index FROM event e JOIN trial t ON t.id = e.trial_id "
+            "WHERE t.status = 'complete' AND e.type = 'samples_missing' AND typeof(e.item_index) = 'integer'"):
+        logged.setdefault(trial_id, collections.Counter())[length] += 1
+    loops = {}
+    for trial_id, periods, rejected, dropped in conn.execute(
+            "SELECT l.trial_id, l.count, l.rejected_periods, l.dropped_samples FROM loop_timing l "
+            "JOIN trial t ON t.id = l.trial_id WHERE t.status = 'complete' AND typeof(l.count) = 'integer' AND "
+            "typeof(l.rejected_periods) = 'integer' AND typeof(l.dropped_samples) = 'integer'"):
+        if min(periods, rejected, dropped) >= 0 and periods + rejected > 0:
+            loops[trial_id] = (periods + rejected + 1, dropped)
+    for trial_id in sorted(set(by_trial) | set(loops)):
+        rows = by_trial.get(trial_id, ())
+        for hand in (0, 1):
+            mine = [r for r in rows if r[1] == hand]
+            unexplained = collections.Counter(logged.get(trial_id, ()))
+            reported = 0
+            for a, b in zip(mine, mine[1:]):
+                start = a[2] + a[3]
+                length = b[2] - start
+                if length <= 0:
+                    continue
+                if unexplained[length] > 0:
+                    unexplained[length] -= 1
+                    continue
+                raise ChunkDamage(f"missing samples: {chunk_name(trial_id, hand, start, length)}: not stored, and no "
+                                  "samples_missing event accounts for them (a chunk was removed)")
+            if trial_id in loops:
+                ticks, dropped = loops[trial_id]
+                stored = sum(r[3] for r in mine)
+                if ticks - dropped - stored - reported > 1:
+                    raise ChunkDamage(f"missing samples: trial {trial_id}, instrument {hand}: the loop ran {ticks} "
+                                      f"updates and could not queue {dropped}, but the chunks hold {stored} "
+                                      "(a chunk was removed)")
+
+
 def trial_metrics(conn):
     trials = conn.execute(
         "SELECT t.id, p.code, t.task, s.name, t.repetition FROM trial t "
@@ -489,6 +534,7 @@ def trial_metrics(conn):
         check_layout_rows.append(r[:4])
         by_trial.setdefault(r[0], []).append(r)
     check_layout(check_layout_rows)
+    check_coverage(conn, by_trial)
     dctx = zstandard.ZstdDecompressor()
     out = []
     for b in range(0, len(trials), TRIALS_PER_BATCH):

@@ -26,10 +26,10 @@ std::string device_fault_reason(const HapticLoop& loop, const Device& device) {
     // ("device_crashed: SIGSEGV in read", "device read hung for 15 ms").
     return detail;
   }
-  // Any other fault, with what the device knows of it when it knows more
-  // than the status ("device fault: read_failed: the plugin's read returned
-  // 42, ...", "device fault: write_failed: sending to udp:... failed").
-  const std::string detail = device.fault_detail();
+  // Any other fault, with what the device knows of its first failure when
+  // it knows more than the status ("device fault: read_failed: the plugin's
+  // read returned 42, ...").
+  const std::string detail = device.status_detail();
   return std::string("device fault: ") + to_string(loop.device_status()) + (detail.empty() ? "" : ": " + detail);
 }
 

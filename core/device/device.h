@@ -155,6 +155,13 @@ class Device {
   // the operator ("no answer from udp:127.0.0.1:5000 within 10 ms"); empty
   // when the status says it all.
   virtual std::string fault_detail() const { return {}; }
+  // Control thread, after the loop: what the device knows, beyond the
+  // status itself, of the first failure the device reported since
+  // activate() (a plugin's code outside the ABI: "the plugin's read
+  // returned 42, which is no hl_device_status (taken as read_failed)");
+  // empty when the status says it all. Unlike fault_detail(), never about
+  // calls after that failure (the loop's zero write and deactivate).
+  virtual std::string status_detail() const { return {}; }
   // Whether read() and write() can wait on something outside this process
   // (a bus, a socket, a plugin's driver), so that a loop stalled inside
   // them points at the device. false for devices that only compute (the

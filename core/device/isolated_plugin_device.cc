@@ -434,20 +434,23 @@ void IsolatedPluginDevice::halt_and_wait(double max_wait_s) noexcept {
 
 DeviceStatus IsolatedPluginDevice::answer(DeviceStatus unknown) const noexcept {
   const PluginCall& c = channel_->call;
-  // The host's PluginDevice keeps the plugin's last code outside the ABI
-  // (since the trial's activate); mirrored here for fault_detail(), which
-  // may be asked from another thread.
+  // The host's PluginDevice keeps the first failure since the trial's
+  // activate(); mirrored here for status_detail(), which may be asked from
+  // another thread.
   unknown_code_.store(c.unknown_code, std::memory_order_relaxed);
   unknown_op_.store(c.unknown_op, std::memory_order_relaxed);
   return from_host(c.status, unknown);
 }
 
+std::string IsolatedPluginDevice::status_detail() const {
+  return describe_unknown_status({unknown_op_.load(std::memory_order_relaxed),
+                                  unknown_code_.load(std::memory_order_relaxed)});
+}
+
 std::string IsolatedPluginDevice::fault_detail() const {
   const std::string op = to_string(fault_.op);
   switch (fault_.kind) {
-    case FaultKind::kNone:
-      return describe_unknown_status({unknown_op_.load(std::memory_order_relaxed),
-                                      unknown_code_.load(std::memory_order_relaxed)});
+    case FaultKind::kNone: return "";
     case FaultKind::kHung: return "device " + op + " hung for " + format_ms(fault_.waited_ms) + " ms";
     case FaultKind::kSignal:
     case FaultKind::kExit: {

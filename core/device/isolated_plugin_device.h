@@ -106,6 +106,7 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   // "device_crashed: SIGSEGV in read", "device read hung for 20 ms"; "" if
   // the child is well.
   std::string fault_detail() const override;
+  std::string status_detail() const override;
 
   // --- HandAttachment (only with the plugin's simulation extension)
   bool set_start_pose(int instrument, const DeviceJoints& position) noexcept override;
@@ -152,7 +153,7 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   // `patience_s`) and reaps it.
   void reap(double patience_s) noexcept;
   // The status of the call just answered (`unknown` for a code outside the
-  // ABI), keeping the plugin's own code of that kind for fault_detail().
+  // ABI), keeping the plugin's own code of that kind for status_detail().
   DeviceStatus answer(DeviceStatus unknown) const noexcept;
   // Cleans up and throws E("plugin PATH " + what).
   template <typename E = std::runtime_error>
@@ -168,8 +169,8 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   mutable std::uint32_t seq_ = 0;
   mutable bool dead_ = false;  // the child ended or was killed: nothing more is sent
   mutable Fault fault_;
-  // The last status code outside the ABI the plugin returned (the host
-  // says which call, as PluginDevice::UnknownStatus; op 0: none).
+  // The first failure since activate() when it was a code outside the ABI
+  // (the host says which call, as PluginDevice::UnknownStatus).
   mutable std::atomic<std::int32_t> unknown_op_{0}, unknown_code_{0};
   mutable bool sched_copied_ = false;
   const Clock* clock_ = nullptr;

@@ -186,8 +186,8 @@ DeviceStatus PluginDevice::configure(const DeviceConfig& config) {
 DeviceStatus PluginDevice::activate(const Clock& clock) {
   if (active_) return DeviceStatus::kOk;
   clock_ = {const_cast<Clock*>(&clock), &clock_now_s};
-  // A trial's fault names a code of its own calls, not one of an earlier
-  // trial's (each trial activates the device).
+  // A trial's failure is its own, not an earlier trial's (each trial
+  // activates the device).
   unknown_op_.store(0, std::memory_order_relaxed);
   const DeviceStatus status = checked(table_->activate(device_, &clock_), kOpActivate);
   active_ = status == DeviceStatus::kOk;
@@ -240,13 +240,18 @@ void PluginDevice::halt() noexcept { table_->halt(device_); }
 // HL_DEVICE_CRASHED and HL_DEVICE_HUNG are HapticLab's word about a plugin's
 // process, not the plugin's own: from a plugin they count as unknown.
 DeviceStatus PluginDevice::checked(hl_device_status status, std::int32_t op) noexcept {
-  if (status >= 0 && status <= HL_DEVICE_TIMEOUT) return static_cast<DeviceStatus>(status);
-  unknown_code_.store(static_cast<std::int32_t>(status), std::memory_order_relaxed);
-  unknown_op_.store(op, std::memory_order_relaxed);
-  return kCheckedCalls[op].taken_as;
+  const bool known = status >= 0 && status <= HL_DEVICE_TIMEOUT;
+  if (known && status == HL_DEVICE_OK) return DeviceStatus::kOk;
+  // Only the first failure is kept: after it the loop writes zero force and
+  // deactivates, and what those calls answer is not why the trial ended.
+  if (unknown_op_.load(std::memory_order_relaxed) == 0) {
+    unknown_code_.store(static_cast<std::int32_t>(status), std::memory_order_relaxed);
+    unknown_op_.store(known ? -1 : op, std::memory_order_relaxed);
+  }
+  return known ? static_cast<DeviceStatus>(status) : kCheckedCalls[op].taken_as;
 }
 
-std::string PluginDevice::fault_detail() const { return describe_unknown_status(unknown_status()); }
+std::string PluginDevice::status_detail() const { return describe_unknown_status(unknown_status()); }
 
 std::string describe_unknown_status(PluginDevice::UnknownStatus unknown) {
   if (unknown.op <= 0 || unknown.op >= static_cast<std::int32_t>(std::size(kCheckedCalls))) return "";

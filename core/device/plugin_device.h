@@ -13,9 +13,9 @@
 // non-finite force is never passed on (zero force is sent instead and
 // write() returns kWriteFailed), and a force beyond the rated peak_force is
 // clipped to it before the plugin sees it. A status code the ABI does not define
-// counts as the call's failure status, and fault_detail() names the code
+// counts as the call's failure status, and status_detail() names the code
 // and the call ("the plugin's read returned 42, which is no hl_device_status
-// (taken as read_failed)").
+// (taken as read_failed)") when it was the first failure since activate().
 //
 // A plugin with the simulation extension is also a HandAttachment, so the
 // simulated participant holds it exactly as it holds the built-in sim.
@@ -62,7 +62,7 @@ class PluginDevice final : public Device, public HandAttachment {
   const char* name() const noexcept override;
   DeviceRatings ratings() const noexcept override { return ratings_; }
   HandAttachment* hand_attachment() noexcept override { return table_->sim != nullptr ? this : nullptr; }
-  std::string fault_detail() const override;
+  std::string status_detail() const override;
 
   // --- HandAttachment (only with the plugin's simulation extension)
   bool set_start_pose(int instrument, const DeviceJoints& position) noexcept override;
@@ -72,9 +72,10 @@ class PluginDevice final : public Device, public HandAttachment {
 
   // Why the last configure() failed, for the operator ("" after a success).
   const std::string& configure_error() const noexcept { return configure_error_; }
-  // The last status code outside the ABI's that a call returned since the
-  // last activate(): `op` is 0 when none did, else the call's number
-  // (kCheckedCalls in plugin_device.cc).
+  // The first failure since the last activate(), when it was a status code
+  // outside the ABI's: `op` is the call's number (kCheckedCalls in
+  // plugin_device.cc); 0 when no call failed, -1 when the first failure
+  // was a code of the ABI (nothing more to say of it).
   struct UnknownStatus {
     std::int32_t op = 0;
     std::int32_t code = 0;
@@ -89,7 +90,7 @@ class PluginDevice final : public Device, public HandAttachment {
   void keep_name(const char* name) noexcept;
   // The plugin's answer to call `op` as a DeviceStatus; a code the ABI does
   // not define is the call's failure status, and is kept (with the call)
-  // for fault_detail().
+  // for status_detail() if it is the first failure since activate().
   DeviceStatus checked(hl_device_status status, std::int32_t op) noexcept;
 
   std::string path_;

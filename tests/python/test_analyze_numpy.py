@@ -120,6 +120,22 @@ class ComparatorTest(unittest.TestCase):
         self.assertIn(f"damaged sample chunk: trial {trial}, {hand_name} instrument ({hand}), ticks {first}..", done.stderr)
         self.assertIn("checksum mismatch", done.stderr)
 
+    def test_a_removed_chunk_stops_it_naming_the_ticks(self):
+        # analyze leaves such a trial out (db/chunk_coverage_rules.h); the
+        # comparator must see it too, or it computes numbers analyze does not.
+        for which in ("DESC LIMIT 1", "LIMIT 1 OFFSET 1"):  # the last chunk; one between two
+            removed = self.dir / "removed.db"
+            shutil.copyfile(self.dir / "study.db", removed)
+            conn = sqlite3.connect(removed)
+            conn.execute("DELETE FROM sample_chunk WHERE id = (SELECT id FROM sample_chunk WHERE trial_id = 1 AND "
+                         f"instrument = 1 ORDER BY first_tick {which})")
+            conn.commit()
+            conn.close()
+            done = subprocess.run([sys.executable, str(COMPARATOR), str(removed)], capture_output=True, text=True)
+            self.assertEqual(done.returncode, 1, which + done.stdout + done.stderr)
+            self.assertIn("missing samples: trial 1, ", done.stderr)
+            self.assertIn("(a chunk was removed)", done.stderr)
+
     def test_friedman_equals_hapticlab_stats(self):
         both = [r for r in self.friedman if r["instrument"] == "both" and r["measure"] in ("force_p95_N", "path_length_m")]
         self.assertEqual(len(both), 4)  # 2 tasks x 2 measures

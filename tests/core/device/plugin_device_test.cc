@@ -181,6 +181,36 @@ TEST(PluginDeviceTest, ThePluginsNameIsShownPrintableAndBounded) {
   EXPECT_EQ(std::string(longer.name()), std::string(63, 'x'));
 }
 
+// A code outside hl_device_status is the call's failure, named with the
+// call; only a trial's first failure is named (the calls after it are the
+// loop's shutdown), and a new activate() starts afresh.
+TEST(PluginDeviceTest, AnUnknownStatusIsNamedForTheTrialsFirstFailureOnly) {
+  PluginDevice device(kFake, {{"fault", "unknown_status"}, {"after", "3"}});
+  VirtualClock clock;
+  ASSERT_EQ(device.configure({}), DeviceStatus::kOk);
+  ASSERT_EQ(device.activate(clock), DeviceStatus::kOk);
+  DeviceReading reading;
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(device.read(reading), DeviceStatus::kOk);
+  EXPECT_EQ(device.status_detail(), "");
+  EXPECT_EQ(device.read(reading), DeviceStatus::kReadFailed);
+  const std::string named = "the plugin's read returned 42, which is no hl_device_status (taken as read_failed)";
+  EXPECT_EQ(device.status_detail(), named);
+  EXPECT_EQ(device.write(DeviceCommand{}), DeviceStatus::kOk);
+  EXPECT_EQ(device.deactivate(), DeviceStatus::kOk);
+  EXPECT_EQ(device.status_detail(), named);
+  ASSERT_EQ(device.activate(clock), DeviceStatus::kOk);
+  EXPECT_EQ(device.status_detail(), "");
+
+  // A first failure with a code of the ABI has nothing more to say, and
+  // hides no later code.
+  PluginDevice ended(kFake, {{"fault", "end_of_data"}, {"after", "0"}});
+  ASSERT_EQ(ended.configure({}), DeviceStatus::kOk);
+  ASSERT_EQ(ended.activate(clock), DeviceStatus::kOk);
+  EXPECT_EQ(ended.read(reading), DeviceStatus::kEndOfData);
+  EXPECT_EQ(ended.status_detail(), "");
+  EXPECT_EQ(ended.unknown_status().op, -1);
+}
+
 TEST(PluginDeviceTest, ANanReadingIsAFaultEvenWhenThePluginSaysOk) {
   PluginDevice device(kFake, {{"fault", "nan_read"}});
   VirtualClock clock;
