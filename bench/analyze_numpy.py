@@ -468,47 +468,29 @@ def check_layout(chunks):
 
 
 def check_coverage(conn, by_trial):
-    """Every update each complete trial stored is in its chunks, as
-    db/chunk_coverage_rules.h says (analyze leaves a trial with a removed
-    chunk out): each gap between an instrument's chunks is a logged
-    samples_missing gap, and the chunks hold the updates loop_timing says
-    the loop ran, less those it dropped, but one. Two queries for the whole
-    study; raises ChunkDamage naming the missing ticks."""
+    """Every update each complete trial stored is in its chunks, by the
+    rules analyze applies (db/chunk_coverage_rules.h; the Python reader's
+    coverage_findings): two queries for the whole study, then each trial's
+    chunk spans. Raises ChunkDamage naming the first missing ticks."""
     logged = {}
     for trial_id, length in conn.execute(
             "SELECT e.trial_id, e.item_index FROM event e JOIN trial t ON t.id = e.trial_id "
             "WHERE t.status = 'complete' AND e.type = 'samples_missing' AND typeof(e.item_index) = 'integer'"):
         logged.setdefault(trial_id, collections.Counter())[length] += 1
     loops = {}
-    for trial_id, periods, rejected, dropped in conn.execute(
+    for trial_id, *row in conn.execute(
             "SELECT l.trial_id, l.count, l.rejected_periods, l.dropped_samples FROM loop_timing l "
             "JOIN trial t ON t.id = l.trial_id WHERE t.status = 'complete' AND typeof(l.count) = 'integer' AND "
             "typeof(l.rejected_periods) = 'integer' AND typeof(l.dropped_samples) = 'integer'"):
-        if min(periods, rejected, dropped) >= 0 and periods + rejected > 0:
-            loops[trial_id] = (periods + rejected + 1, dropped)
+        loops[trial_id] = hapticlab_db.loop_count(row)
     for trial_id in sorted(set(by_trial) | set(loops)):
         rows = by_trial.get(trial_id, ())
-        for hand in (0, 1):
-            mine = [r for r in rows if r[1] == hand]
-            unexplained = collections.Counter(logged.get(trial_id, ()))
-            reported = 0
-            for a, b in zip(mine, mine[1:]):
-                start = a[2] + a[3]
-                length = b[2] - start
-                if length <= 0:
-                    continue
-                if unexplained[length] > 0:
-                    unexplained[length] -= 1
-                    continue
-                raise ChunkDamage(f"missing samples: {chunk_name(trial_id, hand, start, length)}: not stored, and no "
-                                  "samples_missing event accounts for them (a chunk was removed)")
-            if trial_id in loops:
-                ticks, dropped = loops[trial_id]
-                stored = sum(r[3] for r in mine)
-                if ticks - dropped - stored - reported > 1:
-                    raise ChunkDamage(f"missing samples: trial {trial_id}, instrument {hand}: the loop ran {ticks} "
-                                      f"updates and could not queue {dropped}, but the chunks hold {stored} "
-                                      "(a chunk was removed)")
+        spans = [[(r[2], r[3]) for r in rows if r[1] == hand] for hand in (0, 1)]
+        found = hapticlab_db.coverage_findings(trial_id, spans, logged.get(trial_id, ()), loops.get(trial_id))
+        if found:
+            e = found[0]
+            raise ChunkDamage(f"missing samples: {chunk_name(trial_id, e.instrument, e.first_tick, e.count)}: "
+                              f"{e.problem}")
 
 
 def trial_metrics(conn):

@@ -151,6 +151,63 @@ class StructureError(ValueError):
         super().__init__(f"{path}: the file's structure is damaged, {len(self.findings)} finding(s): {shown}")
 
 
+def loop_count(row):
+    """(ticks the loop ran, updates it dropped) from a loop_timing row's
+    integer count, rejected_periods and dropped_samples, or None when the
+    row cannot tell (none, a negative value, or no period at all), as
+    db/chunk_coverage_rules.h's loop_count."""
+    if row is None or min(row) < 0 or row[0] + row[1] == 0:
+        return None
+    return row[0] + row[1] + 1, row[2]
+
+
+def coverage_findings(trial_id, spans, logged, loop):
+    """The updates missing from a trial's well-placed chunks, as
+    db/chunk_coverage_rules.h finds them: a gap between chunks that no
+    samples_missing event explains, and chunks holding fewer updates than
+    the loop ran (count + rejected_periods + 1 ticks, less dropped_samples;
+    one short at the end is allowed, the last update of a trial that ended
+    on a fault). spans[k]: instrument k's (first_tick, count) in tick
+    order; logged: a Counter of the logged gaps' lengths; loop: loop_count's
+    answer. [ChunkError]"""
+    out = []
+    for k in (0, 1):
+        rows = spans[k]
+        unexplained = collections.Counter(logged)
+        reported = 0
+        for (first_a, count_a), (first_b, _) in zip(rows, rows[1:]):
+            start = first_a + count_a
+            length = first_b - start
+            if length <= 0:
+                continue
+            if unexplained[length] > 0:
+                unexplained[length] -= 1
+                continue
+            reported += length
+            out.append(ChunkError("placement", "not stored, and no samples_missing event accounts for them "
+                                               "(a chunk was removed)", trial_id, k, start, length))
+        if loop is None:
+            continue
+        ticks, dropped = loop
+        stored = sum(count for _, count in rows)
+        short_by = ticks - dropped - stored - reported
+        if short_by <= 1:
+            continue
+        ran = (f"the loop ran {ticks} updates (ticks 0..{ticks - 1}) and could not queue {dropped}, but the "
+               f"chunks hold {stored} (a chunk was removed)")
+        if dropped > 0:
+            out.append(ChunkError("placement", f"{short_by} of them not stored: {ran}", trial_id, k, 0, ticks))
+        elif not rows:
+            out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, 0, ticks))
+        else:
+            end = rows[-1][0] + rows[-1][1]
+            if rows[0][0] > 0:
+                out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, 0, rows[0][0]))
+            if end < ticks - 1:
+                out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, end, ticks - end))
+    return out
+
+
 class ChunkError(ValueError):
     """A stored chunk that cannot be used: ``kind`` is "checksum",
     "format" (written by a newer HapticLab), "structure" or "placement"
@@ -930,12 +987,8 @@ class StudyDatabase:
         return bad
 
     def _coverage(self, trial_id, good):
-        """The updates missing from a trial's well-placed chunks, as
-        db/chunk_coverage.h finds them: a gap between chunks that no
-        samples_missing event explains, and chunks holding fewer updates than
-        loop_timing says the loop ran (count + rejected_periods + 1 ticks,
-        less dropped_samples; one short at the end is allowed, the last
-        update of a trial that ended on a fault). [ChunkError]"""
+        """The updates missing from a trial's well-placed chunks
+        (coverage_findings), with the two rows of the file it needs."""
         logged = collections.Counter(v for (v,) in self._conn.execute(
             "SELECT item_index FROM main.event WHERE trial_id = ?1 AND type = 'samples_missing' "
             "AND typeof(item_index) = 'integer'", (trial_id,)))
@@ -943,44 +996,8 @@ class StudyDatabase:
             "SELECT count, rejected_periods, dropped_samples FROM main.loop_timing WHERE trial_id = ?1 AND "
             "typeof(count) = 'integer' AND typeof(rejected_periods) = 'integer' AND "
             "typeof(dropped_samples) = 'integer'", (trial_id,)).fetchone()
-        if loop is not None and (min(loop) < 0 or loop[0] + loop[1] == 0):
-            loop = None
-        out = []
-        for k in (0, 1):
-            rows = good[k]
-            unexplained = collections.Counter(logged)
-            reported = 0
-            for a, b in zip(rows, rows[1:]):
-                start = a[3] + a[4]
-                length = b[3] - start
-                if length <= 0:
-                    continue
-                if unexplained[length] > 0:
-                    unexplained[length] -= 1
-                    continue
-                reported += length
-                out.append(ChunkError("placement", "not stored, and no samples_missing event accounts for them "
-                                                   "(a chunk was removed)", trial_id, k, start, length))
-            if loop is None:
-                continue
-            ticks, dropped = loop[0] + loop[1] + 1, loop[2]
-            stored = sum(r[4] for r in rows)
-            short_by = ticks - dropped - stored - reported
-            if short_by <= 1:
-                continue
-            ran = (f"the loop ran {ticks} updates (ticks 0..{ticks - 1}) and could not queue {dropped}, but the "
-                   f"chunks hold {stored} (a chunk was removed)")
-            if dropped > 0:
-                out.append(ChunkError("placement", f"{short_by} of them not stored: {ran}", trial_id, k, 0, ticks))
-            elif not rows:
-                out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, 0, ticks))
-            else:
-                end = rows[-1][3] + rows[-1][4]
-                if rows[0][3] > 0:
-                    out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, 0, rows[0][3]))
-                if end < ticks - 1:
-                    out.append(ChunkError("placement", "not stored: " + ran, trial_id, k, end, ticks - end))
-        return out
+        spans = [[(r[3], r[4]) for r in good[k]] for k in (0, 1)]
+        return coverage_findings(trial_id, spans, logged, loop_count(loop))
 
     def samples(self, trial_id, instrument=None):
         """Every stored update of a trial as a numpy structured array
