@@ -5,9 +5,11 @@
 // that trial with its reason.
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -87,11 +89,24 @@ TEST_F(DevicePluginSessionTest, ANotCalibratedDeviceLeavesTheTrialPlanned) {
   for (const db::TrialRow& t : study.trials(1)) EXPECT_EQ(t.status, db::TrialStatus::kPlanned) << t.id;
 }
 
+// `session run` of participant S1's first trial (at most 5 s) on the fake
+// plugin, through `device` ("plugin", "plugin-isolated", ...), with its
+// `options` ("fault=jump").
+std::pair<int, std::string> run_one_trial_on_fake(const std::string& db, const std::string& options,
+                                                  const std::string& device = "plugin") {
+  std::string args = "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5" +
+                     " --device " + device + ":" + kFake;
+  for (std::size_t at = 0; at < options.size();) {
+    const std::size_t end = std::min(options.find(' ', at), options.size());
+    args += " --device-option " + options.substr(at, end - at);
+    at = end + 1;
+  }
+  return testing::run_cli(kBinary, args);
+}
+
 TEST_F(DevicePluginSessionTest, AReadingThatJumpsStopsTheTrialWhichIsRequeuedWithItsReason) {
   const std::string db = create_study("jump.db");
-  const auto [status, out] = testing::run_cli(
-      kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5" +
-                   " --device plugin:" + kFake + " --device-option fault=jump");
+  const auto [status, out] = run_one_trial_on_fake(db, "fault=jump");
   EXPECT_EQ(status, 3) << out;
   db::StudyDb study = open_read_only(db);
   int aborted = 0, planned_copies = 0;
@@ -126,9 +141,7 @@ std::vector<std::string> aborted_reasons(const std::string& db) {
 // session as a device fault that says so, not as "device fault: ok".
 TEST_F(DevicePluginSessionTest, ALiveDeviceThatSaysItsDataRanOutIsAFaultNamedSo) {
   const std::string db = create_study("eod.db");
-  const auto [status, out] = testing::run_cli(
-      kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5" +
-                   " --device plugin:" + kFake + " --device-option fault=end_of_data --device-option after=50");
+  const auto [status, out] = run_one_trial_on_fake(db, "fault=end_of_data after=50");
   EXPECT_EQ(status, 3) << out;
   EXPECT_THAT(aborted_reasons(db), ::testing::ElementsAre("device fault: end_of_data: the device said its data "
                                                           "ran out, which only a replay may say"));
@@ -140,9 +153,7 @@ TEST_F(DevicePluginSessionTest, ALiveDeviceThatSaysItsDataRanOutIsAFaultNamedSo)
 TEST_F(DevicePluginSessionTest, AStatusCodeTheAbiDoesNotDefineIsNamedInTheReason) {
   for (const std::string mode : {"plugin-isolated", "plugin-inprocess"}) {
     const std::string db = create_study(mode + "_unknown_status.db");
-    const auto [status, out] = testing::run_cli(
-        kBinary, "session run --db " + db + " --participant S1 --training-trials 0 --max-trials 1 --max-trial-s 5" +
-                     " --device " + mode + ":" + kFake + " --device-option fault=unknown_status --device-option after=50");
+    const auto [status, out] = run_one_trial_on_fake(db, "fault=unknown_status after=50", mode);
     EXPECT_EQ(status, 3) << out;
     EXPECT_THAT(aborted_reasons(db), ::testing::ElementsAre("device fault: read_failed: the plugin's read returned "
                                                             "42, which is no hl_device_status (taken as read_failed)"))
