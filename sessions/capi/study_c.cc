@@ -87,6 +87,10 @@ struct hl_study {
   // The loop thread's own: the tick of the last sample accepted this trial.
   bool have_tick = false;
   std::uint64_t last_tick = 0;
+  // A sample of this trial reached the writer's queue: a trial may be
+  // stored complete only then (hl_study_end_trial may run on another
+  // thread than the loop's, hence atomic).
+  std::atomic<bool> sample_queued{false};
   double last_sample_t_s = 0.0;  // of the last sample accepted (the loop thread's)
   std::atomic<double> last_t_s{0.0};  // of the last sample logged: when a stop took effect
 };
@@ -136,6 +140,7 @@ void reset_trial_streams(hl_study& study) {
   study.rejected_events.store(0, std::memory_order_relaxed);
   study.storage_failed.store(false, std::memory_order_relaxed);
   study.have_tick = false;
+  study.sample_queued.store(false, std::memory_order_relaxed);
   study.last_sample_t_s = 0.0;
   study.last_t_s.store(0.0, std::memory_order_relaxed);
   study.timing.reset();
@@ -347,6 +352,9 @@ int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
     study->dropped_samples.fetch_add(1, std::memory_order_relaxed);
     return HL_STUDY_DROPPED;
   }
+  // A load first: the store, once per trial, is the only write.
+  if (!study->sample_queued.load(std::memory_order_relaxed))
+    study->sample_queued.store(true, std::memory_order_release);
   return HL_OK;
 }
 
@@ -426,6 +434,19 @@ int hl_study_end_trial(hl_study* study, int outcome, const char* reason, char* e
     out.abort_reason = stop_reason;
     out.closing_events.push_back({study->trial->id, study->last_t_s.load(std::memory_order_relaxed),
                                   hl::to_string(hl::TaskEventType::kOperatorAbort), -1, 0, stop_reason});
+  } else if (out.status == hl::db::TrialStatus::kComplete && !study->sample_queued.load(std::memory_order_acquire)) {
+    // Stored complete, it would count as done in the schedule and then be
+    // left out of every metric ("no samples logged"): the participant's
+    // slot for this setting lost without a word.
+    const std::uint64_t rejected = study->rejected_samples.load(std::memory_order_relaxed);
+    const std::uint64_t dropped = study->dropped_samples.load(std::memory_order_relaxed);
+    write_error(error, error_size,
+                "hl_study_end_trial: trial " + std::to_string(study->trial->id) +
+                    " cannot be complete: no sample of it was logged (hl_study_log_sample accepted none; " +
+                    std::to_string(rejected) + " refused as invalid, " + std::to_string(dropped) +
+                    " dropped). The trial is still open: log its samples, or end it with HL_TRIAL_ABORTED and a "
+                    "reason");
+    return HL_ERROR_STATE;
   }
   return finish_trial(*study, std::move(out), error, error_size);
 }

@@ -51,6 +51,13 @@ class StudyApiTest : public SessionFixture {
     hl_study_close(study_);
     SessionFixture::TearDown();
   }
+  // Logs one sample, then ends the open trial complete: a trial of which
+  // nothing was logged cannot be complete.
+  int complete_trial() {
+    const hl_sample s = sample_at(0);
+    if (const int r = hl_study_log_sample(study_, &s); r != HL_OK) return r;
+    return hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_);
+  }
   db::StudyDb open_db() {
     db::OpenOptions o;
     o.recover = false;
@@ -205,6 +212,38 @@ TEST_F(StudyApiTest, ARepeatedTickOrAnUndefinedEventIsRefusedAtTheCallAndTheTria
   ASSERT_EQ(db.events(id).size(), 1u);
 }
 
+// A trial ended complete with no sample logged used to be stored complete:
+// the schedule counted it done and every metric left it out ("no samples
+// logged"), so the participant's slot was lost without a word. Refused,
+// the trial still open; a stop still ends it (as aborted) without samples.
+TEST_F(StudyApiTest, ACompleteTrialWithoutASampleIsRefusedAndStaysOpen) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK) << error_;
+  const std::int64_t id = trial_.trial_id;
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_THAT(error_, HasSubstr("trial " + std::to_string(id) + " cannot be complete: no sample of it was logged"));
+  EXPECT_THAT(error_, HasSubstr("0 refused as invalid, 0 dropped"));
+  // Refused samples are not logged ones, and the message counts them.
+  hl_sample bad = sample_at(0);
+  bad.t_s = NAN;
+  ASSERT_EQ(hl_study_log_sample(study_, &bad), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_THAT(error_, HasSubstr("1 refused as invalid"));
+  // Still open: it takes samples and then ends complete.
+  ASSERT_EQ(complete_trial(), HL_OK) << error_;
+  // The next trial, with nothing logged, can still be aborted or stopped.
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK) << error_;
+  const std::int64_t stopped = trial_.trial_id;
+  ASSERT_EQ(hl_study_request_stop(study_), HL_OK);
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.trial(id).status, db::TrialStatus::kComplete);
+  EXPECT_EQ(db.sample_count(id, 0), 1u);
+  EXPECT_EQ(db.trial(stopped).status, db::TrialStatus::kAborted);
+}
+
 TEST_F(StudyApiTest, TrialsComeInScheduleOrderBlindedWithTheirSettingsEngine) {
   ASSERT_EQ(hl_study_start_session(study_, "A1", "test rig", error_, sizeof error_), HL_OK) << error_;
   db::StudyDb db = open_db();
@@ -240,7 +279,7 @@ TEST_F(StudyApiTest, TrialsComeInScheduleOrderBlindedWithTheirSettingsEngine) {
       EXPECT_NEAR(out.displayed_force_N[2], 2.0, 1e-9) << planned[i].setting_name;
       EXPECT_EQ(out.status & HL_RAMPING, 0u);
     }
-    ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+    ASSERT_EQ(complete_trial(), HL_OK) << error_;
   }
   EXPECT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_STUDY_DONE);
   EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK);
@@ -253,7 +292,7 @@ TEST_F(StudyApiTest, OperatorStopZeroesTheForceFromTheNextUpdateAndRequeuesTheTr
   for (;;) {
     ASSERT_EQ(hl_study_next_trial(study_, &trial_, setting_, sizeof setting_, error_, sizeof error_), HL_OK);
     if (std::string(setting_) == "High Fidelity") break;
-    ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK);
+    ASSERT_EQ(complete_trial(), HL_OK) << error_;
   }
   const std::int64_t stopped = trial_.trial_id;
   hl_input in{};
@@ -338,7 +377,7 @@ TEST_F(StudyApiTest, AbortedTrialsAreRequeuedButATimeLimitClosesTheSlot) {
   ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_TIME_LIMIT, "120 s", error_, sizeof error_), HL_OK);
   ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
   const std::int64_t next = trial_.trial_id;
-  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK);
+  ASSERT_EQ(complete_trial(), HL_OK) << error_;
 
   db::StudyDb db = open_db();
   EXPECT_EQ(db.trial(aborted).abort_reason, "participant felt unwell");

@@ -202,7 +202,10 @@ HL_API int hl_study_rejected(const hl_study* study, uint64_t* samples, uint64_t*
  * (HL_TRIAL_*; reason: free text, required for HL_TRIAL_ABORTED, optional
  * otherwise). The trial's hl_engine is destroyed. After
  * hl_study_request_stop the trial is recorded as aborted by the operator,
- * whatever outcome is given. HL_ERROR_DATABASE when the database could not
+ * whatever outcome is given. HL_TRIAL_COMPLETE for a trial of which no
+ * sample was logged (hl_study_log_sample never answered HL_OK) is refused
+ * with HL_ERROR_STATE, the trial still open: it would count as done and
+ * have no metrics. HL_ERROR_DATABASE when the database could not
  * be written: the trial is then aborted with its samples so far kept, and
  * the session is over (start a new one once the disk is fixed).
  */
