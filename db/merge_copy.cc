@@ -11,6 +11,7 @@
 #include <tuple>
 #include <utility>
 
+#include "core/common/sha256.h"
 #include "db/chunk_coverage.h"
 #include "db/chunk_layout.h"
 #include "db/chunk_reader.h"
@@ -75,10 +76,11 @@ class Builder {
     std::vector<std::tuple<std::int64_t, std::string, std::string>> rows;
     for (auto& [st, in] : pending) rows.emplace_back(by_name[st->name].first, st->name, st->json);
     std::sort(rows.begin(), rows.end());
-    Statement ins = out_.prepare("INSERT INTO setting (id, study_id, name, parameters_json) VALUES (?1, 1, ?2, ?3)");
+    Statement ins = out_.prepare(
+        "INSERT INTO setting (id, study_id, name, parameters_json, parameters_sha256) VALUES (?1, 1, ?2, ?3, ?4)");
     for (const auto& [id, name, json] : rows) {
       ins.reset();
-      ins.bind(1, id).bind(2, name).bind(3, json).run();
+      ins.bind(1, id).bind(2, name).bind(3, json).bind(4, sha256_hex(json)).run();
     }
     for (const Input& in : inputs_)
       for (const Setting& st : in.settings) setting_map_[{in.index, st.id}] = by_name[st.name].first;

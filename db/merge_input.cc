@@ -6,6 +6,7 @@
 #include "core/common/sha256.h"
 #include "db/schema.h"
 #include "db/structure_check.h"
+#include "db/study_digests.h"
 #include "db/study_merge.h"
 
 namespace hapticlab::db::merge {
@@ -15,7 +16,8 @@ namespace {
 
 // The oldest input schema read as it is: version 8 differs from 9 only by
 // session.site, 9 from 10 by session.rate_Hz and participant_model (read
-// as NULL: merge_input.h). Older files have other checksums; they are migrated first
+// as NULL: merge_input.h), 10 from 11 by setting.parameters_sha256 (none
+// to check; the merged file gets its settings' digests). Older files have other checksums; they are migrated first
 // by any command that opens them read-write (the merge writes no input).
 constexpr int kOldestInputVersion = 8;
 
@@ -52,6 +54,21 @@ std::optional<std::pair<dev_t, ino_t>> file_id(const fs::path& p) {
   struct stat st {};
   if (::stat(p.c_str(), &st) != 0) return std::nullopt;
   return std::make_pair(st.st_dev, st.st_ino);
+}
+
+// The site's settings, each checked against its digest (version 11 on).
+void read_settings(Input& in) {
+  Statement s = in.db->prepare(std::string("SELECT id, name, parameters_json, ") +
+                               (in.version >= 11 ? "parameters_sha256" : "NULL") + " FROM setting ORDER BY id");
+  while (s.step()) {
+    in.settings.push_back({s.column_int64(0), s.column_text(1), s.column_text(2)});
+    // A site file older than version 11 has no digest to compare: its
+    // settings are compared across the sites' files only.
+    if (s.is_null(3)) continue;
+    if (const std::string found = sha256_hex(in.settings.back().json); found != s.column_text(3))
+      throw MergeError(in.path.string() + ": " +
+                       edited_setting_message(s.column_int64(0), s.column_text(1), s.column_text(3), found));
+  }
 }
 
 void open_input(Input& in) {
@@ -99,10 +116,7 @@ void open_input(Input& in) {
     while (s.step())
       in.participants.push_back({s.column_int64(0), s.column_text(1), static_cast<int>(s.column_int64(2))});
   }
-  {
-    Statement s = db.prepare("SELECT id, name, parameters_json FROM setting ORDER BY id");
-    while (s.step()) in.settings.push_back({s.column_int64(0), s.column_text(1), s.column_text(2)});
-  }
+  read_settings(in);
   // A session still open, or a trial still running: a station is running
   // it, or one was killed and never recovered. Its rows are not final.
   {

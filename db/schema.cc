@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/sha256.h"
 #include "db/sample_codec.h"
 
 namespace hapticlab::db {
@@ -274,6 +275,31 @@ ALTER TABLE session ADD COLUMN rate_Hz REAL;
 ALTER TABLE session ADD COLUMN participant_model TEXT;
 )sql";
 
+// Version 11: each setting's SHA-256 of its parameters_json, as the study
+// has its protocol's since version 1. A session configures its engine from
+// that row: an edited setting changed what later participants felt while
+// the earlier ones' trials stayed in the same comparison, and nothing said
+// so. Every reader of a setting now compares the two (StudyDb::setting_json,
+// `study check`, `study merge`). Settings of an older file get the digest of
+// their text at this migration: an edit made before it cannot be found.
+constexpr const char* kV11 = R"sql(
+ALTER TABLE setting ADD COLUMN parameters_sha256 TEXT NOT NULL DEFAULT '';
+)sql";
+
+void digest_settings(Database& db) {
+  std::vector<std::pair<std::int64_t, std::string>> rows;
+  {
+    Statement s = db.prepare("SELECT id, parameters_json FROM setting ORDER BY id");
+    while (s.step()) rows.emplace_back(s.column_int64(0), s.column_text(1));
+  }
+  Statement write = db.prepare("UPDATE setting SET parameters_sha256 = ?2 WHERE id = ?1");
+  for (const auto& [id, json] : rows) {
+    write.reset();
+    write.bind(1, id).bind(2, sha256_hex(json));
+    write.run();
+  }
+}
+
 constexpr Migration kMigrations[] = {
     {1, "initial layout: study, participant, setting, session, trial, sample_chunk, event", kV1},
     {2, "loop_timing table (drop counts move out of trial), training table", kV2},
@@ -289,6 +315,8 @@ constexpr Migration kMigrations[] = {
     {8, "training: practice trials cut short counted apart (cut_short, cut_short_reason)", kV8},
     {9, "session.site: the site whose file a session was recorded in (multi-site merges)", kV9},
     {10, "session.rate_Hz, session.participant_model: the loop's rate and the simulated participant's model", kV10},
+    {11, "setting.parameters_sha256: each setting's digest, checked wherever a setting is read", kV11,
+     digest_settings},
 };
 static_assert(std::size(kMigrations) == kSchemaVersion);
 

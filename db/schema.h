@@ -16,7 +16,7 @@
 
 namespace hapticlab::db {
 
-inline constexpr int kSchemaVersion = 10;
+inline constexpr int kSchemaVersion = 11;
 inline constexpr std::int32_t kApplicationId = 0x484C4142;  // "HLAB"
 
 struct Migration {

@@ -16,7 +16,8 @@ constexpr ColumnShape kParticipant[] = {{"id", "INTEGER", false}, {"study_id", "
 constexpr ColumnShape kSetting[] = {{"id", "INTEGER", false},
                                     {"study_id", "INTEGER", true},
                                     {"name", "TEXT", true},
-                                    {"parameters_json", "TEXT", true}};
+                                    {"parameters_json", "TEXT", true},
+                                    {"parameters_sha256", "TEXT", true}};
 constexpr ColumnShape kSession[] = {{"id", "INTEGER", false},       {"participant_id", "INTEGER", true},
                                     {"started_unix_s", "REAL", true}, {"ended_unix_s", "REAL", false},
                                     {"device", "TEXT", true},       {"clock", "TEXT", true},

@@ -26,7 +26,7 @@
 namespace hapticlab::db {
 
 struct Finding {
-  std::string check;    // "integrity", "schema", "foreign_key", "type", "chunk"
+  std::string check;    // "integrity", "schema", "foreign_key", "type", "edited", "chunk"
   std::string table;    // the table concerned, if one
   std::optional<std::int64_t> row;       // its rowid
   std::optional<std::int64_t> trial_id;  // the trial the row belongs to, if any

@@ -3,6 +3,7 @@
 #include <optional>
 
 #include "db/schema.h"
+#include "db/study_digests.h"
 
 namespace hapticlab::db {
 namespace {
@@ -41,6 +42,7 @@ void check_structure_and_chunks(Database& conn, StudyFileCheck& c) {
       };
       add(check_foreign_keys(conn, std::size_t{100}));  // (schema.cc has a check_foreign_keys of its own)
       add(check_value_types(conn, std::size_t{100}));
+      add(check_digests(conn, std::size_t{100}));
       c.chunks = check_all_chunks(conn);
       for (const BadChunk& b : c.chunks.bad)
         c.findings.push_back({"chunk", "sample_chunk", std::nullopt, b.trial_id, b.instrument, describe(b)});

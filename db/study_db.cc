@@ -14,6 +14,7 @@
 #include "db/schema.h"
 #include "db/session_lock.h"
 #include "db/structure_check.h"
+#include "db/study_digests.h"
 #include "core/common/sha256.h"
 
 namespace hapticlab::db {
@@ -203,12 +204,15 @@ StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
     version_found_ = migrate(db_);
   }
   // With the integrity check, the rows too: every reference points at a
-  // row (a trial whose participant is gone would vanish from every join)
-  // and every value has its column's type (a TEXT 'nan' reads as 0).
+  // row (a trial whose participant is gone would vanish from every join),
+  // every value has its column's type (a TEXT 'nan' reads as 0), and the
+  // protocol and settings are those the study was created with.
   if (options.integrity != OpenOptions::Integrity::kSkip) {
     std::vector<Finding> findings = check_foreign_keys(db_);
     std::vector<Finding> types = check_value_types(db_);
     findings.insert(findings.end(), types.begin(), types.end());
+    std::vector<Finding> edited = check_digests(db_);
+    findings.insert(findings.end(), edited.begin(), edited.end());
     refuse_findings(db_, findings);
   }
   if (!options.read_only && options.recover) recover();
@@ -313,6 +317,9 @@ std::vector<StudyRow> StudyDb::studies() {
                     "', but must be a whole number from 0 to 18446744073709551615; the file is damaged or was edited");
     r.software_version = s.column_text(5);
     r.created_utc = s.column_text(6);
+    // The sessions' schedule, tasks and design come from this text.
+    if (const std::string found = sha256_hex(r.protocol_json); found != r.protocol_sha256)
+      throw DbError(db_.path() + ": " + edited_protocol_message(r.id, r.protocol_sha256, found));
     out.push_back(std::move(r));
   }
   return out;
@@ -337,16 +344,23 @@ std::int64_t StudyDb::add_setting(std::int64_t study_id, const NamedSettings& se
 
 std::int64_t StudyDb::add_setting_json(std::int64_t study_id, std::string_view name,
                                        std::string_view parameters_json) {
-  Statement s = db_.prepare("INSERT INTO setting (study_id, name, parameters_json) VALUES (?1, ?2, ?3)");
-  s.bind(1, study_id).bind(2, name).bind(3, parameters_json).run();
+  Statement s = db_.prepare(
+      "INSERT INTO setting (study_id, name, parameters_json, parameters_sha256) VALUES (?1, ?2, ?3, ?4)");
+  s.bind(1, study_id).bind(2, name).bind(3, parameters_json).bind(4, sha256_hex(parameters_json)).run();
   return db_.last_insert_rowid();
 }
 
 std::string StudyDb::setting_json(std::int64_t setting_id) {
-  Statement s = db_.prepare("SELECT parameters_json FROM setting WHERE id = ?1");
+  Statement s = db_.prepare("SELECT parameters_json, parameters_sha256, name FROM setting WHERE id = ?1");
   s.bind(1, setting_id);
   if (!s.step()) missing(db_, "setting", setting_id);
-  return s.column_text(0);
+  std::string json = s.column_text(0);
+  // A session configures its engine from this text, and analysis reads its
+  // fields: an edit would change what the participants after it feel, and
+  // the comparison, without a word.
+  if (const std::string found = sha256_hex(json); found != s.column_text(1))
+    throw DbError(db_.path() + ": " + edited_setting_message(setting_id, s.column_text(2), s.column_text(1), found));
+  return json;
 }
 
 std::vector<std::pair<std::int64_t, std::string>> StudyDb::settings(std::int64_t study_id) {

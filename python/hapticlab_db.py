@@ -38,6 +38,7 @@ and ``hapticlab study check`` do), never returns wrong numbers.
 
 import collections
 import contextlib
+import hashlib
 import json
 import sqlite3
 import struct
@@ -53,7 +54,7 @@ __all__ = [
 # The schema this module reads: version 10 (db/schema.h); since version 7 its chunk
 # checksums cover their trial and instrument. Older files are migrated by
 # any HapticLab command that opens them read-write (`hapticlab analyze`).
-SCHEMA_VERSION = 10
+SCHEMA_VERSION = 11
 APPLICATION_ID = 0x484C4142  # "HLAB"
 
 # Chunk formats (byte 0 of the blob).
@@ -83,7 +84,7 @@ TABLES = (
                ("created_utc", "TEXT", True))),
     ("participant", (("id", "INTEGER", False), ("study_id", "INTEGER", True), ("code", "TEXT", True))),
     ("setting", (("id", "INTEGER", False), ("study_id", "INTEGER", True), ("name", "TEXT", True),
-                 ("parameters_json", "TEXT", True))),
+                 ("parameters_json", "TEXT", True), ("parameters_sha256", "TEXT", True))),
     ("session", (("id", "INTEGER", False), ("participant_id", "INTEGER", True), ("started_unix_s", "REAL", True),
                  ("ended_unix_s", "REAL", False), ("device", "TEXT", True), ("clock", "TEXT", True),
                  ("status", "TEXT", True), ("site", "TEXT", False), ("rate_Hz", "REAL", False),
@@ -801,7 +802,33 @@ class StudyDatabase:
                     f"NULL AND NOT ({condition}) ORDER BY rowid LIMIT 20"):
                 findings.append(f"{_row_name(table, rowid, row_trial)}: {column} is {value}, which breaks CHECK "
                                 f"({condition})")
+        findings.extend(self._edited_definitions())
         return findings
+
+    def _edited_definitions(self):
+        """The protocol texts and settings that no longer match the SHA-256
+        `study create` stored of them (db/study_digests.h): sessions take
+        their schedule from the one and configure their engine from the
+        other, so an edit changes what later participants feel."""
+        def short(digest):
+            return digest[:12] + "..." if len(digest) > 12 else f"'{digest}'"
+        out = []
+        for study, text, stored in self._conn.execute(
+                "SELECT id, protocol_json, protocol_sha256 FROM main.study WHERE typeof(protocol_json) = 'text' "
+                "AND typeof(protocol_sha256) = 'text' ORDER BY id"):
+            found = hashlib.sha256(text.encode()).hexdigest()
+            if found != stored:
+                out.append(f"study {study}: its protocol_json does not match the SHA-256 stored when the study was "
+                           f"created (stored {short(stored)}, the text now gives {short(found)})")
+        for setting, name, text, stored in self._conn.execute(
+                "SELECT id, name, parameters_json, parameters_sha256 FROM main.setting WHERE "
+                "typeof(parameters_json) = 'text' AND typeof(parameters_sha256) = 'text' ORDER BY id"):
+            found = hashlib.sha256(text.encode()).hexdigest()
+            if found != stored:
+                out.append(f"setting '{name}' (id {setting}): its parameters_json does not match the SHA-256 "
+                           f"stored when the study was created (stored {short(stored)}, the text now gives "
+                           f"{short(found)})")
+        return out
 
     def _misfit_references(self):
         """References that exist but do not fit, as db/structure_check.cc

@@ -130,7 +130,8 @@ void print_study_check_text(const StudyOptions& opt, const StudyCheckFindings& c
   std::printf("%s\n", opt.db.c_str());
   print_check_findings(c.findings, "integrity_check", {"integrity"});
   if (c.structure > 0 || c.not_checked.empty())
-    print_check_findings(c.findings, "structure (tables, references, value types)", {"schema", "foreign_key", "type"});
+    print_check_findings(c.findings, "structure (tables, references, value types, protocol and setting digests)",
+                         {"schema", "foreign_key", "type", "edited"});
   if (!c.not_checked.empty()) {
     std::printf("  sample chunks: not checked: %s\n", c.not_checked.c_str());
     return;

@@ -10,6 +10,7 @@
 #include "db/chunk_coverage_rules.h"
 #include "db/sample_codec.h"
 #include "db/schema_shape.h"
+#include "db/study_digest_rules.h"
 
 namespace hapticlab::sqlite_ext {
 
@@ -21,10 +22,10 @@ using db::TableShape;
 
 namespace {
 
-// The schema this module reads: version 10 (db/schema.h); since version 7 its chunks
+// The schema this module reads: version 11 (db/schema.h); since version 7 its chunks
 // checksums cover their trial and instrument. Older files are migrated by
 // any HapticLab command that opens them read-write (`hapticlab analyze`).
-constexpr int kSchemaVersion = 10;
+constexpr int kSchemaVersion = 11;
 constexpr std::int64_t kApplicationId = 0x484C4142;  // "HLAB"
 
 // The rows of `table` (restricted by `where`, with ?1 bound to `trial`)
@@ -58,6 +59,35 @@ bool trial_exists(sqlite3* db, std::int64_t trial) {
   prepare(s, db, "SELECT 1 FROM main.trial WHERE id = ?1");
   sqlite3_bind_int64(s.get(), 1, trial);
   return step(db, s.get());
+}
+
+// The trial's setting and its study's protocol are those the study was
+// created with (db/study_digest_rules.h): the samples of a trial run under
+// an edited setting would be read as the setting's.
+void check_definitions(sqlite3* db, std::int64_t trial) {
+  check_value_types(db, *hapticlab::db::find_schema_table("setting"), "rowid = (SELECT setting_id FROM main.trial "
+                                                                       "WHERE id = ?1)", trial);
+  check_value_types(db, *hapticlab::db::find_schema_table("study"),
+                    "rowid = (SELECT p.study_id FROM main.trial t JOIN main.participant p ON p.id = t.participant_id "
+                    "WHERE t.id = ?1)", trial);
+  Stmt s;
+  prepare(s, db,
+          "SELECT st.id, st.name, st.parameters_json, st.parameters_sha256, sy.id, sy.protocol_json, "
+          "sy.protocol_sha256 FROM main.trial t JOIN main.setting st ON st.id = t.setting_id "
+          "JOIN main.participant p ON p.id = t.participant_id JOIN main.study sy ON sy.id = p.study_id "
+          "WHERE t.id = ?1");
+  sqlite3_bind_int64(s.get(), 1, trial);
+  if (!step(db, s.get())) return;  // check_trial_row named what is missing
+  std::string found;
+  if (const std::string digest = hapticlab::db::text_digest(text(s.get(), 2)); digest != text(s.get(), 3))
+    found = hapticlab::db::edited_setting_message(sqlite3_column_int64(s.get(), 0), text(s.get(), 1),
+                                                  text(s.get(), 3), digest);
+  if (const std::string digest = hapticlab::db::text_digest(text(s.get(), 5)); digest != text(s.get(), 6))
+    found += (found.empty() ? "" : "; ") + hapticlab::db::edited_protocol_message(sqlite3_column_int64(s.get(), 4),
+                                                                                   text(s.get(), 6), digest);
+  if (!found.empty())
+    throw QueryError{file_name(db) + ": trial " + std::to_string(trial) + " cannot be read: " + found +
+                     " (`hapticlab study check --db FILE` lists every finding)"};
 }
 
 // The trial's own row and what it refers to: every value of its row, its
@@ -96,6 +126,7 @@ void check_trial_row(sqlite3* db, std::int64_t trial, bool asked) {
     throw QueryError{file_name(db) + ": trial " + std::to_string(trial) + " cannot be read: " + found +
                      " (`hapticlab study check --db FILE` lists every finding)"};
   check_value_types(db, *hapticlab::db::find_schema_table("event"), "trial_id = ?1", trial);
+  check_definitions(db, trial);
 }
 
 namespace {

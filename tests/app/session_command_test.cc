@@ -19,6 +19,7 @@
 #include "db/study_db.h"
 
 #include <nlohmann/json.hpp>
+#include "tests/testing/sqlite_edit.h"
 #include "tests/testing/test_paths.h"
 
 namespace hapticlab {
@@ -176,6 +177,29 @@ TEST_F(SessionCommandTest, BlindSessionNeverNamesTheSettingTheOperatorViewDoes) 
   const auto [status3, summary] = testing::run_cli(kBinary, "study show --summary --db " + db_);
   ASSERT_EQ(status3, 0);
   EXPECT_THAT(summary, HasSubstr("S1                  20        3        0        0       17"));
+}
+
+// A setting edited with an SQLite shell between two sessions: the next
+// session would have configured its engine with it. `session run` refuses
+// before anything is recorded, naming the setting; the text put back, the
+// study goes on.
+TEST_F(SessionCommandTest, ASessionRefusesAStudyWhoseSettingWasEdited) {
+  const std::string run = "session run --db " + db_ + " --participant S1 --training-trials 0 --max-trials 1";
+  ASSERT_EQ(testing::run_cli(kBinary, run).first, 0);
+  const std::string sql = "SELECT parameters_json FROM setting WHERE name = 'Friction'";
+  testing::edit_with_sqlite(db_, "UPDATE setting SET parameters_json = replace(parameters_json, '\"friction\"', "
+                                 "'\"friction_off\"') WHERE name = 'Friction'");
+  const auto [status, out] = testing::run_cli(kBinary, run);
+  EXPECT_EQ(status, 1) << out;
+  EXPECT_THAT(out, HasSubstr(db_ + ": the file's structure is damaged, 1 finding(s); setting 'Friction' (id "));
+  EXPECT_THAT(out, HasSubstr("its parameters_json does not match the SHA-256 stored when the study was created"));
+  testing::edit_with_sqlite(db_, "UPDATE setting SET parameters_json = replace(parameters_json, '\"friction_off\"', "
+                                 "'\"friction\"') WHERE name = 'Friction'");
+  const auto [status2, out2] = testing::run_cli(kBinary, run);
+  EXPECT_EQ(status2, 0) << out2;
+  const auto [status3, summary] = testing::run_cli(kBinary, "study show --summary --db " + db_);
+  ASSERT_EQ(status3, 0) << summary;
+  EXPECT_THAT(summary, HasSubstr("S1                  20        2        0        0       18"));
 }
 
 double magnitude(const testing::CsvRow& row, const std::string& prefix) {

@@ -280,7 +280,8 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   // Genuinely of version 8: no site, no loop rate, no participant model
   // (a merge read the last two as if every file had them: an SQL error).
   testing::edit_with_sqlite(v8, "ALTER TABLE session DROP COLUMN site; ALTER TABLE session DROP COLUMN rate_Hz; "
-                                "ALTER TABLE session DROP COLUMN participant_model; PRAGMA user_version = 8");
+                                "ALTER TABLE session DROP COLUMN participant_model; "
+                                "ALTER TABLE setting DROP COLUMN parameters_sha256; PRAGMA user_version = 8");
   const std::string v8_bytes = testing::slurp(v8);
   {
     const auto [rc, text] = merge(a + " " + v8 + " --out " + out_db);
@@ -294,9 +295,17 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   fs::copy_file(b, dir_.path() / "v9nan.db");
   const std::string v9nan = (dir_.path() / "v9nan.db").string();
   testing::edit_with_sqlite(v9nan, "ALTER TABLE session DROP COLUMN rate_Hz; ALTER TABLE session DROP COLUMN "
-                                   "participant_model; UPDATE event SET t_s = 'nan' WHERE id = (SELECT min(id) FROM "
+                                   "participant_model; ALTER TABLE setting DROP COLUMN parameters_sha256; UPDATE event SET t_s = 'nan' WHERE id = (SELECT min(id) FROM "
                                    "event); PRAGMA user_version = 9");
   refused(a + " " + v9nan + " --out " + out_db, {v9nan + ": damaged site file", "t_s is text 'nan', expected a REAL"});
+  // A setting edited at a site: its sessions ran with parameters the study
+  // did not define (one space more is another text, whatever a parser says).
+  fs::copy_file(b, dir_.path() / "edited.db");
+  const std::string edited = (dir_.path() / "edited.db").string();
+  testing::edit_with_sqlite(edited, "UPDATE setting SET parameters_json = parameters_json || ' ' WHERE id = 2");
+  refused(a + " " + edited + " --out " + out_db,
+          {edited + ": setting '", "(id 2): its parameters_json does not match the SHA-256 stored when the study was "
+                                   "created"});
   // A session still open at a site (running, or killed and not recovered).
   fs::copy_file(b, dir_.path() / "open.db");
   const std::string open = (dir_.path() / "open.db").string();

@@ -74,7 +74,7 @@ TEST(SchemaShape, AViewAnotherShapeAndAMistypedValueAreNamed) {
     PRAGMA foreign_keys = OFF;
     INSERT INTO study VALUES (1, 's', '{}', printf('%064d', 0), '5', '0.3.0', '2024-01-01T00:00:00.000Z');
     INSERT INTO participant VALUES (1, 1, 'P01');
-    INSERT INTO setting VALUES (1, 1, 'No FFB', '{}');
+    INSERT INTO setting VALUES (1, 1, 'No FFB', '{}', printf('%064d', 0));
     INSERT INTO trial VALUES (1, 1, 'clip', 1, 1, 1, 1, 'planned', NULL, NULL, NULL, NULL);
     INSERT INTO trial VALUES (2, 1, 'clip', 9, 2, 1, 2, 'planned', NULL, NULL, NULL, NULL);
     INSERT INTO event VALUES (1, 1, 'nan', 'contact_end', 0, 0, NULL);

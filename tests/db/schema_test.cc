@@ -208,6 +208,13 @@ TEST(Schema, MigratesAVersion1DatabaseKeepingItsData) {
   EXPECT_EQ(t1.status, TrialStatus::kComplete);
   EXPECT_EQ(t1.participant_code, "S1");
   EXPECT_EQ(t1.setting_name, "Friction");
+  // Version 11 gave the setting the digest of its text, which every read compares.
+  EXPECT_EQ(db.setting_json(1), "{\"name\":\"Friction\"}");
+  {
+    Statement digest = db.connection().prepare("SELECT parameters_sha256 FROM setting WHERE id = 1");
+    ASSERT_TRUE(digest.step());
+    EXPECT_EQ(digest.column_text(0), sha256_hex("{\"name\":\"Friction\"}"));
+  }
   EXPECT_EQ(db.trial(2).status, TrialStatus::kPlanned);
   const std::vector<StoredSample> stored = db.samples(1, 0);
   ASSERT_EQ(stored.size(), 50u);

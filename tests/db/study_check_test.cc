@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "core/common/sha256.h"
 #include "db/schema.h"
 #include "db/study_db.h"
 #include "db_test_util.h"
@@ -56,8 +57,12 @@ TEST(StudyCheck, ATaskTheProtocolDoesNotNameIsAFinding) {
   {
     StudyDb made(path);
     testing::make_trial(made);  // task "dissection"
-    made.connection().exec("UPDATE study SET protocol_json = '{\"study\": \"test\", \"tasks\": [\"clip\", "
-                           "\"dissection\"]}'");
+    const std::string protocol = R"({"study": "test", "tasks": ["clip", "dissection"]})";
+    made.connection()
+        .prepare("UPDATE study SET protocol_json = ?1, protocol_sha256 = ?2")
+        .bind(1, protocol)
+        .bind(2, sha256_hex(protocol))
+        .run();
   }
   {
     Database conn(path, Database::Mode::kReadOnly);
@@ -68,6 +73,62 @@ TEST(StudyCheck, ATaskTheProtocolDoesNotNameIsAFinding) {
   const StudyFileCheck c = check_study_file(conn);
   ASSERT_EQ(c.findings.size(), 1u);
   EXPECT_EQ(c.findings[0].message, "trial 1: task 'foo' is not one of its study's protocol's tasks (clip, dissection)");
+}
+
+// A setting's parameters edited with an SQLite shell were what every later
+// session configured its engine with, and nothing said so; an edited
+// protocol text likewise. Each is a finding of `study check`, and every
+// reader (StudyDb) refuses the row, naming it.
+TEST(StudyCheck, AnEditedSettingOrProtocolIsAFindingAndReadersRefuseIt) {
+  testing::TempDir dir;
+  const auto path = dir.file("edited.db");
+  std::int64_t setting = 0;
+  {
+    StudyDb made(path);
+    setting = made.trial(testing::make_trial(made, false, "High Fidelity")).setting_id;
+    EXPECT_EQ(made.setting_json(setting), "{}");
+    made.connection().exec(R"(UPDATE setting SET parameters_json = '{"translation": {"friction": {}}}')");
+  }
+  {
+    Database conn(path, Database::Mode::kReadOnly);
+    const StudyFileCheck c = check_study_file(conn);
+    ASSERT_EQ(c.findings.size(), 1u);
+    EXPECT_EQ(c.findings[0].check, "edited");
+    EXPECT_EQ(c.findings[0].table, "setting");
+    EXPECT_EQ(c.findings[0].row, setting);
+    EXPECT_THAT(c.findings[0].message,
+                HasSubstr("setting 'High Fidelity' (id " + std::to_string(setting) +
+                          "): its parameters_json does not match the SHA-256 stored when the study was created "
+                          "(stored " + sha256_hex("{}").substr(0, 12) + "..."));
+    EXPECT_TRUE(c.damaged());
+  }
+  // Every reader refuses the file at open; one that skips the row checks
+  // (or had the file open before the edit: a session runs for hours)
+  // refuses the setting when it reads it.
+  EXPECT_THAT([&] { StudyDb(path, OpenOptions{.read_only = true}); },
+              ::testing::ThrowsMessage<DbError>(HasSubstr("setting 'High Fidelity' (id " + std::to_string(setting) +
+                                                          "): its parameters_json does not match")));
+  {
+    StudyDb db(path, OpenOptions{.integrity = OpenOptions::Integrity::kSkip, .read_only = true});
+    EXPECT_THAT([&] { db.setting_json(setting); },
+                ::testing::ThrowsMessage<DbError>(HasSubstr(path.string() + ": setting 'High Fidelity'")));
+    EXPECT_THAT([&] { db.setting(setting); }, ::testing::ThrowsMessage<DbError>(HasSubstr("refused")));
+  }
+  // Put back, the setting reads again; then the protocol is edited.
+  Database(path).exec("UPDATE setting SET parameters_json = '{}'");
+  Database(path).exec(R"(UPDATE study SET protocol_json = '{"study": "edited"}')");
+  {
+    Database conn(path, Database::Mode::kReadOnly);
+    const StudyFileCheck c = check_study_file(conn);
+    ASSERT_EQ(c.findings.size(), 1u);
+    EXPECT_EQ(c.findings[0].check, "edited");
+    EXPECT_EQ(c.findings[0].table, "study");
+    EXPECT_THAT(c.findings[0].message, HasSubstr("study 1: its protocol_json does not match the SHA-256"));
+  }
+  StudyDb db(path, OpenOptions{.integrity = OpenOptions::Integrity::kSkip, .read_only = true});
+  EXPECT_EQ(db.setting_json(setting), "{}");
+  EXPECT_THAT([&] { db.studies(); },
+              ::testing::ThrowsMessage<DbError>(HasSubstr("study 1: its protocol_json does not match")));
 }
 
 // A trial left 'running' in a session that has ended was counted as not

@@ -306,7 +306,7 @@ class DamageTest(unittest.TestCase):
         conn = sqlite3.connect(path)
         conn.execute("PRAGMA user_version = 6")
         conn.close()
-        with self.assertRaisesRegex(ValueError, "schema version 6; this reader reads version 10.*hapticlab analyze"):
+        with self.assertRaisesRegex(ValueError, "schema version 6; this reader reads version 11.*hapticlab analyze"):
             h.open_study(path)
 
 
@@ -421,6 +421,24 @@ class ValueRulesTest(unittest.TestCase):
         self.assertIn("session row 1: clock is 'bogus', which breaks CHECK (clock IN ('virtual', 'wall'))",
                       str(caught.exception))
         self.assertIn("trial 1: task 'foo' is not one of its study's protocol's tasks", str(caught.exception))
+
+    def test_an_edited_setting_or_protocol_is_refused_naming_it(self):
+        """What a session configures its engine with, and the schedule's
+        source, against the digests `study create` stored (schema 11)."""
+        path = STUDY.copy("edited_definitions.db")
+        conn = sqlite3.connect(path)
+        name, = conn.execute("SELECT name FROM setting WHERE id = 1").fetchone()
+        conn.execute("UPDATE setting SET parameters_json = parameters_json || ' ' WHERE id = 1")
+        conn.execute("UPDATE study SET protocol_json = protocol_json || ' '")
+        conn.commit()
+        conn.close()
+        with self.assertRaises(h.StructureError) as caught:
+            h.open_study(path)
+        self.assertIn(f"setting '{name}' (id 1): its parameters_json does not match the SHA-256 stored when the "
+                      f"study was created", str(caught.exception))
+        self.assertIn("study 1: its protocol_json does not match the SHA-256 stored", str(caught.exception))
+        with h.open_study(STUDY.db) as clean:
+            self.assertEqual(clean.check_structure(), [])
 
 
 if __name__ == "__main__":

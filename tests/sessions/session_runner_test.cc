@@ -21,14 +21,18 @@ namespace {
 using testing::SessionFixture;
 using db::TrialStatus;
 
-std::vector<db::TrialRow> trials_of(const std::filesystem::path& path, const std::string& code) {
-  db::OpenOptions open;
-  open.recover = false;
-  db::StudyDb db(path, open);
+std::vector<db::TrialRow> trials_of_open(db::StudyDb& db, const std::string& code) {
   std::vector<db::TrialRow> out;
   for (auto& t : db.trials())
     if (t.participant_code == code) out.push_back(t);
   return out;
+}
+
+std::vector<db::TrialRow> trials_of(const std::filesystem::path& path, const std::string& code) {
+  db::OpenOptions open;
+  open.recover = false;
+  db::StudyDb db(path, open);
+  return trials_of_open(db, code);
 }
 
 int count(const std::vector<db::TrialRow>& trials, TrialStatus status) {
@@ -325,6 +329,41 @@ TEST_F(SessionFixture, DeviceFaultAbortsTheTrialAndEndsTheSession) {
   EXPECT_EQ(count(trials, TrialStatus::kPlanned), 3);  // the faulted one re-queued
   db::StudyDb db(db_path_);
   EXPECT_EQ(db.session(r.session_id).status, db::SessionStatus::kInterrupted);
+}
+
+// A setting edited with an SQLite shell while a session runs (the runner
+// has the file open, so its checks at open have passed) was what the next
+// trial's engine was configured with. The next trial is refused before it
+// starts, naming the setting; nothing of it is recorded.
+TEST_F(SessionFixture, ASettingEditedDuringTheSessionStopsItBeforeTheNextTrial) {
+  SessionOptions o = options_for("A1");
+  std::int64_t finished = 0;
+  o.on_progress = [&](const SessionProgress& p) {
+    if (p.phase != SessionProgress::Phase::kTrialFinished || finished != 0) return;
+    finished = p.trial_id;
+    // One space more: the same parameters to a JSON parser, another text.
+    db::Database(db_path_).exec("UPDATE setting SET parameters_json = parameters_json || ' '");
+  };
+  try {
+    run_session(db_path_, o);
+    ADD_FAILURE() << "the session ran on with edited settings";
+  } catch (const db::DbError& e) {
+    EXPECT_NE(std::string(e.what()).find("its parameters_json does not match the SHA-256 stored when the study was "
+                                         "created"),
+              std::string::npos)
+        << e.what();
+  }
+  ASSERT_NE(finished, 0);
+  db::OpenOptions open;
+  open.recover = false;
+  open.integrity = db::OpenOptions::Integrity::kSkip;  // the file is refused otherwise, as it should be
+  db::StudyDb db(db_path_, open);
+  const auto trials = trials_of_open(db, "A1");
+  EXPECT_EQ(db.trial(finished).status, TrialStatus::kComplete);
+  EXPECT_EQ(count(trials, TrialStatus::kComplete), 1);
+  EXPECT_EQ(count(trials, TrialStatus::kRunning), 0);
+  EXPECT_EQ(count(trials, TrialStatus::kAborted), 0);
+  for (const db::SessionRow& s : db.sessions()) EXPECT_NE(s.status, db::SessionStatus::kOpen);
 }
 
 TEST_F(SessionFixture, KilledRunnerResumesAfterReopening) {

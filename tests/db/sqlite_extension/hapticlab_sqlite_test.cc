@@ -318,7 +318,7 @@ TEST_F(SqliteExtensionTest, WrongArgumentsAndForeignFilesAreNamedErrors) {
     Database(old).exec("PRAGMA user_version = 6");
     const auto [status, out] = sql(old, {"SELECT * FROM samples(1)"});
     EXPECT_NE(status, 0);
-    EXPECT_THAT(out, AllOf(HasSubstr("schema version 6, this extension reads version 10"), HasSubstr("hapticlab analyze")));
+    EXPECT_THAT(out, AllOf(HasSubstr("schema version 6, this extension reads version 11"), HasSubstr("hapticlab analyze")));
   }
 }
 
