@@ -6,7 +6,7 @@
 namespace hapticlab::db {
 namespace {
 
-// Schema version 9 (schema.cc), as PRAGMA table_info reports it after the
+// Schema version 11 (schema.cc), as PRAGMA table_info reports it after the
 // migrations. Order of columns as in the file.
 constexpr ColumnShape kStudy[] = {{"id", "INTEGER", false},           {"name", "TEXT", true},
                                   {"protocol_json", "TEXT", true},    {"protocol_sha256", "TEXT", true},

@@ -109,8 +109,8 @@ void check_existing_out(const fs::path& out, const Input& first, Database& built
   }
   if (version != kSchemaVersion)
     throw MergeError("--out " + quoted(out) + " exists at schema version " + std::to_string(version) +
-                     ", so it is not an earlier merge (merges write version " + std::to_string(kSchemaVersion) +
-                     "); give a new --out");
+                     ", so it is not an earlier merge of this HapticLab (merges write version " +
+                     std::to_string(kSchemaVersion) + "; an older HapticLab's merge is not replaced); give a new --out");
   {
     Statement s = old.prepare("SELECT protocol_sha256 FROM study");
     if (!s.step() || s.column_text(0) != first.protocol_sha256)

@@ -51,7 +51,7 @@ __all__ = [
     "crc32c", "SCHEMA_VERSION",
 ]
 
-# The schema this module reads: version 10 (db/schema.h); since version 7 its chunk
+# The schema this module reads: version 11 (db/schema.h); since version 7 its chunk
 # checksums cover their trial and instrument. Older files are migrated by
 # any HapticLab command that opens them read-write (`hapticlab analyze`).
 SCHEMA_VERSION = 11
@@ -807,27 +807,32 @@ class StudyDatabase:
 
     def _edited_definitions(self):
         """The protocol texts and settings that no longer match the SHA-256
-        `study create` stored of them (db/study_digests.h): sessions take
-        their schedule from the one and configure their engine from the
-        other, so an edit changes what later participants feel."""
+        stored with them (db/study_digest_rules.h): sessions take their
+        schedule from the one and configure their engine from the other, so
+        an edit changes what later participants feel. The stored bytes are
+        hashed, as HapticLab hashes them (text that is not UTF-8 is damage,
+        not an error of this reader)."""
         def short(digest):
             return digest[:12] + "..." if len(digest) > 12 else f"'{digest}'"
+
+        def rows(table, text, digest, name):
+            return self._conn.execute(
+                f"SELECT id, {name}, CAST({text} AS BLOB), CAST({digest} AS BLOB) FROM main.{table} WHERE "
+                f"typeof({text}) = 'text' AND typeof({digest}) = 'text' ORDER BY id")
         out = []
-        for study, text, stored in self._conn.execute(
-                "SELECT id, protocol_json, protocol_sha256 FROM main.study WHERE typeof(protocol_json) = 'text' "
-                "AND typeof(protocol_sha256) = 'text' ORDER BY id"):
-            found = hashlib.sha256(text.encode()).hexdigest()
+        for study, _, text, stored in rows("study", "protocol_json", "protocol_sha256", "NULL"):
+            found, stored = hashlib.sha256(text).hexdigest(), stored.decode("ascii", "replace")
             if found != stored:
-                out.append(f"study {study}: its protocol_json does not match the SHA-256 stored when the study was "
-                           f"created (stored {short(stored)}, the text now gives {short(found)})")
-        for setting, name, text, stored in self._conn.execute(
-                "SELECT id, name, parameters_json, parameters_sha256 FROM main.setting WHERE "
-                "typeof(parameters_json) = 'text' AND typeof(parameters_sha256) = 'text' ORDER BY id"):
-            found = hashlib.sha256(text.encode()).hexdigest()
-            if found != stored:
-                out.append(f"setting '{name}' (id {setting}): its parameters_json does not match the SHA-256 "
-                           f"stored when the study was created (stored {short(stored)}, the text now gives "
-                           f"{short(found)})")
+                out.append(f"study {study}: its protocol_json does not match the SHA-256 stored with it "
+                           f"(stored {short(stored)}, the text now gives {short(found)})")
+        for setting, name, text, stored in rows("setting", "parameters_json", "parameters_sha256", "name"):
+            found, stored = hashlib.sha256(text).hexdigest(), stored.decode("ascii", "replace")
+            if not stored:
+                out.append(f"setting '{name}' (id {setting}): no SHA-256 is stored with its parameters_json (written "
+                           f"by a HapticLab older than schema version 11 into a file already migrated)")
+            elif found != stored:
+                out.append(f"setting '{name}' (id {setting}): its parameters_json does not match the SHA-256 stored "
+                           f"with it (stored {short(stored)}, the text now gives {short(found)})")
         return out
 
     def _misfit_references(self):

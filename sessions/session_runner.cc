@@ -92,7 +92,7 @@ class SessionRun {
   std::optional<db::TrialRow> next_trial();
   bool train(const db::TrialRow& trial);
   void run_trial(const db::TrialRow& trial);
-  NamedSettings trial_setting(const db::TrialRow& trial);
+  SessionResult run_schedule();
   void supervise(SimRig& rig, std::unique_ptr<SimRig>& rig_owner, const db::TrialRow& trial, TrialWatch& watch,
                  db::TrialOutcome& outcome, std::optional<CrashNote>& crash_note);
   void take_operator_actions(const db::TrialRow& trial, double t_s, TrialWatch& watch, db::TrialOutcome& outcome);
@@ -443,25 +443,8 @@ void SessionRun::supervise(SimRig& rig, std::unique_ptr<SimRig>& rig_owner, cons
   loop.join();
 }
 
-// The trial's setting as the study defined it. An edited one (the file
-// changed while the session ran) ends the session before the trial
-// starts: nothing of the trial is recorded, the session is interrupted.
-NamedSettings SessionRun::trial_setting(const db::TrialRow& trial) {
-  try {
-    return db_.setting(trial.setting_id);
-  } catch (const db::DbError&) {
-    try {
-      session_.end(db::SessionStatus::kInterrupted);
-    } catch (const std::exception&) {
-      // The setting's error is the one to report; the session is then
-      // left as a crash leaves it, and recovered by the next one.
-    }
-    throw;
-  }
-}
-
 void SessionRun::run_trial(const db::TrialRow& trial) {
-  const NamedSettings settings = trial_setting(trial);
+  const NamedSettings settings = db_.setting(trial.setting_id);
   SimTrialConfig config = base_config(trial.task, settings, trial_seed(who_, trial.id),
                                       training_per_task_ + session_.complete_of(trial.task));
   if (options_.configure_trial) options_.configure_trial(config, trial);
@@ -537,7 +520,27 @@ void SessionRun::run_trial(const db::TrialRow& trial) {
   progress(finished);
 }
 
+// A database error between trials (a setting or the protocol edited while
+// the session ran, which every read of them refuses; a failing disk) ends
+// the session as interrupted before it is reported, rather than leaving it
+// open for the next session to recover as a crash.
 SessionResult SessionRun::run() {
+  try {
+    return run_schedule();
+  } catch (const db::DbError&) {
+    try {
+      session_.end(db::SessionStatus::kInterrupted);
+    } catch (const std::exception&) {
+      // Already ended (a storage failure ends it itself), or a trial is
+      // still running: the session is left as a crash leaves it, and the
+      // participant's next session recovers it. The first error is the one
+      // to report.
+    }
+    throw;
+  }
+}
+
+SessionResult SessionRun::run_schedule() {
   while (!stop_requested(options_)) {
     if (options_.max_trials && result_.trials_run >= *options_.max_trials) break;
     const std::optional<db::TrialRow> next = next_trial();

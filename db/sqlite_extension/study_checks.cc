@@ -64,6 +64,13 @@ bool trial_exists(sqlite3* db, std::int64_t trial) {
 // The trial's setting and its study's protocol are those the study was
 // created with (db/study_digest_rules.h): the samples of a trial run under
 // an edited setting would be read as the setting's.
+// A text column's bytes, all of them (text() stops at a NUL): the digest
+// is of the bytes stored.
+std::string stored_bytes(sqlite3_stmt* s, int c) {
+  const auto* p = static_cast<const char*>(sqlite3_column_blob(s, c));
+  return p == nullptr ? std::string() : std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s, c)));
+}
+
 void check_definitions(sqlite3* db, std::int64_t trial) {
   check_value_types(db, *hapticlab::db::find_schema_table("setting"), "rowid = (SELECT setting_id FROM main.trial "
                                                                        "WHERE id = ?1)", trial);
@@ -79,10 +86,10 @@ void check_definitions(sqlite3* db, std::int64_t trial) {
   sqlite3_bind_int64(s.get(), 1, trial);
   if (!step(db, s.get())) return;  // check_trial_row named what is missing
   std::string found;
-  if (const std::string digest = hapticlab::db::text_digest(text(s.get(), 2)); digest != text(s.get(), 3))
+  if (const std::string digest = hapticlab::db::text_digest(stored_bytes(s.get(), 2)); digest != text(s.get(), 3))
     found = hapticlab::db::edited_setting_message(sqlite3_column_int64(s.get(), 0), text(s.get(), 1),
                                                   text(s.get(), 3), digest);
-  if (const std::string digest = hapticlab::db::text_digest(text(s.get(), 5)); digest != text(s.get(), 6))
+  if (const std::string digest = hapticlab::db::text_digest(stored_bytes(s.get(), 5)); digest != text(s.get(), 6))
     found += (found.empty() ? "" : "; ") + hapticlab::db::edited_protocol_message(sqlite3_column_int64(s.get(), 4),
                                                                                    text(s.get(), 6), digest);
   if (!found.empty())

@@ -124,6 +124,28 @@ int finish_trial(hl_study& s, hl::db::TrialOutcome outcome, char* error, size_t 
   return HL_OK;
 }
 
+// The trial's setting as the study stored it. One that was edited since
+// (or cannot be read): no trial of the session may run on it, and the
+// session ends here, interrupted, as a storage failure ends it (a later
+// hl_study_end_session would record it closed); nullopt, with the error
+// written.
+std::optional<std::string> trial_setting(hl_study& s, std::int64_t setting_id, char* error, size_t error_size) {
+  try {
+    return s.session->db().setting_json(setting_id);
+  } catch (const hl::db::DbError& e) {
+    write_error(error, error_size,
+                std::string(e.what()) + "; the session is ended (interrupted): put the setting back, then start a "
+                                        "new session");
+    try {
+      s.session->end(hl::db::SessionStatus::kInterrupted);
+    } catch (const std::exception&) {
+      // Left as a crash leaves it: the participant's next session recovers it.
+    }
+    s.session.reset();
+    return std::nullopt;
+  }
+}
+
 // Before a trial: whatever a late call left in the queues belongs to no
 // trial (the writer is not running, so this thread may consume), and the
 // counters and the tick timing start again.
@@ -243,9 +265,10 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
       write_error(error, error_size, "");
       return HL_STUDY_DONE;
     }
-    const std::string setting_json = session.db().setting_json(next->setting_id);
+    const std::optional<std::string> setting_json = trial_setting(*study, next->setting_id, error, error_size);
+    if (!setting_json) return HL_ERROR_DATABASE;
     char engine_error[512] = "";
-    hl_engine* engine = hl_engine_create(setting_json.c_str(), engine_error, sizeof engine_error);
+    hl_engine* engine = hl_engine_create(setting_json->c_str(), engine_error, sizeof engine_error);
     if (engine == nullptr) {
       write_error(error, error_size,
                   session.db().path() + ": setting " + std::to_string(next->setting_id) +
@@ -434,15 +457,19 @@ int hl_study_end_trial(hl_study* study, int outcome, const char* reason, char* e
     out.abort_reason = stop_reason;
     out.closing_events.push_back({study->trial->id, study->last_t_s.load(std::memory_order_relaxed),
                                   hl::to_string(hl::TaskEventType::kOperatorAbort), -1, 0, stop_reason});
-  } else if (out.status == hl::db::TrialStatus::kComplete && !study->sample_queued.load(std::memory_order_acquire)) {
-    // Stored complete, it would count as done in the schedule and then be
-    // left out of every metric ("no samples logged"): the participant's
-    // slot for this setting lost without a word.
+  } else if (outcome != HL_TRIAL_ABORTED && !study->sample_queued.load(std::memory_order_acquire) &&
+             !study->storage_failed.load(std::memory_order_acquire)) {
+    // Complete, it would count as done in the schedule, and a time limit
+    // closes its slot; either way the trial would then be left out of
+    // every metric ("no samples logged"): the participant's slot for this
+    // setting lost without a word. (After a storage failure finish_trial
+    // says that, and aborts the trial.)
     const std::uint64_t rejected = study->rejected_samples.load(std::memory_order_relaxed);
     const std::uint64_t dropped = study->dropped_samples.load(std::memory_order_relaxed);
     write_error(error, error_size,
                 "hl_study_end_trial: trial " + std::to_string(study->trial->id) +
-                    " cannot be complete: no sample of it was logged (hl_study_log_sample accepted none; " +
+                    " cannot be " + (outcome == HL_TRIAL_COMPLETE ? "complete" : "closed by a time limit") +
+                    ": no sample of it was logged (hl_study_log_sample accepted none; " +
                     std::to_string(rejected) + " refused as invalid, " + std::to_string(dropped) +
                     " dropped). The trial is still open: log its samples, or end it with HL_TRIAL_ABORTED and a "
                     "reason");

@@ -192,7 +192,7 @@ TEST_F(SessionCommandTest, ASessionRefusesAStudyWhoseSettingWasEdited) {
   const auto [status, out] = testing::run_cli(kBinary, run);
   EXPECT_EQ(status, 1) << out;
   EXPECT_THAT(out, HasSubstr(db_ + ": the file's structure is damaged, 1 finding(s); setting 'Friction' (id "));
-  EXPECT_THAT(out, HasSubstr("its parameters_json does not match the SHA-256 stored when the study was created"));
+  EXPECT_THAT(out, HasSubstr("its parameters_json does not match the SHA-256 stored with it"));
   testing::edit_with_sqlite(db_, "UPDATE setting SET parameters_json = replace(parameters_json, '\"friction_off\"', "
                                  "'\"friction\"') WHERE name = 'Friction'");
   const auto [status2, out2] = testing::run_cli(kBinary, run);

@@ -206,10 +206,10 @@ std::vector<Damage> damage_cases() {
       // with, and what defines the schedule (the digests of schema 11).
       {"setting_edited",
        sql(R"(UPDATE setting SET parameters_json = '{"translation": {"friction": {}}}' WHERE name = 'Cogging')"), 2,
-       {"setting 'Cogging' (id 3): its parameters_json does not match the SHA-256 stored when the study was created"},
+       {"setting 'Cogging' (id 3): its parameters_json does not match the SHA-256 stored with it"},
        "edited", true},
       {"protocol_edited", sql(R"(UPDATE study SET protocol_json = '{"study": "edited"}')"), 1,
-       {"study 1: its protocol_json does not match the SHA-256 stored when the study was created"}, "edited", true},
+       {"study 1: its protocol_json does not match the SHA-256 stored with it"}, "edited", true},
       {"event_a_recursive_view",
        sql("PRAGMA foreign_keys = OFF; DROP TABLE event; "
            "CREATE VIEW event (id, trial_id, t_s, type, instrument, item_index, detail) AS "

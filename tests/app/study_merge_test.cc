@@ -304,8 +304,7 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   const std::string edited = (dir_.path() / "edited.db").string();
   testing::edit_with_sqlite(edited, "UPDATE setting SET parameters_json = parameters_json || ' ' WHERE id = 2");
   refused(a + " " + edited + " --out " + out_db,
-          {edited + ": setting '", "(id 2): its parameters_json does not match the SHA-256 stored when the study was "
-                                   "created"});
+          {edited + ": setting '", "(id 2): its parameters_json does not match the SHA-256 stored with it"});
   // A session still open at a site (running, or killed and not recovered).
   fs::copy_file(b, dir_.path() / "open.db");
   const std::string open = (dir_.path() / "open.db").string();

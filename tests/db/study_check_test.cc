@@ -98,7 +98,7 @@ TEST(StudyCheck, AnEditedSettingOrProtocolIsAFindingAndReadersRefuseIt) {
     EXPECT_EQ(c.findings[0].row, setting);
     EXPECT_THAT(c.findings[0].message,
                 HasSubstr("setting 'High Fidelity' (id " + std::to_string(setting) +
-                          "): its parameters_json does not match the SHA-256 stored when the study was created "
+                          "): its parameters_json does not match the SHA-256 stored with it "
                           "(stored " + sha256_hex("{}").substr(0, 12) + "..."));
     EXPECT_TRUE(c.damaged());
   }
@@ -125,10 +125,21 @@ TEST(StudyCheck, AnEditedSettingOrProtocolIsAFindingAndReadersRefuseIt) {
     EXPECT_EQ(c.findings[0].table, "study");
     EXPECT_THAT(c.findings[0].message, HasSubstr("study 1: its protocol_json does not match the SHA-256"));
   }
-  StudyDb db(path, OpenOptions{.integrity = OpenOptions::Integrity::kSkip, .read_only = true});
-  EXPECT_EQ(db.setting_json(setting), "{}");
-  EXPECT_THAT([&] { db.studies(); },
-              ::testing::ThrowsMessage<DbError>(HasSubstr("study 1: its protocol_json does not match")));
+  {
+    StudyDb db(path, OpenOptions{.integrity = OpenOptions::Integrity::kSkip, .read_only = true});
+    EXPECT_EQ(db.setting_json(setting), "{}");
+    EXPECT_THAT([&] { db.studies(); },
+                ::testing::ThrowsMessage<DbError>(HasSubstr("study 1: its protocol_json does not match")));
+  }
+  // A setting without a digest (a program older than schema 11 wrote it
+  // into the migrated file) is said as such, not as an edit.
+  Database(path).exec(R"(UPDATE study SET protocol_json = '{"study": "test"}'; UPDATE setting SET )"
+                      R"(parameters_sha256 = '')");
+  Database conn(path, Database::Mode::kReadOnly);
+  const StudyFileCheck c = check_study_file(conn);
+  ASSERT_EQ(c.findings.size(), 1u);
+  EXPECT_THAT(c.findings[0].message, HasSubstr("): no SHA-256 is stored with its parameters_json: it was written by a "
+                                               "HapticLab older than schema version 11"));
 }
 
 // A trial left 'running' in a session that has ended was counted as not

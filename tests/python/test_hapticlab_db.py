@@ -434,8 +434,8 @@ class ValueRulesTest(unittest.TestCase):
         conn.close()
         with self.assertRaises(h.StructureError) as caught:
             h.open_study(path)
-        self.assertIn(f"setting '{name}' (id 1): its parameters_json does not match the SHA-256 stored when the "
-                      f"study was created", str(caught.exception))
+        self.assertIn(f"setting '{name}' (id 1): its parameters_json does not match the SHA-256 stored with "
+                      f"it", str(caught.exception))
         self.assertIn("study 1: its protocol_json does not match the SHA-256 stored", str(caught.exception))
         with h.open_study(STUDY.db) as clean:
             self.assertEqual(clean.check_structure(), [])

@@ -348,8 +348,7 @@ TEST_F(SessionFixture, ASettingEditedDuringTheSessionStopsItBeforeTheNextTrial) 
     run_session(db_path_, o);
     ADD_FAILURE() << "the session ran on with edited settings";
   } catch (const db::DbError& e) {
-    EXPECT_NE(std::string(e.what()).find("its parameters_json does not match the SHA-256 stored when the study was "
-                                         "created"),
+    EXPECT_NE(std::string(e.what()).find("its parameters_json does not match the SHA-256 stored with it"),
               std::string::npos)
         << e.what();
   }
@@ -363,7 +362,30 @@ TEST_F(SessionFixture, ASettingEditedDuringTheSessionStopsItBeforeTheNextTrial) 
   EXPECT_EQ(count(trials, TrialStatus::kComplete), 1);
   EXPECT_EQ(count(trials, TrialStatus::kRunning), 0);
   EXPECT_EQ(count(trials, TrialStatus::kAborted), 0);
-  for (const db::SessionRow& s : db.sessions()) EXPECT_NE(s.status, db::SessionStatus::kOpen);
+  for (const db::SessionRow& s : db.sessions()) EXPECT_EQ(s.status, db::SessionStatus::kInterrupted);
+}
+
+// The same edit met by the session's training, which reads the study's
+// control setting: the session ends interrupted too, not left open.
+TEST_F(SessionFixture, ASettingEditedBeforeTheTrainingStopsTheSessionInterrupted) {
+  SessionOptions o = options_for("A1");
+  o.training_trials = 1;
+  bool edited = false;
+  o.on_progress = [&](const SessionProgress& p) {
+    if (p.phase != SessionProgress::Phase::kTraining || edited) return;
+    edited = true;
+    db::Database(db_path_).exec("UPDATE setting SET parameters_json = parameters_json || ' '");
+  };
+  EXPECT_THROW(run_session(db_path_, o), db::DbError);
+  ASSERT_TRUE(edited);
+  db::OpenOptions open;
+  open.recover = false;
+  open.integrity = db::OpenOptions::Integrity::kSkip;
+  db::StudyDb db(db_path_, open);
+  EXPECT_EQ(count(trials_of_open(db, "A1"), TrialStatus::kPlanned), static_cast<int>(trials_of_open(db, "A1").size()));
+  const std::vector<db::SessionRow> sessions = db.sessions();
+  ASSERT_EQ(sessions.size(), 1u);
+  EXPECT_EQ(sessions[0].status, db::SessionStatus::kInterrupted);
 }
 
 TEST_F(SessionFixture, KilledRunnerResumesAfterReopening) {

@@ -51,12 +51,12 @@ class StudyApiTest : public SessionFixture {
     hl_study_close(study_);
     SessionFixture::TearDown();
   }
-  // Logs one sample, then ends the open trial complete: a trial of which
-  // nothing was logged cannot be complete.
-  int complete_trial() {
+  // Logs one sample, then ends the open trial complete (or by a time
+  // limit): a trial of which nothing was logged can be neither.
+  int complete_trial(int outcome = HL_TRIAL_COMPLETE, const char* reason = nullptr) {
     const hl_sample s = sample_at(0);
     if (const int r = hl_study_log_sample(study_, &s); r != HL_OK) return r;
-    return hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_);
+    return hl_study_end_trial(study_, outcome, reason, error_, sizeof error_);
   }
   db::StudyDb open_db() {
     db::OpenOptions o;
@@ -229,6 +229,9 @@ TEST_F(StudyApiTest, ACompleteTrialWithoutASampleIsRefusedAndStaysOpen) {
   ASSERT_EQ(hl_study_log_sample(study_, &bad), HL_ERROR_INVALID_ARGUMENT);
   EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_STATE);
   EXPECT_THAT(error_, HasSubstr("1 refused as invalid"));
+  // A time limit would close the slot as surely.
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_TIME_LIMIT, "90 s", error_, sizeof error_), HL_ERROR_STATE);
+  EXPECT_THAT(error_, HasSubstr("cannot be closed by a time limit: no sample of it was logged"));
   // Still open: it takes samples and then ends complete.
   ASSERT_EQ(complete_trial(), HL_OK) << error_;
   // The next trial, with nothing logged, can still be aborted or stopped.
@@ -374,7 +377,7 @@ TEST_F(StudyApiTest, AbortedTrialsAreRequeuedButATimeLimitClosesTheSlot) {
   ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
   const std::int64_t copy = trial_.trial_id;
   EXPECT_NE(copy, aborted);
-  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_TIME_LIMIT, "120 s", error_, sizeof error_), HL_OK);
+  ASSERT_EQ(complete_trial(HL_TRIAL_TIME_LIMIT, "120 s"), HL_OK) << error_;
   ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
   const std::int64_t next = trial_.trial_id;
   ASSERT_EQ(complete_trial(), HL_OK) << error_;
@@ -449,6 +452,47 @@ TEST_F(StudyApiTest, OnceStorageFailsTheLogCallsSaySo) {
             HL_ERROR_DATABASE);
   EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_DATABASE);
   EXPECT_THAT(std::string(error_), HasSubstr("disk is full (test)"));
+}
+
+// Storage that failed before any sample reached it (the writer stores the
+// trial's events first): hl_study_end_trial says so and aborts the trial,
+// rather than asking for samples that can no longer be kept.
+TEST_F(StudyApiTest, AStorageFailureBeforeTheFirstSampleIsReportedAsOne) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  db::Database(db_path_).exec("CREATE TRIGGER refuse_events BEFORE INSERT ON event "
+                              "BEGIN SELECT RAISE(ABORT, 'database or disk is full (test)'); END");
+  int rc = hl_study_log_event(study_, 0.0, HL_EVENT_CONTACT_START, 0, 0);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (rc != HL_ERROR_DATABASE && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    rc = hl_study_log_event(study_, 0.0, HL_EVENT_CONTACT_END, 0, 0);
+  }
+  ASSERT_EQ(rc, HL_ERROR_DATABASE) << "the writer never stored the events";
+  EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_DATABASE);
+  EXPECT_THAT(std::string(error_), HasSubstr("disk is full (test)"));
+}
+
+// A setting edited while the application's session runs: the next trial
+// is refused naming it, and the session is ended as interrupted (a later
+// hl_study_end_session would have recorded it closed).
+TEST_F(StudyApiTest, AnEditedSettingEndsTheSessionAtTheNextTrial) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK);
+  ASSERT_EQ(complete_trial(), HL_OK) << error_;
+  db::Database(db_path_).exec("UPDATE setting SET parameters_json = parameters_json || ' '");
+  EXPECT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_ERROR_DATABASE);
+  EXPECT_THAT(std::string(error_), HasSubstr("its parameters_json does not match the SHA-256 stored with it"));
+  EXPECT_THAT(std::string(error_), HasSubstr("the session is ended (interrupted)"));
+  EXPECT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_ERROR_STATE);
+  db::OpenOptions o;
+  o.integrity = db::OpenOptions::Integrity::kSkip;
+  o.recover = false;
+  db::StudyDb db(db_path_, o);
+  for (const db::SessionRow& s : db.sessions()) EXPECT_EQ(s.status, db::SessionStatus::kInterrupted);
+  int running = 0;
+  for (const db::TrialRow& t : db.trials()) running += t.status == db::TrialStatus::kRunning ? 1 : 0;
+  EXPECT_EQ(running, 0);
 }
 
 TEST_F(StudyApiTest, ClosingWithATrialOpenAbortsAndRequeuesIt) {

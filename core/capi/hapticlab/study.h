@@ -162,6 +162,10 @@ HL_API int hl_study_start_session(hl_study* study, const char* participant_code,
  * participant (the study is blinded). Returns HL_OK, HL_STUDY_DONE when no
  * trial is left, HL_STUDY_STOPPED after hl_study_request_stop, or
  * HL_ERROR_STATE without a session or while a trial is open.
+ * HL_ERROR_DATABASE when the database failed, or when the trial's setting
+ * no longer matches the digest stored with it (the file was edited: the
+ * session is then ended as interrupted; put the setting back and start a
+ * new session).
  */
 HL_API int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting,
                                size_t operator_setting_size, char* error, size_t error_size);
@@ -202,10 +206,11 @@ HL_API int hl_study_rejected(const hl_study* study, uint64_t* samples, uint64_t*
  * (HL_TRIAL_*; reason: free text, required for HL_TRIAL_ABORTED, optional
  * otherwise). The trial's hl_engine is destroyed. After
  * hl_study_request_stop the trial is recorded as aborted by the operator,
- * whatever outcome is given. HL_TRIAL_COMPLETE for a trial of which no
- * sample was logged (hl_study_log_sample never answered HL_OK) is refused
- * with HL_ERROR_STATE, the trial still open: it would count as done and
- * have no metrics. HL_ERROR_DATABASE when the database could not
+ * whatever outcome is given. HL_TRIAL_COMPLETE or HL_TRIAL_TIME_LIMIT for
+ * a trial of which no sample was logged (hl_study_log_sample never
+ * answered HL_OK) is refused with HL_ERROR_STATE, the trial still open: it
+ * would close its slot and have no metrics (HL_TRIAL_ABORTED re-queues it).
+ * HL_ERROR_DATABASE when the database could not
  * be written: the trial is then aborted with its samples so far kept, and
  * the session is over (start a new one once the disk is fixed).
  */
