@@ -828,8 +828,8 @@ class StudyDatabase:
         for setting, name, text, stored in rows("setting", "parameters_json", "parameters_sha256", "name"):
             found, stored = hashlib.sha256(text).hexdigest(), stored.decode("ascii", "replace")
             if not stored:
-                out.append(f"setting '{name}' (id {setting}): no SHA-256 is stored with its parameters_json (written "
-                           f"by a HapticLab older than schema version 11 into a file already migrated)")
+                out.append(f"setting '{name}' (id {setting}): no SHA-256 is stored with its parameters_json: it was "
+                           f"written by a HapticLab older than schema version 11 into a file already migrated")
             elif found != stored:
                 out.append(f"setting '{name}' (id {setting}): its parameters_json does not match the SHA-256 stored "
                            f"with it (stored {short(stored)}, the text now gives {short(found)})")

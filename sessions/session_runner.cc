@@ -531,10 +531,10 @@ SessionResult SessionRun::run() {
     try {
       session_.end(db::SessionStatus::kInterrupted);
     } catch (const std::exception&) {
-      // Already ended (a storage failure ends it itself), or a trial is
-      // still running: the session is left as a crash leaves it, and the
-      // participant's next session recovers it. The first error is the one
-      // to report.
+      // Already ended (a storage failure ends it itself), or a trial was
+      // left running (StudySession::end): the session is left as a crash
+      // leaves it, and the participant's next session recovers it. The
+      // first error is the one to report.
     }
     throw;
   }

@@ -119,7 +119,14 @@ void StudySession::start_trial(const db::TrialRow& trial, SpscQueue<LoopSample>&
   if (ended_) throw std::logic_error("StudySession::start_trial(): the session has ended");
   db_.start_trial(trial.id, session_id_);
   running_ = trial;
-  writer_ = std::make_unique<db::SampleWriter>(db_path_, trial.id, samples, events, writer);
+  try {
+    writer_ = std::make_unique<db::SampleWriter>(db_path_, trial.id, samples, events, writer);
+  } catch (...) {
+    // The trial is 'running' in the file and nothing will finish it.
+    left_running_ = trial.id;
+    running_.reset();
+    throw;
+  }
 }
 
 std::uint64_t StudySession::finish_trial(const db::TrialOutcome& outcome) {
@@ -165,6 +172,7 @@ std::uint64_t StudySession::finish_trial(const db::TrialOutcome& outcome) {
 }
 
 void StudySession::abandon_trial() noexcept {
+  if (running_) left_running_ = running_->id;
   writer_.reset();  // its destructor commits what it has and never throws
   running_.reset();
 }
@@ -184,6 +192,10 @@ db::SessionLock::CrashNoteTarget StudySession::crash_note_target() const noexcep
 void StudySession::end(db::SessionStatus status) {
   if (writer_) throw std::logic_error("StudySession::end(): trial " + std::to_string(running_->id) + " is still running");
   if (ended_) throw std::logic_error("StudySession::end(): the session has already ended");
+  if (left_running_)
+    throw std::logic_error("StudySession::end(): trial " + std::to_string(*left_running_) +
+                           " was left running; the session stays open for the participant's next session to "
+                           "recover");
   db_.end_session(session_id_, status);
   ended_ = true;
 }

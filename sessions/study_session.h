@@ -130,7 +130,10 @@ class StudySession {
   // Where a crash handler appends the cause of a crash (crash_note.h).
   db::SessionLock::CrashNoteTarget crash_note_target() const noexcept;
 
-  // Closes the session row. Throws std::logic_error while a trial runs.
+  // Closes the session row. Throws std::logic_error while a trial runs, and
+  // after one was left running (abandon_trial, or a writer that could not
+  // start): a session that ended over a 'running' trial is a damaged file,
+  // while one left open is recovered by the participant's next session.
   void end(db::SessionStatus status = db::SessionStatus::kClosed);
   bool ended() const noexcept { return ended_; }
   // Planned trials of the participant left now.
@@ -154,6 +157,7 @@ class StudySession {
   std::int64_t session_id_ = 0;
   bool ended_ = false;
   std::optional<db::TrialRow> running_;
+  std::optional<std::int64_t> left_running_;  // a trial abandoned as 'running' (see end())
   std::unique_ptr<db::SampleWriter> writer_;
 };
 

@@ -440,6 +440,20 @@ class ValueRulesTest(unittest.TestCase):
         with h.open_study(STUDY.db) as clean:
             self.assertEqual(clean.check_structure(), [])
 
+    def test_a_setting_without_digest_or_not_utf8_is_a_finding_not_an_error(self):
+        path = STUDY.copy("digest_cases.db")
+        conn = sqlite3.connect(path)
+        conn.execute("UPDATE setting SET parameters_sha256 = '' WHERE id = 1")
+        # Bytes that are not UTF-8: damage, hashed as stored, never a decoding error.
+        conn.execute("UPDATE setting SET parameters_json = CAST(x'7b22ff227d' AS TEXT) WHERE id = 2")
+        conn.commit()
+        conn.close()
+        with self.assertRaises(h.StructureError) as caught:
+            h.open_study(path)
+        self.assertIn("(id 1): no SHA-256 is stored with its parameters_json: it was written by a HapticLab older "
+                      "than schema version 11", str(caught.exception))
+        self.assertIn("(id 2): its parameters_json does not match the SHA-256 stored with it", str(caught.exception))
+
 
 if __name__ == "__main__":
     unittest.main(verbosity=2)

@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/loop/spsc_queue.h"
+#include "sessions/study_session.h"
 #include "tests/sessions/session_fixture.h"
 
 namespace hapticlab::sessions {
@@ -386,6 +388,37 @@ TEST_F(SessionFixture, ASettingEditedBeforeTheTrainingStopsTheSessionInterrupted
   const std::vector<db::SessionRow> sessions = db.sessions();
   ASSERT_EQ(sessions.size(), 1u);
   EXPECT_EQ(sessions[0].status, db::SessionStatus::kInterrupted);
+}
+
+// A trial left 'running' (its writer could not start, or a caller unwound
+// past it) keeps its session open: ended over a running trial, the file
+// would hold a running trial in an ended session, which every reader
+// refuses as damage, the participant's next session included. Left open,
+// that session recovers it.
+TEST_F(SessionFixture, ASessionOverATrialLeftRunningStaysOpenAndIsRecovered) {
+  std::int64_t left = 0;
+  {
+    StudySession session(db_path_, "A1", "sim", "virtual", 1000.0);
+    const std::optional<db::TrialRow> next = session.next_trial();
+    ASSERT_TRUE(next.has_value());
+    left = next->id;
+    SpscQueue<LoopSample> samples(16);
+    SpscQueue<TaskEvent> events(16);
+    db::SampleWriterConfig broken;
+    broken.commit_interval = std::chrono::milliseconds(0);  // the writer refuses to start
+    EXPECT_THROW(session.start_trial(*next, samples, events, broken), std::invalid_argument);
+    EXPECT_THROW(session.end(db::SessionStatus::kInterrupted), std::logic_error);
+  }
+  SessionOptions o = options_for("A1");
+  o.max_trials = 1;
+  const SessionResult r = run_session(db_path_, o);
+  EXPECT_EQ(r.trials_complete, 1);
+  db::StudyDb db(db_path_);  // every check at open: no running trial in an ended session
+  EXPECT_EQ(db.trial(left).status, TrialStatus::kAborted);
+  const std::vector<db::SessionRow> sessions = db.sessions();
+  ASSERT_EQ(sessions.size(), 2u);
+  EXPECT_EQ(sessions[0].status, db::SessionStatus::kInterrupted);
+  EXPECT_EQ(sessions[1].status, db::SessionStatus::kClosed);
 }
 
 TEST_F(SessionFixture, KilledRunnerResumesAfterReopening) {
