@@ -331,6 +331,9 @@ def prctiles(values, ps):
     return out
 
 
+EVENT_SAMPLE_SLACK_S = 0.5  # trial_reader.cc kEventSampleSlack_s
+
+
 def task_window(events, trial_end_s):
     """(start_s, end_s) or None, as analysis/metrics/trial_metrics.h defines it."""
     events = sorted(events, key=lambda e: e[0])  # stable, like the C++
@@ -533,6 +536,12 @@ def trial_metrics(conn):
                 hands[c[1]] = (lo, at + count)
             ends = [batch.t[h[1] - 1] for h in hands if h is not None]
             window = task_window(events.get(trial_id, []), max(ends)) if ends else None
+            # A window reaching past the samples (events of another clock):
+            # measures missing, as analysis/study/trial_reader.cc says.
+            firsts = [batch.t[h[0]] for h in hands if h is not None]
+            if window is not None and (window[0] < min(firsts) - EVENT_SAMPLE_SLACK_S or
+                                       window[1] > max(ends) + EVENT_SAMPLE_SLACK_S):
+                window = None
             for hand in (0, 1):
                 row = {"trial_id": trial_id, "participant": participant, "task": task, "setting": setting,
                        "repetition": repetition, "instrument": hand}

@@ -17,8 +17,9 @@ namespace {
 // The oldest input schema read as it is: version 8 differs from 9 only by
 // session.site, 9 from 10 by session.rate_Hz and participant_model (read
 // as NULL: merge_input.h), 10 from 11 by setting.parameters_sha256 (none
-// to check; the merged file gets its settings' digests). Older files have other checksums; they are migrated first
-// by any command that opens them read-write (the merge writes no input).
+// to check; the merged file gets its settings' digests). Older files have
+// other checksums; they are migrated first by any command that opens them
+// read-write (the merge writes no input).
 constexpr int kOldestInputVersion = 8;
 
 void check_structure(Input& in) {

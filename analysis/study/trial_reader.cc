@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <limits>
 #include <mutex>
@@ -104,6 +105,38 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
 
 }  // namespace
 
+namespace {
+
+// How far past its samples a task event may lie. A VE logs an event in
+// the update whose sample shows it, so an event's time is a sample's; the
+// slack covers samples dropped at either end of a trial (a full queue for
+// a moment), not an event of another clock (a wall-clock time beside loop
+// times, an offset origin), which lies seconds to hours away.
+constexpr double kEventSampleSlack_s = 0.5;
+
+// "" when the task window lies within the trial's samples (give or take
+// the slack); else why its measures are missing. A window reaching past
+// the samples took its completion time from events the samples do not
+// show (3600 s for a 2 s trial).
+std::string window_outside_samples(const TaskWindow& w, double first_sample_s, double last_sample_s) {
+  const auto text = [](double s) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g s", s);
+    return std::string(buf);
+  };
+  std::string edge;
+  if (w.start_s < first_sample_s - kEventSampleSlack_s)
+    edge = "starts at " + text(w.start_s) + " (its first 20 mm insertion), before the first sample at " +
+           text(first_sample_s);
+  else if (w.end_s > last_sample_s + kEventSampleSlack_s)
+    edge = "ends at " + text(w.end_s) + " (its last contact), after the last sample at " + text(last_sample_s);
+  if (edge.empty()) return "";
+  return "the task window " + edge + ": its events and samples disagree (two clocks, or an edited file); measures "
+         "and completion time missing";
+}
+
+}  // namespace
+
 std::optional<TaskEventType> task_event_type(std::string_view name) {
   for (int i = 0; i < kNumTaskEventTypes; ++i) {
     const auto type = static_cast<TaskEventType>(i);
@@ -122,6 +155,7 @@ void TrialAccumulator::start(std::span<const TaskEvent> events, const AnalysisOp
   provisional_ = task_window(events_, kInf);
   samples_ = 0;
   trial_end_s_ = -kInf;
+  trial_start_s_ = kInf;
   data_error_.clear();
   accumulate_ = provisional_.window.has_value();
   for (EnergyAccumulator& e : energy_) e.start();
@@ -162,6 +196,10 @@ void TrialAccumulator::finish(TrialRecord& rec, std::vector<std::string> damaged
   const TaskWindowResult window = open_end ? task_window(events_, trial_end_s_) : provisional_;
   if (!window.window) {
     rec.problem = window.problem;
+    return;
+  }
+  if (std::string outside = window_outside_samples(*window.window, trial_start_s_, trial_end_s_); !outside.empty()) {
+    rec.problem = std::move(outside);
     return;
   }
   if (!data_error_.empty()) {

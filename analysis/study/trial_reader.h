@@ -38,6 +38,7 @@ class TrialAccumulator {
            const Vec3d& force_N) {
     ++samples_;
     if (t_s > trial_end_s_) trial_end_s_ = t_s;
+    if (t_s < trial_start_s_) trial_start_s_ = t_s;
     if (!accumulate_) return;
     try {
       acc_[hand].add(t_s, position_m, velocity_m_per_s, force_N);
@@ -70,6 +71,7 @@ class TrialAccumulator {
   bool accumulate_ = false;
   std::size_t samples_ = 0;
   double trial_end_s_ = 0.0;
+  double trial_start_s_ = 0.0;
   std::string data_error_;
 };
 

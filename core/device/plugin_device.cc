@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <filesystem>
 #include <sstream>
@@ -195,7 +196,14 @@ DeviceStatus PluginDevice::activate(const Clock& clock) {
 }
 
 DeviceStatus PluginDevice::read(DeviceReading& reading) noexcept {
+  // NaN in every field first: a plugin that answers OK without filling a
+  // position (the ABI says fill every one) gives a non-finite reading, a
+  // fault, instead of whatever the stack held (often the last reading:
+  // a tool that seems still while force is commanded).
   hl_device_reading raw;
+  for (auto& instrument : raw.position)
+    for (double& x : instrument) x = std::numeric_limits<double>::quiet_NaN();
+  raw.device_time_s = std::numeric_limits<double>::quiet_NaN();
   const DeviceStatus status = checked(table_->read(device_, &raw), kOpRead);
   if (status != DeviceStatus::kOk) return status;
   bool finite = true;

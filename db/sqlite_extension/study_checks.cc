@@ -61,9 +61,6 @@ bool trial_exists(sqlite3* db, std::int64_t trial) {
   return step(db, s.get());
 }
 
-// The trial's setting and its study's protocol are those the study was
-// created with (db/study_digest_rules.h): the samples of a trial run under
-// an edited setting would be read as the setting's.
 // A text column's bytes, all of them (text() stops at a NUL): the digest
 // is of the bytes stored.
 std::string stored_bytes(sqlite3_stmt* s, int c) {
@@ -71,6 +68,9 @@ std::string stored_bytes(sqlite3_stmt* s, int c) {
   return p == nullptr ? std::string() : std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s, c)));
 }
 
+// The trial's setting and its study's protocol match the digests stored
+// with them (db/study_digest_rules.h): the samples of a trial run under an
+// edited setting would be read as the setting's.
 void check_definitions(sqlite3* db, std::int64_t trial) {
   check_value_types(db, *hapticlab::db::find_schema_table("setting"), "rowid = (SELECT setting_id FROM main.trial "
                                                                        "WHERE id = ?1)", trial);

@@ -316,17 +316,23 @@ namespace {
 // file's 64-bit signed ticks, its time is a number that does not go back,
 // its period is a number >= 0, and every physical value is finite (a NaN
 // force or joint would be stored, exported and analysed as a value).
+// The physical channels are stored as float32 (db/sample_codec.h): a finite
+// double beyond its range would be stored as infinity, and the trial,
+// accepted complete, then voided by the analysis.
+bool fits_stored_float(double v) { return std::abs(v) <= static_cast<double>(std::numeric_limits<float>::max()); }
+
 bool storable(const hl_study& study, const hl_sample& s) {
   if (s.tick > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return false;
   if (study.have_tick && (s.tick <= study.last_tick || s.t_s < study.last_sample_t_s)) return false;
   if (!std::isfinite(s.t_s) || !std::isfinite(s.dt_s) || s.dt_s < 0.0) return false;
   for (const hl_sample_instrument& in : s.instrument) {
+    // NaN fails the comparison too.
     for (double v : in.raw_joints)
-      if (!std::isfinite(v)) return false;
+      if (!fits_stored_float(v)) return false;
     for (const double* field : {in.degraded_joints, in.tip_position_m, in.tip_velocity_m_per_s, in.ve_force_N,
                                 in.displayed_force_N, in.joint_force})
       for (int j = 0; j < 3; ++j)
-        if (!std::isfinite(field[j])) return false;
+        if (!fits_stored_float(field[j])) return false;
   }
   return true;
 }

@@ -167,6 +167,10 @@ TEST_F(StudyApiTest, ARepeatedTickOrAnUndefinedEventIsRefusedAtTheCallAndTheTria
       [](hl_sample& s) { s.instrument[1].displayed_force_N[2] = INFINITY; },
       [](hl_sample& s) { s.instrument[0].joint_force[0] = NAN; },
       [](hl_sample& s) { s.instrument[1].tip_velocity_m_per_s[1] = -INFINITY; },
+      // Finite, but beyond float32, as which they are stored: infinity.
+      [](hl_sample& s) { s.instrument[0].ve_force_N[2] = 1e39; },
+      [](hl_sample& s) { s.instrument[1].tip_position_m[0] = -4e38; },
+      [](hl_sample& s) { s.instrument[0].raw_joints[3] = 1e300; },
       [](hl_sample& s) { s.t_s = -5.0; },
       [](hl_sample& s) { s.dt_s = -1e-3; },
       [](hl_sample& s) { s.tick = std::numeric_limits<std::uint64_t>::max() - 1; }};

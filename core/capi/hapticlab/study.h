@@ -178,9 +178,10 @@ HL_API int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_
  * HL_ERROR_STATE without an open trial, HL_ERROR_INVALID_ARGUMENT for NULL
  * and, counted in hl_study_rejected, for a tick not greater than the last
  * one accepted in this trial or above INT64_MAX, a t_s before the last
- * accepted one, a negative dt_s, or a t_s, dt_s, joint, position, velocity
- * or force that is NaN or infinite (the sample is not stored; the trial
- * goes on).
+ * accepted one, a negative dt_s, a t_s or dt_s that is NaN or infinite, or
+ * a joint, position, velocity or force that is NaN, infinite or beyond
+ * +-3.4e38 (they are stored as float32, where it would become infinite) (the
+ * sample is not stored; the trial goes on).
  */
 HL_API int hl_study_log_sample(hl_study* study, const hl_sample* sample);
 

@@ -19,6 +19,7 @@
 #include "analysis/stats/friedman.h"
 #include "analysis/stats/ks_bootstrap.h"
 #include "analysis/study/metrics_csv.h"
+#include "analysis/study/trial_reader.h"
 #include "study/synthetic_study_db.h"
 
 namespace hapticlab::analysis {
@@ -424,6 +425,44 @@ TEST(MetricsCsvTest, NumbersReadBackToTheSameDouble) {
   EXPECT_EQ(LongCsv::parse(again.str(), "metrics.csv").text(1, csv.column("note")),
             "the task window holds none of the trial's samples: its events and samples disagree; measures missing, "
             "the completion time is the events' alone");
+}
+
+// Events of another clock than the samples (a wall-clock contact end beside
+// loop times, an insertion at -500 s) made a completion time of 3600 s for
+// a 2 s trial, with no note, and it entered the Time test. Such a trial's
+// measures are missing, saying why; within the slack (samples dropped at
+// an end) the window stands.
+TEST(TrialAccumulatorTest, ATaskWindowReachingPastTheSamplesIsAProblemNotAMeasure) {
+  const AnalysisOptions options;
+  const auto measured = [&](double insertion_s, double contact_end_s) {
+    const std::vector<TaskEvent> events = {{insertion_s, TaskEventType::kInsertionPassed, 0, 0},
+                                           {0.5, TaskEventType::kContactStart, 0, 0},
+                                           {contact_end_s, TaskEventType::kContactEnd, 0, 0}};
+    TrialAccumulator acc;
+    acc.start(events, options);
+    for (int k = 0; k <= 2000; ++k)  // 0 .. 2 s at 1 kHz, a 1 N push
+      for (std::size_t hand = 0; hand < 2; ++hand)
+        acc.add(hand, 0.001 * k, Vec3d{0.0, 0.0, -0.1}, Vec3d{0.0, 0.0, 0.0}, Vec3d{0.0, 0.0, 1.0});
+    TrialRecord rec;
+    acc.finish(rec);
+    return rec;
+  };
+  const TrialRecord sound = measured(0.1, 1.5);
+  EXPECT_EQ(sound.problem, "");
+  ASSERT_TRUE(sound.window.has_value());
+  EXPECT_DOUBLE_EQ(sound.window->end_s - sound.window->start_s, 1.4);
+  EXPECT_TRUE(measured(0.1, 2.4).window.has_value());  // 0.4 s past the last sample: within the slack
+
+  const TrialRecord late = measured(0.1, 3600.0);
+  EXPECT_FALSE(late.window.has_value());
+  EXPECT_EQ(late.problem, "the task window ends at 3600 s (its last contact), after the last sample at 2 s: its "
+                          "events and samples disagree (two clocks, or an edited file); measures and completion time "
+                          "missing");
+  EXPECT_TRUE(std::isnan(late.value(Measure::kCompletionTime, 0)));
+  const TrialRecord early = measured(-500.0, 1.5);
+  EXPECT_FALSE(early.window.has_value());
+  EXPECT_THAT(early.problem, HasSubstr("the task window starts at -500 s (its first 20 mm insertion), before the "
+                                       "first sample at 0 s"));
 }
 
 TEST_F(StudyAnalysisTest, HeadlineTablesShowThesisLayout) {

@@ -4,7 +4,7 @@
  * as a lab's plugin would be. Options:
  *   fault=none|crash_in_configure|hang_in_configure|not_calibrated|nan_read|invalid_ratings|exit_in_create|jump|
  *         crash_in_read|crash_in_write|hang_in_read|slow_write|fail_deactivate|hang_in_deactivate|end_of_data|
- *         unknown_status
+ *         unknown_status|unfilled_read
  *     (jump: from the 101st read on, the left insertion reads 1 m further, as a slipped encoder would;
  *      crash_in_read, crash_in_write: SIGSEGV in that call once `after` calls of it have returned;
  *      hang_in_read: from then on read() does not return for hang_ms (0: never);
@@ -13,7 +13,9 @@
  *      hang_in_deactivate: deactivate() does not return for hang_ms (0: never);
  *      end_of_data: read() answers HL_DEVICE_END_OF_DATA once `after` reads have returned, which only a
  *      replay may say;
- *      unknown_status: read() answers 42, no hl_device_status, once `after` reads have returned)
+ *      unknown_status: read() answers 42, no hl_device_status, once `after` reads have returned;
+ *      unfilled_read: read() answers HL_DEVICE_OK without writing the reading, once `after` reads have
+ *      returned, as a driver that returns early on "no new frame" would)
  *   after=N          calls that behave before a crash_in_* or hang_in_read fault strikes (default 200)
  *   hang_ms=N        how long hang_in_read or hang_in_deactivate blocks (default 0: for ever)
  *   write_delay_us=N how long slow_write's write() takes (default 5000)
@@ -40,7 +42,7 @@
 enum fault {
   NONE, CRASH_IN_CONFIGURE, HANG_IN_CONFIGURE, NOT_CALIBRATED, NAN_READ, INVALID_RATINGS, JUMP,
   CRASH_IN_READ, CRASH_IN_WRITE, HANG_IN_READ, SLOW_WRITE, FAIL_DEACTIVATE, HANG_IN_DEACTIVATE, END_OF_DATA,
-  UNKNOWN_STATUS
+  UNKNOWN_STATUS, UNFILLED_READ
 };
 
 struct hl_device {
@@ -96,6 +98,7 @@ static hl_device* fake_create(const char* const* keys, const char* const* values
       else if (strcmp(v, "hang_in_deactivate") == 0) d->fault = HANG_IN_DEACTIVATE;
       else if (strcmp(v, "end_of_data") == 0) d->fault = END_OF_DATA;
       else if (strcmp(v, "unknown_status") == 0) d->fault = UNKNOWN_STATUS;
+      else if (strcmp(v, "unfilled_read") == 0) d->fault = UNFILLED_READ;
       else if (strcmp(v, "exit_in_create") == 0) exit(7);
       else {
         snprintf(error, error_size, "fault: '%s' is not a fault of the fake device", v);
@@ -169,6 +172,7 @@ static hl_device_status fake_read(hl_device* d, hl_device_reading* reading) {
   }
   if (d->fault == END_OF_DATA && d->reads >= d->after) return HL_DEVICE_END_OF_DATA;
   if (d->fault == UNKNOWN_STATUS && d->reads >= d->after) return (hl_device_status)42;
+  if (d->fault == UNFILLED_READ && d->reads >= d->after) return HL_DEVICE_OK;
   if (d->fault != JUMP) ++d->reads;
   for (i = 0; i < HL_DEVICE_NUM_INSTRUMENTS; ++i)
     for (j = 0; j < HL_DEVICE_NUM_JOINTS; ++j) reading->position[i][j] = kPose[j];

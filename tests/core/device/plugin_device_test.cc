@@ -211,6 +211,19 @@ TEST(PluginDeviceTest, AnUnknownStatusIsNamedForTheTrialsFirstFailureOnly) {
   EXPECT_EQ(ended.unknown_status().op, -1);
 }
 
+// A read() that answers OK without writing the reading passed on whatever
+// the stack held: garbage, or often the last reading (a tool that seems
+// still while force is commanded). It is a non-finite reading, a fault.
+TEST(PluginDeviceTest, AReadThatFillsNothingIsAFaultNotTheLastReading) {
+  PluginDevice device(kFake, {{"fault", "unfilled_read"}, {"after", "3"}});
+  VirtualClock clock;
+  ASSERT_EQ(device.configure({}), DeviceStatus::kOk);
+  ASSERT_EQ(device.activate(clock), DeviceStatus::kOk);
+  DeviceReading reading;
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(device.read(reading), DeviceStatus::kOk);
+  EXPECT_EQ(device.read(reading), DeviceStatus::kNonFiniteReading);
+}
+
 TEST(PluginDeviceTest, ANanReadingIsAFaultEvenWhenThePluginSaysOk) {
   PluginDevice device(kFake, {{"fault", "nan_read"}});
   VirtualClock clock;
