@@ -33,6 +33,9 @@ struct hl_engine {
   // time before that update's dt, so the first update commands exactly
   // zero, as the loop's ForceGuard does (its t_s is 0 at the first update).
   double ramp_in_s = 0.0;
+  // hl_engine_fix_settings: no other settings, no shorter ramp-in.
+  bool settings_fixed = false;
+  double min_ramp_in_s = 0.0;
   std::array<double, hapticlab::kNumInstruments> ramp_elapsed_s{};
   std::array<double, hapticlab::kNumInstruments> ramp_t_s{};
 };
@@ -183,6 +186,7 @@ int hl_engine_refresh_forces(hl_engine* engine, int instrument, const double ve_
 
 int hl_engine_set_ramp_in(hl_engine* engine, double ramp_s) {
   if (engine == nullptr || !(ramp_s >= 0.0 && ramp_s <= 10.0)) return HL_ERROR_INVALID_ARGUMENT;
+  if (ramp_s < engine->min_ramp_in_s) return HL_ERROR_INVALID_ARGUMENT;
   engine->ramp_in_s = ramp_s;
   engine->ramp_elapsed_s = {};
   engine->ramp_t_s = {};
@@ -195,6 +199,14 @@ int hl_engine_set_settings(hl_engine* engine, const char* settings_json, char* e
     write_error(error, error_size, "hl_engine_set_settings: engine or settings_json is NULL");
     return HL_ERROR_INVALID_ARGUMENT;
   }
+  if (engine->settings_fixed) {
+    // A study's trial: what its participant feels is the setting the study
+    // stores for the trial, nothing else.
+    write_error(error, error_size,
+                "hl_engine_set_settings: this engine's settings are fixed (hl_engine_fix_settings: the study API "
+                "fixes each trial's engine to the trial's setting); nothing changed");
+    return HL_ERROR_SETTINGS;
+  }
   try {
     engine->engine.set_settings(
         hapticlab::settings_from_json_text(settings_json, "settings").engine);
@@ -206,6 +218,12 @@ int hl_engine_set_settings(hl_engine* engine, const char* settings_json, char* e
     write_error(error, error_size, "unknown error");
   }
   return HL_ERROR_SETTINGS;
+}
+
+void hl_engine_fix_settings(hl_engine* engine) {
+  if (engine == nullptr) return;
+  engine->settings_fixed = true;
+  engine->min_ramp_in_s = engine->ramp_in_s;
 }
 
 void hl_engine_halt(hl_engine* engine) {

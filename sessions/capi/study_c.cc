@@ -277,6 +277,9 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
     }
     // The trial starts with its forces ramping in, as in HapticLab's own loop.
     hl_engine_set_ramp_in(engine, hl::ForceGuard::kDefaultRampIn_s);
+    // What the participant feels is the setting stored for the trial, with
+    // the loop's safety ramp: the application cannot change either.
+    hl_engine_fix_settings(engine);
     reset_trial_streams(*study);
     try {
       hl::db::SampleWriterConfig writer;

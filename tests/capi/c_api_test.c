@@ -215,6 +215,22 @@ static void test_ramp_in_scales_force_by_elapsed_time(void) {
 }
 
 /* Joint-to-tip kinematics worked out by hand from eq. 2.20. */
+/* Fixed settings: no other settings, no shorter ramp (a study's trial). */
+static void test_fixed_settings_refuse_a_change(void) {
+  char error[256];
+  hl_engine* e = hl_engine_create("{}", error, sizeof error);
+  CHECK(e != NULL, "create failed: %s", error);
+  CHECK(hl_engine_set_settings(e, "{}", error, sizeof error) == HL_OK, "unfixed: %s", error);
+  CHECK(hl_engine_set_ramp_in(e, 0.3) == HL_OK, "ramp");
+  hl_engine_fix_settings(e);
+  hl_engine_fix_settings(NULL);
+  CHECK(hl_engine_set_settings(e, "{}", error, sizeof error) == HL_ERROR_SETTINGS, "fixed settings changed");
+  CHECK(strstr(error, "settings are fixed") != NULL, "message: %s", error);
+  CHECK(hl_engine_set_ramp_in(e, 0.0) == HL_ERROR_INVALID_ARGUMENT, "ramp removed");
+  CHECK(hl_engine_set_ramp_in(e, 1.0) == HL_OK, "a longer ramp refused");
+  hl_engine_destroy(e);
+}
+
 static void test_tip_position(void) {
   double tip[3];
   const double pi = 3.14159265358979323846;
@@ -241,6 +257,7 @@ int main(void) {
   test_refresh_forces_matches_update("force_saturation.json");
   test_refresh_forces_edge_cases();
   test_ramp_in_scales_force_by_elapsed_time();
+  test_fixed_settings_refuse_a_change();
   if (failures) {
     fprintf(stderr, "c_api_test: %d check(s) failed\n", failures);
     return 1;

@@ -265,6 +265,13 @@ TEST_F(StudyApiTest, TrialsComeInScheduleOrderBlindedWithTheirSettingsEngine) {
     EXPECT_EQ(trial_.trial_number, static_cast<int>(i) + 1);
     EXPECT_EQ(trial_.trial_count, 4);
     EXPECT_EQ(std::string(setting_), planned[i].setting_name);  // the operator's view
+    // The trial's setting is what the study stores as felt, and its ramp-in
+    // is the loop's safety: the application changes neither (it could, and
+    // the trial was filed under a setting its participant never felt).
+    EXPECT_EQ(hl_engine_set_settings(trial_.engine, "{}", error_, sizeof error_), HL_ERROR_SETTINGS);
+    EXPECT_THAT(std::string(error_), HasSubstr("this engine's settings are fixed"));
+    EXPECT_EQ(hl_engine_set_ramp_in(trial_.engine, 0.0), HL_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(hl_engine_set_ramp_in(trial_.engine, 0.29), HL_ERROR_INVALID_ARGUMENT);
     // The engine has the trial's setting: without force feedback a VE force
     // of 2 N never reaches the device; at high fidelity it does (the first
     // update re-anchors, so look at the second).

@@ -165,6 +165,17 @@ HL_API void hl_engine_halt(hl_engine* engine);
  */
 HL_API int hl_engine_set_ramp_in(hl_engine* engine, double ramp_s);
 
+/*
+ * Fixes the engine's settings and ramp-in as they are now, for good:
+ * afterwards hl_engine_set_settings returns HL_ERROR_SETTINGS (nothing
+ * changes) and hl_engine_set_ramp_in returns HL_ERROR_INVALID_ARGUMENT for
+ * a ramp shorter than the fixed one (a longer one is allowed). The study
+ * API fixes the engine of each trial: the trial's setting is what the
+ * study stores as felt, and its ramp-in is a safety measure. NULL is
+ * ignored.
+ */
+HL_API void hl_engine_fix_settings(hl_engine* engine);
+
 HL_API void hl_engine_destroy(hl_engine* engine);
 
 /*

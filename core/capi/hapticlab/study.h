@@ -108,7 +108,10 @@ typedef struct hl_trial {
   int trial_count;        /* N: trials in the participant's schedule */
   /* The trial's degradations, configured with its setting; owned by the
    * study, valid until hl_study_end_trial (or hl_study_close). Use it with
-   * hl_engine_update / hl_engine_refresh_forces on the haptic loop. */
+   * hl_engine_update / hl_engine_refresh_forces on the haptic loop. Its
+   * settings and its 0.3 s ramp-in are fixed (hl_engine_fix_settings):
+   * hl_engine_set_settings refuses, hl_engine_set_ramp_in takes only a
+   * longer ramp. */
   hl_engine* engine;
 } hl_trial;
 
