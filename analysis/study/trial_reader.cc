@@ -103,10 +103,6 @@ TrialRecord read_one(db::StudyDb& db, const db::TrialRow& row, const AnalysisOpt
   return rec;
 }
 
-}  // namespace
-
-namespace {
-
 // How far past its samples a task event may lie. A VE logs an event in
 // the update whose sample shows it, so an event's time is a sample's; the
 // slack covers samples dropped at either end of a trial (a full queue for

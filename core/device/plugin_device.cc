@@ -11,9 +11,9 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <system_error>
