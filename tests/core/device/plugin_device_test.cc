@@ -181,16 +181,21 @@ TEST(PluginDeviceTest, ThePluginsNameIsShownPrintableAndBounded) {
   EXPECT_EQ(std::string(longer.name()), std::string(63, 'x'));
 }
 
+// Configures and activates `device`, then reads `reads` times, each OK.
+void start_and_read(PluginDevice& device, const Clock& clock, int reads, DeviceReading& reading) {
+  ASSERT_EQ(device.configure({}), DeviceStatus::kOk);
+  ASSERT_EQ(device.activate(clock), DeviceStatus::kOk);
+  for (int i = 0; i < reads; ++i) ASSERT_EQ(device.read(reading), DeviceStatus::kOk);
+}
+
 // A code outside hl_device_status is the call's failure, named with the
 // call; only a trial's first failure is named (the calls after it are the
 // loop's shutdown), and a new activate() starts afresh.
 TEST(PluginDeviceTest, AnUnknownStatusIsNamedForTheTrialsFirstFailureOnly) {
   PluginDevice device(kFake, {{"fault", "unknown_status"}, {"after", "3"}});
   VirtualClock clock;
-  ASSERT_EQ(device.configure({}), DeviceStatus::kOk);
-  ASSERT_EQ(device.activate(clock), DeviceStatus::kOk);
   DeviceReading reading;
-  for (int i = 0; i < 3; ++i) ASSERT_EQ(device.read(reading), DeviceStatus::kOk);
+  ASSERT_NO_FATAL_FAILURE(start_and_read(device, clock, 3, reading));
   EXPECT_EQ(device.status_detail(), "");
   EXPECT_EQ(device.read(reading), DeviceStatus::kReadFailed);
   const std::string named = "the plugin's read returned 42, which is no hl_device_status (taken as read_failed)";
@@ -204,8 +209,7 @@ TEST(PluginDeviceTest, AnUnknownStatusIsNamedForTheTrialsFirstFailureOnly) {
   // A first failure with a code of the ABI has nothing more to say, and
   // hides no later code.
   PluginDevice ended(kFake, {{"fault", "end_of_data"}, {"after", "0"}});
-  ASSERT_EQ(ended.configure({}), DeviceStatus::kOk);
-  ASSERT_EQ(ended.activate(clock), DeviceStatus::kOk);
+  ASSERT_NO_FATAL_FAILURE(start_and_read(ended, clock, 0, reading));
   EXPECT_EQ(ended.read(reading), DeviceStatus::kEndOfData);
   EXPECT_EQ(ended.status_detail(), "");
   EXPECT_EQ(ended.unknown_status().op, -1);
@@ -217,10 +221,8 @@ TEST(PluginDeviceTest, AnUnknownStatusIsNamedForTheTrialsFirstFailureOnly) {
 TEST(PluginDeviceTest, AReadThatFillsNothingIsAFaultNotTheLastReading) {
   PluginDevice device(kFake, {{"fault", "unfilled_read"}, {"after", "3"}});
   VirtualClock clock;
-  ASSERT_EQ(device.configure({}), DeviceStatus::kOk);
-  ASSERT_EQ(device.activate(clock), DeviceStatus::kOk);
   DeviceReading reading;
-  for (int i = 0; i < 3; ++i) ASSERT_EQ(device.read(reading), DeviceStatus::kOk);
+  ASSERT_NO_FATAL_FAILURE(start_and_read(device, clock, 3, reading));
   EXPECT_EQ(device.read(reading), DeviceStatus::kNonFiniteReading);
 }
 
