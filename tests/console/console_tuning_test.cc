@@ -112,6 +112,9 @@ TEST_F(ConsoleTuningTest, AChangeReachesTheRunningLoopBetweenTwoUpdates) {
       break;
   }
   tuning.stop();
+  // The loop's thread logs its "stop" as it ends: waited for, so the log
+  // read below is whole (read at once, it held the stop or not by a race).
+  tuning.wait_until_ended();
   ASSERT_LT(attempts, 5) << "in 5 repetitions the task ended within 2 s of the change every time";
   ASSERT_EQ(repetition, changed_in);
   ASSERT_GE(applied_t_s, 0.0);
@@ -129,14 +132,17 @@ TEST_F(ConsoleTuningTest, AChangeReachesTheRunningLoopBetweenTwoUpdates) {
   EXPECT_LE(points[last_felt].first.t_s, applied_t_s + 2.0 / config_.rate_Hz + 1e-9) << "force displayed after the change";
   EXPECT_GE(pushed_unfelt, 10u) << "no contact after the change: the test shows nothing";
 
-  // Both changes are in the log, with the repetition they were made in.
+  // Both changes are in the log, with the repetition they were made in,
+  // then the stop.
   const nlohmann::json log = tuning.status()["log"];
-  ASSERT_GE(log.size(), 3u);
+  ASSERT_GE(log.size(), 4u);
   EXPECT_EQ(log[1]["field"], "tip_force_saturation.limit_N");
   EXPECT_EQ(log[1]["to"], "0.0");
-  EXPECT_EQ(log.back()["field"], "tip_force_saturation.enabled");
-  EXPECT_EQ(log.back()["to"], "true");
-  EXPECT_EQ(log.back()["free_trial"], changed_in);
+  EXPECT_EQ(log.back()["field"], "stop");
+  const nlohmann::json& changed = log[log.size() - 2];
+  EXPECT_EQ(changed["field"], "tip_force_saturation.enabled");
+  EXPECT_EQ(changed["to"], "true");
+  EXPECT_EQ(changed["free_trial"], changed_in);
   const std::string csv = testing::slurp(dir_ / "tuning-log.csv");
   EXPECT_THAT(csv, HasSubstr("utc,free_trial,loop_t_s,field,from,to\n"));
   EXPECT_THAT(csv, HasSubstr(",\"tip_force_saturation.enabled\",\"false\",\"true\"\n"));
