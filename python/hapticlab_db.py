@@ -757,8 +757,9 @@ class StudyDatabase:
         SQLite's integrity_check and the chunks: every table of the schema is
         a table (not a view, which could hold anything or never end) of the
         expected columns; then every reference points at a row (PRAGMA
-        foreign_key_check) and every value has its column's type (an event
-        time is a REAL, never the TEXT 'nan'). Returns the findings as
+        foreign_key_check), every value has its column's type (an event
+        time is a REAL, never the TEXT 'nan'), and the protocol and settings
+        match the SHA-256 stored with them. Returns the findings as
         messages naming table, row and trial; [] when sound. Opening runs it
         and raises StructureError when it finds anything."""
         findings = []
