@@ -49,6 +49,8 @@ static_assert(HL_DT_SUBSTEPPED == hapticlab::kDtSubstepped);
 static_assert(HL_DT_RESYNCED == hapticlab::kDtResynced);
 static_assert(HL_FORCE_LIMITED == hapticlab::kForceLimited);
 static_assert(HL_FAULT_INVALID_ARGUMENT == hapticlab::kFaultInvalidArgument);
+static_assert(HL_FAULT_CLOCK_STOPPED == hapticlab::kFaultClockStopped);
+static_assert(HL_CLOCK_STOPPED_UPDATES == hapticlab::kMaxStalledUpdates);
 static_assert(HL_FAULT_MASK == hapticlab::kFaultMask);
 
 void write_error(char* error, size_t size, const std::string& message) {

@@ -74,10 +74,12 @@ inline Instrument::TimePlan Instrument::plan_time(const InstrumentInput& in, con
     out.status |= kDtDeferred;
     deferred_dt_s_ = dt;
     dt = 0.0;
+    if (stalled_updates_ < kMaxStalledUpdates) ++stalled_updates_;
   } else if (dt > kMaxDt_s && dt <= kMaxSubsteps * kMaxDt_s) {
     substeps = static_cast<int>(std::ceil(dt / kMaxDt_s - 1e-9));
     out.status |= kDtSubstepped;
   }
+  if (dt > 0.0) stalled_updates_ = 0;
   if (needs_resync_ || dt > kMaxSubsteps * kMaxDt_s) {
     if (!anchored_) {
       // First real update: nothing before it happened, not even in the
@@ -148,6 +150,10 @@ InstrumentOutput Instrument::step(const InstrumentInput& in, ButterworthCache& f
 
   // dt policy: how many sub-steps of which length
   const TimePlan plan = plan_time(in, ve, out);
+  if (stalled_updates_ == kMaxStalledUpdates) {
+    clock_stopped(in.position, out);
+    return out;
+  }
   const double dt = plan.dt_s;
   const int substeps = plan.substeps;
 
@@ -190,13 +196,25 @@ void Instrument::internal_fault(const JointVector& q, InstrumentOutput& out) noe
   for (int a = 0; a < kNumAxes; ++a) chains_[a].reset(settings_.axis(a), q[a]);
   last_position_ = q;
   position_delay_.reset(q);  // it may hold the non-finite position
+  zero_output(q, out);
+  out.status |= kFaultNonFiniteState;
+}
+
+void Instrument::clock_stopped(const JointVector& q, InstrumentOutput& out) noexcept {
+  // The states are kept as they are (they were not stepped) and dropped
+  // when time moves again: the re-anchor of a stall.
+  needs_resync_ = true;
+  zero_output(q, out);
+  out.status |= kFaultClockStopped;
+}
+
+void Instrument::zero_output(const JointVector& q, InstrumentOutput& out) noexcept {
   out.displayed_force_N.setZero();
   out.joint_force.setZero();
   out.degraded_position = q;
   out.degraded_tip_m = tip_position(out.measured_pose);
   out.tip_offset_m.setZero();
   out.orientation_offset.setIdentity();
-  out.status |= kFaultNonFiniteState;
   last_degraded_ = q;
   refreshable_ = false;
 }

@@ -32,6 +32,11 @@ namespace hapticlab {
 inline constexpr double kMinDt_s = 1.0 / 2000.0;  // fastest rate the models are specified for
 inline constexpr double kMaxDt_s = 1.0 / 150.0;   // slowest rate; longer dt is sub-stepped
 inline constexpr int kMaxSubsteps = 8;
+// Updates in a row that advance no time before the clock counts as stopped
+// (kFaultClockStopped): a caller at up to 32 kHz defers at most 16 in a row
+// (1/2000 s is 16 of its periods; one more after a re-anchor, which drops
+// the time carried so far); at 1 kHz, 20 updates are 20 ms.
+inline constexpr int kMaxStalledUpdates = 20;
 
 struct InstrumentInput {
   double dt_s = 0.0;                                          // time since the previous update
@@ -106,6 +111,11 @@ class Instrument {
   [[gnu::always_inline]] bool finish_forces(JointVector command, InstrumentOutput& out) const noexcept;
   // A non-finite intermediate value: zero force, state reset at q, status bit 2.
   void internal_fault(const JointVector& q, InstrumentOutput& out) noexcept;
+  // The caller's clock stopped: zero force, the VE shown q, re-anchored at
+  // the first update that advances time again.
+  void clock_stopped(const JointVector& q, InstrumentOutput& out) noexcept;
+  // Zero force, no display offsets, the VE shown q (the fault paths).
+  void zero_output(const JointVector& q, InstrumentOutput& out) noexcept;
 
   EngineSettings settings_;
   // AxisTerms of settings_.translation and settings_.rotation.
@@ -116,6 +126,7 @@ class Instrument {
   bool needs_resync_ = true;
   bool anchored_ = false;      // false until the first finite update
   double deferred_dt_s_ = 0.0;  // time of updates too short to advance the models
+  int stalled_updates_ = 0;     // updates in a row that advanced no time
   // Butterworth coefficients of the last sub-step length, unless the caller
   // brings its own cache.
   ButterworthCache filters_;

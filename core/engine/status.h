@@ -28,10 +28,16 @@ enum StatusFlag : std::uint32_t {
   // The call itself was invalid (e.g. an instrument index other than 0 or 1);
   // nothing was computed and the force is zero.
   kFaultInvalidArgument = 1u << 6,
+  // The caller's clock stopped: kMaxStalledUpdates updates in a row advanced
+  // no time (dt <= 0, or below 1/2000 s all together). The models cannot
+  // follow a hand that moves while no time passes (an inertia's coupling
+  // spring would stretch to the device limit), so the force is zero until
+  // time advances again; then the states are re-anchored (kDtResynced).
+  kFaultClockStopped = 1u << 7,
 };
 
 // Flags that mean "the displayed force was forced to zero".
 inline constexpr std::uint32_t kFaultMask =
-    kFaultNonFiniteInput | kFaultNonFiniteState | kFaultInvalidArgument;
+    kFaultNonFiniteInput | kFaultNonFiniteState | kFaultInvalidArgument | kFaultClockStopped;
 
 }  // namespace hapticlab

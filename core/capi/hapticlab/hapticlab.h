@@ -52,7 +52,14 @@ typedef struct hl_engine hl_engine;
 #define HL_DT_RESYNCED 0x10u            /* stall > ~53 ms: states re-anchored */
 #define HL_FORCE_LIMITED 0x20u          /* a joint force hit the device limit */
 #define HL_FAULT_INVALID_ARGUMENT 0x40u /* bad call: force is zero */
-#define HL_FAULT_MASK 0x43u             /* bits meaning "the force was zeroed" */
+/* The caller's clock stopped: HL_CLOCK_STOPPED_UPDATES updates in a row
+ * advanced no time (dt <= 0, or below 1/2000 s all together; a caller at up
+ * to 32 kHz never gets there). Force is zero until an update advances time, which re-anchors the
+ * states (HL_DT_RESYNCED): a hand moving while no time passes would stretch
+ * an emulated inertia's coupling to the device limit. */
+#define HL_FAULT_CLOCK_STOPPED 0x80u
+#define HL_CLOCK_STOPPED_UPDATES 20
+#define HL_FAULT_MASK 0xC3u             /* bits meaning "the force was zeroed" */
 /* The engine was halted (hl_engine_halt): force is zero, for good. Not an
  * engine fault, so not in HL_FAULT_MASK; test it on its own. */
 #define HL_HALTED 0x8000u

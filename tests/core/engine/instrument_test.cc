@@ -306,6 +306,55 @@ TEST(InstrumentTest, TooShortOrNonPositiveDtDefersTimeInsteadOfSpiking) {
   EXPECT_LT(peak_after({{1e-3, step, {0, 0, 0}}}, nullptr), 0.02);
 }
 
+TEST(InstrumentTest, AStoppedClockZeroesTheForceAfterTwentyUpdatesAndReanchorsWhenTimeMoves) {
+  // A driver whose timer froze keeps calling with dt = 0 (or going back)
+  // while the hand moves 1 mm an update. Deferred, the inertia's mass does
+  // not move, so its coupling stretches: measured before this rule, at only
+  // 0.1 mm an update the insertion force reached the device limit (19 N)
+  // within 500 updates; at 1 mm it was 7.9 N after 15.
+  Instrument inst(load_example("inertia_backlash"), hand(0));
+  JointVector q = hand(0);
+  for (int i = 0; i < 200; ++i) inst.step({1e-3, q, {0, 0, 0}});
+  for (int i = 1; i <= 40; ++i) {
+    q[kInsertion] += 1e-3;
+    const InstrumentOutput out = inst.step({i % 2 ? 0.0 : -1e-3, q, {0, 0, 0}});
+    EXPECT_TRUE(out.status & kDtDeferred) << i;
+    if (i < kMaxStalledUpdates) {
+      EXPECT_FALSE(out.status & kFaultClockStopped) << i;
+    } else {
+      EXPECT_TRUE(out.status & kFaultClockStopped) << i;
+      EXPECT_TRUE(out.status & kFaultMask) << i;
+      EXPECT_EQ(out.joint_force, JointVector::Zero()) << i;
+      EXPECT_EQ(out.displayed_force_N, Eigen::Vector3d::Zero()) << i;
+      EXPECT_EQ(out.degraded_position, q) << i;  // the VE sees the hand
+    }
+  }
+  // Time moves again: re-anchored at the hand, no stored stretch released.
+  const InstrumentOutput first = inst.step({1e-3, q, {0, 0, 0}});
+  EXPECT_TRUE(first.status & kDtResynced);
+  EXPECT_FALSE(first.status & kFaultMask);
+  double peak = 0.0;
+  for (int i = 0; i < 200; ++i) peak = std::max(peak, std::abs(inst.step({1e-3, q, {0, 0, 0}}).joint_force[0]));
+  EXPECT_LT(peak, 0.02);
+}
+
+TEST(InstrumentTest, ACallerAt32kHzDefersButNeverCountsAsAStoppedClock) {
+  // 1/2000 s is 16 periods at 32 kHz: 15 or 16 deferred updates (the sum
+  // of 16 may round below 1/2000 s), then one that advances the time.
+  for (const double dt : {1.0 / 32000.0, 1.0 / 31000.0, 1.0 / 20000.0}) {
+    Instrument inst(load_example("inertia_backlash"), hand(0));
+    std::uint32_t seen = 0;
+    int deferred = 0;
+    for (int i = 0; i < 32000 / 10; ++i) {  // 0.1 s
+      const InstrumentOutput out = inst.step({dt, hand(i * dt), {0, 0, 0}});
+      seen |= out.status;
+      deferred += (out.status & kDtDeferred) != 0;
+    }
+    EXPECT_FALSE(seen & kFaultMask) << dt;
+    EXPECT_GT(deferred, 0.85 * (0.1 / dt)) << dt;  // 9 of 10 updates or more
+  }
+}
+
 TEST(InstrumentTest, AHugeFiniteDtReanchorsInsteadOfOverflowing) {
   // A timestamp in seconds since 1970 minus a zero "previous" time: 1.7e9 s,
   // with the tool 5 cm elsewhere. Re-anchor, no force from stored state.
