@@ -78,6 +78,8 @@ void SampleWriter::run() noexcept {
         if (commit_due()) flush_and_commit();
       } catch (...) {
         error_ = std::current_exception();
+        // First: whoever sees a flag below finds the device already stopped.
+        if (config_.on_failure) config_.on_failure();
         failed_.store(true, std::memory_order_release);
         if (config_.failed_flag != nullptr) config_.failed_flag->store(true, std::memory_order_release);
       }

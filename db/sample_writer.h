@@ -89,6 +89,11 @@ struct SampleWriterConfig {
   // for a producer on another thread that must stop handing in data that
   // is now lost (the C study API's log calls). May be null.
   std::atomic<bool>* failed_flag = nullptr;
+  // Called once on the writer's thread when it fails, before failed_flag is
+  // set: for a producer whose device must stop at once, before its next
+  // log call (the C study API halts the trial's engine). May be empty;
+  // must not throw.
+  std::function<void()> on_failure;
 };
 
 struct TrialOutcome {

@@ -96,7 +96,7 @@ class SessionRun {
   void supervise(SimRig& rig, std::unique_ptr<SimRig>& rig_owner, const db::TrialRow& trial, TrialWatch& watch,
                  db::TrialOutcome& outcome, std::optional<CrashNote>& crash_note);
   void take_operator_actions(const db::TrialRow& trial, double t_s, TrialWatch& watch, db::TrialOutcome& outcome);
-  void watch_for_hang(HapticLoop& loop, const db::TrialRow& trial, TrialWatch& watch);
+  void watch_for_hang(SimRig& rig, const db::TrialRow& trial, TrialWatch& watch);
   [[noreturn]] void give_up_on_hung_device(HapticLoop& loop, std::unique_ptr<SimRig>& rig_owner,
                                            const db::TrialRow& trial, const TrialWatch& watch,
                                            db::TrialOutcome& outcome, std::optional<CrashNote>& crash_note);
@@ -270,7 +270,7 @@ bool SessionRun::train(const db::TrialRow& trial) {
       // Said while it happens, as in a trial: the operator is near the device.
       if (!alerted && rig.loop().watchdog_tripped() && options_.on_alert) {
         alerted = true;
-        options_.on_alert("the watchdog halted the device (zero force) in the training before trial " +
+        options_.on_alert(watchdog_halt_words(rig.device()) + " in the training before trial " +
                           std::to_string(trial.id) + ": " + describe(rig.loop().safety_trip()));
       }
       note_participant_model(rig);
@@ -354,7 +354,8 @@ void SessionRun::take_operator_actions(const db::TrialRow& trial, double t_s, Tr
 
 // A device call that does not return: the operator hears of it at once, and
 // the lock file says so in case the process is killed now.
-void SessionRun::watch_for_hang(HapticLoop& loop, const db::TrialRow& trial, TrialWatch& watch) {
+void SessionRun::watch_for_hang(SimRig& rig, const db::TrialRow& trial, TrialWatch& watch) {
+  HapticLoop& loop = rig.loop();
   const std::uint64_t ticks = loop.ticks();
   if (ticks != watch.last_ticks) {
     watch.last_ticks = ticks;
@@ -391,7 +392,7 @@ void SessionRun::watch_for_hang(HapticLoop& loop, const db::TrialRow& trial, Tri
                                    ms_text(limit_s) + " (the session ended before it returned)");
   if (options_.on_alert)
     options_.on_alert(what + " for " + ms_text(limit_s) + (tripped ? "" : " of wall time") + " in trial " +
-                      std::to_string(trial.id) + (tripped ? "; the watchdog halted the device (zero force)" : ""));
+                      std::to_string(trial.id) + (tripped ? "; " + watchdog_halt_words(rig.device()) : ""));
 }
 
 // The loop thread is inside the device's code: record the trial and the
@@ -427,7 +428,7 @@ void SessionRun::supervise(SimRig& rig, std::unique_ptr<SimRig>& rig_owner, cons
   HapticLoop& loop = rig.loop();
   for (int polls = 0; loop.running(); ++polls) {
     take_operator_actions(trial, loop.elapsed_s(), watch, outcome);
-    watch_for_hang(loop, trial, watch);
+    watch_for_hang(rig, trial, watch);
     if (watch.hung_since && watch.hung_call != DeviceCall::kNone && loop.running() &&
         loop.ticks() == watch.last_ticks && seconds_since(*watch.hung_since) > options_.device_hang_grace_s)
       give_up_on_hung_device(loop, rig_owner, trial, watch, outcome, crash_note);
@@ -489,7 +490,7 @@ void SessionRun::run_trial(const db::TrialRow& trial) {
   // A stall the polls missed (this thread was not scheduled in time): said
   // now, never not at all.
   if (!watch.hung_since && loop.watchdog_tripped() && options_.on_alert)
-    options_.on_alert("the watchdog halted the device (zero force) in trial " + std::to_string(trial.id) + ": " +
+    options_.on_alert(watchdog_halt_words(rig.device()) + " in trial " + std::to_string(trial.id) + ": " +
                       describe(loop.safety_trip()));
   const TrialEnd end = classify_trial_end(loop, rig.device(), trial.id, watch.operator_abort, options_.max_trial_s,
                                           watchdog_trips_in_a_row_, outcome);

@@ -33,7 +33,31 @@ std::string device_fault_reason(const HapticLoop& loop, const Device& device) {
   return std::string("device fault: ") + to_string(loop.device_status()) + (detail.empty() ? "" : ": " + detail);
 }
 
+// The host fell behind (a late update, a stalled step, a slow writer): zero
+// force was commanded, the trial is re-queued and the session goes on,
+// unless it keeps happening -- or the device did not confirm the halt, so
+// it may still be powered.
+void watchdog_end(const SafetyTrip& trip, int& watchdog_trips_in_a_row, TrialEnd& end, db::TrialOutcome& outcome) {
+  outcome.status = db::TrialStatus::kAborted;
+  outcome.abort_reason = "watchdog: " + describe(trip);
+  if (trip.halt_unconfirmed) {
+    end.device_fault = true;
+    end.device_fault_reason = outcome.abort_reason;
+  } else if (++watchdog_trips_in_a_row >= kMaxWatchdogTripsInARow) {
+    end.device_fault = true;
+    end.device_fault_reason = outcome.abort_reason + " (" + std::to_string(kMaxWatchdogTripsInARow) +
+                              " trials in a row; this machine cannot keep the loop's timing now)";
+  }
+}
+
 }  // namespace
+
+std::string watchdog_halt_words(const Device& device) {
+  return device.halt_unconfirmed()
+             ? "the watchdog sent the device a halt, which it has not confirmed: it may still hold its last force "
+               "(switch its amplifiers off)"
+             : "the watchdog halted the device (zero force)";
+}
 
 TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::int64_t trial_id,
                             const std::optional<std::string>& operator_abort, double max_trial_s,
@@ -86,16 +110,7 @@ TrialEnd classify_trial_end(const HapticLoop& loop, const Device& device, std::i
         fault(describe(loop.safety_trip()));
         break;
       }
-      // The host fell behind (a late update, a stalled step, a slow
-      // writer): zero force was commanded, the trial is re-queued and the
-      // session goes on, unless it keeps happening.
-      outcome.status = db::TrialStatus::kAborted;
-      outcome.abort_reason = "watchdog: " + describe(loop.safety_trip());
-      if (++watchdog_trips_in_a_row >= kMaxWatchdogTripsInARow) {
-        end.device_fault = true;
-        end.device_fault_reason = outcome.abort_reason + " (" + std::to_string(kMaxWatchdogTripsInARow) +
-                                  " trials in a row; this machine cannot keep the loop's timing now)";
-      }
+      watchdog_end(loop.safety_trip(), watchdog_trips_in_a_row, end, outcome);
       break;
     case StopReason::kEndOfData:  // a replay's normal end; from a live device, a status it must not give
       fault(kLiveEndOfDataReason);

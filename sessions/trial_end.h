@@ -26,6 +26,11 @@ struct TrialEnd {
 // session: the machine cannot keep the loop's timing.
 inline constexpr int kMaxWatchdogTripsInARow = 3;
 
+// What the operator is told of the watchdog's halt as it happens: zero
+// force only if the device confirmed it (Device::halt_unconfirmed; an
+// isolated plugin's frozen host cannot).
+std::string watchdog_halt_words(const Device& device);
+
 // Sets outcome.status and outcome.abort_reason from how `loop` stopped, and
 // adds the operator's stop to outcome.closing_events. `operator_abort`: the
 // reason of an abort of this trial the operator gave, if any.

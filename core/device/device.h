@@ -124,6 +124,12 @@ class Device {
     (void)max_wait_s;
     halt();
   }
+  // Any thread, after halt(): true while the last halt was handed to
+  // something that has not said it is done (an isolated plugin's host that
+  // is frozen or was killed first): the output may still be on, and what
+  // the operator is told must not claim zero force. Default: false (halt()
+  // itself cut the output before it returned).
+  virtual bool halt_unconfirmed() const noexcept { return false; }
 
   // Real-time thread, once per loop run, before its first read(): the
   // clock's time of the loop's first update. The loop's t_s (the stored

@@ -262,6 +262,7 @@ bool IsolatedPluginDevice::child_ended(PluginCallOp op, std::uint32_t seq) const
 void IsolatedPluginDevice::request_halt_and_wait(double max_wait_s) const noexcept {
   PluginChannel& ch = *channel_;
   const std::uint32_t asked = word(ch.halt).fetch_add(1) + 1;
+  halt_asked_.store(asked, std::memory_order_release);
   futex_wake(ch.halt);
   const auto until =
       Steady::now() + std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(max_wait_s));
@@ -423,8 +424,15 @@ DeviceStatus IsolatedPluginDevice::deactivate() noexcept {
 void IsolatedPluginDevice::halt() noexcept {
   // Any thread, also while the loop thread waits for a read: the host's
   // halt thread takes it. Harmless if the host is gone.
-  word(channel_->halt).fetch_add(1);
+  halt_asked_.store(word(channel_->halt).fetch_add(1) + 1, std::memory_order_release);
   futex_wake(channel_->halt);
+}
+
+bool IsolatedPluginDevice::halt_unconfirmed() const noexcept {
+  const std::uint32_t asked = halt_asked_.load(std::memory_order_acquire);
+  if (asked == 0) return false;
+  // The host's halt thread stores the last value it passed to the plugin.
+  return static_cast<std::int32_t>(word(channel_->halts_done).load() - asked) < 0;
 }
 
 void IsolatedPluginDevice::halt_and_wait(double max_wait_s) noexcept {

@@ -100,6 +100,7 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   DeviceStatus deactivate() noexcept override;
   void halt() noexcept override;
   void halt_and_wait(double max_wait_s) noexcept override;
+  bool halt_unconfirmed() const noexcept override;
   const char* name() const noexcept override { return name_.c_str(); }
   DeviceRatings ratings() const noexcept override { return ratings_; }
   HandAttachment* hand_attachment() noexcept override { return has_sim_ ? this : nullptr; }
@@ -172,6 +173,8 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   // The first failure since activate() when it was a code outside the ABI
   // (the host says which call, as PluginDevice::UnknownStatus).
   mutable std::atomic<std::int32_t> unknown_op_{0}, unknown_code_{0};
+  // The channel's `halt` value of the last halt asked for (0: none yet).
+  mutable std::atomic<std::uint32_t> halt_asked_{0};
   mutable bool sched_copied_ = false;
   const Clock* clock_ = nullptr;
   bool active_ = false;

@@ -323,7 +323,8 @@ StopReason HapticLoop::loop_body() {
   const auto watchdog_trip = [this] {
     return SafetyTrip{.kind = SafetyTripKind::kLoopStalled,
                       .value = watchdog_->stalled_for_s(),
-                      .limit = watchdog_->timeout_s()};
+                      .limit = watchdog_->timeout_s(),
+                      .halt_unconfirmed = device_.halt_unconfirmed()};
   };
   const auto late_trip = [this](double late_s) {
     return SafetyTrip{.kind = SafetyTripKind::kDeadlineMissed, .value = late_s, .limit = config_.safety.max_lateness_s};
@@ -333,7 +334,8 @@ StopReason HapticLoop::loop_body() {
     return SafetyTrip{.kind = SafetyTripKind::kDeviceCallHung,
                       .value = std::max(call_s, watchdog_->stalled_for_s()),
                       .limit = watchdog_->tripped_limit_s(),
-                      .call = call};
+                      .call = call,
+                      .halt_unconfirmed = device_.halt_unconfirmed()};
   };
   const auto stall_trip = [&](DeviceCall call, double call_s) {
     return watchdog_->call() == call ? hung_trip(call, call_s) : watchdog_trip();

@@ -57,6 +57,16 @@ const char* to_string(DeviceCall call) noexcept {
   return "unknown";
 }
 
+namespace {
+
+std::string halt_outcome(const SafetyTrip& trip) {
+  return trip.halt_unconfirmed ? "; a halt was sent to the device, which did not confirm it: it may still hold its "
+                                 "last force (switch its amplifiers off)"
+                               : "; the device was halted";
+}
+
+}  // namespace
+
 std::string describe(const SafetyTrip& trip) {
   const std::string joint =
       std::string(instrument_name(trip.instrument)) + " instrument " + joint_name(trip.joint);
@@ -72,8 +82,9 @@ std::string describe(const SafetyTrip& trip) {
     case SafetyTripKind::kDeadlineMissed:
       return format("an update started %.1f ms late (limit %.1f ms)", 1e3 * trip.value, 1e3 * trip.limit);
     case SafetyTripKind::kLoopStalled:
-      return format("the loop completed no update for %.1f ms (limit %.1f ms); the device was halted",
-                    1e3 * trip.value, 1e3 * trip.limit);
+      return format("the loop completed no update for %.1f ms (limit %.1f ms)", 1e3 * trip.value,
+                    1e3 * trip.limit) +
+             halt_outcome(trip);
     case SafetyTripKind::kWriterStalled:
       return format("the sample writer fell behind: the sample queue stayed full for %.3f s (limit %.3f s)",
                     trip.value, trip.limit);
@@ -83,8 +94,8 @@ std::string describe(const SafetyTrip& trip) {
              format(", over %.2f s)", trip.window_s);
     case SafetyTripKind::kDeviceCallHung:
       return std::string("device ") + to_string(trip.call) +
-             format(" hung for %.0f ms (watchdog limit %.0f ms); the device was halted", 1e3 * trip.value,
-                    1e3 * trip.limit);
+             format(" hung for %.0f ms (watchdog limit %.0f ms)", 1e3 * trip.value, 1e3 * trip.limit) +
+             halt_outcome(trip);
   }
   return "unknown safety trip";
 }

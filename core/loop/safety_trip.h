@@ -46,6 +46,9 @@ struct SafetyTrip {
   double limit_low = 0.0;   // kPositionOutOfRange: the lower end of the allowed span
   double window_s = 0.0;    // kRateOutOfTolerance: how long the rate was measured over [s]
   DeviceCall call = DeviceCall::kNone;  // kDeviceCallHung
+  // kLoopStalled, kDeviceCallHung: the device did not confirm the watchdog's
+  // halt (Device::halt_unconfirmed): it may still hold its last force.
+  bool halt_unconfirmed = false;
 
   bool tripped() const noexcept { return kind != SafetyTripKind::kNone; }
 };

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "core/loop/force_guard.h"
 #include "core/loop/haptic_loop.h"
@@ -21,6 +22,7 @@
 #include "core/loop/task_event.h"
 #include "db/session_lock.h"
 #include "db/study_db.h"
+#include "sessions/capi/study_text.h"
 #include "sessions/study_session.h"
 
 namespace {
@@ -77,6 +79,9 @@ struct hl_study {
   std::mutex engine_mutex;
   hl_engine* engine = nullptr;
 
+  // An operator stop holds until the session it stopped is over; one made
+  // while no session is open stops the next session before its first trial
+  // (a stop answered HL_OK must never be forgotten: hl_study_request_stop).
   std::atomic<bool> stop{false};
   std::atomic<std::uint64_t> dropped_samples{0};
   std::atomic<std::uint64_t> dropped_events{0};
@@ -168,6 +173,33 @@ void reset_trial_streams(hl_study& study) {
   study.timing.reset();
 }
 
+// Starts the trial's writer and hands the application `engine` (taken over:
+// destroyed if the writer cannot start).
+void begin_trial(hl_study& study, const hl::db::TrialRow& next, hl_engine* engine) {
+  reset_trial_streams(study);
+  try {
+    hl::db::SampleWriterConfig writer;
+    writer.failed_flag = &study.storage_failed;
+    // Nothing of the trial is recorded from now on: the participant must
+    // not go on feeling it (zero force from the next update, HL_HALTED).
+    writer.on_failure = [&study] {
+      std::lock_guard<std::mutex> lock(study.engine_mutex);
+      hl_engine_halt(study.engine);
+    };
+    study.session->start_trial(next, study.samples, study.events, writer);
+  } catch (...) {
+    hl_engine_destroy(engine);
+    throw;
+  }
+  study.trial = next;
+  std::lock_guard<std::mutex> lock(study.engine_mutex);
+  study.engine = engine;
+  // A stop, or a writer that failed, while the trial was being set up
+  // still counts.
+  if (study.stop.load(std::memory_order_acquire) || study.storage_failed.load(std::memory_order_acquire))
+    hl_engine_halt(engine);
+}
+
 }  // namespace
 
 extern "C" {
@@ -181,6 +213,13 @@ hl_study* hl_study_open(const char* db_path, char* error, size_t error_size) {
     if (!std::filesystem::exists(db_path)) {
       write_error(error, error_size,
                   std::string(db_path) + ": no such database (create it with `hapticlab study create`)");
+      return nullptr;
+    }
+    // SQLite would write a new, empty database into it (the header promises
+    // that nothing changes until a session starts).
+    if (std::filesystem::is_regular_file(db_path) && std::filesystem::file_size(db_path) == 0) {
+      write_error(error, error_size,
+                  std::string(db_path) + ": the file is empty: it holds no study (run `hapticlab study create` first)");
       return nullptr;
     }
     // Checked now so a wrong file is reported before a session is tried;
@@ -209,6 +248,12 @@ int hl_study_start_session(hl_study* study, const char* participant_code, const 
     write_error(error, error_size, "hl_study_start_session: study or participant_code is NULL");
     return HL_ERROR_INVALID_ARGUMENT;
   }
+  if (device != nullptr && !hapticlab::sessions::printable_name(device)) {
+    write_error(error, error_size,
+                "hl_study_start_session: device is not a printable UTF-8 name (it is stored with the session and "
+                "shown to the operator); nothing was started");
+    return HL_ERROR_INVALID_ARGUMENT;
+  }
   if (study->session) {
     write_error(error, error_size,
                 "hl_study_start_session: a session of participant '" + study->session->participant() +
@@ -219,7 +264,6 @@ int hl_study_start_session(hl_study* study, const char* participant_code, const 
     study->session = std::make_unique<hl::sessions::StudySession>(
         study->db_path, participant_code, device != nullptr && *device != '\0' ? device : "external", "wall",
         std::nullopt);  // the integrator's own loop: its rate is not known here
-    study->stop.store(false, std::memory_order_relaxed);
     std::string note;
     if (study->session->stale_session())
       note = "the participant's previous session had died (" + *study->session->stale_session() +
@@ -255,7 +299,8 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
     return HL_ERROR_STATE;
   }
   if (study->stop.load(std::memory_order_acquire)) {
-    write_error(error, error_size, "the operator stopped the session");
+    write_error(error, error_size,
+                "the operator stopped the session (hl_study_request_stop); no trial starts until it is ended");
     return HL_STUDY_STOPPED;
   }
   try {
@@ -280,22 +325,7 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
     // What the participant feels is the setting stored for the trial, with
     // the loop's safety ramp: the application cannot change either.
     hl_engine_fix_settings(engine);
-    reset_trial_streams(*study);
-    try {
-      hl::db::SampleWriterConfig writer;
-      writer.failed_flag = &study->storage_failed;
-      session.start_trial(*next, study->samples, study->events, writer);
-    } catch (...) {
-      hl_engine_destroy(engine);
-      throw;
-    }
-    study->trial = *next;
-    {
-      std::lock_guard<std::mutex> lock(study->engine_mutex);
-      study->engine = engine;
-      // A stop that came while the trial was being set up still counts.
-      if (study->stop.load(std::memory_order_acquire)) hl_engine_halt(engine);
-    }
+    begin_trial(*study, *next, engine);
     *trial = hl_trial{};
     trial->trial_id = next->id;
     copy_text(trial->task, sizeof trial->task, next->task);
@@ -316,7 +346,9 @@ int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_setting
 namespace {
 
 // Whether a sample can be stored as given: its tick increases and fits the
-// file's 64-bit signed ticks, its time is a number that does not go back,
+// file's 64-bit signed ticks (a chunk's end, one past its last tick, must
+// fit too: INT64_MAX itself is refused, or every reader would call its
+// chunk damaged and the trial would lose its measures), its time is a number that does not go back,
 // its period is a number >= 0, and every physical value is finite (a NaN
 // force or joint would be stored, exported and analysed as a value).
 // The physical channels are stored as float32 (db/sample_codec.h): a finite
@@ -325,7 +357,7 @@ namespace {
 bool fits_stored_float(double v) { return std::abs(v) <= static_cast<double>(std::numeric_limits<float>::max()); }
 
 bool storable(const hl_study& study, const hl_sample& s) {
-  if (s.tick > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return false;
+  if (s.tick >= static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return false;
   if (study.have_tick && (s.tick <= study.last_tick || s.t_s < study.last_sample_t_s)) return false;
   if (!std::isfinite(s.t_s) || !std::isfinite(s.dt_s) || s.dt_s < 0.0) return false;
   for (const hl_sample_instrument& in : s.instrument) {
@@ -434,22 +466,23 @@ int hl_study_end_trial(hl_study* study, int outcome, const char* reason, char* e
     return HL_ERROR_STATE;
   }
   const std::string why = reason != nullptr ? reason : "";
+  // After a stop the outcome and reason given are not stored (below).
+  if (!study->stop.load(std::memory_order_acquire)) {
+    if (const std::string problem = hapticlab::sessions::reason_problem(outcome, why); !problem.empty()) {
+      write_error(error, error_size, "hl_study_end_trial: " + problem + "; the trial is still open");
+      return HL_ERROR_INVALID_ARGUMENT;
+    }
+  }
   hl::db::TrialOutcome out;
   switch (outcome) {
     case HL_TRIAL_COMPLETE: out.status = hl::db::TrialStatus::kComplete; break;
     case HL_TRIAL_ABORTED:
-      if (why.empty()) {
-        write_error(error, error_size,
-                    "hl_study_end_trial: reason is required for HL_TRIAL_ABORTED (it is stored with the trial); "
-                    "the trial is still open");
-        return HL_ERROR_INVALID_ARGUMENT;
-      }
       out.status = hl::db::TrialStatus::kAborted;
       out.abort_reason = why;
       break;
     case HL_TRIAL_TIME_LIMIT:
       out.status = hl::db::TrialStatus::kAborted;
-      out.abort_reason = hl::sessions::time_limit_reason(why.empty() ? "set by the application" : why);
+      out.abort_reason = hl::sessions::time_limit_reason(hapticlab::sessions::blank(why) ? "set by the application" : why);
       break;
     default:
       write_error(error, error_size,
@@ -510,12 +543,17 @@ int hl_study_end_session(hl_study* study, char* error, size_t error_size) {
                     " is still open; end it first (hl_study_end_trial)");
     return HL_ERROR_STATE;
   }
+  // A stop made for this session has done its work once it ends; one that
+  // comes while it is being ended is kept for the next. (A session lost to a
+  // storage failure keeps its stop too: the next one then starts stopped.)
+  const bool stopped = study->stop.exchange(false, std::memory_order_acq_rel);
   try {
     study->session->end(hl::db::SessionStatus::kClosed);
     study->session.reset();  // releases the participant's lock
     write_error(error, error_size, "");
     return HL_OK;
   } catch (const std::exception& e) {
+    if (stopped) study->stop.store(true, std::memory_order_release);  // still open, still stopped
     write_error(error, error_size, e.what());
     return HL_ERROR_DATABASE;
   }

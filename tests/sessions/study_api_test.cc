@@ -6,6 +6,8 @@
 #include "hapticlab/study.h"
 
 #include <chrono>
+#include <filesystem>
+#include <fstream>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -173,7 +175,10 @@ TEST_F(StudyApiTest, ARepeatedTickOrAnUndefinedEventIsRefusedAtTheCallAndTheTria
       [](hl_sample& s) { s.instrument[0].raw_joints[3] = 1e300; },
       [](hl_sample& s) { s.t_s = -5.0; },
       [](hl_sample& s) { s.dt_s = -1e-3; },
-      [](hl_sample& s) { s.tick = std::numeric_limits<std::uint64_t>::max() - 1; }};
+      [](hl_sample& s) { s.tick = std::numeric_limits<std::uint64_t>::max() - 1; },
+      // The largest signed tick: its chunk would end one past it, which
+      // every reader calls damaged, and the trial would lose its measures.
+      [](hl_sample& s) { s.tick = static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max()); }};
   for (std::size_t i = 0; i < wrong.size(); ++i) {
     hl_sample s = sample_at(600);
     wrong[i](s);
@@ -360,6 +365,81 @@ TEST_F(StudyApiTest, OperatorStopZeroesTheForceFromTheNextUpdateAndRequeuesTheTr
   EXPECT_EQ(copies, 1);  // re-queued at its place
 }
 
+// A stop answered HL_OK is never forgotten: one requested before the
+// session started (or while it was starting) held for nothing before, and
+// the next trial ran at full force. It now stops the session's first trial;
+// once that session is ended the stop has done its work.
+TEST_F(StudyApiTest, AStopBeforeTheSessionStartsHoldsForItsFirstTrial) {
+  ASSERT_EQ(hl_study_request_stop(study_), HL_OK);
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  EXPECT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_STUDY_STOPPED);
+  EXPECT_THAT(std::string(error_), HasSubstr("operator stopped the session"));
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(complete_trial(), HL_OK) << error_;
+  // A stop between sessions likewise.
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_request_stop(study_), HL_OK);
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  EXPECT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_STUDY_STOPPED);
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+  int complete = 0;
+  for (const db::TrialRow& r : open_db().trials()) complete += r.status == db::TrialStatus::kComplete;
+  EXPECT_EQ(complete, 1);
+}
+
+// Text the API stores must be storable: a reason of white space only was
+// stored as an abort's reason, a complete trial's reason was dropped, and
+// bytes that are not UTF-8 went into the file as they came. Each is refused
+// naming what is wrong, the trial still open; NULL or "" still complete it.
+TEST_F(StudyApiTest, TextThatCannotBeStoredIsRefusedAndTheTrialStaysOpen) {
+  EXPECT_EQ(hl_study_start_session(study_, "A1", "dev\xff\xfe", error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT);
+  EXPECT_THAT(std::string(error_), HasSubstr("device is not a printable UTF-8 name"));
+  EXPECT_EQ(hl_study_start_session(study_, "A1", "dev\nP02 accepted", error_, sizeof error_),
+            HL_ERROR_INVALID_ARGUMENT);
+  ASSERT_EQ(hl_study_start_session(study_, "A1", "Phantom \xC2\xB5", error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK) << error_;
+  const hl_sample s = sample_at(0);
+  ASSERT_EQ(hl_study_log_sample(study_, &s), HL_OK);
+  const struct {
+    int outcome;
+    const char* reason;
+    const char* says;
+  } refused[] = {
+      {HL_TRIAL_ABORTED, " \t ", "only white space"},
+      {HL_TRIAL_ABORTED, "tool \xff dropped", "not valid UTF-8"},
+      {HL_TRIAL_TIME_LIMIT, "\xC3", "not valid UTF-8"},
+      {HL_TRIAL_COMPLETE, "the participant finished early", "a complete trial stores no reason"},
+  };
+  for (const auto& r : refused) {
+    EXPECT_EQ(hl_study_end_trial(study_, r.outcome, r.reason, error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT)
+        << r.reason;
+    EXPECT_THAT(std::string(error_), HasSubstr(r.says));
+    EXPECT_THAT(std::string(error_), HasSubstr("the trial is still open"));
+  }
+  const std::int64_t first = trial_.trial_id;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, "", error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK) << error_;
+  ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_ABORTED, "Pinzette gelöst", error_, sizeof error_), HL_OK)
+      << error_;
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+  db::StudyDb db = open_db();
+  EXPECT_EQ(db.trial(first).status, db::TrialStatus::kComplete);
+  EXPECT_EQ(db.trial(trial_.trial_id).abort_reason, "Pinzette gelöst");
+}
+
+// hl_study_open promises that nothing changes until a session starts: an
+// empty file (a `touch`ed name) was given a whole schema before the open
+// was refused.
+TEST_F(StudyApiTest, OpeningAnEmptyFileRefusesItAndLeavesItEmpty) {
+  const std::filesystem::path empty = std::filesystem::path(db_path_).parent_path() / "empty.db";
+  { std::ofstream touch(empty); }
+  EXPECT_EQ(hl_study_open(empty.c_str(), error_, sizeof error_), nullptr);
+  EXPECT_THAT(std::string(error_), HasSubstr("the file is empty"));
+  EXPECT_EQ(std::filesystem::file_size(empty), 0u);
+}
+
 TEST_F(StudyApiTest, HaltedEngineOutsideAStudy) {
   char err[256];
   hl_engine* e = hl_engine_create_from_file((testing::source_dir() / "examples/settings/all_degradations.json").c_str(),
@@ -459,6 +539,17 @@ TEST_F(StudyApiTest, OnceStorageFailsTheLogCallsSaySo) {
     if (tick % 1000 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   EXPECT_EQ(rc, HL_ERROR_DATABASE) << "the log calls never said that storage failed";
+  // Nothing felt from now on would be recorded: the trial's engine was
+  // halted when the writer failed, before the log call could say so.
+  hl_input in{};
+  in.dt_s = 0.001;
+  in.insertion_m = 0.1;
+  in.ve_force_N[2] = 2.0;
+  hl_output out{};
+  for (int k = 0; k < 400; ++k) ASSERT_EQ(hl_engine_update(trial_.engine, 0, &in, &out), HL_OK);
+  EXPECT_NE(out.status & HL_HALTED, 0u);
+  EXPECT_EQ(out.displayed_force_N[2], 0.0);
+  EXPECT_EQ(out.insertion_force_N, 0.0);
   EXPECT_EQ(hl_study_log_event(study_, 0.001 * static_cast<double>(tick), HL_EVENT_CONTACT_START, 0, 0),
             HL_ERROR_DATABASE);
   EXPECT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_ERROR_DATABASE);

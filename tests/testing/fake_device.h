@@ -87,6 +87,8 @@ class FakeDevice final : public Device {
     halt_time_ns_.store(Steady::now().time_since_epoch().count());
     halts.fetch_add(1);
   }
+  // As an isolated plugin's frozen host: the halt is never confirmed.
+  bool halt_unconfirmed() const noexcept override { return halt_never_confirmed && halts.load() > 0; }
   const char* name() const noexcept override { return "fake"; }
   double read_timeout_s() const noexcept override { return read_timeout; }
   DeviceRatings ratings() const noexcept override { return ratings_override.value_or(workstation_ratings()); }
@@ -113,6 +115,7 @@ class FakeDevice final : public Device {
   int fast_from_read = -1;
   double fast_rad_per_read = 0.0;
   int timeout_from_read = -1;
+  bool halt_never_confirmed = false;
   std::optional<DeviceRatings> ratings_override;
 
   // --- counters and stall times (the stall's are written on the loop thread

@@ -148,9 +148,12 @@ HL_API hl_study* hl_study_open(const char* db_path, char* error, size_t error_si
  * Starts the participant's session: takes the participant's lock, recovers a
  * trial a dead session left running, re-queues aborted trials, records the
  * session (device: the application's name, e.g. "external"; may be NULL;
- * the session's clock is recorded as "wall", the application's own).
+ * UTF-8 without control characters, else HL_ERROR_INVALID_ARGUMENT; the
+ * session's clock is recorded as "wall", the application's own).
  * On success the error buffer may hold a note for the operator (the
  * participant's previous session had died and was recovered).
+ * A stop requested while no session was open (hl_study_request_stop) holds
+ * for this session: its first hl_study_next_trial answers HL_STUDY_STOPPED.
  * HL_ERROR_STUDY for an unknown code (the message lists the study's codes),
  * HL_ERROR_BUSY when another live process runs this participant,
  * HL_ERROR_STATE when a session is already open on this handle.
@@ -177,10 +180,12 @@ HL_API int hl_study_next_trial(hl_study* study, hl_trial* trial, char* operator_
  * Logs one haptic update of the open trial. Real-time safe: copies into a
  * lock-free queue. HL_OK, HL_STUDY_DROPPED (queue full; counted),
  * HL_ERROR_DATABASE once the trial's storage failed (a full disk: nothing
- * logged from then on is kept; end the trial, hl_study_end_trial says why),
+ * logged from then on is kept, and the trial's engine is halted, zero force;
+ * end the trial, hl_study_end_trial says why),
  * HL_ERROR_STATE without an open trial, HL_ERROR_INVALID_ARGUMENT for NULL
  * and, counted in hl_study_rejected, for a tick not greater than the last
- * one accepted in this trial or above INT64_MAX, a t_s before the last
+ * one accepted in this trial or not below INT64_MAX (the stored chunk's end,
+ * one past its last tick, must fit in 64 signed bits), a t_s before the last
  * accepted one, a negative dt_s, a t_s or dt_s that is NaN or infinite, or
  * a joint, position, velocity or force that is NaN, infinite or beyond
  * +-3.4e38 (they are stored as float32, where it would become infinite) (the
@@ -207,16 +212,21 @@ HL_API int hl_study_rejected(const hl_study* study, uint64_t* samples, uint64_t*
 
 /*
  * Ends the open trial: stores what is still queued, then the outcome
- * (HL_TRIAL_*; reason: free text, required for HL_TRIAL_ABORTED, optional
- * otherwise). The trial's hl_engine is destroyed. After
+ * (HL_TRIAL_*; reason: UTF-8 text, required for HL_TRIAL_ABORTED and not
+ * blank; optional for HL_TRIAL_TIME_LIMIT, stored in its reason; none for
+ * HL_TRIAL_COMPLETE, which has nowhere to store one: NULL or "". A reason
+ * that breaks this is refused with HL_ERROR_INVALID_ARGUMENT, the trial
+ * still open). The trial's hl_engine is destroyed. After
  * hl_study_request_stop the trial is recorded as aborted by the operator,
- * whatever outcome is given. HL_TRIAL_COMPLETE or HL_TRIAL_TIME_LIMIT for
+ * whatever outcome and reason are given. HL_TRIAL_COMPLETE or HL_TRIAL_TIME_LIMIT for
  * a trial of which no sample was logged (hl_study_log_sample never
  * answered HL_OK) is refused with HL_ERROR_STATE, the trial still open: it
  * would close its slot and have no metrics (HL_TRIAL_ABORTED re-queues it).
  * HL_ERROR_DATABASE when the database could not
  * be written: the trial is then aborted with its samples so far kept, and
- * the session is over (start a new one once the disk is fixed).
+ * the session is over (start a new one once the disk is fixed). The
+ * trial's engine was halted (zero force, HL_HALTED) as soon as the writer
+ * failed: nothing felt from then on would have been recorded.
  */
 HL_API int hl_study_end_trial(hl_study* study, int outcome, const char* reason, char* error, size_t error_size);
 
@@ -226,7 +236,11 @@ HL_API int hl_study_end_trial(hl_study* study, int outcome, const char* reason, 
  * hl_engine_update on (status bit HL_HALTED), and no further trial starts.
  * The application should then end the trial (it is recorded as aborted by
  * the operator, with an operator_abort event at the last logged sample's
- * time, and re-queued) and end the session. Idempotent.
+ * time, and re-queued) and end the session. Idempotent. The stop holds
+ * until hl_study_end_session ends the session it stopped; one requested
+ * while no session is open (before hl_study_start_session, or while it
+ * runs) stops the next session before its first trial. A stop is never
+ * answered HL_OK and then forgotten.
  */
 HL_API int hl_study_request_stop(hl_study* study);
 

@@ -203,6 +203,53 @@ TEST(IsolatedPluginDeviceTest, HaltFromAnotherThreadReachesThePluginAndCommandsA
   EXPECT_EQ(text, "writes 2 nonzero_writes 1 max_abs_force 0.2 halts 1\n");
 }
 
+// Polls `cond` for up to `patience_s`.
+template <typename Cond>
+bool within(double patience_s, Cond cond) {
+  const Steady::time_point start = Steady::now();
+  while (!cond()) {
+    if (seconds_since(start) > patience_s) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+// Whether the process is stopped (state T), within `patience_s`: kill()
+// returns before the signal has stopped every thread.
+bool stopped_within(pid_t pid, double patience_s) {
+  return within(patience_s, [&] {
+    const std::string stat = testing::slurp("/proc/" + std::to_string(pid) + "/stat");
+    const std::size_t paren = stat.rfind(')');
+    return paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] == 'T';
+  });
+}
+
+// A host that is frozen (SIGSTOP, or a machine swapping it out) cannot pass
+// a halt to the plugin: the device says so, so that nobody is told "zero
+// force" about a device that may still hold its last command.
+TEST(IsolatedPluginDeviceTest, AHaltTheFrozenHostDidNotPassOnIsUnconfirmed) {
+  VirtualClock clock;
+  auto device = active_fake({}, clock);
+  const pid_t host = device->host_pid();
+  EXPECT_FALSE(device->halt_unconfirmed());  // no halt asked for yet
+  device->halt();
+  EXPECT_TRUE(within(2.0, [&] { return !device->halt_unconfirmed(); })) << "a live host never confirmed the halt";
+  ASSERT_EQ(::kill(host, SIGSTOP), 0);
+  ASSERT_TRUE(stopped_within(host, 2.0));
+  device->halt();
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_TRUE(device->halt_unconfirmed());
+  ASSERT_EQ(::kill(host, SIGCONT), 0);
+  EXPECT_TRUE(within(2.0, [&] { return !device->halt_unconfirmed(); })) << "the thawed host never passed it on";
+  // Killed before it could: unconfirmed for good.
+  ASSERT_EQ(::kill(host, SIGSTOP), 0);
+  ASSERT_TRUE(stopped_within(host, 2.0));
+  device->halt();
+  ASSERT_EQ(::kill(host, SIGKILL), 0);
+  EXPECT_TRUE(ended_within(host, 1.0));
+  EXPECT_TRUE(device->halt_unconfirmed());
+}
+
 TEST(IsolatedPluginDeviceTest, TheLoadersRefusalsComeBackWithTheirTextAndType) {
   EXPECT_EQ(thrown<std::runtime_error>([] { IsolatedPluginDevice(kBinary, "/nonexistent/acme.so", {}); }),
             "plugin /nonexistent/acme.so: no such file");

@@ -88,6 +88,30 @@ double seconds(FakeDevice::Steady::duration d) { return std::chrono::duration<do
 
 // --- a device that stalls: the watchdog thread halts it
 
+// A device whose halt runs elsewhere and never came back (an isolated
+// plugin's frozen host): the trip says so instead of "the device was halted".
+TEST(SafetyTest, AHaltTheDeviceDidNotConfirmIsNotCalledZeroForce) {
+  FakeDevice device;
+  device.stall_at_read = 50;
+  device.stall_s = 0.100;
+  device.halt_never_confirmed = true;
+  Engine engine = make_engine();
+  ConstantForceVe ve;
+  WallClock clock;
+  LoopConfig c = config(5.0);
+  c.safety.watchdog_timeout_s = 0.020;
+  c.safety.max_lateness_s = 1.0;
+  HapticLoop loop(device, engine, ve, clock, RateSchedule::fixed(1000.0), c);
+  ASSERT_TRUE(loop.start());
+  loop.join();
+  ASSERT_EQ(loop.stop_reason(), StopReason::kWatchdog);
+  EXPECT_TRUE(loop.safety_trip().halt_unconfirmed);
+  const std::string text = describe(loop.safety_trip());
+  EXPECT_THAT(text, ::testing::HasSubstr("a halt was sent to the device, which did not confirm it: it may still hold "
+                                         "its last force"));
+  EXPECT_THAT(text, ::testing::Not(::testing::HasSubstr("the device was halted")));
+}
+
 TEST(SafetyTest, ReadThatHangsIsHaltedByTheWatchdogThreadThenZeroForce) {
   FakeDevice device;
   device.stall_at_read = 50;
@@ -107,6 +131,7 @@ TEST(SafetyTest, ReadThatHangsIsHaltedByTheWatchdogThreadThenZeroForce) {
   EXPECT_EQ(loop.safety_trip().kind, SafetyTripKind::kDeviceCallHung);
   EXPECT_EQ(loop.safety_trip().call, DeviceCall::kRead);
   EXPECT_THAT(describe(loop.safety_trip()), ::testing::StartsWith("device read hung for 1"));
+  EXPECT_THAT(describe(loop.safety_trip()), ::testing::EndsWith("; the device was halted"));
   // Halted once, from another thread, while the read still hung: at least
   // the timeout after the last completed update (whose write precedes its
   // heartbeat), before the end of the 100 ms stall.
