@@ -23,6 +23,7 @@
 #include "db/session_lock.h"
 #include "db/study_db.h"
 #include "sessions/capi/study_text.h"
+#include "sessions/capi/study_timing.h"
 #include "sessions/study_session.h"
 
 namespace {
@@ -98,6 +99,11 @@ struct hl_study {
   std::atomic<bool> sample_queued{false};
   double last_sample_t_s = 0.0;  // of the last sample accepted (the loop thread's)
   std::atomic<double> last_t_s{0.0};  // of the last sample logged: when a stop took effect
+  // The first and last sample whose period `timing` holds: its periods are
+  // checked against their times as the trial ends (study_timing.h).
+  bool timed_any = false;  // the loop thread's
+  std::atomic<std::uint64_t> first_timed_tick{0}, last_timed_tick{0};
+  std::atomic<double> first_timed_t_s{0.0};
 };
 
 namespace {
@@ -117,6 +123,13 @@ int finish_trial(hl_study& s, hl::db::TrialOutcome outcome, char* error, size_t 
   outcome.device_counters.emplace_back("rejected_samples", s.rejected_samples.load(std::memory_order_relaxed));
   outcome.device_counters.emplace_back("rejected_events", s.rejected_events.load(std::memory_order_relaxed));
   outcome.timing = s.timing.summary();
+  const hl::sessions::TimedSpan span{s.first_timed_tick.load(std::memory_order_relaxed),
+                                     s.last_timed_tick.load(std::memory_order_relaxed),
+                                     s.first_timed_t_s.load(std::memory_order_relaxed),
+                                     s.last_t_s.load(std::memory_order_relaxed)};
+  const std::optional<std::string> mismatch = hl::sessions::timing_mismatch(outcome.timing, span);
+  if (mismatch)
+    outcome.closing_events.push_back({s.trial->id, span.last_t_s, "loop_timing_mismatch", -1, 0, *mismatch});
   s.trial.reset();
   try {
     s.session->finish_trial(outcome);
@@ -125,7 +138,9 @@ int finish_trial(hl_study& s, hl::db::TrialOutcome outcome, char* error, size_t 
     s.session.reset();
     return HL_ERROR_DATABASE;
   }
-  write_error(error, error_size, "");
+  // Stored, and told: the trial is kept (its times are what the analysis
+  // reads), but the rate it records is not the trial's.
+  write_error(error, error_size, mismatch ? "loop timing of the trial: " + *mismatch : std::string());
   return HL_OK;
 }
 
@@ -170,6 +185,7 @@ void reset_trial_streams(hl_study& study) {
   study.sample_queued.store(false, std::memory_order_relaxed);
   study.last_sample_t_s = 0.0;
   study.last_t_s.store(0.0, std::memory_order_relaxed);
+  study.timed_any = false;
   study.timing.reset();
 }
 
@@ -412,6 +428,12 @@ int hl_study_log_sample(hl_study* study, const hl_sample* sample) {
   if (study->storage_failed.load(std::memory_order_acquire)) return HL_ERROR_DATABASE;
   study->timing.record(sample->dt_s, false);
   study->last_t_s.store(sample->t_s, std::memory_order_relaxed);
+  if (!study->timed_any) {
+    study->timed_any = true;
+    study->first_timed_tick.store(sample->tick, std::memory_order_relaxed);
+    study->first_timed_t_s.store(sample->t_s, std::memory_order_relaxed);
+  }
+  study->last_timed_tick.store(sample->tick, std::memory_order_relaxed);
   if (!study->samples.try_push(s)) {
     study->dropped_samples.fetch_add(1, std::memory_order_relaxed);
     return HL_STUDY_DROPPED;

@@ -440,6 +440,43 @@ TEST_F(StudyApiTest, OpeningAnEmptyFileRefusesItAndLeavesItEmpty) {
   EXPECT_EQ(std::filesystem::file_size(empty), 0u);
 }
 
+// The trial's loop_timing (the rate a study cites) is made from dt_s, the
+// analysis from t_s: a dt_s left at 0, or given in milliseconds, stored a
+// period of 0 or of 1 s for a 1 kHz trial without a word. The trial is kept
+// (its times are right), and it says so: a loop_timing_mismatch event and
+// a note to the application. Logging every other update with the loop's
+// own period agrees, as ticks count the updates.
+TEST_F(StudyApiTest, ATrialWhosePeriodsDisagreeWithItsTimesSaysSo) {
+  ASSERT_EQ(hl_study_start_session(study_, "A1", nullptr, error_, sizeof error_), HL_OK) << error_;
+  const struct {
+    double dt_s;
+    std::uint64_t tick_step;
+    bool mismatch;
+  } cases[] = {{0.0, 1, true}, {1.0, 1, true}, {0.001, 2, false}, {0.0011, 1, false}};
+  for (const auto& c : cases) {
+    ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK) << error_;
+    for (std::uint64_t k = 0; k < 200; ++k) {
+      hl_sample s = sample_at(k * c.tick_step);
+      s.dt_s = c.dt_s;
+      ASSERT_EQ(hl_study_log_sample(study_, &s), HL_OK);
+    }
+    const std::int64_t id = trial_.trial_id;
+    ASSERT_EQ(hl_study_end_trial(study_, HL_TRIAL_COMPLETE, nullptr, error_, sizeof error_), HL_OK) << error_;
+    db::StudyDb db = open_db();
+    bool flagged = false;
+    for (const db::EventRow& e : db.events(id)) flagged = flagged || e.type == "loop_timing_mismatch";
+    EXPECT_EQ(flagged, c.mismatch) << c.dt_s;
+    if (c.mismatch) {
+      EXPECT_THAT(std::string(error_), HasSubstr("dt_s and t_s disagree")) << c.dt_s;
+      EXPECT_THAT(std::string(error_), HasSubstr("t_s advance 1 ms per update")) << c.dt_s;
+    } else {
+      EXPECT_STREQ(error_, "") << c.dt_s;
+    }
+    EXPECT_EQ(db.trial(id).status, db::TrialStatus::kComplete);
+  }
+  ASSERT_EQ(hl_study_end_session(study_, error_, sizeof error_), HL_OK) << error_;
+}
+
 TEST_F(StudyApiTest, HaltedEngineOutsideAStudy) {
   char err[256];
   hl_engine* e = hl_engine_create_from_file((testing::source_dir() / "examples/settings/all_degradations.json").c_str(),

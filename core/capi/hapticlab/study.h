@@ -222,6 +222,11 @@ HL_API int hl_study_rejected(const hl_study* study, uint64_t* samples, uint64_t*
  * a trial of which no sample was logged (hl_study_log_sample never
  * answered HL_OK) is refused with HL_ERROR_STATE, the trial still open: it
  * would close its slot and have no metrics (HL_TRIAL_ABORTED re-queues it).
+ * The trial's loop_timing record is made from the samples' dt_s: when
+ * their mean period times the updates (ticks) disagrees with the time the
+ * samples' t_s span by more than 10 % (a dt_s left at 0, or in ms), the
+ * trial is stored as ended, with a loop_timing_mismatch event saying so,
+ * and the error buffer holds that note although HL_OK is returned.
  * HL_ERROR_DATABASE when the database could not
  * be written: the trial is then aborted with its samples so far kept, and
  * the session is over (start a new one once the disk is fixed). The
