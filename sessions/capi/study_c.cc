@@ -264,7 +264,7 @@ int hl_study_start_session(hl_study* study, const char* participant_code, const 
     write_error(error, error_size, "hl_study_start_session: study or participant_code is NULL");
     return HL_ERROR_INVALID_ARGUMENT;
   }
-  if (device != nullptr && !hapticlab::sessions::printable_name(device)) {
+  if (device != nullptr && !hl::sessions::printable_name(device)) {
     write_error(error, error_size,
                 "hl_study_start_session: device is not a printable UTF-8 name (it is stored with the session and "
                 "shown to the operator); nothing was started");
@@ -364,8 +364,8 @@ namespace {
 // Whether a sample can be stored as given: its tick increases and fits the
 // file's 64-bit signed ticks (a chunk's end, one past its last tick, must
 // fit too: INT64_MAX itself is refused, or every reader would call its
-// chunk damaged and the trial would lose its measures), its time is a number that does not go back,
-// its period is a number >= 0, and every physical value is finite (a NaN
+// chunk damaged and the trial would lose its measures), its time is a
+// number that does not go back, its period is a number >= 0, and every physical value is finite (a NaN
 // force or joint would be stored, exported and analysed as a value).
 // The physical channels are stored as float32 (db/sample_codec.h): a finite
 // double beyond its range would be stored as infinity, and the trial,
@@ -490,7 +490,7 @@ int hl_study_end_trial(hl_study* study, int outcome, const char* reason, char* e
   const std::string why = reason != nullptr ? reason : "";
   // After a stop the outcome and reason given are not stored (below).
   if (!study->stop.load(std::memory_order_acquire)) {
-    if (const std::string problem = hapticlab::sessions::reason_problem(outcome, why); !problem.empty()) {
+    if (const std::string problem = hl::sessions::reason_problem(outcome, why); !problem.empty()) {
       write_error(error, error_size, "hl_study_end_trial: " + problem + "; the trial is still open");
       return HL_ERROR_INVALID_ARGUMENT;
     }
@@ -504,7 +504,7 @@ int hl_study_end_trial(hl_study* study, int outcome, const char* reason, char* e
       break;
     case HL_TRIAL_TIME_LIMIT:
       out.status = hl::db::TrialStatus::kAborted;
-      out.abort_reason = hl::sessions::time_limit_reason(hapticlab::sessions::blank(why) ? "set by the application" : why);
+      out.abort_reason = hl::sessions::time_limit_reason(hl::sessions::blank(why) ? "set by the application" : why);
       break;
     default:
       write_error(error, error_size,
