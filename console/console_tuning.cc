@@ -8,6 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "console/console_conflict.h"
 #include "console/served_file.h"
 #include "sessions/trial_end.h"
 #include "core/common/utc_time.h"
@@ -115,6 +116,12 @@ void ConsoleTuning::set(const std::string& field, const nlohmann::json& value) {
   } catch (const SettingsError& e) {
     throw std::invalid_argument(e.what());
   }
+  // A change is made to a loop: before Start it would be replaced by the
+  // setting Start loads, after the end no loop would run with it, and the
+  // log would file it under a repetition that never had it.
+  if (!running_)
+    throw ConsoleConflict("no free trial is running: a change is made to a running free trial (Start loads the "
+                          "chosen setting afresh; Save keeps what the last one ran with)");
   // Logged before it is made: a change the pilot's record cannot hold is
   // not made (the page says why), rather than made and missing from it.
   if (const std::string failed = append_log(field, before, value.dump(), false); !failed.empty())

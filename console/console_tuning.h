@@ -70,8 +70,10 @@ class ConsoleTuning {
   // std::invalid_argument naming the field, the value and the allowed range
   // (docs/settings.md), and then nothing changes; std::runtime_error when
   // the change cannot be written to tuning-log.csv (then it is not made
-  // either: the log is the pilot's record). Without a running trial
-  // it edits what save() writes (start() begins again from its setting).
+  // either: the log is the pilot's record); ConsoleConflict (a 409) when no
+  // free trial runs: a change before start() would be replaced by its
+  // setting, one after the end would be filed under a repetition that never
+  // ran with it. save() writes what the last free trial ran with.
   // Logged with the free trial's repetition and the loop time of the newest
   // sample drained when it was handed over: the engine applies it at the
   // start of its next update.

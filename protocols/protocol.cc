@@ -1,5 +1,8 @@
 #include "protocols/protocol.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
 #include <set>
 
 #include "protocols/protocol_error.h"
@@ -9,6 +12,23 @@ namespace hapticlab::protocols {
 namespace {
 
 std::string in_quotes(std::string_view s) { return "\"" + std::string(s) + "\""; }
+
+// `s` with every byte outside printable ASCII as \xHH, so that names that
+// look alike on a terminal are told apart in the message.
+std::string escaped(std::string_view s) {
+  std::string out;
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x20 && u < 0x7F) {
+      out += c;
+    } else {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02X", u);
+      out += hex;
+    }
+  }
+  return out;
+}
 
 // Checks one list of setting names (design.required or one explicit
 // assignment): every name known, none twice.
@@ -78,14 +98,80 @@ std::string staircase_base_row_name(std::string_view base_name) {
   return std::string(kStaircaseBasePrefix) + std::string(base_name);
 }
 
+namespace {
+
+// The bytes of a UTF-8 character starting with lead byte `b` (1 for a
+// stray byte, so that ill-formed text is still read to its end).
+std::size_t utf8_length(unsigned char b) {
+  if (b >= 0xF0 && b <= 0xF4) return 4;
+  if (b >= 0xE0) return b <= 0xEF ? 3 : 1;
+  if (b >= 0xC2) return 2;
+  return 1;
+}
+
+// The code point of the UTF-8 character at `s` of `n` bytes.
+char32_t code_point(const unsigned char* s, std::size_t n) {
+  if (n == 1) return s[0];
+  char32_t c = s[0] & (0xFF >> (n + 1));
+  for (std::size_t i = 1; i < n; ++i) c = (c << 6) | (s[i] & 0x3F);
+  return c;
+}
+
+bool unicode_space(char32_t c) {
+  return c == 0x00A0 || c == 0x1680 || (c >= 0x2000 && c <= 0x200D) || c == 0x2028 || c == 0x2029 ||
+         c == 0x202F || c == 0x205F || c == 0x2060 || c == 0x3000 || c == 0xFEFF;
+}
+
+// U+00C0..U+00FF as the letter they are written with, '\0' for the two
+// signs among them (multiplication, division).
+constexpr char kLatin1Base[] = "aaaaaaaceeeeiiiidnooooo\0ouuuuytsaaaaaaaceeeeiiiidnooooo\0ouuuuyty";
+
+}  // namespace
+
 std::string setting_name_key(std::string_view name) {
-  const auto space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; };
-  while (!name.empty() && space(name.front())) name.remove_prefix(1);
-  while (!name.empty() && space(name.back())) name.remove_suffix(1);
-  std::string key(name);
-  for (char& c : key)
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  std::string key;
+  bool pending_gap = false;
+  const auto add = [&](std::string_view text) {
+    if (pending_gap && !key.empty()) key += '_';
+    pending_gap = false;
+    key += text;
+  };
+  const auto* s = reinterpret_cast<const unsigned char*>(name.data());
+  for (std::size_t i = 0; i < name.size();) {
+    const std::size_t n = std::min(utf8_length(s[i]), name.size() - i);
+    const char32_t c = code_point(s + i, n);
+    if (c < 0x80) {
+      if (std::isalnum(static_cast<int>(c))) {
+        const char lower = static_cast<char>(std::tolower(static_cast<int>(c)));
+        add(std::string_view(&lower, 1));
+      } else {
+        pending_gap = true;
+      }
+    } else if (unicode_space(c)) {
+      pending_gap = true;
+    } else if (c >= 0x0300 && c <= 0x036F) {
+      // a combining accent: the letter before it stands for both
+    } else if (c >= 0x00C0 && c <= 0x00FF && kLatin1Base[c - 0x00C0] != '\0') {
+      add(std::string_view(&kLatin1Base[c - 0x00C0], 1));
+    } else {
+      add(name.substr(i, n));
+    }
+    i += n;
+  }
   return key;
+}
+
+std::string control_name_key(std::string_view name) {
+  std::string out;
+  for (char c : name) {
+    if (std::isalnum(static_cast<unsigned char>(c))) {
+      out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    } else if (!out.empty() && out.back() != '_') {
+      out += '_';
+    }
+  }
+  while (!out.empty() && out.back() == '_') out.pop_back();
+  return out;
 }
 
 std::optional<std::size_t> Protocol::find_setting(std::string_view name) const {
@@ -193,13 +279,21 @@ void validate_setting_names(const Protocol& p, const std::string& source) {
                             "is " + in_quotes(name) + ", the same as settings[" + std::to_string(j) +
                                 "]; setting names must be unique");
       }
-      // "High Fidelity" and "high fidelity " are one name to a reader, and
-      // to analyze, which finds the control by name.
+      // "High Fidelity", "high-fidelity " and "High\u00a0Fidelity" are one
+      // name to a reader, who cannot tell which table row is which.
       if (setting_name_key(other) == setting_name_key(name)) {
         throw ProtocolError(source, index_path("settings", i) + ".name",
-                            "is " + in_quotes(name) + ", the same as settings[" + std::to_string(j) + "] (" +
-                                in_quotes(other) + ") but for case or surrounding spaces; setting names must be "
-                                "unique ignoring both (analyze finds the control by its name)");
+                            "is " + in_quotes(escaped(name)) + ", the same as settings[" + std::to_string(j) +
+                                "] (" + in_quotes(escaped(other)) + ") but for case, spaces, punctuation or "
+                                "accents; setting names must be unique ignoring them (a reader could not tell "
+                                "them apart in a table)");
+      }
+      // analyze finds the control by this form: two would leave it unknown.
+      if (control_name_key(other) == "high_fidelity" && control_name_key(name) == "high_fidelity") {
+        throw ProtocolError(source, index_path("settings", i) + ".name",
+                            "is " + in_quotes(escaped(name)) + ", and settings[" + std::to_string(j) + "] is " +
+                                in_quotes(escaped(other)) + ": both read as 'High Fidelity', the name analyze "
+                                "finds the control by; rename one");
       }
     }
   }
@@ -216,6 +310,19 @@ void validate_participant(const Protocol& p, std::size_t i, std::set<std::string
   if (!codes.insert(ps.code).second) {
     throw ProtocolError(source, path + ".code",
                         "is " + in_quotes(ps.code) + ", which is already used; codes must be unique");
+  }
+  // An operator who types "s1" for "S1" would run another person's
+  // schedule; a merge would count one person at two sites as two.
+  for (std::size_t j = 0; j < i; ++j) {
+    const std::string& other = p.participants[j].code;
+    if (other.size() == ps.code.size() &&
+        std::equal(other.begin(), other.end(), ps.code.begin(), [](char a, char b) {
+          return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+        }))
+      throw ProtocolError(source, path + ".code",
+                          "is " + in_quotes(ps.code) + ", the same as participants[" + std::to_string(j) + "] (" +
+                              in_quotes(other) + ") but for case; codes must be unique ignoring case (an operator "
+                              "typing one would run the other's schedule)");
   }
   if (ps.tasks.empty()) {
     throw ProtocolError(source, path + ".tasks", "is empty, but must list at least one of the study's tasks");

@@ -172,11 +172,19 @@ struct Protocol {
   std::optional<std::size_t> find_setting(std::string_view name) const;
 };
 
-// The form in which two setting names are the same name: without
-// surrounding white space, ASCII letters in lower case. A protocol's
-// setting names are unique in this form ("High Fidelity" and
-// "high fidelity " are refused together).
+// The form in which two setting names are the same name to a reader: ASCII
+// letters in lower case; runs of anything else ASCII (spaces, punctuation)
+// and of Unicode spaces (no-break, thin, ideographic, zero-width) one '_',
+// none at the ends; accents dropped (a Latin-1 letter as its base letter,
+// combining marks U+0300..U+036F left out, so "Café" typed composed and
+// decomposed is one name); any other character kept. A protocol's setting
+// names are unique in this form ("High Fidelity", "high-fidelity " and
+// "High\u00a0Fidelity" are refused together).
 std::string setting_name_key(std::string_view name);
+
+// The form in which `analyze` finds the control, "high_fidelity": ASCII
+// letters and digits in lower case, every run of anything else one '_'.
+std::string control_name_key(std::string_view name);
 
 // Why `code` is not an acceptable participant code, or nullopt if it is.
 // A code with a space is refused as looking like a person's name.

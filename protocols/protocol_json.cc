@@ -172,8 +172,8 @@ class Reader {
     for (const ProtocolSetting& ps : p.settings)
       if (setting_name_key(ps.settings.name) == setting_name_key(st.base.settings.name))
         fail("staircase.settings", "is named \"" + st.base.settings.name + "\", like the setting \"" +
-                                       ps.settings.name + "\" (ignoring case and surrounding spaces); give it a "
-                                       "name of its own");
+                                       ps.settings.name + "\" (ignoring case, spaces, punctuation and accents); "
+                                       "give it a name of its own");
     // Both ends must be strengths the settings accept.
     for (const char* end : {"min", "max"}) {
       const double x = end == std::string("min") ? st.spec.min : st.spec.max;

@@ -17,6 +17,7 @@
 #include "analysis/study/ordered_names.h"
 #include "analysis/study/dose_response.h"
 #include "analysis/study/staircase_progress.h"
+#include "protocols/protocol.h"
 #include "protocols/protocol_json.h"
 #include "analysis/study/statistics_tables.h"
 #include "analysis/study/trial_reader.h"
@@ -106,23 +107,6 @@ double TrialRecord::value(Measure m, int hand) const {
 // ---------------------------------------------------------------------------
 // Reading the study
 // ---------------------------------------------------------------------------
-namespace {
-
-std::string normalized(const std::string& name) {
-  std::string out;
-  for (char c : name) {
-    if (std::isalnum(static_cast<unsigned char>(c))) {
-      out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    } else if (!out.empty() && out.back() != '_') {
-      out += '_';
-    }
-  }
-  while (!out.empty() && out.back() == '_') out.pop_back();
-  return out;
-}
-
-}  // namespace
-
 void choose_control(StudyAnalysis& a, const AnalysisOptions& options) {
   if (!options.control_setting.empty()) {
     if (std::find(a.settings.begin(), a.settings.end(), options.control_setting) == a.settings.end()) {
@@ -133,7 +117,7 @@ void choose_control(StudyAnalysis& a, const AnalysisOptions& options) {
     a.control = options.control_setting;
   } else {
     for (const auto& s : a.settings) {
-      if (normalized(s) != "high_fidelity") continue;
+      if (protocols::control_name_key(s) != "high_fidelity") continue;
       // Two candidates (a file made before protocols refused such names):
       // which one is the control is the user's to say, not the last one's.
       if (!a.control.empty())

@@ -197,22 +197,60 @@ TEST_F(NamedRefusalsTest, OutputThatCannotBeWrittenIsAFailureNotExitZero) {
   }
 }
 
-TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseAndSpaces) {
+TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseSpacesPunctuationAndAccents) {
   const fs::path p = protocol("case.json", "\"" + (kSettings / "high_fidelity.json").string() +
                                                R"(", {"name": " high fidelity", "translation": {"friction": {}}})");
   auto [rc, text] = cli("study create --protocol " + p.string() + " --db " + (dir_ / "case.db").string());
   EXPECT_EQ(rc, 1);
   EXPECT_THAT(text, AllOf(HasSubstr("protocol field 'settings[1].name' is \" high fidelity\", the same as settings[0] "
-                                    "(\"High Fidelity\") but for case or surrounding spaces"),
-                          HasSubstr("analyze finds the control by its name")));
+                                    "(\"High Fidelity\") but for case, spaces, punctuation or accents"),
+                          HasSubstr("a reader could not tell them apart")));
   EXPECT_FALSE(fs::exists(dir_ / "case.db"));
-  // Spelled apart, both still read as the control's name: not one taken silently.
-  const fs::path q = protocol("dash.json", "\"" + (kSettings / "high_fidelity.json").string() +
-                                               R"(", {"name": "High-Fidelity", "translation": {"friction": {}}})");
-  std::tie(rc, text) = cli("plan power --protocol " + q.string() + " --studies 1 --no-plots --out " +
-                           (dir_ / "plan").string());
+  // Names that look alike, found by an outside check after a study had
+  // run on them: a no-break space, a dash, and "Café" composed beside
+  // "Café" decomposed. Each is refused before anything runs, by every
+  // command that reads a protocol, the bytes shown.
+  const struct {
+    const char* first;
+    const char* second;
+    const char* shown;
+  } alike[] = {{"High Fidelity", "High\u00a0Fidelity", "\"High\\xC2\\xA0Fidelity\""},
+               {"High Fidelity", "High-Fidelity", "\"High-Fidelity\""},
+               {"Caf\u00e9", "Cafe\u0301", "\"Cafe\\xCC\\x81\""}};
+  for (const auto& a : alike) {
+    const fs::path q = protocol("alike.json", std::string(R"({"name": ")") + a.first + R"("}, {"name": ")" + a.second +
+                                                  R"(", "translation": {"friction": {}}})");
+    std::tie(rc, text) = cli("study create --protocol " + q.string() + " --db " + (dir_ / "alike.db").string());
+    EXPECT_EQ(rc, 1) << a.second;
+    EXPECT_THAT(text, AllOf(HasSubstr("'settings[1].name' is " + std::string(a.shown)),
+                            HasSubstr("but for case, spaces, punctuation or accents")))
+        << a.second;
+    EXPECT_FALSE(fs::exists(dir_ / "alike.db"));
+    std::tie(rc, text) = cli("plan power --protocol " + q.string() + " --studies 1 --no-plots --out " +
+                             (dir_ / "plan").string());
+    EXPECT_EQ(rc, 1) << a.second;
+    EXPECT_THAT(text, HasSubstr("'settings[1].name'")) << a.second;
+  }
+  // Names a reader tells apart are still two settings.
+  const fs::path apart = protocol("apart.json", R"({"name": "High Fidelity"}, {"name": "Caf\u00e8", "translation": )"
+                                                R"({"friction": {}}}, {"name": "Caf\u00e9 2", "translation": )"
+                                                R"({"friction": {}}})");
+  std::tie(rc, text) = cli("study create --protocol " + apart.string() + " --db " + (dir_ / "apart.db").string());
+  EXPECT_EQ(rc, 0) << text;
+}
+
+// "S1" and "s1" were two participants: an operator who typed one ran the
+// other's schedule, and a merge counted one person at two sites as two.
+TEST_F(NamedRefusalsTest, ParticipantCodesAreUniqueIgnoringCase) {
+  const fs::path p = dir_ / "codes.json";
+  std::ofstream(p) << R"({"study": "named", "tasks": ["clip"], "repetitions": {"clip": 1}, "settings": [)"
+                   << two_settings() << R"(], "participants": ["S1", "S2", "s1"], "design": {"type": "complete"},)"
+                   << R"( "seed": 5})";
+  const auto [rc, text] = cli("study create --protocol " + p.string() + " --db " + (dir_ / "codes.db").string());
   EXPECT_EQ(rc, 1);
-  EXPECT_THAT(text, HasSubstr("settings 'High Fidelity' and 'High-Fidelity' are both named 'High Fidelity'"));
+  EXPECT_THAT(text, HasSubstr("protocol field 'participants[2].code' is \"s1\", the same as participants[0] (\"S1\") "
+                              "but for case; codes must be unique ignoring case"));
+  EXPECT_FALSE(fs::exists(dir_ / "codes.db"));
 }
 
 TEST_F(NamedRefusalsTest, AStaircaseWithAnExternalVeIsRefused) {

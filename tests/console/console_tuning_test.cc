@@ -2,6 +2,7 @@
 // browser: a change reaches the running loop, a value out of the documented
 // range changes nothing, and a saved file is one `settings check` accepts.
 #include "console/console_tuning.h"
+#include "console/console_conflict.h"
 
 #include <unistd.h>
 
@@ -175,20 +176,49 @@ TEST_F(ConsoleTuningTest, OutOfRangeOrMistypedChangesAreRefusedAndChangeNothing)
 // were. tuning-log.csv is a folder here, which no one can append to.
 TEST_F(ConsoleTuningTest, AChangeTheLogCannotRecordIsNotMade) {
   ConsoleTuning tuning(config_, device_);
+  tuning.start("clip", high_fidelity());
+  std::filesystem::remove(dir_ / "tuning-log.csv");
   std::filesystem::create_directories(dir_ / "tuning-log.csv");
   const nlohmann::json before = tuning.status()["settings"];
+  const std::size_t logged = tuning.status()["log"].size();  // "start"
   EXPECT_THAT([&] { tuning.set("translation.friction.enabled", true); },
               ::testing::ThrowsMessage<std::runtime_error>(
                   HasSubstr("the change of 'translation.friction.enabled' was not made: cannot append to")));
   EXPECT_EQ(tuning.status()["settings"], before);
-  EXPECT_TRUE(tuning.status()["log"].empty());
+  EXPECT_EQ(tuning.status()["log"].size(), logged);
   // Nothing is missing from the log: the change was not made.
   EXPECT_EQ(tuning.status()["error"], "");
   // Once it can be written again, the same change is made and logged.
   std::filesystem::remove(dir_ / "tuning-log.csv");
   tuning.set("translation.friction.enabled", true);
-  EXPECT_EQ(tuning.status()["log"].size(), 1u);
+  EXPECT_EQ(tuning.status()["log"].back()["field"], "translation.friction.enabled");
   EXPECT_NE(tuning.status()["settings"], before);
+  tuning.stop();
+  tuning.wait_until_ended();
+}
+
+// A change with no free trial running was answered as made and logged
+// under the last repetition at loop time 0: before Start it was then
+// replaced by the setting Start loads, after the end no loop ran with it.
+// Refused (the console answers 409), nothing logged or changed.
+TEST_F(ConsoleTuningTest, AChangeWithoutARunningFreeTrialIsRefused) {
+  ConsoleTuning tuning(config_, device_);
+  EXPECT_THAT([&] { tuning.set("translation.friction.dynamic_level_N", 0.3); },
+              ::testing::ThrowsMessage<ConsoleConflict>(HasSubstr("no free trial is running")));
+  EXPECT_TRUE(tuning.status()["log"].empty());
+  tuning.start("clip", high_fidelity());
+  tuning.set("translation.friction.dynamic_level_N", 0.3);
+  tuning.stop();
+  tuning.wait_until_ended();
+  const nlohmann::json settings = tuning.status()["settings"];
+  const std::size_t logged = tuning.status()["log"].size();
+  EXPECT_THAT([&] { tuning.set("translation.friction.dynamic_level_N", 0.9); },
+              ::testing::ThrowsMessage<ConsoleConflict>(HasSubstr("no free trial is running")));
+  EXPECT_EQ(tuning.status()["settings"], settings);
+  EXPECT_EQ(tuning.status()["log"].size(), logged);
+  // Save keeps what the free trial ran with.
+  const NamedSettings back = load_settings_file(dir_ / tuning.save("Pilot 0.3"));
+  EXPECT_DOUBLE_EQ(back.engine.translation.friction.dynamic_level, 0.3);
 }
 
 // The page's sliders come from the loader's table: every field of
@@ -211,8 +241,11 @@ TEST_F(ConsoleTuningTest, ReferenceListsEveryFieldWithTheLoadersRange) {
 
 TEST_F(ConsoleTuningTest, SavedSettingsPassSettingsCheckAndAreNotOverwritten) {
   ConsoleTuning tuning(config_, device_);
+  tuning.start("clip", high_fidelity());
   tuning.set("translation.friction.enabled", true);
   tuning.set("translation.friction.dynamic_level_N", 0.3);
+  tuning.stop();
+  tuning.wait_until_ended();
   const std::string file = tuning.save("Pilot friction + 0.3");
   EXPECT_EQ(file, "pilot_friction_-_0_3.json");
   const auto [status, out] = testing::run_cli(kBinary, "settings check " + (dir_ / file).string());
