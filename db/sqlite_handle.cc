@@ -42,6 +42,20 @@ Database::Database(const std::filesystem::path& path, Mode mode) : path_(path.st
   exec("PRAGMA foreign_keys = ON");
 }
 
+bool DbError::is_damage() const noexcept {
+  const int primary = sqlite_code_ & 0xff;
+  return primary == SQLITE_CORRUPT || primary == SQLITE_NOTADB;
+}
+
+std::string unreadable_reason(const std::string& path, const DbError& error) {
+  std::string reason = path + ": cannot be read here (" + error.what() + ")";
+  if ((error.sqlite_code() & 0xff) == SQLITE_CANTOPEN)
+    reason += "; a study file is in SQLite's WAL mode, which needs " + path +
+              "-shm beside it: on a read-only file system or folder, copy the file (with its -wal, if there is "
+              "one) to a writable folder";
+  return reason + ". Nothing here says the file is damaged";
+}
+
 bool DbError::is_busy() const noexcept {
   const int primary = sqlite_code_ & 0xff;
   return primary == SQLITE_BUSY || primary == SQLITE_LOCKED;

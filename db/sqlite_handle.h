@@ -28,6 +28,14 @@ struct sqlite3_stmt;
 
 namespace hapticlab::db {
 
+class DbError;
+
+// `error` of a check that could not read `path`, said as what it is: not
+// damage. SQLITE_CANTOPEN gets the likeliest cause: a study file is in WAL
+// mode, and SQLite must create PATH-shm beside it to read it, which a
+// read-only file system or folder refuses.
+std::string unreadable_reason(const std::string& path, const DbError& error);
+
 class DbError : public std::runtime_error {
  public:
   DbError(const std::string& message, int sqlite_code = 0)
@@ -39,6 +47,10 @@ class DbError : public std::runtime_error {
   // (SQLITE_BUSY or SQLITE_LOCKED, any extended code): the same work may
   // succeed when tried again; nothing was written.
   bool is_busy() const noexcept;
+  // The file's content is damaged (SQLITE_CORRUPT, SQLITE_NOTADB), as
+  // opposed to a file that cannot be read here (a read-only folder, a
+  // lock, an I/O error): only then may a message call it damaged.
+  bool is_damage() const noexcept;
 
  private:
   int sqlite_code_;

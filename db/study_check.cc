@@ -17,6 +17,8 @@ void check_integrity(Database& conn, StudyFileCheck& c) {
         ++c.integrity;
       }
   } catch (const DbError& e) {
+    // Not a finding about the file when it cannot be read here at all.
+    if (!e.is_damage()) throw DbError(unreadable_reason(conn.path(), e), e.sqlite_code());
     c.findings.push_back({"integrity", "", std::nullopt, std::nullopt, std::nullopt,
                           std::string("integrity_check itself failed: ") + e.what()});
     ++c.integrity;

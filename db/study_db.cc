@@ -231,7 +231,9 @@ void StudyDb::check_integrity(OpenOptions::Integrity level) {
       findings += (n++ ? "; " : "") + line;
     }
   } catch (const DbError& e) {
-    // A badly damaged file fails the check itself (SQLITE_CORRUPT).
+    // A badly damaged file fails the check itself (SQLITE_CORRUPT); a file
+    // that cannot be read here (a read-only folder) is not called damaged.
+    if (!e.is_damage()) throw DbError(unreadable_reason(db_.path(), e), e.sqlite_code());
     throw DbError(db_.path() + ": " + pragma + " failed, the database file is damaged: " + e.what(),
                   e.sqlite_code());
   }

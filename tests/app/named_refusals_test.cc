@@ -253,6 +253,31 @@ TEST_F(NamedRefusalsTest, ParticipantCodesAreUniqueIgnoringCase) {
   EXPECT_FALSE(fs::exists(dir_ / "codes.db"));
 }
 
+// A study file on a read-only file system (an archive, read-only media):
+// SQLite cannot create the -shm its WAL mode needs, and the check that
+// then failed called an intact file "damaged" -- an operator may throw
+// such a file away. Said as what it is, with the way out.
+TEST_F(NamedRefusalsTest, AFileOnAReadOnlyFileSystemIsUnreadableNotDamaged) {
+  if (std::system("unshare -m sh -c 'mount -t tmpfs -o size=64k tmpfs /mnt' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "mounting a tmpfs needs root in a mount namespace";
+  const fs::path db = dir_ / "ro.db";
+  ASSERT_EQ(cli("study create --protocol " + protocol("ro.json", two_settings()).string() + " --db " + db.string()).first,
+            0);
+  const fs::path mnt = dir_ / "mnt";
+  fs::create_directories(mnt);
+  const std::string h = HAPTICLAB_CLI_PATH;
+  const std::string script = "mount -t tmpfs -o size=4m tmpfs " + mnt.string() + " && cp " + db.string() + " " +
+                             mnt.string() + "/ && mount -o remount,ro " + mnt.string() + " && " + h +
+                             " study show --db " + mnt.string() + "/ro.db --summary; rc1=$?; " + h +
+                             " study check --db " + mnt.string() + "/ro.db; rc2=$?; exit $((rc1 * 10 + rc2))";
+  const auto [status, out] = testing::run_cli("unshare", "-m sh -c '" + script + "' 2>&1");
+  EXPECT_EQ(status, 11) << out;
+  EXPECT_THAT(out, AllOf(HasSubstr("ro.db: cannot be read here"), HasSubstr("on a read-only file system or folder, "
+                                                                              "copy the file"),
+                         HasSubstr("Nothing here says the file is damaged"), Not(HasSubstr("file is damaged:")),
+                         Not(HasSubstr("integrity_check itself failed"))));
+}
+
 TEST_F(NamedRefusalsTest, AStaircaseWithAnExternalVeIsRefused) {
   const fs::path p = dir_ / "external.json";
   std::ofstream(p) << R"({"study": "ext", "ve": "external", "tasks": ["peg"], "repetitions": {"peg": 1},
