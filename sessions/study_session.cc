@@ -129,6 +129,18 @@ void StudySession::start_trial(const db::TrialRow& trial, SpscQueue<LoopSample>&
   }
 }
 
+std::string StudySession::kept_updates_text(std::int64_t trial_id) {
+  // What the file holds, not what was handed to the writer: the commit that
+  // failed may have held all of it.
+  try {
+    const std::uint64_t kept = db_.sample_count(trial_id, 0);
+    if (kept == 0) return "none of its samples stored (the commit that failed held them)";
+    return std::to_string(kept) + " of its updates stored";
+  } catch (const db::DbError& e) {
+    return std::string("its stored samples not counted (") + e.what() + ")";
+  }
+}
+
 std::uint64_t StudySession::finish_trial(const db::TrialOutcome& outcome) {
   if (!writer_) throw std::logic_error("StudySession::finish_trial(): no trial is running");
   const db::TrialRow trial = *running_;
@@ -158,7 +170,7 @@ std::uint64_t StudySession::finish_trial(const db::TrialOutcome& outcome) {
     ended_ = true;
     throw std::runtime_error(
         "the study database could not be written, so the session stopped: " + *storage_failure + ". Trial " +
-        std::to_string(trial.id) + " was aborted with its samples up to then kept" +
+        std::to_string(trial.id) + " was aborted with " + kept_updates_text(trial.id) +
         (recorded ? " and re-queued" : "; the reason is recorded when the session is run again") +
         ". Free disk space, then run the same command to continue.");
   }

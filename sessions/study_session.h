@@ -140,6 +140,9 @@ class StudySession {
   int trials_left();
 
  private:
+  // "N of its updates stored", or that none or an unknown number were,
+  // from the file (a storage failure's message).
+  std::string kept_updates_text(std::int64_t trial_id);
   std::vector<db::TrialRow> participant_trials();
 
   std::filesystem::path db_path_;

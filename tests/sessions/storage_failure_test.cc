@@ -77,6 +77,13 @@ TEST_P(StorageFailureTest, ATrialCutShortByAFullDiskKeepsItsRealReason) {
     ++cut;
     EXPECT_THAT(t.abort_reason, StartsWith("storage failure: "));
     EXPECT_THAT(t.abort_reason, HasSubstr("database or disk is full"));
+    // What the message said was kept is what the file holds (it said
+    // "its samples up to then kept" when the failed commit had held all).
+    const std::uint64_t kept = study.sample_count(t.id, 0);
+    const std::string said = "Trial " + std::to_string(t.id) + " was aborted with " +
+                             (kept == 0 ? std::string("none of its samples stored")
+                                        : std::to_string(kept) + " of its updates stored");
+    EXPECT_THAT(out, HasSubstr(said)) << "stored: " << kept;
   }
   EXPECT_EQ(cut, 1);
   // How much of the cut trial reached the disk depends on where the disk
