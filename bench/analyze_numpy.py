@@ -501,6 +501,14 @@ def trial_metrics(conn):
         "SELECT t.id, p.code, t.task, s.name, t.repetition FROM trial t "
         "JOIN participant p ON p.id = t.participant_id JOIN setting s ON s.id = t.setting_id "
         "WHERE t.status = 'complete' ORDER BY t.id").fetchall()
+    # Updates the writer could not store: path length and energy, which
+    # would bridge a gap with one straight step, are left out (as
+    # analysis/study/trial_reader.cc's leave_out_across_gaps).
+    gaps = {}
+    for trial_id, t_s in conn.execute(
+            "SELECT e.trial_id, e.t_s FROM event e JOIN trial t ON t.id = e.trial_id "
+            "WHERE t.status = 'complete' AND e.type = 'samples_missing'"):
+        gaps.setdefault(trial_id, []).append(t_s)
     events = {}
     for trial_id, t_s, kind, hand in conn.execute(
             "SELECT e.trial_id, e.t_s, e.type, e.instrument FROM event e JOIN trial t ON t.id = e.trial_id "
@@ -552,11 +560,13 @@ def trial_metrics(conn):
                     row.update(hand_metrics(batch.t[lo:hi], batch.f32[:, lo:hi], window))
                     row["completion_time_s"] = window[1] - window[0]
                 # Over the whole trial, window or not (a hand without samples: none given or taken).
-                if ends:
+                if ends and trial_id not in gaps:
                     lo, hi = hands[hand] or (0, 0)
                     row.update(hand_energy(batch.f32[:, lo:hi]))
                 else:
                     row.update({c: float("nan") for c in ENERGY_COLUMNS})
+                if window is not None and any(window[0] <= t <= window[1] for t in gaps.get(trial_id, ())):
+                    row["path_length_m"] = float("nan")
                 out.append(row)
     return out
 

@@ -83,6 +83,12 @@ Section summary_section(const StudyAnalysis& a) {
             ". Measures are computed over each trial's task window, from the first 20 mm insertion to the last "
             "tissue contact; the per-trial values are in metrics.csv.";
   for (const std::string& w : a.session_conditions.warnings) s.intro += " Warning: " + w + ".";
+  std::size_t gapped = 0;
+  for (const auto& tr : a.trials) gapped += !tr.note.empty();
+  if (gapped > 0)
+    s.intro += " " + std::to_string(gapped) + (gapped == 1 ? " trial has" : " trials have") +
+               " updates missing from its samples (a full queue): path length and energy, which would bridge a "
+               "gap with one straight step, are left out there (metrics.csv's note says which).";
   if (c.without_window > 0) {
     Table w;
     w.title = "Trials without measures";

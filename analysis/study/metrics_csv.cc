@@ -43,7 +43,7 @@ void write_metrics_csv(const StudyAnalysis& a, std::ostream& out) {
     for (int hand = 0; hand < 2; ++hand) {
       const HandMetrics& h = t.hands[static_cast<std::size_t>(hand)];
       const bool have = t.window.has_value();
-      std::string note = t.problem;
+      std::string note = t.problem.empty() ? t.note : t.problem;
       if (have && h.samples == 0)
         // A window between the task's events holds samples of any real trial:
         // none means its events and samples disagree (an edited or damaged

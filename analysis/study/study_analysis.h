@@ -103,6 +103,10 @@ struct TrialRecord {
   std::string status;
   std::optional<TaskWindow> window;
   std::string problem;  // why the measures are missing, if they are
+  // What was left out of a trial that has its measures, and why (updates
+  // missing from its samples: a path length or an energy would bridge the
+  // gap with one straight step).
+  std::string note;
   // Sample chunks left out as damaged (db/chunk_reader.h describe()); the
   // trial's measures are then missing: a hole would bias them silently.
   std::vector<std::string> damaged_chunks;

@@ -136,6 +136,48 @@ class ComparatorTest(unittest.TestCase):
             self.assertIn("missing samples: trial 1, ", done.stderr)
             self.assertIn("(a chunk was removed)", done.stderr)
 
+    def test_a_gap_the_writer_logged_leaves_path_length_and_energy_out_in_both(self):
+        # Updates the writer could not store (a full queue) leave a gap it
+        # logs as samples_missing: legitimate, so no reader refuses the file.
+        # A path length or an energy would bridge it with one straight step
+        # (a 1 s gap shortened a path by 1.8 %, with no note): both readers
+        # leave them out of that trial and keep the rest.
+        gapped = self.dir / "gapped.db"
+        shutil.copyfile(self.dir / "study.db", gapped)
+        conn = sqlite3.connect(gapped)
+        first, count = conn.execute("SELECT first_tick, count FROM sample_chunk WHERE trial_id = 2 AND instrument = 0 "
+                                    "ORDER BY first_tick LIMIT 1 OFFSET 1").fetchone()
+        conn.execute("DELETE FROM sample_chunk WHERE trial_id = 2 AND first_tick = ?", (first,))
+        conn.execute("INSERT INTO event (trial_id, t_s, type, instrument, item_index) "
+                     "VALUES (2, ?, 'samples_missing', -1, ?)", (first / 250.0, count))
+        conn.execute("UPDATE loop_timing SET dropped_samples = dropped_samples + ? WHERE trial_id = 2", (count,))
+        conn.commit()
+        conn.close()
+        check = subprocess.run([str(fx.CLI), "study", "check", "--db", str(gapped)], capture_output=True, text=True)
+        self.assertEqual(check.returncode, 0, check.stdout + check.stderr)
+        out = self.dir / "gapped_analysis"
+        fx.run_cli("analyze", "--db", str(gapped), "--out", str(out), "--no-ks", "--no-plots")
+        ours = read_rows(out / "metrics.csv")
+        done = subprocess.run([sys.executable, str(COMPARATOR), str(gapped), "--metrics-out", str(self.dir / "g.csv")],
+                              capture_output=True, text=True)
+        self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
+        theirs = read_rows(self.dir / "g.csv")
+        for hand in ("0", "1"):
+            row = ours[("2", hand)]
+            self.assertEqual(row["path_length_m"], "", row)
+            for column in ENERGY:
+                self.assertEqual(row[column], "", column)
+                self.assertTrue(math.isnan(number(theirs[("2", hand)][column])), column)
+            self.assertTrue(math.isnan(number(theirs[("2", hand)]["path_length_m"])))
+            self.assertIn(f"{count} update(s) missing from the samples", row["note"])
+            self.assertIn("path length and energy left out", row["note"])
+            # The rest stands on the samples there are.
+            self.assertNotEqual(row["force_p95_N"], "")
+            self.assertEqual(row["completion_time_s"], self.hapticlab[("2", hand)]["completion_time_s"])
+        # Another trial is untouched.
+        self.assertEqual(ours[("3", "0")]["path_length_m"], self.hapticlab[("3", "0")]["path_length_m"])
+        self.assertIn("updates missing from its samples", (out / "report.md").read_text())
+
     def test_friedman_equals_hapticlab_stats(self):
         both = [r for r in self.friedman if r["instrument"] == "both" and r["measure"] in ("force_p95_N", "path_length_m")]
         self.assertEqual(len(both), 4)  # 2 tasks x 2 measures
