@@ -346,6 +346,8 @@ def task_window(events, trial_end_s):
     for t, kind, hand in events:
         if hand not in (0, 1) or kind not in ("contact_start", "contact_end"):
             continue
+        if (kind == "contact_start") == open_[hand]:
+            return None  # contacts out of turn: no window (the C++ says which event)
         open_[hand] = kind == "contact_start"
         if t >= start:
             last = t if last is None else max(last, t)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "analysis/stats/data_error.h"
@@ -26,13 +27,32 @@ TaskWindowResult task_window(std::span<const TaskEvent> events, double trial_end
 
   // Walk every contact change (those before start_s too: a contact that began
   // before the tools were in and lasted past start_s still counts).
+  // Each instrument's contacts alternate, start then end (docs/ve_events.md):
+  // one out of turn (an edited or damaged log, dropped events) leaves a
+  // contact open to the last sample or closes one twice, and the window's
+  // end -- the completion time -- would move with it, unnoticed.
   std::array<bool, 2> open{false, false};
+  std::array<double, 2> opened_s{0.0, 0.0};
   std::optional<double> last_touch_s;
   for (const TaskEvent& e : sorted) {
     if (e.instrument < 0 || e.instrument > 1) continue;
     const auto i = static_cast<std::size_t>(e.instrument);
-    if (e.type == TaskEventType::kContactStart) {
+    const bool start = e.type == TaskEventType::kContactStart;
+    if ((start || e.type == TaskEventType::kContactEnd) && start == open[i]) {
+      char text[200];
+      if (start)
+        std::snprintf(text, sizeof text, "a contact_start at %.6g s while its contact from %.6g s is still open",
+                      e.t_s, opened_s[i]);
+      else
+        std::snprintf(text, sizeof text, "a contact_end at %.6g s with no contact open", e.t_s);
+      result.problem = std::string(i == 0 ? "the left" : "the right") + " instrument's contact events do not pair up: " +
+                       text + " (an edited or damaged event log, or dropped events); measures and completion "
+                       "time missing";
+      return result;
+    }
+    if (start) {
       open[i] = true;
+      opened_s[i] = e.t_s;
       if (e.t_s >= start_s) last_touch_s = std::max(last_touch_s.value_or(e.t_s), e.t_s);
     } else if (e.type == TaskEventType::kContactEnd) {
       open[i] = false;

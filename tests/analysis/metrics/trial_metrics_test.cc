@@ -78,6 +78,37 @@ TEST(TaskWindowTest, NoInsertionOrNoContactSaysWhy) {
   EXPECT_THAT(b.problem, HasSubstr("no tissue contact"));
 }
 
+// Each instrument's contacts alternate. One out of turn moved the window's
+// end without a word: a contact_end moved before its start left the
+// contact open to the last sample (29.574 -> 29.957 s), a stray contact_end
+// after the last contact extended it. Both leave the trial without a window,
+// saying which event. Two contacts of different instruments may overlap.
+TEST(TaskWindowTest, ContactEventsOutOfTurnAreAProblemNotAWindow) {
+  const TaskEvent insertion = ev(1.0, TaskEventType::kInsertionPassed, 0);
+  const std::vector<TaskEvent> end_before_start = {insertion, ev(2.0, TaskEventType::kContactStart, 0),
+                                                   ev(3.0, TaskEventType::kContactEnd, 0),
+                                                   ev(3.5, TaskEventType::kContactEnd, 0),
+                                                   ev(4.0, TaskEventType::kContactStart, 0)};
+  const TaskWindowResult a = task_window(end_before_start, 9.0);
+  EXPECT_FALSE(a.window.has_value());
+  EXPECT_THAT(a.problem, HasSubstr("the left instrument's contact events do not pair up: a contact_end at 3.5 s "
+                                   "with no contact open"));
+  const std::vector<TaskEvent> start_twice = {insertion, ev(2.0, TaskEventType::kContactStart, 1),
+                                              ev(2.5, TaskEventType::kContactStart, 1),
+                                              ev(3.0, TaskEventType::kContactEnd, 1)};
+  const TaskWindowResult b = task_window(start_twice, 9.0);
+  EXPECT_FALSE(b.window.has_value());
+  EXPECT_THAT(b.problem, HasSubstr("the right instrument's contact events do not pair up: a contact_start at 2.5 s "
+                                   "while its contact from 2 s is still open"));
+  const std::vector<TaskEvent> overlapping = {insertion, ev(2.0, TaskEventType::kContactStart, 0),
+                                              ev(2.5, TaskEventType::kContactStart, 1),
+                                              ev(3.0, TaskEventType::kContactEnd, 0),
+                                              ev(3.5, TaskEventType::kContactEnd, 1)};
+  const TaskWindowResult c = task_window(overlapping, 9.0);
+  ASSERT_TRUE(c.window.has_value()) << c.problem;
+  EXPECT_DOUBLE_EQ(c.window->end_s, 3.5);
+}
+
 // Six samples at t = 0..5 s; the window [1, 4] holds t = 1, 2, 3, 4 (ends
 // included). The samples outside carry values that would show if counted.
 HandSeries worked_series() {
