@@ -99,10 +99,12 @@ class StudySimulator {
     std::uint64_t seed;
     std::map<std::string, int> complete_of_task;
     std::map<std::string, bool> trained;
+    int last_position = 0;  // of the schedule; staircase trials come after it
   };
 
   void run_participant(const protocols::ParticipantPlan& pp) {
-    Participant who{pp, sessions::participant_seed(p_.seed, pp.code), {}, {}};
+    Participant who{pp, sessions::participant_seed(p_.seed, pp.code), {}, {}, 0};
+    for (const protocols::PlannedTrial& t : pp.trials) who.last_position = std::max(who.last_position, t.position);
     for (const protocols::PlannedTrial& t : pp.trials) {
       ++trial_id_;
       const std::string task(protocols::task_name(t.task));
@@ -158,8 +160,11 @@ class StudySimulator {
   std::optional<analysis::TrialRecord> simulate(Participant& who, const std::string& task,
                                                 const EngineSettings& settings, std::int64_t id,
                                                 analysis::TrialRecord rec) {
-    const SimTrialConfig c =
-        config(who, task, settings, sessions::trial_seed(who.seed, id), who.plan.training_trials + who.complete_of_task[task]);
+    // As session run seeds it (sessions/trial_seeds.h): a designed trial by
+    // its row id, a staircase trial by its position.
+    const std::uint64_t seed = rec.block == 0 ? sessions::staircase_trial_seed(who.seed, rec.position)
+                                              : sessions::trial_seed(who.seed, id);
+    const SimTrialConfig c = config(who, task, settings, seed, who.plan.training_trials + who.complete_of_task[task]);
     for (auto& k : kept_) k.clear();
     events_.clear();
     SimTrialSink sink;
@@ -252,6 +257,8 @@ class StudySimulator {
       analysis::TrialRecord rec;
       rec.setting = at.name;
       rec.block = 0;
+      // After the last position, as staircase_planner.cc adds it.
+      rec.position = ++who.last_position;
       if (auto done = simulate(who, spec.task, at.engine, ++staircase_id_, std::move(rec))) {
         const double v = analysis::staircase_value(*done, spec.measure);
         if (std::isfinite(v)) steps.emplace_back(state.next_strength, v);

@@ -446,7 +446,8 @@ void SessionRun::supervise(SimRig& rig, std::unique_ptr<SimRig>& rig_owner, cons
 
 void SessionRun::run_trial(const db::TrialRow& trial) {
   const NamedSettings settings = db_.setting(trial.setting_id);
-  SimTrialConfig config = base_config(trial.task, settings, trial_seed(who_, trial.id),
+  const std::uint64_t seed = scheduled_trial_seed(who_, trial, session_.participant_trials());
+  SimTrialConfig config = base_config(trial.task, settings, seed,
                                       training_per_task_ + session_.complete_of(trial.task));
   if (options_.configure_trial) options_.configure_trial(config, trial);
 
@@ -566,21 +567,6 @@ SessionResult SessionRun::run_schedule() {
 }
 
 }  // namespace
-
-std::uint64_t participant_seed(std::uint64_t study_seed, std::string_view code) noexcept {
-  Random r = Random::derive(study_seed, protocols::fnv1a64(code));
-  return r.next_u64();
-}
-
-std::uint64_t trial_seed(std::uint64_t participant_seed, std::int64_t trial_id) noexcept {
-  Random r = Random::derive(participant_seed, static_cast<std::uint64_t>(trial_id));
-  return r.next_u64();
-}
-
-std::uint64_t training_seed(std::uint64_t participant_seed, std::string_view task, int k) noexcept {
-  return Random::derive(participant_seed, protocols::fnv1a64("training:" + std::string(task))).next_u64() +
-         static_cast<std::uint64_t>(k);
-}
 
 SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options) {
   check_options(options);

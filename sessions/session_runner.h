@@ -14,9 +14,8 @@
 // is not re-queued, even if an earlier attempt at that slot had been
 // killed or stopped: running it again would most likely time out again.
 //
-// Seeds (simulated participants): the participant's traits come from the
-// study seed and the participant code; each trial's variation from those and
-// the trial's row id. The same database and protocol give the same session.
+// Seeds (simulated participants): sessions/trial_seeds.h. The same
+// database and protocol give the same session, interrupted or not.
 
 #include <atomic>
 #include <cstdint>
@@ -33,6 +32,7 @@
 #include "core/sim/trial_runner.h"
 #include "db/sample_writer.h"
 #include "db/study_db.h"
+#include "sessions/trial_seeds.h"
 
 namespace hapticlab::sessions {
 
@@ -194,11 +194,5 @@ class DeviceHungError : public std::runtime_error {
 // for a database failure, DeviceHungError (above).
 SessionResult run_session(const std::filesystem::path& db_path, const SessionOptions& options);
 
-// Seeds of simulated participants (documented above).
-std::uint64_t participant_seed(std::uint64_t study_seed, std::string_view code) noexcept;
-std::uint64_t trial_seed(std::uint64_t participant_seed, std::int64_t trial_id) noexcept;
-// The k-th (0-based) training trial of `task` before the participant's first
-// scheduled trial of it in a session.
-std::uint64_t training_seed(std::uint64_t participant_seed, std::string_view task, int k) noexcept;
 
 }  // namespace hapticlab::sessions

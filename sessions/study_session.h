@@ -138,12 +138,13 @@ class StudySession {
   bool ended() const noexcept { return ended_; }
   // Planned trials of the participant left now.
   int trials_left();
+  // Every row of this participant's trials, as the file holds them now.
+  std::vector<db::TrialRow> participant_trials();
 
  private:
   // "N of its updates stored", or that none or an unknown number were,
   // from the file (a storage failure's message).
   std::string kept_updates_text(std::int64_t trial_id);
-  std::vector<db::TrialRow> participant_trials();
 
   std::filesystem::path db_path_;
   std::string participant_;

@@ -76,14 +76,18 @@ Recording from_database(const SimReplayOptions& opt) {
   // The study holding the trial: its seed gives the simulated trial's task
   // layout exactly as the session runner derived it.
   for (const db::StudyRow& study : db.studies()) {
-    for (const db::TrialRow& t : db.trials(study.id)) {
+    const std::vector<db::TrialRow> trials = db.trials(study.id);
+    for (const db::TrialRow& t : trials) {
       if (t.id != *opt.trial) continue;
       r.frames = db::load_replay_frames(db, t.id);  // throws for a trial without samples
       r.recorded_rate_Hz = recorded_rate_Hz(r.frames);
       r.protections = protocols::loop_protections_from_protocol_text(study.protocol_json, opt.db);
       r.task = t.task;
-      r.trial_seed = opt.trial_seed.value_or(
-          sessions::trial_seed(sessions::participant_seed(study.seed, t.participant_code), t.id));
+      std::vector<db::TrialRow> participants_trials;
+      for (const db::TrialRow& other : trials)
+        if (other.participant_code == t.participant_code) participants_trials.push_back(other);
+      r.trial_seed = opt.trial_seed.value_or(sessions::scheduled_trial_seed(
+          sessions::participant_seed(study.seed, t.participant_code), t, participants_trials));
       r.settings = opt.settings.empty() ? db.setting(t.setting_id) : load_settings_file(opt.settings);
       r.what = "trial " + std::to_string(t.id) + " (" + t.participant_code + ", " + t.task + ", recorded with " +
                t.setting_name + ")";

@@ -3,9 +3,12 @@
 // until its stopping rule; what it reports is the rule replayed over the
 // trials it stored; a session stopped halfway resumes to the same end; and
 // a staircase without a baseline is named.
+#include <signal.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
+#include <thread>
 #include <fstream>
 #include <string>
 #include <utility>
@@ -17,7 +20,9 @@
 
 #include "protocols/protocol_json.h"
 #include "protocols/staircase.h"
+#include "db/sqlite_handle.h"
 #include "tests/app/cli_process.h"
+#include "tests/testing/child_process.h"
 #include "tests/testing/scratch_dir.h"
 
 namespace hapticlab::app {
@@ -122,6 +127,36 @@ TEST_F(StaircaseSessionTest, AStoppedSessionResumesToTheSameEnd) {
   EXPECT_FALSE(first.at("staircase").at("finished").get<bool>());
   const nlohmann::json rest = run_json(db);
   EXPECT_EQ(rest.at("staircase"), whole);
+}
+
+// Killed in the middle of a trial (the baseline, or a staircase trial),
+// then run again: the killed trial is re-queued as a new row, and it runs
+// as the killed attempt would have (its slot's seed, not its new id's), as
+// do the staircase trials after it (their position's seed): the session
+// ends as an uninterrupted one does. Before, a stop in a trial moved every
+// later simulated outcome (threshold 0.75 after 11 trials became 0.583
+// after 16).
+TEST_F(StaircaseSessionTest, AKillInTheMiddleOfATrialResumesToTheSameEnd) {
+  const nlohmann::json whole = run_json(create("whole.db")).at("staircase");
+  for (const int block : {1, 0}) {
+    const std::string db = create("killed_" + std::to_string(block) + ".db");
+    testing::ChildProcess session({HAPTICLAB_CLI_PATH, "session", "run", "--db", db, "--participant", "P01"},
+                                  (dir_ / ("killed_" + std::to_string(block) + ".log")).string());
+    bool killed = false;
+    for (int polls = 0; polls < 20000 && session.running() && !killed; ++polls) {
+      db::Database conn(db);
+      db::Statement q = conn.prepare("SELECT count(*) FROM trial WHERE status = 'running' AND block = ?1");
+      q.bind(1, static_cast<std::int64_t>(block));
+      if (q.step() && q.column_int64(0) > 0) {
+        session.kill(SIGKILL);
+        killed = true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_TRUE(killed) << "no trial of block " << block << " was seen running: " << session.output();
+    session.wait();
+    EXPECT_EQ(run_json(db).at("staircase"), whole) << "killed in a trial of block " << block;
+  }
 }
 
 // Every baseline trial hits the time limit (which is not re-queued): there
