@@ -281,6 +281,14 @@ StudyAnalysis analyze_study(db::StudyDb& db, const AnalysisOptions& options) {
   read_protocol_parts(db, *study, rows, a);
   read_sites(db, a);
   a.session_conditions = read_session_conditions(db, a.study_id);
+  // Every comparison is with the control: without a trial of it that has
+  // measures, each is N/A, and the tables alone would not say why.
+  if (!a.control.empty() && std::none_of(a.trials.begin(), a.trials.end(), [&](const TrialRecord& t) {
+        return t.setting == a.control && t.window.has_value();
+      }))
+    a.session_conditions.warnings.push_back("the control '" + a.control +
+                                            "' has no analysed trial with measures (none complete, or none with a "
+                                            "task window), so every comparison with it is N/A");
   return a;
 }
 

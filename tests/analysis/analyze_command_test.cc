@@ -16,6 +16,7 @@
 #include "analysis/io/long_csv.h"
 #include "app/cli_process.h"
 #include "study/synthetic_study_db.h"
+#include "testing/sqlite_edit.h"
 
 namespace hapticlab::app {
 namespace {
@@ -92,6 +93,24 @@ TEST_F(AnalyzeCommandTest, JsonSummaryIsTheOnlyOutputAndAgreesWithTheCsv) {
   EXPECT_EQ(j.at("files").at("metrics_csv"), out + "/metrics.csv");
   EXPECT_FALSE(j.at("whole_design").empty());
   EXPECT_GT(j.at("sidak_level").get<double>(), 0.0);
+}
+
+// A control without a single analysed trial (all aborted) gave a report of
+// N/A comparisons with no reason: the reason is now a warning, in the JSON
+// and the report.
+TEST_F(AnalyzeCommandTest, AControlWithoutAnAnalysedTrialIsAWarning) {
+  hapticlab::testing::edit_with_sqlite(db_, "UPDATE trial SET status = 'aborted', abort_reason = 'test' WHERE "
+                                            "setting_id = (SELECT id FROM setting WHERE name = 'High Fidelity')");
+  const std::string out = (dir_.path() / "out").string();
+  ::testing::internal::CaptureStdout();
+  run({"analyze", "--db", db_, "--out", out, "--no-plots", "--no-ks", "--json"});
+  const nlohmann::json j = nlohmann::json::parse(::testing::internal::GetCapturedStdout());
+  const std::string warnings = j.at("sessions").at("warnings").dump();
+  EXPECT_THAT(warnings, HasSubstr("the control 'High Fidelity' has no analysed trial with measures"));
+  std::ifstream report(out + "/report.md");
+  std::stringstream text;
+  text << report.rdbuf();
+  EXPECT_THAT(text.str(), HasSubstr("so every comparison with it is N/A"));
 }
 
 TEST_F(AnalyzeCommandTest, IncludeAbortedAndPercentileMethodReachTheAnalysis) {

@@ -10,6 +10,7 @@
 #include "sessions/session_runner.h"
 #include "sessions/study_progress.h"
 #include "tests/sessions/session_fixture.h"
+#include "tests/testing/sqlite_edit.h"
 
 namespace hapticlab::sessions {
 namespace {
@@ -76,6 +77,27 @@ TEST_F(SessionFixture, ASessionWithoutTrialsIsNotCountedAsACondition) {
   const analysis::SessionConditions c = analysis::read_session_conditions(db, db.studies().front().id);
   EXPECT_EQ(c.rate_text, "1000 Hz");
   EXPECT_THAT(c.participant_text, ::testing::StartsWith("simulated, participant model "));
+}
+
+// A session's recorded rate edited (500 Hz for a session whose trials'
+// loops measured a 1 ms period) passed every check and the report printed
+// 500 Hz. The rate is compared with what the trials measured.
+TEST_F(SessionFixture, ARecordedRateTheTrialsDidNotRunAtIsAWarning) {
+  SessionOptions o = testing::options_for("A1");
+  o.max_trials = 2;
+  run_session(db_path_, o);
+  const auto conditions = [&] {
+    db::OpenOptions open;
+    open.recover = false;
+    db::StudyDb db(db_path_, open);
+    return analysis::read_session_conditions(db, db.studies().front().id);
+  };
+  EXPECT_TRUE(conditions().warnings.empty());
+  hapticlab::testing::edit_with_sqlite(db_path_, "UPDATE session SET rate_Hz = 500");
+  const analysis::SessionConditions c = conditions();
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_THAT(c.warnings[0], HasSubstr("session 1 is recorded at 500 Hz, but its complete trials' loops ran at "
+                                       "1000 Hz (mean period 1 ms, the median over 2 trials)"));
 }
 
 }  // namespace
