@@ -141,7 +141,13 @@ std::string setting_name_key(std::string_view name) {
     const std::size_t n = std::min(utf8_length(s[i]), name.size() - i);
     const char32_t c = code_point(s + i, n);
     if (c < 0x80) {
-      if (std::isalnum(static_cast<int>(c))) {
+      const bool digit_next = i + 1 < name.size() && std::isdigit(s[i + 1]);
+      // A sign before a number and a decimal point within one are part of
+      // it: "Delay +20 ms" and "Delay -20 ms", "f = 0.5" and "f = 05" are
+      // different names.
+      const bool numeric = ((c == '+' || c == '-') && digit_next) ||
+                           (c == '.' && digit_next && !key.empty() && !pending_gap && std::isdigit(key.back()));
+      if (std::isalnum(static_cast<int>(c)) || numeric) {
         const char lower = static_cast<char>(std::tolower(static_cast<int>(c)));
         add(std::string_view(&lower, 1));
       } else {

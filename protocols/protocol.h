@@ -173,8 +173,10 @@ struct Protocol {
 };
 
 // The form in which two setting names are the same name to a reader: ASCII
-// letters in lower case; runs of anything else ASCII (spaces, punctuation)
-// and of Unicode spaces (no-break, thin, ideographic, zero-width) one '_',
+// letters in lower case; a sign before a digit and a decimal point between
+// digits kept ("+20" and "-20", "0.5" and "05" differ); runs of anything
+// else ASCII (spaces, other punctuation) and of Unicode spaces (no-break,
+// thin, ideographic, zero-width) one '_',
 // none at the ends; accents dropped (a Latin-1 letter as its base letter,
 // combining marks U+0300..U+036F left out, so "Café" typed composed and
 // decomposed is one name); any other character kept. A protocol's setting

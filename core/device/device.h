@@ -124,11 +124,12 @@ class Device {
     (void)max_wait_s;
     halt();
   }
-  // Any thread, after halt(): true while the last halt was handed to
+  // Any thread, after halt(): true when the last halt was handed to
   // something that has not said it is done (an isolated plugin's host that
   // is frozen or was killed first): the output may still be on, and what
-  // the operator is told must not claim zero force. Default: false (halt()
-  // itself cut the output before it returned).
+  // the operator is told must not claim zero force. May wait a moment for
+  // the confirmation (the isolated device: up to 0.2 s). Default: false
+  // (halt() itself cut the output before it returned).
   virtual bool halt_unconfirmed() const noexcept { return false; }
 
   // Real-time thread, once per loop run, before its first read(): the

@@ -264,6 +264,13 @@ void IsolatedPluginDevice::request_halt_and_wait(double max_wait_s) const noexce
   const std::uint32_t asked = word(ch.halt).fetch_add(1) + 1;
   halt_asked_.store(asked, std::memory_order_release);
   futex_wake(ch.halt);
+  wait_for_halt(asked, max_wait_s);
+}
+
+// Sleeps until the host's halt thread has passed halt number `asked` to the
+// plugin, or max_wait_s passed. Async-signal-safe, as above.
+void IsolatedPluginDevice::wait_for_halt(std::uint32_t asked, double max_wait_s) const noexcept {
+  PluginChannel& ch = *channel_;
   const auto until =
       Steady::now() + std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(max_wait_s));
   for (;;) {
@@ -431,8 +438,13 @@ void IsolatedPluginDevice::halt() noexcept {
 bool IsolatedPluginDevice::halt_unconfirmed() const noexcept {
   const std::uint32_t asked = halt_asked_.load(std::memory_order_acquire);
   if (asked == 0) return false;
-  // The host's halt thread stores the last value it passed to the plugin.
-  return static_cast<std::int32_t>(word(channel_->halts_done).load() - asked) < 0;
+  // The host's halt thread stores the last value it passed to the plugin. A
+  // live host on a loaded machine may take a few ms to be scheduled: not an
+  // unconfirmed halt, so it is given kHaltConfirmWait_s before the answer.
+  const auto done = [&] { return static_cast<std::int32_t>(word(channel_->halts_done).load() - asked) >= 0; };
+  if (done()) return false;
+  wait_for_halt(asked, kHaltConfirmWait_s);
+  return !done();
 }
 
 void IsolatedPluginDevice::halt_and_wait(double max_wait_s) noexcept {

@@ -146,6 +146,11 @@ class IsolatedPluginDevice final : public Device, public HandAttachment {
   // True, with fault_ filled in, if the child has ended (not reaped).
   bool child_ended(PluginCallOp op, std::uint32_t seq) const noexcept;
   void request_halt_and_wait(double max_wait_s) const noexcept;
+  void wait_for_halt(std::uint32_t asked, double max_wait_s) const noexcept;
+  // How long halt_unconfirmed() waits for a halt the host has not yet
+  // confirmed before it says so [s]: a frozen host never does, a live one
+  // on a loaded machine within milliseconds.
+  static constexpr double kHaltConfirmWait_s = 0.2;
   void kill_hung(PluginCallOp op, double waited_ms, double bound_s) const noexcept;
   DeviceStatus fault_status() const noexcept;
   std::string process_end(const std::string& where) const;

@@ -79,7 +79,14 @@ inline Instrument::TimePlan Instrument::plan_time(const InstrumentInput& in, con
     substeps = static_cast<int>(std::ceil(dt / kMaxDt_s - 1e-9));
     out.status |= kDtSubstepped;
   }
-  if (dt > 0.0) stalled_updates_ = 0;
+  if (dt > 0.0) {
+    stalled_updates_ = 0;
+    // Time moves again after a stopped clock: what the stopped updates
+    // stretched is dropped. (Not flagged while stopped: a re-anchor drops
+    // the time carried, and a fast caller's short dts must add up to move.)
+    if (clock_stopped_) needs_resync_ = true;
+    clock_stopped_ = false;
+  }
   if (needs_resync_ || dt > kMaxSubsteps * kMaxDt_s) {
     if (!anchored_) {
       // First real update: nothing before it happened, not even in the
@@ -203,7 +210,7 @@ void Instrument::internal_fault(const JointVector& q, InstrumentOutput& out) noe
 void Instrument::clock_stopped(const JointVector& q, InstrumentOutput& out) noexcept {
   // The states are kept as they are (they were not stepped) and dropped
   // when time moves again: the re-anchor of a stall.
-  needs_resync_ = true;
+  clock_stopped_ = true;
   zero_output(q, out);
   out.status |= kFaultClockStopped;
 }

@@ -127,6 +127,7 @@ class Instrument {
   bool anchored_ = false;      // false until the first finite update
   double deferred_dt_s_ = 0.0;  // time of updates too short to advance the models
   int stalled_updates_ = 0;     // updates in a row that advanced no time
+  bool clock_stopped_ = false;  // kFaultClockStopped given; re-anchor once time moves
   // Butterworth coefficients of the last sub-step length, unless the caller
   // brings its own cache.
   ButterworthCache filters_;

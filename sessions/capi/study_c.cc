@@ -196,10 +196,11 @@ void begin_trial(hl_study& study, const hl::db::TrialRow& next, hl_engine* engin
   try {
     hl::db::SampleWriterConfig writer;
     writer.failed_flag = &study.storage_failed;
-    // Nothing of the trial is recorded from now on: the participant must
-    // not go on feeling it (zero force from the next update, HL_HALTED).
+    // Nothing recorded from now on: zero force from the next update. The
+    // flag is set under the engine's lock too, for the check below.
     writer.on_failure = [&study] {
       std::lock_guard<std::mutex> lock(study.engine_mutex);
+      study.storage_failed.store(true, std::memory_order_release);
       hl_engine_halt(study.engine);
     };
     study.session->start_trial(next, study.samples, study.events, writer);
@@ -210,8 +211,7 @@ void begin_trial(hl_study& study, const hl::db::TrialRow& next, hl_engine* engin
   study.trial = next;
   std::lock_guard<std::mutex> lock(study.engine_mutex);
   study.engine = engine;
-  // A stop, or a writer that failed, while the trial was being set up
-  // still counts.
+  // A stop, or a writer that failed, while the trial was set up counts.
   if (study.stop.load(std::memory_order_acquire) || study.storage_failed.load(std::memory_order_acquire))
     hl_engine_halt(engine);
 }

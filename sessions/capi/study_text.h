@@ -9,8 +9,9 @@
 
 namespace hapticlab::sessions {
 
-// UTF-8 without control characters (a newline or an escape sequence would
-// forge lines on the operator's terminal).
+// UTF-8 without control characters: C0, DEL, C1, U+2028/2029 and the
+// bidirectional overrides and isolates (a newline, an escape sequence or a
+// reordering would forge what the operator's terminal shows).
 bool printable_name(std::string_view name);
 
 // Empty, or white space only.

@@ -231,10 +231,12 @@ TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseSpacesPunctuationAndA
     EXPECT_EQ(rc, 1) << a.second;
     EXPECT_THAT(text, HasSubstr("'settings[1].name'")) << a.second;
   }
-  // Names a reader tells apart are still two settings.
+  // Names a reader tells apart are still settings of their own: a number's
+  // sign and decimal point count (a dose series' "f = -0.5" and "f = 0.5").
   const fs::path apart = protocol("apart.json", R"({"name": "High Fidelity"}, {"name": "Caf\u00e8", "translation": )"
                                                 R"({"friction": {}}}, {"name": "Caf\u00e9 2", "translation": )"
-                                                R"({"friction": {}}})");
+                                                R"({"friction": {}}}, {"name": "Delay +20 ms"}, {"name": "Delay -20 ms"},)"
+                                                R"( {"name": "Delay 20 ms"}, {"name": "f = 0.5"}, {"name": "f = 05"})");
   std::tie(rc, text) = cli("study create --protocol " + apart.string() + " --db " + (dir_ / "apart.db").string());
   EXPECT_EQ(rc, 0) << text;
 }

@@ -396,8 +396,9 @@ TEST_F(StudyApiTest, AStopBeforeTheSessionStartsHoldsForItsFirstTrial) {
 TEST_F(StudyApiTest, TextThatCannotBeStoredIsRefusedAndTheTrialStaysOpen) {
   EXPECT_EQ(hl_study_start_session(study_, "A1", "dev\xff\xfe", error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT);
   EXPECT_THAT(std::string(error_), HasSubstr("device is not a printable UTF-8 name"));
-  EXPECT_EQ(hl_study_start_session(study_, "A1", "dev\nP02 accepted", error_, sizeof error_),
-            HL_ERROR_INVALID_ARGUMENT);
+  for (const char* forged : {"dev\nP02 accepted", "dev\xC2\x9B" "31m", "dev\xE2\x80\xAE" "lanigiro"})
+    EXPECT_EQ(hl_study_start_session(study_, "A1", forged, error_, sizeof error_), HL_ERROR_INVALID_ARGUMENT)
+        << forged;
   ASSERT_EQ(hl_study_start_session(study_, "A1", "Phantom \xC2\xB5", error_, sizeof error_), HL_OK) << error_;
   ASSERT_EQ(hl_study_next_trial(study_, &trial_, nullptr, 0, error_, sizeof error_), HL_OK) << error_;
   const hl_sample s = sample_at(0);

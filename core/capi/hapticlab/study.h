@@ -148,7 +148,8 @@ HL_API hl_study* hl_study_open(const char* db_path, char* error, size_t error_si
  * Starts the participant's session: takes the participant's lock, recovers a
  * trial a dead session left running, re-queues aborted trials, records the
  * session (device: the application's name, e.g. "external"; may be NULL;
- * UTF-8 without control characters, else HL_ERROR_INVALID_ARGUMENT; the
+ * UTF-8 without control characters (C0, C1, line and paragraph separators,
+ * bidirectional overrides), else HL_ERROR_INVALID_ARGUMENT; the
  * session's clock is recorded as "wall", the application's own).
  * On success the error buffer may hold a note for the operator (the
  * participant's previous session had died and was recovered).
@@ -244,8 +245,9 @@ HL_API int hl_study_end_trial(hl_study* study, int outcome, const char* reason, 
  * time, and re-queued) and end the session. Idempotent. The stop holds
  * until hl_study_end_session ends the session it stopped; one requested
  * while no session is open (before hl_study_start_session, or while it
- * runs) stops the next session before its first trial. A stop is never
- * answered HL_OK and then forgotten.
+ * runs), or one whose session was ended by the library (a storage failure,
+ * an edited setting), stops the next session before its first trial. A
+ * stop is never answered HL_OK and then forgotten.
  */
 HL_API int hl_study_request_stop(hl_study* study);
 

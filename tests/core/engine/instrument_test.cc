@@ -338,6 +338,28 @@ TEST(InstrumentTest, AStoppedClockZeroesTheForceAfterTwentyUpdatesAndReanchorsWh
   EXPECT_LT(peak, 0.02);
 }
 
+// A fast caller's clock that stops and starts again: its dts, each below
+// 1/2000 s, add up to time that moves, and the force comes back (a
+// re-anchor on every stopped update dropped the time carried, so at 4 kHz
+// and faster the fault never cleared).
+TEST(InstrumentTest, AFastCallersClockThatStartsAgainClearsTheFault) {
+  for (const double dt : {1.0 / 4000.0, 1.0 / 20000.0}) {
+    Instrument inst(load_example("inertia_backlash"), hand(0));
+    for (int i = 0; i < 200; ++i) inst.step({dt, hand(i * dt), {0, 0, 0}});
+    for (int i = 0; i < 30; ++i) inst.step({0.0, hand(0.05), {0, 0, 0}});
+    InstrumentOutput out = inst.step({0.0, hand(0.05), {0, 0, 0}});
+    ASSERT_TRUE(out.status & kFaultClockStopped) << dt;
+    bool resynced = false;
+    for (int i = 0; i < static_cast<int>(0.02 / dt); ++i) {  // 20 ms: the coupling takes the VE force up
+      out = inst.step({dt, hand(0.05 + i * dt), {0, 0, 2.0}});
+      resynced = resynced || (out.status & kDtResynced);
+    }
+    EXPECT_TRUE(resynced) << dt;
+    EXPECT_FALSE(out.status & kFaultMask) << dt;
+    EXPECT_GT(out.displayed_force_N.norm(), 0.5) << dt;  // the VE's 2 N reaches the tip again
+  }
+}
+
 TEST(InstrumentTest, ACallerAt32kHzDefersButNeverCountsAsAStoppedClock) {
   // 1/2000 s is 16 periods at 32 kHz: 15 or 16 deferred updates (the sum
   // of 16 may round below 1/2000 s), then one that advances the time.
