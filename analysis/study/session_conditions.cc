@@ -31,9 +31,10 @@ std::string describe(const std::map<std::string, std::vector<std::int64_t>>& by_
 }
 
 // A session's recorded rate against the period its trials' loops measured
-// (loop_timing's mean, exact: the median over the session's trials): the loop's own rate check holds each window within
-// a tolerance of the schedule (10 % by default), so a recorded rate further
-// from the measured one is not the rate the trials had (an edited file).
+// (loop_timing's mean, which is exact; the median over the session's
+// trials): the loop's own rate check holds each window within a tolerance
+// of the schedule (10 % by default), so a recorded rate further from the
+// measured one is not the rate the trials had (an edited file).
 constexpr double kRateDisagreementFraction = 0.10;
 
 void check_recorded_rates(db::StudyDb& db, std::int64_t study_id, std::vector<std::string>& warnings) {
