@@ -39,6 +39,30 @@ bool is_constant(std::span<const double> v, double sum_of_squares) {
   return std::sqrt(sum_of_squares / n) <= noise_sd;
 }
 
+// Sums of squares and products of the deviations, each variable's divided
+// by its largest |deviation| (0 for a constant variable).
+std::tuple<double, double, double> scaled_sums(std::span<const double> x, std::span<const double> y, double mean_x,
+                                               double mean_y) {
+  double scale_x = 0.0;
+  double scale_y = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    scale_x = std::max(scale_x, std::fabs(x[i] - mean_x));
+    scale_y = std::max(scale_y, std::fabs(y[i] - mean_y));
+  }
+  if (scale_x == 0.0 || scale_y == 0.0) return {scale_x, scale_y, 0.0};
+  double sxx = 0.0;
+  double syy = 0.0;
+  double sxy = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double dx = (x[i] - mean_x) / scale_x;
+    const double dy = (y[i] - mean_y) / scale_y;
+    sxx += dx * dx;
+    syy += dy * dy;
+    sxy += dx * dy;
+  }
+  return {sxx, syy, sxy};
+}
+
 }  // namespace
 
 CorrelationResult pearson_correlation(std::span<const double> x, std::span<const double> y,
@@ -76,8 +100,29 @@ CorrelationResult pearson_correlation(std::span<const double> x, std::span<const
     syy += dy * dy;
     sxy += dx * dy;
   }
+  // Squares of deviations beyond about 1e154 overflow and below about
+  // 1e-154 underflow (r = 0 for values of 1e155, "constant" for 1e-200):
+  // then the sums again, each variable's deviations divided by their
+  // largest, which leaves r as it is. Ordinary data keeps its sums, bit
+  // for bit.
+  const double product = sxx * syy;
+  if (!std::isfinite(product) || product < std::numeric_limits<double>::min()) {
+    for (const auto& [v, mean, name] : {std::tuple{x, mean_x, x_name}, std::tuple{y, mean_y, y_name}}) {
+      // is_constant's rule with the largest deviation for the RMS one.
+      double largest = 0.0;
+      double scale = 0.0;
+      for (double e : v) {
+        largest = std::max(largest, std::fabs(e - mean));
+        scale = std::max(scale, std::fabs(e));
+      }
+      if (largest <= 4.0 * (static_cast<double>(n) + 1.0) * std::numeric_limits<double>::epsilon() * scale)
+        throw DataError(names + std::string(name) + " is constant (every value equals " + format_number(v[0]) +
+                        " to within rounding error); the correlation is undefined");
+    }
+    std::tie(sxx, syy, sxy) = scaled_sums(x, y, mean_x, mean_y);
+  }
   for (const auto& [v, ss, name] : {std::tuple{x, sxx, x_name}, std::tuple{y, syy, y_name}}) {
-    if (is_constant(v, ss)) {
+    if (product >= std::numeric_limits<double>::min() && std::isfinite(product) && is_constant(v, ss)) {
       throw DataError(names + std::string(name) + " is constant (every value equals " +
                       format_number(v[0]) +
                       " to within rounding error); the correlation is undefined");

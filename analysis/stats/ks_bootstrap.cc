@@ -40,7 +40,10 @@ DRange central_range(std::vector<double> values, double coverage, PercentileMeth
 // options and those participants' series.
 std::vector<const ParticipantRepetitions*> eligible_participants(
     const std::vector<ParticipantRepetitions>& data, const KsBootstrapOptions& options) {
-  if (options.resamples < 1) throw DataError("KS bootstrap: resamples must be >= 1");
+  if (options.resamples < kMinKsResamples)
+    throw DataError("KS bootstrap: resamples is " + std::to_string(options.resamples) + ", but must be >= " +
+                    std::to_string(kMinKsResamples) + ": fewer give a 95 % range that is only the extremes of the "
+                    "resamples (the thesis used 1000)");
   if (options.block_length < 1) {
     throw DataError("KS bootstrap: block length must be >= 1 sample (choose it to "
                     "cover the autocorrelation of the data)");

@@ -84,7 +84,9 @@ void AnalysisOptions::validate() const {
   if (!(alpha > 0.0 && alpha < 1.0)) fail("alpha", std::to_string(alpha), "> 0 and < 1");
   if (!(std::isfinite(min_force_N) && min_force_N >= 0.0))
     fail("min_force_N", std::to_string(min_force_N), "finite and >= 0 N");
-  if (ks_resamples < 1) fail("ks_resamples", std::to_string(ks_resamples), ">= 1");
+  if (ks_resamples < kMinKsResamples)
+    fail("ks_resamples", std::to_string(ks_resamples), ">= " + std::to_string(kMinKsResamples) +
+                                                          " (fewer give a 95 % range of only the extremes)");
   if (ks_stride < 1) fail("ks_stride", std::to_string(ks_stride), ">= 1 sample");
   if (ks_block_length < 1) fail("ks_block_length", std::to_string(ks_block_length), ">= 1 sample");
   if (cdf_points == 1) fail("cdf_points", std::to_string(cdf_points), "0 (no CDF quantiles) or >= 2");

@@ -336,7 +336,7 @@ void add_analyze_command(CLI::App& app) {
                   "percentiles (thesis: 1 mN)")
       ->capture_default_str();
   cmd->add_flag("--no-ks", opt->no_ks, "Skip the Kolmogorov-Smirnov bootstrap (Appendix I)");
-  cmd->add_option("--ks-resamples", opt->ks_resamples, "KS bootstrap resamples per comparison, >= 1 (thesis: 1000)")
+  cmd->add_option("--ks-resamples", opt->ks_resamples, "KS bootstrap resamples per comparison, >= 100 (thesis: 1000)")
       ->capture_default_str();
   cmd->add_option("--ks-stride", opt->ks_stride,
                   "Keep every k-th sample (k >= 1) of each force and speed series for the KS bootstrap; 50 "

@@ -45,7 +45,7 @@ class AnalyzeCommandTest : public ::testing::Test {
 TEST_F(AnalyzeCommandTest, WritesCsvAndReport) {
   const std::string out = (dir_.path() / "out").string();
   run({"analyze", "--db", db_, "--out", out, "--no-plots", "--quiet", "--ks-stride", "1", "--ks-block", "2",
-       "--ks-resamples", "50"});
+       "--ks-resamples", "100"});
   const auto csv = analysis::LongCsv::read(out + "/metrics.csv");
   EXPECT_EQ(csv.row_count(), 20u);
   // The energy of synthetic_study_db.h, worked by hand: the device gave
@@ -152,7 +152,7 @@ TEST_F(AnalyzeCommandTest, BadInputIsAnError) {
 // is in WAL mode) and be smaller than report.html with its inline figures.
 TEST_F(AnalyzeCommandTest, FullDiskLeavesNoPartialOutput) {
   namespace fs = std::filesystem;
-  const std::string args = "analyze --db " + db_ + " --quiet --ks-resamples 50 --out ";
+  const std::string args = "analyze --db " + db_ + " --quiet --ks-resamples 100 --out ";
   const fs::path full = dir_.path() / "full";
   const auto [full_status, full_text] = hapticlab::testing::run_cli(HAPTICLAB_CLI_PATH, args + full.string());
   ASSERT_EQ(full_status, 0) << full_text;

@@ -216,7 +216,7 @@ TEST_F(StatsCommandTest, KsWithBootstrapIsReproducible) {
 TEST_F(StatsCommandTest, KsBootstrapNeedsReplicateColumn) {
   const auto path = write_file("k.csv", "s,t,v\nS1,A,1\nS1,B,2\n");
   EXPECT_THROW(run({"stats", "ks", "--csv", path.string(), "--block", "s", "--treatment", "t",
-                    "--value", "v", "--control", "A", "--other", "B", "--bootstrap", "10",
+                    "--value", "v", "--control", "A", "--other", "B", "--bootstrap", "100",
                     "--block-length", "1"}),
                analysis::DataError);
 }
@@ -263,7 +263,7 @@ TEST_F(StatsCommandTest, KsPooledNeedsNoBlockAndReportsTheExactP) {
   EXPECT_NEAR(j.at("p_asymptotic").get<double>(),
               2.0 * (std::exp(-3.0) - std::exp(-12.0) + std::exp(-27.0)), 1e-12);
   // The bootstrap resamples per participant, so it does need the column.
-  json_args.insert(json_args.end(), {"--bootstrap", "10", "--block-length", "1", "--replicate",
+  json_args.insert(json_args.end(), {"--bootstrap", "100", "--block-length", "1", "--replicate",
                                      "setting"});
   try {
     run(json_args);

@@ -95,5 +95,24 @@ TEST(CorrelationTest, ConstantUpToRoundingIsRefused) {
   EXPECT_NEAR(tiny.r, 1.0, 1e-3);
 }
 
+// r does not depend on the units, but the squares of deviations overflow
+// beyond about 1e154 and underflow below about 1e-154: values of 1e155 gave
+// r = 0, p = 1, values of 1e-200 "constant". Worked: r of {1, 2, 3, 4} and
+// {1, 2, 1.5, 4} is 4.25 / sqrt(5 * 5.1875) = 0.834497 (scipy's pearsonr
+// agrees), at any scale; a constant at 1e-200 is still refused.
+TEST(CorrelationTest, ValuesNearTheEndsOfTheDoubleRangeGiveTheSameR) {
+  const std::vector<double> x = {1, 2, 3, 4};
+  const std::vector<double> y = {1, 2, 1.5, 4};
+  const double r = 4.25 / std::sqrt(5.0 * 5.1875);
+  EXPECT_NEAR(pearson_correlation(x, y).r, r, 1e-15);
+  for (const double scale : {1e155, 1e300, 1e-200, 1e-300}) {
+    std::vector<double> big = y;
+    for (double& v : big) v *= scale;
+    EXPECT_NEAR(pearson_correlation(x, big).r, r, 1e-14) << scale;
+    EXPECT_NEAR(pearson_correlation(big, x).r, r, 1e-14) << scale;
+  }
+  EXPECT_THROW(pearson_correlation(x, std::vector<double>(4, 1e-200)), DataError);
+}
+
 }  // namespace
 }  // namespace hapticlab::analysis

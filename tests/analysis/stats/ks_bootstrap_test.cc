@@ -118,6 +118,21 @@ TEST(KsBootstrapTest, BlockLengthIsRequired) {
   EXPECT_THROW(ks_block_bootstrap(study(0.0), o), DataError);
 }
 
+// With m < 40 the 95 % range is the smallest and largest D: with a single
+// resample, two degenerate ranges that did not overlap "showed" a
+// significant difference in data without one. At least 100 are required.
+TEST(KsBootstrapTest, TooFewResamplesForA95PercentRangeAreRefused) {
+  KsBootstrapOptions o = options();
+  for (const std::size_t m : {std::size_t{1}, std::size_t{39}, std::size_t{99}}) {
+    o.resamples = m;
+    EXPECT_THAT([&] { ks_block_bootstrap(study(0.0), o); },
+                ::testing::ThrowsMessage<DataError>(HasSubstr("resamples is " + std::to_string(m) +
+                                                              ", but must be >= 100")));
+  }
+  o.resamples = 100;
+  EXPECT_NO_THROW(ks_block_bootstrap(study(0.0), o));
+}
+
 
 // The bootstrap counts ranks instead of sorting each resample; it must give
 // the very D values of the plain procedure (resample, sort, ks_statistic),
