@@ -138,6 +138,7 @@ SAMPLE_DTYPE = np.dtype([("trial_id", "<i8"), ("instrument", "u1"), ("tick", "<u
                         + [(name, np.dtype(code).newbyteorder("=")) for name, code in CHANNELS])
 
 INSTRUMENT_NAMES = {0: "left", 1: "right"}
+TRIAL_STATUSES = ("planned", "running", "complete", "aborted")  # the schema's CHECK on trial.status
 
 
 class StructureError(ValueError):
@@ -929,7 +930,16 @@ class StudyDatabase:
         study_id, participant (code), task, setting (name), repetition,
         block, position, status, started_unix_s, ended_unix_s,
         abort_reason, chunks (sample chunks stored). `participant` is a
-        code; `status` one of planned, running, complete, aborted."""
+        code; `status` one of planned, running, complete, aborted. An
+        unknown study, participant or status raises (an empty list would
+        read as "no such trials")."""
+        if status is not None and status not in TRIAL_STATUSES:
+            raise ValueError(f"status is {status!r}; it must be one of {', '.join(TRIAL_STATUSES)}")
+        if study_id is not None and not self._exists("study", "id", study_id):
+            raise KeyError(f"{self.path}: no study {study_id!r}")
+        if participant is not None and not self._exists("participant", "code", participant):
+            codes = [r[0] for r in self._conn.execute("SELECT code FROM participant ORDER BY code")]
+            raise KeyError(f"{self.path}: no participant {participant!r}; the codes are {', '.join(codes)}")
         return self._rows(
             "SELECT t.id, p.study_id, p.code AS participant, t.task, s.name AS setting, t.repetition, t.block, "
             "t.position, t.status, t.started_unix_s, t.ended_unix_s, t.abort_reason, "
@@ -1002,6 +1012,8 @@ class StudyDatabase:
                 "SELECT trial_id FROM main.sample_chunk WHERE typeof(trial_id) = 'integer' UNION "
                 "SELECT trial_id FROM main.loop_timing WHERE typeof(trial_id) = 'integer' ORDER BY trial_id")]
         else:
+            if not self._exists("trial", "id", trial_id):
+                raise KeyError(f"{self.path}: no trial {trial_id!r}")  # [] would read as "no damage"
             trials = [trial_id]
         bad = []
         for trial in trials:
@@ -1039,7 +1051,7 @@ class StudyDatabase:
         Raises ChunkError naming the first misplaced or damaged chunk; no
         data is returned for a trial with one. Holds the result and one
         chunk at a time (and the compressed blobs of at most 8 MB of chunks)."""
-        if instrument not in (None, 0, 1):
+        if isinstance(instrument, bool) or instrument not in (None, 0, 1):
             raise ValueError(f"instrument is {instrument!r}; it must be 0 (left), 1 (right) or None (both)")
         if self._conn.execute("SELECT count(*) FROM trial WHERE id = ?1", (trial_id,)).fetchone()[0] == 0:
             raise KeyError(f"{self.path}: no trial {trial_id}")
@@ -1111,9 +1123,14 @@ class StudyDatabase:
         import pandas as pd  # optional dependency: only this method needs it
         return pd.DataFrame(self.samples_dict(trial_id, instrument))
 
+    def _exists(self, table, column, value):
+        return self._conn.execute(f"SELECT count(*) FROM {table} WHERE {column} = ?1", (value,)).fetchone()[0] > 0
+
     def events(self, trial_id):
         """The trial's events (t_s, type, instrument, item_index, detail) in
-        time order."""
+        time order; KeyError for a trial the file does not have."""
+        if not self._exists("trial", "id", trial_id):
+            raise KeyError(f"{self.path}: no trial {trial_id!r}")
         return self._rows("SELECT t_s, type, instrument, item_index, detail FROM event WHERE trial_id = ?1 "
                           "ORDER BY t_s, id", (trial_id,))
 

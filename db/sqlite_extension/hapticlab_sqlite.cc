@@ -343,7 +343,20 @@ int x_filter(sqlite3_vtab_cursor* cur, int idx_num, const char*, int argc, sqlit
     check_database(c.db);
     int arg = 0;
     std::int64_t trial = 0, instrument = -1;
-    if ((idx_num & kHasTrial) && (arg >= argc || !integer_argument(argv[arg++], trial))) return;
+    if (idx_num & kHasTrial) {
+      if (arg >= argc) return;
+      sqlite3_value* v = argv[arg++];
+      if (!integer_argument(v, trial)) {
+        // In samples(t) a trial that is no trial id is a mistake worth
+        // naming (no rows would read as an empty trial); in
+        // `WHERE trial_id = 3.5` it just matches nothing.
+        // (NULL matches nothing, as trial_id = NULL would.)
+        if (!(idx_num & kTrialFromArgs) || sqlite3_value_type(v) == SQLITE_NULL) return;
+        const char* text = reinterpret_cast<const char*>(sqlite3_value_text(v));
+        throw QueryError{std::string("samples(): trial_id is ") + (text ? text : "?") +
+                         "; it must be an integer, the id of a trial"};
+      }
+    }
     if (idx_num & kHasInstrument) {
       if (arg >= argc) return;
       sqlite3_value* v = argv[arg++];

@@ -69,6 +69,24 @@ class StudyListingTest(unittest.TestCase):
             self.assertGreater(done["chunks"], 2)
             self.assertEqual(len(db.trials(participant="S3")), 10)
 
+    def test_what_the_file_does_not_have_is_refused_not_an_empty_list(self):
+        # An empty list reads as "no such trials" or, from check_chunks,
+        # "no damage": for a misspelt status or code, or a trial the file
+        # does not have, that is wrong; each raises, naming it.
+        with h.open_study(STUDY.db) as db:
+            with self.assertRaisesRegex(ValueError, "status is 'completed'; it must be one of planned, running"):
+                db.trials(status="completed")
+            with self.assertRaisesRegex(KeyError, "no participant 's1'; the codes are S1, S2, S3"):
+                db.trials(participant="s1")
+            with self.assertRaisesRegex(KeyError, "no study 99"):
+                db.trials(study_id=99)
+            for call in (db.events, db.check_chunks, db.samples):
+                with self.assertRaisesRegex(KeyError, "no trial 999"):
+                    call(999)
+            with self.assertRaisesRegex(ValueError, "instrument is True"):
+                db.samples(1, instrument=True)
+            self.assertEqual(db.check_chunks(1), [])  # a trial it has: no damage
+
     def test_opened_read_only(self):
         with h.open_study(STUDY.db) as db:
             with self.assertRaisesRegex(sqlite3.OperationalError, "readonly"):

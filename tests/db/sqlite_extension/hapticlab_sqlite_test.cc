@@ -300,6 +300,21 @@ TEST_F(SqliteExtensionTest, WrongArgumentsAndForeignFilesAreNamedErrors) {
     EXPECT_NE(status, 0);
     EXPECT_THAT(out, HasSubstr("samples(): instrument is 2; it must be 0 (left) or 1 (right)"));
   }
+  // No rows would read as an empty trial: an argument that is no trial id
+  // is named too (a table's `WHERE trial_id = 3.5` still just matches
+  // nothing, and NULL matches nothing, as trial_id = NULL would).
+  for (const auto& [query, says] : std::vector<std::pair<std::string, std::string>>{
+           {"SELECT * FROM samples(1.7)", "samples(): trial_id is 1.7; it must be an integer, the id of a trial"},
+           {"SELECT * FROM samples('abc')", "samples(): trial_id is abc; it must be an integer"}}) {
+    const auto [status, out] = sql(*db_, {query});
+    EXPECT_NE(status, 0) << query;
+    EXPECT_THAT(out, HasSubstr(says)) << query;
+  }
+  {
+    const auto [status, out] = sql(*db_, {".headers off", "SELECT count(*) FROM samples WHERE trial_id = 3.5"});
+    EXPECT_EQ(status, 0) << out;
+    EXPECT_EQ(out, "0\n");
+  }
   {
     // A planned trial has no samples yet: no rows, no error.
     const auto [status, out] = sql(*db_, {".headers off", "SELECT count(*) FROM samples(2)"});
