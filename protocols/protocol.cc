@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <set>
 
+#include "core/common/utf8.h"
 #include "protocols/protocol_error.h"
 #include "protocols/transfer_rules.h"
 
@@ -100,23 +101,6 @@ std::string staircase_base_row_name(std::string_view base_name) {
 
 namespace {
 
-// The bytes of a UTF-8 character starting with lead byte `b` (1 for a
-// stray byte, so that ill-formed text is still read to its end).
-std::size_t utf8_length(unsigned char b) {
-  if (b >= 0xF0 && b <= 0xF4) return 4;
-  if (b >= 0xE0) return b <= 0xEF ? 3 : 1;
-  if (b >= 0xC2) return 2;
-  return 1;
-}
-
-// The code point of the UTF-8 character at `s` of `n` bytes.
-char32_t code_point(const unsigned char* s, std::size_t n) {
-  if (n == 1) return s[0];
-  char32_t c = s[0] & (0xFF >> (n + 1));
-  for (std::size_t i = 1; i < n; ++i) c = (c << 6) | (s[i] & 0x3F);
-  return c;
-}
-
 bool unicode_space(char32_t c) {
   return c == 0x00A0 || c == 0x1680 || (c >= 0x2000 && c <= 0x200D) || c == 0x2028 || c == 0x2029 ||
          c == 0x202F || c == 0x205F || c == 0x2060 || c == 0x3000 || c == 0xFEFF;
@@ -136,12 +120,10 @@ std::string setting_name_key(std::string_view name) {
     pending_gap = false;
     key += text;
   };
-  const auto* s = reinterpret_cast<const unsigned char*>(name.data());
   for (std::size_t i = 0; i < name.size();) {
-    const std::size_t n = std::min(utf8_length(s[i]), name.size() - i);
-    const char32_t c = code_point(s + i, n);
+    const auto [c, n] = utf8_char_at(name, i);
     if (c < 0x80) {
-      const bool digit_next = i + 1 < name.size() && std::isdigit(s[i + 1]);
+      const bool digit_next = i + 1 < name.size() && std::isdigit(static_cast<unsigned char>(name[i + 1]));
       // A sign before a number and a decimal point within one are part of
       // it: "Delay +20 ms" and "Delay -20 ms", "f = 0.5" and "f = 05" are
       // different names.

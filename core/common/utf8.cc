@@ -35,4 +35,14 @@ bool is_valid_utf8(std::string_view text) noexcept {
   return true;
 }
 
+Utf8Char utf8_char_at(std::string_view text, std::size_t i) noexcept {
+  const auto* s = reinterpret_cast<const unsigned char*>(text.data()) + i;
+  const unsigned char b = s[0];
+  const std::size_t n = b >= 0xF0 && b <= 0xF4 ? 4 : b >= 0xE0 && b <= 0xEF ? 3 : b >= 0xC2 && b <= 0xDF ? 2 : 1;
+  if (n == 1 || n > text.size() - i) return {b, 1};
+  char32_t c = b & (0xFF >> (n + 1));
+  for (std::size_t k = 1; k < n; ++k) c = (c << 6) | (s[k] & 0x3F);
+  return {c, n};
+}
+
 }  // namespace hapticlab

@@ -7,12 +7,8 @@ namespace hapticlab::sessions {
 
 bool printable_name(std::string_view name) {
   if (!is_valid_utf8(name)) return false;
-  const auto* s = reinterpret_cast<const unsigned char*>(name.data());
   for (std::size_t i = 0; i < name.size();) {
-    const unsigned char b = s[i];
-    const std::size_t n = b < 0x80 ? 1 : b < 0xE0 ? 2 : b < 0xF0 ? 3 : 4;
-    char32_t c = n == 1 ? b : b & (0xFF >> (n + 1));
-    for (std::size_t k = 1; k < n; ++k) c = (c << 6) | (s[i + k] & 0x3F);
+    const auto [c, n] = utf8_char_at(name, i);
     // C0 and DEL, C1 (a CSI starts an escape sequence), the line and
     // paragraph separators, and the bidirectional overrides and isolates,
     // which reorder what a terminal or a report shows around them.

@@ -1,6 +1,8 @@
 #include "core/common/utf8.h"
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -34,6 +36,23 @@ TEST(Utf8, IllFormedTextIsRefused) {
        }) {
     EXPECT_FALSE(is_valid_utf8(bad)) << ::testing::PrintToString(std::string(bad));
   }
+}
+
+// Decoded by hand: é = C3 A9 (U+00E9), € = E2 82 AC (U+20AC), 👍 = F0 9F 91
+// 8D (U+1F44D); a stray byte, and a sequence the text cuts short, are one
+// byte each.
+TEST(Utf8, CharactersAreDecodedWithTheirLength) {
+  const std::string text = "a\xC3\xA9\xE2\x82\xAC\xF0\x9F\x91\x8D\xFF\xE2\x82";
+  const std::vector<std::pair<char32_t, std::size_t>> want = {
+      {U'a', 1}, {0xE9, 2}, {0x20AC, 3}, {0x1F44D, 4}, {0xFF, 1}, {0xE2, 1}, {0x82, 1}};
+  std::size_t i = 0;
+  for (const auto& [code_point, bytes] : want) {
+    const Utf8Char c = utf8_char_at(text, i);
+    EXPECT_EQ(c.code_point, code_point) << i;
+    EXPECT_EQ(c.bytes, bytes) << i;
+    i += c.bytes;
+  }
+  EXPECT_EQ(i, text.size());
 }
 
 }  // namespace
