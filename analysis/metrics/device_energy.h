@@ -71,7 +71,7 @@ class EnergyAccumulator {
   std::array<double, 3> f_ve_{};      // previous VE force in joint space
   // The pose's sines and cosines: a hand held still in contact reads the
   // same float32 angles update after update (the same bits as sincos()).
-  SinCosMemo pitch_, yaw_;
+  LibmSinCosMemo pitch_, yaw_;
 };
 
 }  // namespace hapticlab::analysis

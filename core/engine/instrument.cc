@@ -31,6 +31,11 @@ bool same_bits(double a, double b) noexcept {
   // Scaled by the largest component first: the norm of a finite force near
   // 1e308 N overflows (norm() already at 1e154 N, hypot() at 1.3e308 N), and
   // limit/inf would zero the force instead of clipping it.
+  // Well inside the limit (the usual case) the force is returned as it is,
+  // as below, without the divisions: |f|² <= limit²·(1 − 1e-9) puts
+  // largest·scaled_norm (|f| within 4 ulps) below the limit. An overflowing
+  // |f|² takes the long way.
+  if (f.squaredNorm() <= limit * limit * (1.0 - 1e-9)) return f;
   const double largest = f.cwiseAbs().maxCoeff();
   if (largest == 0.0) return f;
   const Eigen::Vector3d scaled = f / largest;  // largest component ±1
@@ -165,16 +170,17 @@ InstrumentOutput Instrument::step(const InstrumentInput& in, ButterworthCache& f
   const int substeps = plan.substeps;
 
   // per DOF chains, sub-stepped along the straight line from the last position
-  const double sub_dt = dt / substeps;
+  // (dt/1 is dt: the division is skipped at the usual one sub-step.)
+  const double sub_dt = substeps == 1 ? dt : dt / substeps;
   const ButterworthCoefficients filter = sub_dt > 0.0 ? filters.at(sub_dt) : ButterworthCoefficients{};
   JointVector command = JointVector::Zero();
   JointVector degraded = in.position;
   for (int i = 1; i <= substeps; ++i) {
-    const double w = static_cast<double>(i) / substeps;
+    const bool last = i == substeps;
+    const double w = last ? 1.0 : static_cast<double>(i) / substeps;
     for (int a = 0; a < kNumAxes; ++a) {
       // The last sub-step lands exactly on the measured position.
-      const double x = i == substeps ? in.position[a]
-                                     : (1.0 - w) * last_position_[a] + w * in.position[a];
+      const double x = last ? in.position[a] : (1.0 - w) * last_position_[a] + w * in.position[a];
       const DofOutput d =
           chains_[a].step(settings_.axis(a), terms_[a == kInsertion ? 0 : 1], x, ve_joint[a], sub_dt, filter);
       command[a] = d.force;

@@ -1,13 +1,10 @@
 #include "core/engine/joint_transform.h"
 
-#include <cmath>
-
 namespace hapticlab {
 
 Eigen::Vector3d insertion_direction(double pitch_rad, double yaw_rad) noexcept {
-  const double sp = std::sin(pitch_rad), cp = std::cos(pitch_rad);
-  const double sy = std::sin(yaw_rad), cy = std::cos(yaw_rad);
-  return {sy * cp, sp, -cy * cp};
+  const SinCos pitch = sin_cos(pitch_rad), yaw = sin_cos(yaw_rad);
+  return {yaw.sin * pitch.cos, pitch.sin, -yaw.cos * pitch.cos};
 }
 
 Eigen::Vector3d tip_position(const JointVector& q) noexcept {

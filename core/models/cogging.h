@@ -69,7 +69,7 @@ inline double ripple_gain_from_sin(const CoggingParams& p, double sin_angle) noe
 // Scale factor 1 + r·sin(2π·x/p_r) applied to the commanded force.
 inline double ripple_gain(const CoggingParams& p, double x) noexcept {
   if (p.ripple_fraction == 0.0) return 1.0;
-  return ripple_gain_from_sin(p, std::sin(ripple_angle(p, x)));
+  return ripple_gain_from_sin(p, poly_sin(ripple_angle(p, x)));
 }
 
 }  // namespace hapticlab

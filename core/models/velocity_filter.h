@@ -7,7 +7,8 @@
 // The thesis looked coefficients up in tables 10–200 Hz wide; we compute them
 // from the dt measured at each update with the bilinear transform and
 // frequency prewarping, K = tan(π·f_c·dt): b = K/(1+K), a1 = (K−1)/(K+1).
-// That is MATLAB's butter(1, 2·f_c·dt) exactly, at every rate.
+// That is MATLAB's butter(1, 2·f_c·dt) at every rate (to an ulp or two: K
+// is the engine's sin/cos, poly_sin_cos.h).
 
 namespace hapticlab {
 
@@ -24,7 +25,7 @@ ButterworthCoefficients butterworth_lowpass_1st(double cutoff_Hz, double dt_s) n
 
 // The coefficients for the last dt asked for. At a steady rate dt repeats
 // exactly, and the two instruments of one loop update share their dt, while
-// tan() costs as much as a few models. Gives bit for bit what
+// the sine and cosine cost as much as a few models. Gives bit for bit what
 // butterworth_lowpass_1st gives. For 0 < dt_s < 1/(2·kVelocityCutoff_Hz).
 class ButterworthCache {
  public:
