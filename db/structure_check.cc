@@ -74,6 +74,46 @@ void add_tasks_outside_the_protocol(Database& db, std::size_t limit, std::vector
   }
 }
 
+// What a trial's status says against what it holds. A trial starts
+// (planned => running) with its session and start time, and ends with its
+// end time; a planned one has run in no session, so samples or events of it
+// were read by nobody (export and analyze take the trials that ran), and a
+// trial that ran but names no session or start time was read as done with
+// nothing to show.
+void add_status_misfits(Database& db, std::size_t limit, std::vector<Finding>& out) {
+  Statement q = db.prepare(
+      "SELECT t.id, t.status, quote(t.session_id), quote(t.started_unix_s), quote(t.ended_unix_s), "
+      "(SELECT count(*) FROM main.sample_chunk c WHERE c.trial_id = t.id), "
+      "(SELECT count(*) FROM main.event e WHERE e.trial_id = t.id) FROM main.trial t "
+      "WHERE (t.status = 'planned' AND (t.session_id IS NOT NULL OR t.started_unix_s IS NOT NULL OR "
+      "t.ended_unix_s IS NOT NULL OR EXISTS (SELECT 1 FROM main.sample_chunk c WHERE c.trial_id = t.id) OR "
+      "EXISTS (SELECT 1 FROM main.event e WHERE e.trial_id = t.id))) OR "
+      "(t.status IN ('running', 'complete', 'aborted') AND (t.session_id IS NULL OR t.started_unix_s IS NULL)) OR "
+      "(t.status = 'complete' AND t.ended_unix_s IS NULL) ORDER BY t.id");
+  while (out.size() < limit && q.step()) {
+    const std::int64_t id = q.column_int64(0);
+    const std::string status = q.column_text(1);
+    std::string held;
+    const auto also = [&held](const std::string& part) { held += (held.empty() ? "" : ", ") + part; };
+    if (status == "planned") {
+      if (q.column_text(2) != "NULL") also("session_id " + q.column_text(2));
+      if (q.column_text(3) != "NULL") also("started_unix_s " + q.column_text(3));
+      if (q.column_text(4) != "NULL") also("ended_unix_s " + q.column_text(4));
+      if (q.column_int64(5) > 0) also(std::to_string(q.column_int64(5)) + " sample chunk(s)");
+      if (q.column_int64(6) > 0) also(std::to_string(q.column_int64(6)) + " event(s)");
+      held = "status is 'planned', but it has " + held +
+             " (a planned trial has not run: what it holds is read by no export or analysis)";
+    } else {
+      if (q.column_text(2) == "NULL") also("session_id");
+      if (q.column_text(3) == "NULL") also("started_unix_s");
+      if (status == "complete" && q.column_text(4) == "NULL") also("ended_unix_s");
+      held = "status is '" + status + "', but " + held + (held.find(',') == std::string::npos ? " is" : " are") +
+             " NULL (a trial gets its session and start time when it starts, and a complete one its end time)";
+    }
+    out.push_back(finding("foreign_key", "trial", id, id, row_name("trial", id, id) + ": " + held));
+  }
+}
+
 // References to rows that exist but do not fit (foreign_key_check passes
 // them): a trial run in another participant's session (every reader took
 // it; a merge dropped it without a word), a trial still running in a
@@ -104,6 +144,7 @@ void add_misfit_references(Database& db, std::size_t limit, std::vector<Finding>
                q.column_text(3) + " (a session ends after its trials)";
       });
   add_tasks_outside_the_protocol(db, limit, out);
+  add_status_misfits(db, limit, out);
   add("operator_action",
       "SELECT a.id, a.trial_id, a.session_id, t.session_id FROM main.operator_action a JOIN main.trial t ON "
       "t.id = a.trial_id WHERE a.session_id IS NOT NULL AND t.session_id IS NOT NULL AND a.session_id <> t.session_id "

@@ -99,8 +99,9 @@ TEST_F(AnalyzeCommandTest, JsonSummaryIsTheOnlyOutputAndAgreesWithTheCsv) {
 // N/A comparisons with no reason: the reason is now a warning, in the JSON
 // and the report.
 TEST_F(AnalyzeCommandTest, AControlWithoutAnAnalysedTrialIsAWarning) {
-  hapticlab::testing::edit_with_sqlite(db_, "UPDATE trial SET status = 'aborted', abort_reason = 'test' WHERE "
-                                            "setting_id = (SELECT id FROM setting WHERE name = 'High Fidelity')");
+  hapticlab::testing::edit_with_sqlite(db_, "UPDATE trial SET status = 'aborted', abort_reason = 'test' WHERE status <> "
+                                            "'planned' AND setting_id = (SELECT id FROM setting WHERE name = "
+                                            "'High Fidelity')");
   const std::string out = (dir_.path() / "out").string();
   ::testing::internal::CaptureStdout();
   run({"analyze", "--db", db_, "--out", out, "--no-plots", "--no-ks", "--json"});

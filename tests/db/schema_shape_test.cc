@@ -75,7 +75,9 @@ TEST(SchemaShape, AViewAnotherShapeAndAMistypedValueAreNamed) {
     INSERT INTO study VALUES (1, 's', '{}', printf('%064d', 0), '5', '0.3.0', '2024-01-01T00:00:00.000Z');
     INSERT INTO participant VALUES (1, 1, 'P01');
     INSERT INTO setting VALUES (1, 1, 'No FFB', '{}', printf('%064d', 0));
-    INSERT INTO trial VALUES (1, 1, 'clip', 1, 1, 1, 1, 'planned', NULL, NULL, NULL, NULL);
+    INSERT INTO session (id, participant_id, started_unix_s, ended_unix_s, device, clock, status)
+      VALUES (1, 1, 0.0, 9.0, 'sim', 'virtual', 'closed');
+    INSERT INTO trial VALUES (1, 1, 'clip', 1, 1, 1, 1, 'complete', 1, 1.0, 2.0, NULL);
     INSERT INTO trial VALUES (2, 1, 'clip', 9, 2, 1, 2, 'planned', NULL, NULL, NULL, NULL);
     INSERT INTO event VALUES (1, 1, 'nan', 'contact_end', 0, 0, NULL);
     INSERT INTO event VALUES (2, 1, 0.5, 'contact_end', 0, 0, NULL);

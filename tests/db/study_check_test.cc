@@ -159,6 +159,45 @@ TEST(StudyCheck, ATrialRunningInASessionThatEndedIsAFinding) {
                                    "its trials)");
 }
 
+// A trial edited back to 'planned' kept its samples, which export and
+// analyze then left out without a word; a trial edited to 'complete' that
+// never ran (no session, no times) was analysed as "no samples logged".
+TEST(StudyCheck, AStatusAtOddsWithWhatTheTrialHoldsIsAFinding) {
+  testing::TempDir dir;
+  const auto path = dir.file("status.db");
+  {
+    StudyDb made(path);
+    const std::int64_t ran = testing::make_trial(made);  // running, in session 1
+    std::vector<StoredSample> samples;
+    for (std::uint64_t t = 0; t < 10; ++t) {
+      const LoopSample s = testing::make_sample(t);
+      samples.push_back({s.tick, s.t_s, s.dt_s, s.device_status, s.instrument[0]});
+    }
+    made.insert_chunk(ran, 0, samples);
+    made.end_trial(ran, TrialStatus::kComplete);
+    const TrialRow row = made.trial(ran);
+    const std::int64_t never_ran = made.add_trial({row.participant_id, "dissection", row.setting_id, 3, 3, 6});
+    made.connection().exec("UPDATE trial SET status = 'planned' WHERE id = " + std::to_string(ran));
+    made.connection().exec("UPDATE trial SET status = 'complete' WHERE id = " + std::to_string(never_ran));
+  }
+  Database conn(path, Database::Mode::kReadOnly);
+  const StudyFileCheck c = check_study_file(conn);
+  ASSERT_EQ(c.findings.size(), 2u);
+  EXPECT_THAT(c.findings[0].message,
+              ::testing::AllOf(::testing::StartsWith("trial 1: status is 'planned', but it has session_id 1, "
+                                                     "started_unix_s "),
+                               HasSubstr(", ended_unix_s "),
+                               ::testing::EndsWith(", 1 sample chunk(s) (a planned trial has not run: what it holds "
+                                                   "is read by no export or analysis)")));
+  EXPECT_EQ(c.findings[1].message, "trial 2: status is 'complete', but session_id, started_unix_s, ended_unix_s are "
+                                   "NULL (a trial gets its session and start time when it starts, and a complete one "
+                                   "its end time)");
+  EXPECT_EQ(c.findings[1].trial_id, 2);
+  // Every reader refuses the file at open, naming them.
+  EXPECT_THAT([&] { StudyDb(path, OpenOptions{.read_only = true}); },
+              ::testing::ThrowsMessage<DbError>(HasSubstr("status is 'planned', but it has session_id 1")));
+}
+
 TEST(StudyCheck, AViewInATablesPlaceIsAFindingAndNoQueryReadsTheChunks) {
   testing::TempDir dir;
   const auto path = dir.file("view.db");
