@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <tuple>
@@ -130,7 +131,8 @@ void add_common_options(CLI::App& cmd, CommonOptions& opt, bool with_group) {
       ->capture_default_str();
   cmd.add_option("--replicate", opt.columns.replicate,
                  "Column naming the repetition (optional; without it, several rows of one block "
-                 "and treatment are replicates in file order)");
+                 "and treatment are replicates in file order; with it, the block tests refuse a "
+                 "block, treatment and replicate that occur twice)");
   cmd.add_option("--value", opt.columns.value, "Column holding the measured value")
       ->capture_default_str();
   if (with_group) add_group_option(cmd, opt.group);
@@ -157,7 +159,31 @@ std::vector<Group> split_groups(const an::LongCsv& csv, const std::vector<std::s
   return groups;
 }
 
-an::BlockTable table_for(const std::vector<an::Observation>& all, const Group& group) {
+// With --replicate, a block test's (block, treatment, replicate) names one
+// observation: a repeated one (a file pasted onto itself, two tasks left in
+// one group) would be ranked as one more replicate and inflate the test
+// (chi-square 7.84 => 17.26 for a doubled file), so it is refused, naming
+// both lines. (ks --bootstrap's replicate column labels series of many
+// rows; it does not come here.)
+void refuse_repeated_replicates(const an::LongCsv& csv, const std::vector<an::Observation>& all, const Group& group,
+                                const std::string& replicate_column) {
+  if (replicate_column.empty()) return;
+  std::map<std::tuple<std::string, std::string, std::string>, std::size_t> first_row;
+  for (std::size_t r : group.rows) {
+    const an::Observation& o = all[r];
+    const auto [it, inserted] = first_row.emplace(std::tuple{o.block, o.treatment, o.replicate}, r);
+    if (inserted) continue;
+    throw an::DataError(csv.source() + ": lines " + std::to_string(csv.line(it->second)) + " and " +
+                        std::to_string(csv.line(r)) + " are both block '" + o.block + "', treatment '" + o.treatment +
+                        "', replicate '" + o.replicate + "' (--replicate " + replicate_column +
+                        "): each replicate is one observation, and a repeated one would count as another; "
+                        "remove the repeat, or --group by the column that tells them apart");
+  }
+}
+
+an::BlockTable table_for(const an::LongCsv& csv, const std::vector<an::Observation>& all, const Group& group,
+                         const std::string& replicate_column) {
+  refuse_repeated_replicates(csv, all, group, replicate_column);
   std::vector<an::Observation> subset;
   subset.reserve(group.rows.size());
   for (std::size_t r : group.rows) subset.push_back(all[r]);
@@ -209,7 +235,7 @@ void run_block_test(const CommonOptions& opt, const std::string& test,
   const auto csv = read_data(opt.csv, opt.drop_missing, {opt.columns.value});
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped(test, csv, opt.group, opt.json, [&](const Group& g) {
-    const an::TestResult r = run(table_for(observations, g));
+    const an::TestResult r = run(table_for(csv, observations, g, opt.columns.replicate));
     json j = test_json(r);
     if (test == "friedman") {
       // Replicates per cell: the test needs them equal (friedman.h).
@@ -231,7 +257,7 @@ void run_durbin(const CommonOptions& opt) {
   const auto csv = read_data(opt.csv, opt.drop_missing, {opt.columns.value});
   const auto observations = an::read_observations(csv, opt.columns);
   run_grouped("durbin", csv, opt.group, opt.json, [&](const Group& g) {
-    const an::DurbinResult r = an::durbin_test(table_for(observations, g));
+    const an::DurbinResult r = an::durbin_test(table_for(csv, observations, g, opt.columns.replicate));
     if (!opt.json) {
       print_test(r.chi_square);
       std::cout << "  F form: F = " << num(r.f) << ", df = " << num(r.f_df1) << ", "
@@ -250,7 +276,7 @@ void run_pairwise_by_block(const PairwiseOptions& opt) {
   const auto observations = an::read_observations(csv, opt.common.columns);
   const an::PercentileMethod median_method = an::parse_percentile_method(opt.percentile_method);
   run_grouped("pairwise-sign-flip", csv, opt.common.group, opt.common.json, [&](const Group& g) {
-    const an::BlockTable table = table_for(observations, g);
+    const an::BlockTable table = table_for(csv, observations, g, opt.common.columns.replicate);
     const std::size_t m = table.treatment_count() - 1;
     const double level = an::sidak_level(opt.alpha, m);
     const auto comparisons = an::sign_flip_vs_control(table, opt.control, level, median_method);
@@ -286,7 +312,7 @@ void run_pairwise(const PairwiseOptions& opt) {
   const auto csv = read_data(opt.common.csv, opt.common.drop_missing, {opt.common.columns.value});
   const auto observations = an::read_observations(csv, opt.common.columns);
   run_grouped("pairwise-friedman", csv, opt.common.group, opt.common.json, [&](const Group& g) {
-    const an::BlockTable table = table_for(observations, g);
+    const an::BlockTable table = table_for(csv, observations, g, opt.common.columns.replicate);
     const auto comparisons = an::pairwise_friedman_vs_control(table, opt.control, opt.alpha);
     const double level = an::sidak_level(opt.alpha, comparisons.size());
     json j = {{"test", "pairwise-friedman"}, {"control", opt.control}, {"alpha", opt.alpha},

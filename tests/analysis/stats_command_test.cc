@@ -213,6 +213,42 @@ TEST_F(StatsCommandTest, KsWithBootstrapIsReproducible) {
   EXPECT_EQ(first["bootstrap"]["participants_used"].get<int>(), 2);
 }
 
+// With --replicate a repeated (block, treatment, replicate) was ranked as one
+// more replicate: a file pasted onto itself doubled its chi-square's
+// evidence. The block tests now refuse it, naming both lines; without
+// --replicate, rows of one cell are replicates in file order, as documented.
+TEST_F(StatsCommandTest, ARepeatedReplicateIsRefusedByTheBlockTests) {
+  std::string rows;
+  for (const char* s : {"S1", "S2", "S3"})
+    for (int rep = 1; rep <= 2; ++rep)
+      for (const char* t : {"A", "B", "C"})
+        rows += std::string(s) + "," + t + "," + std::to_string(rep) + "," +
+                std::to_string((t[0] - 'A') * 3 + rep + (s[1] - '0')) + "\n";
+  const auto once = write_file("once.csv", "s,t,rep,v\n" + rows);
+  const auto twice = write_file("twice.csv", "s,t,rep,v\n" + rows + rows);
+  const std::vector<std::string> options = {"--block", "s", "--treatment", "t", "--replicate", "rep", "--value", "v"};
+  // (durbin takes one observation per cell and says so.)
+  for (const std::vector<std::string>& command :
+       {std::vector<std::string>{"stats", "friedman"}, {"stats", "pairwise", "--control", "A"},
+        {"stats", "pairwise", "--control", "A", "--method", "participant"}}) {
+    std::vector<std::string> args = command;
+    args.insert(args.end(), {"--csv", once.string()});
+    args.insert(args.end(), options.begin(), options.end());
+    EXPECT_NO_THROW(run(args)) << command[1];
+    args[command.size() + 1] = twice.string();
+    try {
+      run(args);
+      ADD_FAILURE() << command[1] << " took the repeated rows";
+    } catch (const analysis::DataError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("lines 2 and 20 are both block 'S1', treatment 'A', replicate '1' "
+                                      "(--replicate rep)")) << command[1];
+    }
+  }
+  // Without --replicate the same file is read as four replicates per cell.
+  EXPECT_NO_THROW(run({"stats", "friedman", "--csv", twice.string(), "--block", "s", "--treatment", "t", "--value",
+                       "v"}));
+}
+
 TEST_F(StatsCommandTest, KsBootstrapNeedsReplicateColumn) {
   const auto path = write_file("k.csv", "s,t,v\nS1,A,1\nS1,B,2\n");
   EXPECT_THROW(run({"stats", "ks", "--csv", path.string(), "--block", "s", "--treatment", "t",
