@@ -338,8 +338,27 @@ void validate_participant(const Protocol& p, std::size_t i, std::set<std::string
 
 }  // namespace
 
+// Force limits that leave no force feedback in any setting: a study of
+// degradations needs a reference that has it. (Checked when a study is
+// created; a stored protocol is only read back.)
+void validate_safety(const Protocol& p, const std::string& source) {
+  if (p.safety.peak_force_fraction == 0.0) {
+    throw ProtocolError(source, "safety.peak_force_fraction",
+                        "is 0, which clamps every force of every trial to zero: no setting, not even the control, "
+                        "would give force feedback; give a fraction of the device's peak output > 0 and <= 1, or "
+                        "leave it out for the device's own limits");
+  }
+  if (p.safety.insertion_force_N == 0.0 && p.safety.pitch_yaw_torque_Nm == 0.0) {
+    throw ProtocolError(source, "safety.max_insertion_force_N",
+                        "is 0, and safety.max_pitch_yaw_torque_Nm is 0 too: no setting, not even the control, "
+                        "would push back on the instrument; give limits > 0, or leave them out for the "
+                        "device's own");
+  }
+}
+
 void validate_protocol(const Protocol& p, const std::string& source) {
   if (p.study.empty()) throw ProtocolError(source, "study", "is empty, but must name the study");
+  validate_safety(p, source);
   validate_tasks(p, source);
   validate_setting_names(p, source);
   if (p.settings.size() < (p.staircase ? 1u : 2u)) {

@@ -76,6 +76,27 @@ TEST(SafetyJsonTest, ErrorsNameTheFieldTheValueAndTheRange) {
   EXPECT_EQ(e.field(), "safety");
 }
 
+// A limit of 0 for every force left no setting with force feedback, the
+// control included, and the study ran without a word.
+TEST(SafetyJsonTest, LimitsThatLeaveNoForceFeedbackAnywhereAreRefusedAtCreation) {
+  ProtocolError e = error_of(json::parse(R"({"peak_force_fraction": 0})"));
+  EXPECT_EQ(e.field(), "safety.peak_force_fraction");
+  EXPECT_NE(std::string(e.what()).find("is 0, which clamps every force of every trial to zero"), std::string::npos)
+      << e.what();
+  e = error_of(json::parse(R"({"max_insertion_force_N": 0, "max_pitch_yaw_torque_Nm": 0})"));
+  EXPECT_EQ(e.field(), "safety.max_insertion_force_N");
+  EXPECT_NE(std::string(e.what()).find("safety.max_pitch_yaw_torque_Nm is 0 too"), std::string::npos) << e.what();
+  // One joint group without force stays allowed (the grip above, insertion here).
+  EXPECT_EQ(protocol_from_json(protocol_with(json::parse(R"({"max_insertion_force_N": 0})")), kShippedProtocolsDir,
+                               "study.json")
+                .safety.insertion_force_N,
+            0.0);
+  // A stored protocol is read back as it is: a study created before keeps working.
+  EXPECT_EQ(safety_from_protocol_text(protocol_with(json::parse(R"({"peak_force_fraction": 0})")).dump(), "study.db")
+                .peak_force_fraction,
+            0.0);
+}
+
 TEST(SafetyJsonTest, StoredProtocolTextGivesTheSameLimits) {
   const std::string text = protocol_with(json::parse(R"({"max_pitch_yaw_torque_Nm": 0.25})")).dump();
   const OperatorForceLimits limits = safety_from_protocol_text(text, "study.db");
