@@ -837,11 +837,42 @@ class StudyDatabase:
                            f"with it (stored {short(stored)}, the text now gives {short(found)})")
         return out
 
+    def _status_misfits(self):
+        """A trial whose status is at odds with what it holds, as
+        db/structure_check.cc finds it: planned with a session, times,
+        samples or events; ran without a session or start time; complete
+        without an end time."""
+        out = []
+        for t, status, session, started, ended, chunks, events in self._conn.execute(
+                "SELECT t.id, t.status, quote(t.session_id), quote(t.started_unix_s), quote(t.ended_unix_s), "
+                "(SELECT count(*) FROM main.sample_chunk c WHERE c.trial_id = t.id), "
+                "(SELECT count(*) FROM main.event e WHERE e.trial_id = t.id) FROM main.trial t "
+                "WHERE (t.status = 'planned' AND (t.session_id IS NOT NULL OR t.started_unix_s IS NOT NULL OR "
+                "t.ended_unix_s IS NOT NULL OR EXISTS (SELECT 1 FROM main.sample_chunk c WHERE c.trial_id = t.id) OR "
+                "EXISTS (SELECT 1 FROM main.event e WHERE e.trial_id = t.id))) OR "
+                "(t.status IN ('running', 'complete', 'aborted') AND (t.session_id IS NULL OR "
+                "t.started_unix_s IS NULL)) OR (t.status = 'complete' AND t.ended_unix_s IS NULL) ORDER BY t.id"):
+            if status == "planned":
+                held = [f"{name} {value}" for name, value in (("session_id", session), ("started_unix_s", started),
+                                                               ("ended_unix_s", ended)) if value != "NULL"]
+                held += [f"{n} {what}" for n, what in ((chunks, "sample chunk(s)"), (events, "event(s)")) if n > 0]
+                out.append(f"trial {t}: status is 'planned', but it has {', '.join(held)} (a planned trial has not "
+                           f"run: what it holds is read by no export or analysis)")
+            else:
+                missing = [name for name, value in (("session_id", session), ("started_unix_s", started)) if value == "NULL"]
+                if status == "complete" and ended == "NULL":
+                    missing.append("ended_unix_s")
+                verb = "is" if len(missing) == 1 else "are"
+                out.append(f"trial {t}: status is '{status}', but {', '.join(missing)} {verb} NULL (a trial gets its "
+                           f"session and start time when it starts, and a complete one its end time)")
+        return out
+
     def _misfit_references(self):
         """References that exist but do not fit, as db/structure_check.cc
         finds them: a trial in another participant's session, a trial running
         in a session that has ended, a trial or training of a task its
-        study's protocol does not name, an action on another session's trial."""
+        study's protocol does not name, a trial whose status is at odds with
+        what it holds, an action on another session's trial."""
         out = []
         for t, session, theirs, own in self._conn.execute(
                 "SELECT t.id, t.session_id, q.code, p.code FROM main.trial t JOIN main.session s ON "
@@ -871,6 +902,7 @@ class StudyDatabase:
                 if task not in tasks:
                     out.append(f"{_row_name(table, rowid, trial)}: task '{task}' is not one of its study's "
                                f"protocol's tasks ({named})")
+        out.extend(self._status_misfits())
         for action, trial, session, ran in self._conn.execute(
                 "SELECT a.id, a.trial_id, a.session_id, t.session_id FROM main.operator_action a JOIN main.trial t "
                 "ON t.id = a.trial_id WHERE a.session_id IS NOT NULL AND t.session_id IS NOT NULL AND "

@@ -1,5 +1,6 @@
 #include "app/study/export_command.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -72,7 +73,14 @@ db::OpenOptions export_open_options() {
 // selection or names a participant or setting the study does not hold.
 db::ExportSelection export_selection(const ExportOptions& opt, db::StudyDb& db) {
   db::ExportSelection selection = opt.selection;
-  for (const std::string& name : opt.channels) selection.channels.push_back(*db::channel_index(name));
+  for (const std::string& name : opt.channels) {
+    const std::size_t channel = *db::channel_index(name);
+    // Twice would be two columns of one name, which a reader keyed by name
+    // takes as one.
+    if (std::find(selection.channels.begin(), selection.channels.end(), channel) != selection.channels.end())
+      throw CLI::ValidationError("--channels", "'" + name + "' is given twice; each channel is one column");
+    selection.channels.push_back(channel);
+  }
   selection.participants.insert(opt.participants.begin(), opt.participants.end());
   selection.settings.insert(opt.settings.begin(), opt.settings.end());
   selection.statuses.insert(opt.statuses.begin(), opt.statuses.end());
@@ -102,11 +110,13 @@ std::vector<fs::path> export_files(const ExportOptions& opt, db::StudyDb& db, co
   std::vector<fs::path> files;
   if (opt.trial) {
     const std::vector<db::TrialRow> trials = db.trials();
-    bool found = false;
-    for (const db::TrialRow& t : trials) found = found || t.id == *opt.trial;
-    if (!found)
+    const auto it = std::find_if(trials.begin(), trials.end(), [&](const db::TrialRow& t) { return t.id == *opt.trial; });
+    if (it == trials.end())
       throw std::runtime_error("--trial: no trial " + std::to_string(*opt.trial) + " in " + opt.db + "; " +
                                trial_range(trials));
+    if (it->status == db::TrialStatus::kPlanned)
+      throw std::runtime_error("--trial: trial " + std::to_string(*opt.trial) + " in " + opt.db +
+                               " is planned: it has not run, so it has no samples or events to export");
     return db::export_trial_csv(db, *opt.trial, opt.out, &bad, selection);
   }
   const std::vector<db::StudyRow> studies = db.studies();

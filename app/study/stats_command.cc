@@ -451,6 +451,11 @@ void run_ks(const KsOptions& opt) {
   const an::LongColumns columns = ks_columns(opt, csv);
   // One participant may be enough for the bootstrap (the thesis' "(1)" rows).
   const auto observations = an::read_observations(csv, columns, 1, 2);
+  // One treatment against itself was reported as "no rows" of the other.
+  if (opt.control == opt.other) {
+    throw an::DataError("ks: --control and --other are both '" + opt.control + "'; the test compares two different " +
+                        opt.common.columns.treatment + " values");
+  }
   if (opt.bootstrap > 0 && opt.common.columns.replicate.empty()) {
     throw an::DataError("ks --bootstrap needs --replicate COL to tell the repetitions apart");
   }

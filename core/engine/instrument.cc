@@ -34,8 +34,10 @@ bool same_bits(double a, double b) noexcept {
   // Well inside the limit (the usual case) the force is returned as it is,
   // as below, without the divisions: |f|² <= limit²·(1 − 1e-9) puts
   // largest·scaled_norm (|f| within 4 ulps) below the limit. An overflowing
-  // |f|² takes the long way.
-  if (f.squaredNorm() <= limit * limit * (1.0 - 1e-9)) return f;
+  // |f|² takes the long way, and so does a limit whose square would
+  // underflow (0 included: a tiny force's |f|² would be 0 too, yet the long
+  // way clips it to zero).
+  if (limit >= 1e-100 && f.squaredNorm() <= limit * limit * (1.0 - 1e-9)) return f;
   const double largest = f.cwiseAbs().maxCoeff();
   if (largest == 0.0) return f;
   const Eigen::Vector3d scaled = f / largest;  // largest component ±1

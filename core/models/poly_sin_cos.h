@@ -9,9 +9,10 @@
 //    straight-line code except for two well-predicted range checks.
 //  - The same bits everywhere. glibc picks an implementation by CPU
 //    feature (its FMA and non-FMA variants may differ in the last bit) and
-//    by version; these use only IEEE additions, multiplications and one
-//    division, so a simulated study gives the same numbers on every x86-64
-//    and ARM machine with -ffp-contract=off (GCC's default in ISO C++ mode).
+//    by version; these use only IEEE additions and multiplications,
+//    so a simulated study gives the same numbers on every x86-64
+//    and ARM machine with -ffp-contract=off (CMakeLists.txt sets it: GCC
+//    contracts C++ into FMAs by default where the target has them).
 //
 // Accuracy (tests/core/models/poly_sin_cos_test.cc, against long double):
 // within 1 ulp of the exact value for |x| <= kPolyMaxAngle_rad, the doubles
@@ -21,15 +22,15 @@
 // a fault).
 //
 // Derivation: x = k·π/2 + r with k the nearest integer to x·2/π; π/2 is
-// split into three parts P1 + P2 + P3 (33, 33 and 53 significant bits,
+// split into three parts P1 + P2 + P3 (at most 33, 33 and 53 significant bits,
 // computed from π to 80 digits), so k·P1 and k·P2 are exact products for
 // |k| < 2^20 and x − k·P1 is exact (Sterbenz); the rounding of
-// (x − k·P1) − k·P2 is kept by an exact two-sum, and r = hi + lo is
-// renormalized by another (|lo| <= ulp(hi)/2). On
+// (x − k·P1) − k·P2 is kept by an exact two-sum and, less k·P3, forms lo
+// (r = hi + lo, not renormalized: |lo| may exceed an ulp of hi). On
 // |r| <= π/4 the Taylor series of sin to r^17 and of cos to r^16 leave
 // truncation errors below 1e-19 and 3e-18 of the result. sin(hi + lo) =
 // sin(hi) + lo·cos(hi) and cos(hi + lo) = cos(hi) − lo·sin(hi) to first order
-// (|lo| < 1e-15, so the next terms are below 1e-31).
+// (|lo| < 2e-16 in range, so the next terms are below 1e-31).
 
 #include <math.h>
 
@@ -43,8 +44,11 @@ struct SinCos {
   double cos = 1.0;
 };
 
-// Largest |angle| [rad] reduced here (k < 2^20 needs |x| < 1.6e6).
-inline constexpr double kPolyMaxAngle_rad = 1.0e6;
+// Largest |angle| [rad] reduced here. The exact products need k < 2^20
+// (|x| < 1.6e6), but near multiples of π/2 beyond about 8e5 rad the rounding
+// of k·P3 can cost just over an ulp; up to 1e5 every double nearest a
+// multiple of π/2 is checked (the engine's angles stay within ±200 rad).
+inline constexpr double kPolyMaxAngle_rad = 1.0e5;
 
 namespace poly_detail {
 
@@ -83,7 +87,7 @@ inline double two_sum_error(double a, double b, double sum) noexcept {
   return (a - a_part) + (b - b_part);
 }
 
-// x = k·π/2 + hi + lo, |hi| <= π/4 (plus rounding), |lo| < 2e-15;
+// x = k·π/2 + hi + lo, |hi| <= π/4 (plus rounding), |lo| < 2e-16;
 // |x| <= kPolyMaxAngle_rad. For |x| <= π/4, k = 0, hi = x and lo = 0,
 // which the caller may take without calling this (the same bits).
 inline Reduced reduce(double x) noexcept {
@@ -94,7 +98,7 @@ inline Reduced reduce(double x) noexcept {
   return {hi, two_sum_error(t, -w, hi) - k * kPio2Part3, static_cast<std::int64_t>(k)};
 }
 
-// sin and cos of hi + lo, |hi| <= π/4. lo (up to a dozen ulps of hi, from
+// sin and cos of hi + lo, |hi| <= π/4. lo (the two-sum's error less
 // k·P3) enters to first order with the other function's value:
 // sin(hi + lo) = sin hi + lo·cos hi, cos(hi + lo) = cos hi − lo·sin hi
 // (the next terms are below 1e-30).

@@ -251,6 +251,14 @@ TEST_F(StatsCommandTest, ARepeatedReplicateIsRefusedByTheBlockTests) {
 
 TEST_F(StatsCommandTest, KsBootstrapNeedsReplicateColumn) {
   const auto path = write_file("k.csv", "s,t,v\nS1,A,1\nS1,B,2\n");
+  // A treatment against itself was reported as an empty sample of the other.
+  try {
+    run({"stats", "ks", "--csv", path.string(), "--block", "s", "--treatment", "t", "--value", "v", "--control", "A",
+         "--other", "A"});
+    ADD_FAILURE() << "ks took --other equal to --control";
+  } catch (const analysis::DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--control and --other are both 'A'"));
+  }
   EXPECT_THROW(run({"stats", "ks", "--csv", path.string(), "--block", "s", "--treatment", "t",
                     "--value", "v", "--control", "A", "--other", "B", "--bootstrap", "100",
                     "--block-length", "1"}),

@@ -196,6 +196,15 @@ TEST_F(ExportCommandTest, BadSelectionsAreNamed) {
               AllOf(HasSubstr("--setting"), HasSubstr("'Friction' is not in"), HasSubstr("'No FFB'")));
   EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--every", "0"}),
               HasSubstr("--every"));
+  // Twice was two columns of one name.
+  EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--channels", "t_s,dt_s,t_s"}),
+              AllOf(HasSubstr("--channels"), HasSubstr("'t_s' is given twice")));
+  // A planned trial was "exported" as two empty files.
+  EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--trial",
+                        std::to_string(planned_)}),
+              HasSubstr("trial " + std::to_string(planned_) + " in " + db_path_.string() +
+                        " is planned: it has not run, so it has no samples or events to export"));
+  EXPECT_FALSE(fs::exists(out)) << "nothing is written when the command fails";
   EXPECT_THAT(error_of({"--db", db_path_.string(), "--format", "csv", "--out", out, "--trial",
                         std::to_string(complete_), "--participant", "S07"}),
               HasSubstr("--trial"));

@@ -440,6 +440,22 @@ class ValueRulesTest(unittest.TestCase):
                       str(caught.exception))
         self.assertIn("trial 1: task 'foo' is not one of its study's protocol's tasks", str(caught.exception))
 
+    def test_a_status_at_odds_with_what_the_trial_holds_is_refused_as_study_check_says(self):
+        """A trial edited back to planned keeps its session, times, samples
+        and events; the finding is word for word `hapticlab study check`'s."""
+        path = STUDY.copy("status_misfit.db")
+        conn = sqlite3.connect(path)
+        conn.execute("UPDATE trial SET status = 'planned' WHERE id = 1")
+        conn.commit()
+        conn.close()
+        with self.assertRaises(h.StructureError) as caught:
+            h.open_study(path)
+        self.assertIn("trial 1: status is 'planned', but it has session_id 1, started_unix_s ", str(caught.exception))
+        done = subprocess.run([fx.CLI, "study", "check", "--db", path], capture_output=True, text=True)
+        self.assertEqual(done.returncode, 1, done.stdout + done.stderr)
+        (line,) = [l.strip() for l in done.stdout.splitlines() if l.strip().startswith("trial 1: status")]
+        self.assertIn(line, str(caught.exception))
+
     def test_an_edited_setting_or_protocol_is_refused_naming_it(self):
         """What a session configures its engine with, and the schedule's
         source, against the digests `study create` stored (schema 11)."""

@@ -193,6 +193,25 @@ TEST(InstrumentTest, TipForceSaturationClipsTheVeForceMagnitude) {
   }
 }
 
+// The shortcut for a force well inside the clip limit must never pass what
+// the long way clips: with a limit of 0 (no force feedback) a force so small
+// that its squared norm underflows to 0 is still displayed as 0, and so is
+// one just above a tiny limit.
+TEST(InstrumentTest, TipForceSaturationClipsForcesWhoseSquareUnderflows) {
+  EngineSettings s = load_example("force_saturation");
+  for (double limit : {0.0, 1e-200}) {
+    s.tip_force_saturation.limit_N = limit;
+    Instrument inst(s, hand(0));
+    double t = 0.0;
+    for (int i = 0; i < 50; ++i) {
+      t += 1e-3;
+      const InstrumentOutput out = inst.step({1e-3, hand(t), {3e-170, -2e-170, 1e-170}});
+      ASSERT_LE(out.displayed_force_N.cwiseAbs().maxCoeff(), limit * (1.0 + 1e-9)) << limit;
+      ASSERT_LE(out.joint_force.cwiseAbs().maxCoeff(), limit == 0.0 ? 0.0 : 1e-190) << limit;
+    }
+  }
+}
+
 TEST(InstrumentTest, NoForceFeedbackDisplaysNothing) {
   Instrument inst(load_example("no_force_feedback"), hand(0));
   double t = 0.0;

@@ -108,7 +108,7 @@ TEST(PolySinCosTest, TheShortcutBelowAQuarterTurnIsTheReductionsOwnResult) {
 TEST(PolySinCosTest, SineIsOddAndCosineEvenToTheBit) {
   // A mirrored motion gives a mirrored force: the reduction rounds half to
   // even, which is symmetric, and the rest is sign-symmetric arithmetic.
-  for (double x : {0.1, 0.7853981633974483, 1.0, 2.5, 3.141592653589793, 100.25, 12345.678, 999999.0}) {
+  for (double x : {0.1, 0.7853981633974483, 1.0, 2.5, 3.141592653589793, 100.25, 12345.678, 99999.0}) {
     EXPECT_EQ(bits_of(poly_sin(-x)), bits_of(-poly_sin(x))) << x;
     EXPECT_EQ(bits_of(poly_cos(-x)), bits_of(poly_cos(x))) << x;
   }
