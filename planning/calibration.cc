@@ -173,7 +173,7 @@ CalibrationSettings check_calibration_protocol(const protocols::Protocol& protoc
   analysis::StudyAnalysis names;
   for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
   try {
-    analysis::choose_control(names, sim.analysis);
+    analysis::choose_control(names, sim.analysis, analysis::kPlanControlRemedy);
   } catch (const std::exception& e) {
     throw std::runtime_error(protocol_path + ": " + e.what() + "; plan calibrate compares No Force Feedback with it");
   }

@@ -30,7 +30,7 @@ PlanDesign check_plan_design(const protocols::Protocol& protocol, const std::str
     analysis::StudyAnalysis names;
     for (const auto& s : protocol.settings) names.settings.push_back(s.settings.name);
     try {
-      analysis::choose_control(names, sim.analysis);
+      analysis::choose_control(names, sim.analysis, analysis::kPlanControlRemedy);
     } catch (const std::exception& e) {
       throw std::runtime_error(o.protocol + ": " + e.what() +
                                "; plan power compares every setting with the control");

@@ -109,7 +109,7 @@ double TrialRecord::value(Measure m, int hand) const {
 // ---------------------------------------------------------------------------
 // Reading the study
 // ---------------------------------------------------------------------------
-void choose_control(StudyAnalysis& a, const AnalysisOptions& options) {
+void choose_control(StudyAnalysis& a, const AnalysisOptions& options, std::string_view remedy) {
   if (!options.control_setting.empty()) {
     if (std::find(a.settings.begin(), a.settings.end(), options.control_setting) == a.settings.end()) {
       std::string names;
@@ -124,13 +124,13 @@ void choose_control(StudyAnalysis& a, const AnalysisOptions& options) {
       // which one is the control is the user's to say, not the last one's.
       if (!a.control.empty())
         throw DataError("settings '" + a.control + "' and '" + s + "' are both named 'High Fidelity' (ignoring case, "
-                        "spaces and punctuation), so neither is known to be the control; name it with --control");
+                        "spaces and punctuation), so neither is known to be the control; " + std::string(remedy));
       a.control = s;
     }
     if (a.control.empty() && !a.settings.empty()) {
       std::string names;
       for (const auto& s : a.settings) names += (names.empty() ? "'" : ", '") + s + "'";
-      throw DataError("no setting is named 'High Fidelity'; name the control with --control (settings: " + names + ")");
+      throw DataError("no setting is named 'High Fidelity' (settings: " + names + "); " + std::string(remedy));
     }
   }
   if (!a.control.empty()) {

@@ -24,6 +24,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "analysis/metrics/device_energy.h"
@@ -336,7 +337,13 @@ StudyAnalysis analyze_study_file(const std::filesystem::path& db_path, const Ana
 
 // The control: options.control_setting, or the setting named like "High
 // Fidelity"; it is moved to the front of a.settings (the rest keep their
-// order). Throws DataError naming the settings when there is none.
-void choose_control(StudyAnalysis& a, const AnalysisOptions& options);
+// order). Throws DataError naming the settings when there is none, ending
+// with `remedy` (what the caller's user can do: analyze has --control, a
+// plan command finds the control by its name).
+inline constexpr std::string_view kControlOptionRemedy = "name the control with --control";
+inline constexpr std::string_view kPlanControlRemedy =
+    "plan commands find the control by that name: name the reference setting 'High Fidelity' in the protocol";
+void choose_control(StudyAnalysis& a, const AnalysisOptions& options,
+                    std::string_view remedy = kControlOptionRemedy);
 
 }  // namespace hapticlab::analysis

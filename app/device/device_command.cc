@@ -345,7 +345,8 @@ void add_device_check_command(CLI::App& device) {
       "check",
       "Open a device, read it at the loop rate on the wall clock while commanding zero force, and print its "
       "name, ratings, the rate achieved, dt jitter, the joint ranges seen and the faults. Run this first on a "
-      "new device. Exit status 0 if it worked throughout, 3 if it refused to start or had a fault.");
+      "new device. Exit status 0 if it worked throughout, 3 if it refused its configuration or activation or "
+      "had a fault, 1 if it could not be opened (no such plugin, no device answering, invalid ratings).");
   cmd->add_option("--device", opt->device,
                   "Device: sim, plugin:PATH.so (docs/devices.md), plugin-isolated:PATH.so (in a process of its "
                   "own: a crash or hang is reported, exit status 3), udp:[HOST:]PORT (docs/udp_bridge.md)")

@@ -176,15 +176,23 @@ void merge(const StudyOptions& opt) {
   std::vector<bool> named(opt.site_names.size(), false);
   for (const std::string& path : opt.sites) {
     db::SiteInput in{path, {}};
+    std::size_t named_by = opt.site_names.size();  // the --site that named this file
     for (std::size_t i = 0; i < opt.site_names.size(); ++i) {
       const std::string& given = opt.site_names[i];
-      const std::size_t eq = given.rfind('=');
+      const std::size_t eq = given.find('=');
       if (eq == std::string::npos || eq == 0)
         throw std::runtime_error("--site: '" + given + "' is not FILE=NAME (e.g. --site " + path + "=Basel)");
-      if (given.substr(0, eq) != path) continue;
-      in.site = given.substr(eq + 1);
+      // FILE is this input's path as given, up to its '=' (a site name's own
+      // '=' is then the name's, for check_site_name to judge).
+      if (given.size() <= path.size() || given.compare(0, path.size(), path) != 0 || given[path.size()] != '=')
+        continue;
+      if (named_by < opt.site_names.size())
+        throw std::runtime_error("--site: " + path + " is named twice ('" + opt.site_names[named_by] + "' and '" +
+                                 given + "'); give one name per site file");
+      in.site = given.substr(path.size() + 1);
       db::check_site_name(in.site, "--site " + given);
       named[i] = true;
+      named_by = i;
     }
     m.inputs.push_back(std::move(in));
   }

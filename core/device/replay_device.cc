@@ -1,6 +1,7 @@
 #include "core/device/replay_device.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -108,7 +109,23 @@ std::vector<ReplayFrame> load_replay_frames_from_trajectory_csv(const std::files
   std::vector<Sample> samples;
   TrajectoryCsvReader reader(path);
   TrajectoryRow row;
+  // Per instrument: its last row's time and line (rows of one instrument do
+  // not go back in time: the reader checks it).
+  std::array<double, 2> last_t_s{};
+  std::array<std::size_t, 2> last_line{};
   while (reader.next(row)) {
+    const std::size_t k = static_cast<std::size_t>(row.instrument);
+    // A device shows one position at a time: two rows of one instrument at
+    // one time would leave the first unseen (the engine's replay reads them
+    // as dt = 0; a replayed device cannot).
+    if (last_line[k] != 0 && row.t_s == last_t_s[k]) {
+      throw TrajectoryCsvError(path.string() + ":" + std::to_string(reader.line_number()) + ": instrument " +
+                               std::to_string(row.instrument) + " has a second row at t_s " + std::to_string(row.t_s) +
+                               " (line " + std::to_string(last_line[k]) +
+                               " is the first); a replayed device shows one position at a time");
+    }
+    last_t_s[k] = row.t_s;
+    last_line[k] = reader.line_number();
     DeviceJoints q{};
     q[kJointInsertion] = row.position(0);
     q[kJointPitch] = row.position(1);
@@ -117,6 +134,14 @@ std::vector<ReplayFrame> load_replay_frames_from_trajectory_csv(const std::files
   }
   if (samples.empty()) {
     throw TrajectoryCsvError(path.string() + ": no rows; a replay needs at least one");
+  }
+  // Both instruments: one without rows would be replayed at zero (the tool
+  // at its pivot), which no recording said.
+  for (int k = 0; k < 2; ++k) {
+    if (last_line[static_cast<std::size_t>(k)] == 0)
+      throw TrajectoryCsvError(path.string() + ": instrument " + std::to_string(k) +
+                               " has no rows; a replay moves both instruments (give it at least one row, "
+                               "a constant position if it did not move)");
   }
   // Rows of the two instruments may interleave out of global time order.
   std::stable_sort(samples.begin(), samples.end(),

@@ -373,7 +373,10 @@ TEST_F(PlanPowerTest, BadInputIsNamed) {
   protocol_ = write_protocol("no_control.json", "friction.json");
   std::tie(rc, text) = plan("--studies 1 --out " + (dir_ / "c").string());
   EXPECT_EQ(rc, 1);
-  EXPECT_THAT(text, AllOf(HasSubstr("no setting is named 'High Fidelity'"), HasSubstr("'Friction'")));
+  EXPECT_THAT(text, AllOf(HasSubstr("no setting is named 'High Fidelity'"), HasSubstr("'Friction'"),
+                          HasSubstr("name the reference setting 'High Fidelity' in the protocol")));
+  // It once advised --control, which plan power does not have.
+  EXPECT_THAT(text, Not(HasSubstr("--control")));
   EXPECT_FALSE(fs::exists(dir_ / "c" / "plan_power.db"));
   // Another protocol into a folder that holds a plan: refused, not mixed.
   protocol_ = dir_ / "tiny.json";

@@ -258,6 +258,16 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
     EXPECT_EQ(rc, 0) << text;  // said to be one station
     fs::remove(out_db);
   }
+  // One file named twice: the first name was dropped without a word.
+  refused(a + " " + b + " --site " + b + "=A --site " + b + "=B --out " + out_db,
+          {"--site: " + b + " is named twice ('" + b + "=A' and '" + b + "=B')"});
+  // A site name with '=' in it is the name's (it was split at the last '=').
+  {
+    const auto [rc, text] = merge(a + " " + b + " --site " + b + "=x=y --out " + out_db);
+    EXPECT_EQ(rc, 0) << text;
+    EXPECT_THAT(text, HasSubstr("site 'x=y'"));
+    fs::remove(out_db);
+  }
   // A damaged chunk: named with its trial, instrument and ticks.
   fs::copy_file(b, dir_.path() / "damaged.db");
   const std::string damaged = (dir_.path() / "damaged.db").string();

@@ -214,5 +214,27 @@ TEST(ReplayDeviceTest, MalformedOrEmptyCsvIsAnError) {
   EXPECT_ANY_THROW(load_replay_frames_from_trajectory_csv("/nonexistent/hapticlab/none.csv"));
 }
 
+// Each was replayed with exit 0: a missing instrument at zero (the tool at
+// its pivot), and of two rows of one instrument at one time only the later.
+TEST(ReplayDeviceTest, AMissingInstrumentOrTwoPositionsAtOneTimeAreRefusedByName) {
+  ScratchDir dir;
+  const std::string header =
+      "t_s,instrument,insertion_m,pitch_rad,yaw_rad,ve_force_x_N,ve_force_y_N,ve_force_z_N\n";
+  const auto message = [&](const std::string& name, const std::string& rows) {
+    try {
+      load_replay_frames_from_trajectory_csv(dir.write(name, header + rows));
+    } catch (const TrajectoryCsvError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_THAT(message("one.csv", "0.001,1,0.05,0.1,0.2,0,0,0\n0.002,1,0.05,0.1,0.2,0,0,0\n"),
+              ::testing::HasSubstr("one.csv: instrument 0 has no rows; a replay moves both instruments"));
+  EXPECT_THAT(message("twice.csv", "0.001,0,0.05,0.1,0.2,0,0,0\n0.001,1,0.05,0.1,0.2,0,0,0\n"
+                                   "0.002,0,0.06,0.1,0.2,0,0,0\n0.002,0,0.07,0.1,0.2,0,0,0\n"),
+              ::testing::HasSubstr("twice.csv:5: instrument 0 has a second row at t_s 0.002000 (line 4 is the "
+                                   "first); a replayed device shows one position at a time"));
+}
+
 }  // namespace
 }  // namespace hapticlab
