@@ -130,22 +130,34 @@ void check_existing_out(const fs::path& out, const Input& first, Database& built
   attach.bind(1, out.string()).run();
   std::string lost;
   int n = 0;
+  std::string renamed;  // a site the inputs hold under another name
   {
+    // The fourth column: the site the inputs give the same session (same
+    // participant and start), if they hold it under another name.
     Statement s = built.prepare(
-        "SELECT p.code, s.site, count(*) FROM old.session s JOIN old.participant p ON p.id = s.participant_id "
+        "SELECT p.code, s.site, count(*), (SELECT m.site FROM main.session m JOIN main.participant q ON "
+        "q.id = m.participant_id WHERE q.code = p.code AND m.started_unix_s = s.started_unix_s LIMIT 1) "
+        "FROM old.session s JOIN old.participant p ON p.id = s.participant_id "
         "WHERE NOT EXISTS (SELECT 1 FROM main.session m JOIN main.participant q ON q.id = m.participant_id "
         "WHERE q.code = p.code AND m.started_unix_s = s.started_unix_s AND m.site = s.site) "
         "GROUP BY p.code, s.site ORDER BY p.code");
     while (s.step()) {
+      const bool now_named = !s.is_null(3);
+      if (now_named && renamed.empty())
+        renamed = "; a site renamed? --out calls it '" + s.column_text(1) + "', the inputs '" + s.column_text(3) +
+                  "': keep the earlier name (--site FILE=" + s.column_text(1) + ") or give a new --out";
       if (n++ < 5)
         lost += std::string(lost.empty() ? "" : ", ") + "participant '" + s.column_text(0) + "' (" +
-                std::to_string(s.column_int64(2)) + " session(s) of site '" + s.column_text(1) + "')";
+                std::to_string(s.column_int64(2)) + " session(s) of site '" + s.column_text(1) + "'" +
+                (now_named ? ", which the inputs hold as site '" + s.column_text(3) + "'" : std::string()) + ")";
     }
   }
   built.exec("DETACH DATABASE old");
   if (n > 0)
     throw MergeError("--out " + quoted(out) + " is an earlier merge holding sessions none of the inputs has: " + lost +
-                     "; replacing it would lose them: add that site's file to the inputs, or give a new --out");
+                     (renamed.empty() ? "; replacing it would lose them: add that site's file to the inputs, or give "
+                                        "a new --out"
+                                      : renamed));
 }
 
 using FileId = std::pair<dev_t, ino_t>;

@@ -30,6 +30,10 @@ RenamedOption add_old_spelling(CLI::App& cmd, CLI::Option* current, const std::s
   CLI::Option* old = cmd.add_option(old_name, target, "Old spelling of " + current->get_name() + " (until 0.3)");
   old->group("");  // hidden
   old->excludes(current);
+  // One way suffices (CLI11 checks the excludes of every option given), and
+  // the other would print "Excludes:" under the current spelling with the
+  // hidden one's name left out.
+  current->remove_excludes(old);
   return {current, old};
 }
 

@@ -28,9 +28,6 @@ bool same_bits(double a, double b) noexcept {
 }
 
 [[gnu::always_inline]] inline Eigen::Vector3d clip_magnitude(const Eigen::Vector3d& f, double limit) noexcept {
-  // Scaled by the largest component first: the norm of a finite force near
-  // 1e308 N overflows (norm() already at 1e154 N, hypot() at 1.3e308 N), and
-  // limit/inf would zero the force instead of clipping it.
   // Well inside the limit (the usual case) the force is returned as it is,
   // as below, without the divisions: |f|² <= limit²·(1 − 1e-9) puts
   // largest·scaled_norm (|f| within 4 ulps) below the limit. An overflowing
@@ -38,6 +35,9 @@ bool same_bits(double a, double b) noexcept {
   // underflow (0 included: a tiny force's |f|² would be 0 too, yet the long
   // way clips it to zero).
   if (limit >= 1e-100 && f.squaredNorm() <= limit * limit * (1.0 - 1e-9)) return f;
+  // Scaled by the largest component first: the norm of a finite force near
+  // 1e308 N overflows (norm() already at 1e154 N, hypot() at 1.3e308 N), and
+  // limit/inf would zero the force instead of clipping it.
   const double largest = f.cwiseAbs().maxCoeff();
   if (largest == 0.0) return f;
   const Eigen::Vector3d scaled = f / largest;  // largest component ±1

@@ -53,8 +53,8 @@ inline constexpr double kPolyMaxAngle_rad = 1.0e5;
 namespace poly_detail {
 
 inline constexpr double kTwoOverPi = 0x1.45f306dc9c883p-1;
-inline constexpr double kPio2Part1 = 0x1.921fb544p+0;           // 33 bits
-inline constexpr double kPio2Part2 = 0x1.0b4611a6p-34;          // 33 bits
+inline constexpr double kPio2Part1 = 0x1.921fb544p+0;           // 31 significant bits
+inline constexpr double kPio2Part2 = 0x1.0b4611a6p-34;          // 32 significant bits
 inline constexpr double kPio2Part3 = 0x1.3198a2e037073p-69;     // the rest
 inline constexpr double kRoundShifter = 0x1.8p52;               // x + 1.5·2^52 rounds x to an integer
 // Below this |x|, sin x = x and cos x = 1 to the last bit (x²/2 < 2^-55,

@@ -88,6 +88,7 @@ TEST(CliConventions, OldSpellingsStillWorkForOneReleaseButAreHidden) {
   EXPECT_THAT(out, HasSubstr("--max-trial-s"));
   EXPECT_THAT(out, Not(HasSubstr("--output")));
   EXPECT_THAT(out, Not(HasSubstr("--max-duration-s")));
+  EXPECT_THAT(out, Not(HasSubstr("Excludes:")));  // once printed empty under --out
   std::tie(status, out) = testing::run_cli(
       kBinary, "sim run --task clip --settings " + settings + " --out " + csv + " --output " + csv);
   EXPECT_EQ(status, 2) << out;  // both spellings at once

@@ -261,6 +261,19 @@ TEST_F(StudyMergeTest, BadSiteFilesAreRefusedByName) {
   // One file named twice: the first name was dropped without a word.
   refused(a + " " + b + " --site " + b + "=A --site " + b + "=B --out " + out_db,
           {"--site: " + b + " is named twice ('" + b + "=A' and '" + b + "=B')"});
+  // A re-merge that renames a site would lose the earlier name's sessions;
+  // it was blamed on a missing input file.
+  {
+    const std::string re = (dir_.path() / "re.db").string();
+    ASSERT_EQ(merge(a + " " + b + " --out " + re).first, 0);  // b's sessions: site 'b'
+    const std::string before = testing::slurp(re);
+    const auto [rc, text] = merge(a + " " + b + " --site " + b + "=Basel --out " + re);
+    EXPECT_EQ(rc, 1) << text;
+    EXPECT_THAT(text, HasSubstr("session(s) of site 'b', which the inputs hold as site 'Basel')"));
+    EXPECT_THAT(text, HasSubstr("a site renamed? --out calls it 'b', the inputs 'Basel': keep the earlier name "
+                                "(--site FILE=b) or give a new --out"));
+    EXPECT_EQ(testing::slurp(re), before);
+  }
   // A site name with '=' in it is the name's (it was split at the last '=').
   {
     const auto [rc, text] = merge(a + " " + b + " --site " + b + "=x=y --out " + out_db);
