@@ -1,5 +1,6 @@
 #include "app/study/study_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -217,8 +218,9 @@ void merge(const StudyOptions& opt) {
   else
     std::printf("merged %zu site file(s) into %s: %d participants, %d sessions, %d trials, %llu sample chunks "
                 "verified and copied\n",
-                r.sites.size(), opt.out.c_str(), r.participants, r.sessions, r.trials,
-                static_cast<unsigned long long>(r.chunks));
+                static_cast<std::size_t>(
+                    std::count_if(r.sites.begin(), r.sites.end(), [](const db::SiteSummary& s) { return !s.skipped; })),
+                opt.out.c_str(), r.participants, r.sessions, r.trials, static_cast<unsigned long long>(r.chunks));
 }
 
 }  // namespace

@@ -196,6 +196,11 @@ TEST_F(StudyMergeTest, TwoSitesOneKilledAndResumedMergeToWhatOneFileHolds) {
   ASSERT_EQ(::stat(all.c_str(), &after), 0);
   EXPECT_EQ(after.st_ino, before.st_ino) << "--out was rewritten";
   EXPECT_EQ(testing::slurp(all), all_bytes);
+  // Into a new file, an input named twice counts once (it said 3).
+  std::tie(rc, out) = merge(a + " " + b + " " + a + " --site " + b + "=Basel --out " +
+                            (dir_.path() / "named_twice.db").string());
+  ASSERT_EQ(rc, 0) << out;
+  EXPECT_THAT(out, HasSubstr("merged 2 site file(s) into "));
   // A copy of a site's file beside it: the same sessions, taken once.
   fs::copy_file(a, dir_.path() / "copy_of_a.db");
   std::tie(rc, out) = merge(a + " " + (dir_.path() / "copy_of_a.db").string() + " " + b + " --site " + b +
