@@ -120,7 +120,7 @@ std::vector<ReplayFrame> load_replay_frames_from_trajectory_csv(const std::files
     // as dt = 0; a replayed device cannot).
     if (last_line[k] != 0 && row.t_s == last_t_s[k]) {
       throw TrajectoryCsvError(path.string() + ":" + std::to_string(reader.line_number()) + ": instrument " +
-                               std::to_string(row.instrument) + " has a second row at t_s " + std::to_string(row.t_s) +
+                               std::to_string(row.instrument) + " has a second row at t_s " + format_number(row.t_s) +
                                " (line " + std::to_string(last_line[k]) +
                                " is the first); a replayed device shows one position at a time");
     }

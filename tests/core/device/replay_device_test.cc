@@ -232,7 +232,7 @@ TEST(ReplayDeviceTest, AMissingInstrumentOrTwoPositionsAtOneTimeAreRefusedByName
               ::testing::HasSubstr("one.csv: instrument 0 has no rows; a replay moves both instruments"));
   EXPECT_THAT(message("twice.csv", "0.001,0,0.05,0.1,0.2,0,0,0\n0.001,1,0.05,0.1,0.2,0,0,0\n"
                                    "0.002,0,0.06,0.1,0.2,0,0,0\n0.002,0,0.07,0.1,0.2,0,0,0\n"),
-              ::testing::HasSubstr("twice.csv:5: instrument 0 has a second row at t_s 0.002000 (line 4 is the "
+              ::testing::HasSubstr("twice.csv:5: instrument 0 has a second row at t_s 0.002 (line 4 is the "
                                    "first); a replayed device shows one position at a time"));
 }
 
