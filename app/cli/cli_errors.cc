@@ -150,6 +150,25 @@ int with_stdout_checked(int status) {
   return status == 0 ? 1 : status;
 }
 
+// CLI11 names an option by get_name(), which is empty for a hidden one (an
+// old spelling, app/cli/renamed_option.h; a positional kept for an old
+// form), so its errors read ": File does not exist: x" or " excludes
+// --csv". The hidden options the user gave, in the command being parsed,
+// are the candidates; with one, its name goes where CLI11 left it out.
+std::string with_hidden_option_named(CLI::App& app, const std::string& what) {
+  if (what.empty() || (what[0] != ':' && what[0] != ' ')) return what;
+  CLI::App* current = &app;
+  for (std::vector<CLI::App*> parsed = app.get_subcommands(); !parsed.empty(); parsed = current->get_subcommands()) {
+    current = parsed.front();
+  }
+  std::vector<std::string> given;
+  for (const CLI::Option* option : current->get_options()) {
+    if (!option->get_group().empty() || option->count() == 0) continue;
+    given.push_back(option->get_lnames().empty() ? option->get_single_name() : "--" + option->get_lnames().front());
+  }
+  return given.size() == 1 ? given.front() + what : what;
+}
+
 int parse_and_run(CLI::App& app, int argc, char** argv) {
   if (argc == 1) {
     std::fputs(app.help().c_str(), stdout);
@@ -166,7 +185,7 @@ int parse_and_run(CLI::App& app, int argc, char** argv) {
     const std::string path = command_path(app);
     const std::string what = dynamic_cast<const CLI::ArgumentMismatch*>(&e) != nullptr
                                  ? argument_mismatch_text(app, e.what())
-                                 : std::string(e.what());
+                                 : with_hidden_option_named(app, e.what());
     std::fprintf(stderr, "hapticlab: error: %s\nRun '%s --help' for usage.\n", what.c_str(), path.c_str());
     return 2;
   } catch (const std::exception& e) {

@@ -6,12 +6,15 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include "core/engine/engine.h"
 #include "core/engine/status.h"
 #include "app/cli/renamed_option.h"
+#include "core/common/csv_format.h"
 #include "core/common/output_file.h"
 #include "core/device/trajectory_csv.h"
 #include "core/settings/settings_json.h"
@@ -46,7 +49,51 @@ std::array<JointVector, kNumInstruments> first_positions(const fs::path& input) 
   return start;
 }
 
+// The median of the time steps, for a message (they are taken by value).
+double median_step_s(std::vector<double> v) {
+  const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), middle, v.end());
+  return *middle;
+}
+
+// A recording whose rows mostly come more than the engine can bridge apart
+// (kMaxSubsteps·kMaxDt_s = 8/150 s, named so in the messages) has every
+// such row re-anchored: the models start again from rest at it and no
+// degradation acts. That is what a t_s in milliseconds, or a 10 Hz log,
+// does; the output would be the VE force undegraded (0 N through a
+// saturation), so it is refused, and a few gaps are counted in the summary.
+static_assert(kMaxSubsteps == 8 && kMaxDt_s == 1.0 / 150.0, "the messages below say 8/150 s");
+void refuse_mostly_gaps(const std::string& input, long long gap_rows, const std::vector<double>& dts_s) {
+  if (gap_rows == 0 || 2 * gap_rows <= static_cast<long long>(dts_s.size())) return;
+  throw std::runtime_error(
+      "--csv " + input + ": " + std::to_string(gap_rows) + " of the " + std::to_string(dts_s.size()) +
+      " rows after each instrument's first come more than 8/150 s (53.3 ms) after that instrument's "
+      "previous row, so the engine re-anchors at each and no "
+      "degradation acts on them (the median time step is " + format_number(median_step_s(dts_s)) +
+      " s). Is t_s in seconds? The engine runs at 150..2000 updates per second");
+}
+
+void print_summary(const ReplayOptions& opt, const std::array<long long, kNumInstruments>& rows,
+                   double peak_force_N, long long fault_rows, long long gap_rows) {
+  const std::string gaps =
+      gap_rows == 0 ? ""
+                    : ", " + std::to_string(gap_rows) + " rows re-anchored after a gap of more than 8/150 s";
+  std::printf(
+      "%s: %lld rows (instrument 0: %lld, instrument 1: %lld), peak |displayed force| %.4g N, "
+      "%lld rows with faults%s -> %s\n",
+      opt.input.c_str(), rows[0] + rows[1], rows[0], rows[1], peak_force_N, fault_rows, gaps.c_str(),
+      opt.output.c_str());
+  std::fflush(stdout);
+}
+
 void run_replay(const ReplayOptions& opt) {
+  // Read twice (the first pass finds the starting poses): a pipe's second
+  // read would start where the first one stopped.
+  if (!fs::is_regular_file(opt.input)) {
+    throw std::runtime_error("--csv " + opt.input +
+                             ": not a regular file (a pipe or a device); engine replay reads it twice, "
+                             "the first time for each instrument's starting pose: save it to a file first");
+  }
   refuse_output_over_input(opt.input, opt.output, "--csv", "--out");
   refuse_output_over_input(opt.settings, opt.output, "--settings", "--out");
   const NamedSettings settings = load_settings_file(opt.settings);
@@ -63,12 +110,18 @@ void run_replay(const ReplayOptions& opt) {
   std::array<long long, kNumInstruments> rows{};
   double peak_force_N = 0.0;
   long long fault_rows = 0;
+  long long gap_rows = 0;      // more than the engine can bridge after the instrument's previous row
+  std::vector<double> dts_s;  // of every row but each instrument's first
 
   TrajectoryRow row;
   while (reader.next(row)) {
     const int i = row.instrument;
     InstrumentInput in;
     in.dt_s = started[i] ? row.t_s - last_t_s[i] : 0.0;
+    if (started[i]) {
+      dts_s.push_back(in.dt_s);
+      if (in.dt_s > kMaxSubsteps * kMaxDt_s) ++gap_rows;
+    }
     in.position = row.position;
     in.ve_force_N = row.ve_force_N;
     started[i] = true;
@@ -85,14 +138,12 @@ void run_replay(const ReplayOptions& opt) {
     peak_force_N = std::max(peak_force_N, out.displayed_force_N.norm());
     if (out.status & kFaultMask) ++fault_rows;
   }
+  if (rows[0] + rows[1] == 0) {
+    throw std::runtime_error("--csv " + opt.input + ": a header and no rows: nothing to replay");
+  }
+  refuse_mostly_gaps(opt.input, gap_rows, dts_s);
   output.commit();
-
-  std::printf(
-      "%s: %lld rows (instrument 0: %lld, instrument 1: %lld), peak |displayed force| %.4g N, "
-      "%lld rows with faults -> %s\n",
-      opt.input.c_str(), rows[0] + rows[1], rows[0], rows[1], peak_force_N, fault_rows,
-      opt.output.c_str());
-  std::fflush(stdout);
+  print_summary(opt, rows, peak_force_N, fault_rows, gap_rows);
 }
 
 }  // namespace

@@ -23,9 +23,11 @@ void add_settings_check_command(CLI::App& settings) {
       "check",
       "Validate settings files; print the resolved parameters (defaults filled in). Every file is checked; "
       "exit status 1 if any is invalid");
-  cmd->add_option("--settings", opt->files, "Settings JSON file (repeatable)")->check(CLI::ExistingFile);
+  // No ExistingFile check: it would stop the parse at the first missing
+  // file, and every file is checked, a missing one as invalid (load_settings_file).
+  cmd->add_option("--settings", opt->files, "Settings JSON file (repeatable)");
   // The old positional form, `settings check A.json B.json`, hidden.
-  cmd->add_option("files", opt->files, "Settings JSON files")->group("")->check(CLI::ExistingFile);
+  cmd->add_option("files", opt->files, "Settings JSON files")->group("");
   cmd->add_flag("-q,--quiet", opt->quiet, "Only report errors");
   cmd->add_flag("--json", opt->json,
                 "Print one JSON array, an object per file: file, ok, and the resolved settings or the error");

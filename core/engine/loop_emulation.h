@@ -6,9 +6,13 @@
 //   delay: the output is the newest input that is at least `latency_s` old
 //   hold:  the output changes only at `hold_rate_Hz` (zero-order hold)
 //
-// Fixed capacity, no allocation: at 2 kHz, 256 samples cover 128 ms, more
-// than the 100 ms latency limit. At faster updates the latency is cut to
-// what the buffer holds.
+// Fixed capacity, no allocation: 256 samples kept at least 0.4 ms apart
+// cover 102 ms, more than the 100 ms latency limit, at any update rate. Up
+// to 2.5 kHz every update's sample is kept; at faster updates a sample less
+// than 0.4 ms after the last kept one is not kept, so the delay is resolved
+// to 0.4 ms plus one update there (the latency, up to that much more) rather
+// than cut to what 256 samples of a fast loop span (26 ms at 10 kHz, before
+// this rule).
 
 #include <array>
 
@@ -19,6 +23,12 @@ namespace hapticlab {
 class SignalDelayHold {
  public:
   static constexpr int kCapacity = 256;
+  // The closest two kept samples may be [s]; the rounding slack keeps a
+  // steady 2.5 kHz's accumulated time from dropping every other sample.
+  static constexpr double kMinSpacing_s = 0.4e-3;
+  static constexpr double kMaxLatency_s = 0.1;  // settings' loop.*_latency_s limit
+  static_assert((kCapacity - 1) * (kMinSpacing_s - 1e-9) >= kMaxLatency_s,
+                "the ring must span the longest latency at the closest spacing");
 
   void reset(const Eigen::Vector3d& value) noexcept;
 
@@ -28,13 +38,15 @@ class SignalDelayHold {
   Eigen::Vector3d step(const Eigen::Vector3d& value, double dt_s, double latency_s,
                        double hold_rate_Hz) noexcept {
     now_s_ += dt_s > 0.0 ? dt_s : 0.0;
-    newest_ = next(newest_);
-    ring_[newest_] = {now_s_, value};
-    if (count_ < kCapacity) {
-      ++count_;
-    } else if (cursor_ == newest_) {
-      // Overwritten: the oldest stored sample is the best we have.
-      cursor_ = next(newest_);
+    if (now_s_ - ring_[newest_].t_s >= kMinSpacing_s - 1e-9) {
+      newest_ = next(newest_);
+      ring_[newest_] = {now_s_, value};
+      if (count_ < kCapacity) {
+        ++count_;
+      } else if (cursor_ == newest_) {
+        // Overwritten: the oldest stored sample is the best we have.
+        cursor_ = next(newest_);
+      }
     }
     if (latency_s <= 0.0 && hold_rate_Hz <= 0.0) {
       cursor_ = newest_;

@@ -39,12 +39,10 @@ struct Block {
   std::vector<Field> fields;
 };
 
-std::string format_number(double v) {
-  std::ostringstream os;
-  os.precision(10);
-  os << v;
-  return os.str();
-}
+// The shortest text that reads back as the same double: a bound or a value
+// rounded to 10 digits made "is 6.283185307, but must be ... <= 6.283185307"
+// (the value just above 2π) and "is 0.001, but must be >= 0.001".
+std::string format_number(double v) { return hapticlab::format_number<double>(v); }
 
 std::string range_text(const Field& f) {
   return std::string("must be ") + (f.lo_exclusive ? "> " : ">= ") + format_number(f.lo) +

@@ -94,6 +94,20 @@ TEST(CliConventions, OldSpellingsStillWorkForOneReleaseButAreHidden) {
   EXPECT_EQ(status, 2) << out;  // both spellings at once
   std::tie(status, out) = testing::run_cli(kBinary, "settings check -q " + settings);  // positional, as before
   EXPECT_EQ(status, 0) << out;
+  // An error of the old spelling names it (CLI11 left the name of a hidden
+  // option out: "error:  excludes --csv", "error: : File does not exist").
+  std::tie(status, out) = testing::run_cli(kBinary, "engine replay --settings " + settings + " --csv " + csv +
+                                                        " --input " + csv + " --out " + csv + ".out");
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_THAT(out, HasSubstr("error: --input excludes --csv")) << out;
+  std::tie(status, out) = testing::run_cli(kBinary, "engine replay --settings " + settings +
+                                                        " --input /nonexistent.csv --out " + csv + ".out");
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_THAT(out, HasSubstr("error: --input: File does not exist: /nonexistent.csv")) << out;
+  // Every file is checked, a missing one too (the parse stopped at it).
+  std::tie(status, out) = testing::run_cli(kBinary, "settings check -q " + settings + " /nonexistent.json " + settings);
+  EXPECT_EQ(status, 1) << out;
+  EXPECT_THAT(out, HasSubstr("/nonexistent.json: cannot open settings file")) << out;
 }
 
 // A device preset's source is printed before its settings (issue 19 §3).

@@ -247,5 +247,54 @@ TEST_F(EngineReplayTest, EachInstrumentHasItsOwnClock) {
   EXPECT_GT(max_N - min_N, 0.5);
 }
 
+// Each of these exited 0 before: a t_s in milliseconds (every row
+// re-anchored, the VE force passed through undegraded: 0 N through a
+// saturation, "0 rows with faults"), a pipe (read twice: the second read
+// began mid-stream, "no header line"), and a header without rows (an output
+// of a header alone).
+TEST_F(EngineReplayTest, TimesNotInSecondsAPipeAndNoRowsAreRefusedByName) {
+  const fs::path settings = write_file("s.json", kFrictionSettings);
+  std::string seconds = kInputHeader, milliseconds = kInputHeader;
+  for (int k = 0; k <= 200; ++k) {
+    const double t_s = k * 0.002;
+    seconds += row_text(t_s, 0, triangle_m(t_s, 0.03, 0.2), 0.0, 0.0, -0.5);
+    milliseconds += row_text(1000.0 * t_s, 0, triangle_m(t_s, 0.03, 0.2), 0.0, 0.0, -0.5);
+  }
+  const fs::path output = dir_ / "out.csv";
+  const auto refusal = [&](const fs::path& input) {
+    try {
+      replay(settings, input, output);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+
+  const std::string ms = refusal(write_file("ms.csv", milliseconds));
+  EXPECT_NE(ms.find("200 of the 200 rows"), std::string::npos) << ms;
+  EXPECT_NE(ms.find("median time step is 2 s"), std::string::npos) << ms;
+  EXPECT_NE(ms.find("Is t_s in seconds?"), std::string::npos) << ms;
+  EXPECT_FALSE(fs::exists(output));
+
+  // One gap in an otherwise steady recording is replayed, and counted.
+  std::string one_gap = seconds;
+  one_gap += row_text(1.0, 0, 0.1);
+  const std::string summary = replay(settings, write_file("gap.csv", one_gap), output);
+  EXPECT_NE(summary.find("1 rows re-anchored after a gap of more than 8/150 s"), std::string::npos) << summary;
+  EXPECT_EQ(replay(settings, write_file("s.csv", seconds), output).find("re-anchored"), std::string::npos);
+
+  const fs::path fifo = dir_ / "pipe.csv";
+  ASSERT_EQ(std::system(("mkfifo '" + fifo.string() + "'").c_str()), 0);
+  const std::string pipe = refusal(fifo);
+  EXPECT_NE(pipe.find("not a regular file"), std::string::npos) << pipe;
+  EXPECT_NE(pipe.find("--csv " + fifo.string()), std::string::npos) << pipe;
+
+  fs::remove(output);
+  const std::string empty = refusal(write_file("empty.csv", kInputHeader));
+  EXPECT_NE(empty.find("a header and no rows"), std::string::npos) << empty;
+  EXPECT_FALSE(fs::exists(output));
+  EXPECT_FALSE(has_temp_file(dir_));
+}
+
 }  // namespace
 }  // namespace hapticlab::app

@@ -82,6 +82,13 @@ TEST(SettingsJsonTest, OutOfRangeNamesFieldValueAndRange) {
   // The mass floor (docs/engine.md, Safety: a subnormal mass overflows).
   EXPECT_THAT(error_of(R"({"rotation": {"inertia": {"inertia_kg_m2": 1e-310}}})"),
               HasSubstr("'rotation.inertia.inertia_kg_m2' is 1e-310, but must be >= 1e-06 and <= 0.1"));
+  // Values and bounds read back as the doubles they are: rounded to 10
+  // digits, a value just outside a bound printed as the bound itself.
+  EXPECT_THAT(error_of(R"({"rotation": {"cogging": {"period_rad": 6.28318530718}}})"),
+              HasSubstr("is 6.28318530718, but must be >= 0.001 and <= 6.283185307179586"));
+  EXPECT_THAT(error_of(R"({"translation": {"inertia": {"mass_kg": 0.000999999999999}}})"),
+              HasSubstr("is 0.000999999999999, but must be >= 0.001"));
+  EXPECT_THAT(error_of(R"({"translation": {"inertia": {"mass_kg": -0.0}}})"), HasSubstr("is -0, but must be"));
 }
 
 TEST(SettingsJsonTest, UnitsAreInEveryFieldName) {
