@@ -14,7 +14,10 @@ namespace hapticlab::planning {
 namespace fs = std::filesystem;
 
 void prepare_plan_folder(const fs::path& out) {
+  if (out.empty()) throw std::runtime_error("--out is empty: name a folder to write into; nothing was simulated");
   std::error_code ec;
+  if (fs::exists(out, ec) && !fs::is_directory(out, ec))
+    throw std::runtime_error("--out '" + out.string() + "': exists and is not a folder; nothing was simulated");
   fs::create_directories(out, ec);
   if (ec)
     throw std::runtime_error("--out '" + out.string() + "': cannot make the folder (" + ec.message() +

@@ -1,14 +1,16 @@
 #pragma once
-// The output folder of a plan command (plan power, merge, calibrate), made
-// and proven writable before anything is simulated: a folder that cannot
-// take the results is found in a second, not after the whole simulation.
+// The output folder of a plan command (plan power, merge, calibrate; also
+// stability map and engine demo), made and proven writable before anything
+// is simulated: a folder that cannot take the results is found in a
+// second, not after the whole simulation.
 #include <filesystem>
 
 namespace hapticlab::planning {
 
 // Makes `out` (and its parents) and writes and removes a probe file in it.
 // Throws std::runtime_error naming --out, the folder and the cause ("...;
-// nothing was simulated").
+// nothing was simulated"): empty, an existing file that is not a folder,
+// cannot be made, cannot be written in.
 void prepare_plan_folder(const std::filesystem::path& out);
 
 }  // namespace hapticlab::planning

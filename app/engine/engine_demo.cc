@@ -11,8 +11,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
 #include <numbers>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,7 @@
 #include "core/common/output_file.h"
 #include "core/device/trajectory_csv.h"
 #include "core/settings/settings_json.h"
+#include "planning/plan_folder.h"
 
 namespace hapticlab::app {
 namespace {
@@ -32,6 +35,38 @@ const char* const kSettingFiles[] = {"high_fidelity", "no_force_feedback", "iner
                                      "inertia_backlash", "friction", "cogging",
                                      "force_saturation", "all_degradations", "max_stable"};
 
+// "high_fidelity.json, no_force_feedback.json, ..." for --help and errors.
+std::string setting_file_names(const std::vector<std::string>& files) {
+  std::string out;
+  for (const std::string& f : files) out += (out.empty() ? "" : ", ") + f + ".json";
+  return out;
+}
+
+std::string all_setting_file_names() {
+  return setting_file_names(std::vector<std::string>(std::begin(kSettingFiles), std::end(kSettingFiles)));
+}
+
+// Every settings file the demo feels the motion through, read before
+// anything is printed or written: a folder without some is refused naming
+// each missing file, not found at the first one after half the CSVs.
+std::vector<NamedSettings> load_demo_settings(const fs::path& dir, bool given) {
+  const std::string where =
+      given ? "--settings-dir '" + dir.string() + "'" : "the shipped settings folder '" + dir.string() + "'";
+  const std::size_t count = std::size(kSettingFiles);
+  if (!fs::is_directory(dir))
+    throw std::runtime_error(where + " is not a folder; it must hold the " + std::to_string(count) +
+                             " settings files the demo needs: " + all_setting_file_names());
+  std::vector<std::string> missing;
+  for (const char* file : kSettingFiles)
+    if (!fs::is_regular_file(dir / (std::string(file) + ".json"))) missing.push_back(file);
+  if (!missing.empty())
+    throw std::runtime_error(where + ": " + std::to_string(missing.size()) + " of the " + std::to_string(count) +
+                             " settings files the demo needs are missing: " + setting_file_names(missing) +
+                             " (it needs " + all_setting_file_names() + ")");
+  std::vector<NamedSettings> settings;
+  for (const char* file : kSettingFiles) settings.push_back(load_settings_file(dir / (std::string(file) + ".json")));
+  return settings;
+}
 
 // Scripted hands: the right instrument probes in and out, the left one holds
 // tissue with small corrections. Joints: insertion m, pitch rad, yaw rad.
@@ -125,22 +160,25 @@ void add_engine_demo_command(CLI::App& engine) {
   cmd->add_option("--out", opt->out, "Directory for the per-setting CSV files")
       ->capture_default_str();
   cmd->add_option("--settings-dir", opt->settings_dir,
-                  "Directory with the settings files (default: the shipped examples)");
+                  "Directory with the " + std::to_string(std::size(kSettingFiles)) +
+                      " settings files the demo reads: " + all_setting_file_names() +
+                      " (default: the shipped examples)");
   cmd->add_option("--seconds", opt->duration_s, "Length of the motion")
       ->capture_default_str()
       ->check(number_in(0.1, 600.0));
   cmd->callback([opt] {
     const fs::path dir =
         opt->settings_dir.empty() ? default_settings_dir() : fs::path(opt->settings_dir);
-    fs::create_directories(opt->out);
+    // Everything that can be refused is, before the first line is printed.
+    const std::vector<NamedSettings> settings = load_demo_settings(dir, !opt->settings_dir.empty());
+    planning::prepare_plan_folder(opt->out);
     std::printf("HapticLab engine demo: %.1f s of two-handed motion against soft tissue,\n"
                 "VE rate wandering 200-2000 Hz, felt through each setting in %s\n\n",
                 opt->duration_s, dir.c_str());
     std::printf("%-20s %8s %9s %9s %12s %11s %7s\n", "setting", "updates", "peak N",
                 "p95 N", "mean |dF| N", "offset mm", "faults");
-    for (const char* file : kSettingFiles) {
-      const NamedSettings setting = load_settings_file(dir / (std::string(file) + ".json"));
-      const Summary s = run_setting(setting, fs::path(opt->out) / (std::string(file) + ".csv"),
+    for (std::size_t i = 0; i < settings.size(); ++i) {
+      const Summary s = run_setting(settings[i], fs::path(opt->out) / (std::string(kSettingFiles[i]) + ".csv"),
                                     opt->duration_s);
       std::printf("%-20s %8zu %9.3f %9.3f %12.3f %11.2f %7zu\n", s.name.c_str(), s.updates,
                   s.peak_N, s.p95_N, s.mean_change_N, s.max_offset_mm, s.faults);

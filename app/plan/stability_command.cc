@@ -19,6 +19,7 @@
 #include "core/common/output_file.h"
 #include "core/settings/settings_json.h"
 #include "core/sim/stability_map.h"
+#include "planning/plan_folder.h"
 
 namespace hapticlab::app {
 namespace {
@@ -105,6 +106,13 @@ std::vector<StabilityParameter> chosen_parameters(const std::vector<std::string>
   return out;
 }
 
+// The base column: the value, or for an effect the base settings have off
+// the value its disabled block holds, which the map started from with the
+// effect switched on (not a value of the base settings).
+std::string base_text(const StabilityCell& c) {
+  return c.base_effect_on ? sig3(c.base_value) : "off (map from " + sig3(c.base_value) + ")";
+}
+
 std::string contact_title(const StabilityOptions& o, double k) {
   return (o.contact == "wall" ? "Wall, " : "Grasped tissue, ") + format_number(k) + " N/m";
 }
@@ -120,7 +128,11 @@ std::string markdown(const StabilityOptions& o, const StabilityMapConfig& config
      << " mJ net (docs/engine.md, \"Stability map\"). A cell is the stable interval around the base value, "
         "bounded by the nearest change each side: `a – b`; `≤ b` when it reaches down to the range's end; "
         "`≥ a` up to it; `all` both. `✗`: the base value itself is unstable; then the nearest stable value "
-        "each side (`≤ a`, `≥ b`), or `none`.\n";
+        "each side (`≤ a`, `≥ b`), or `none`.";
+  if (std::any_of(map.cells.begin(), map.cells.end(), [](const StabilityCell& c) { return !c.base_effect_on; }))
+    md << " A base of `off (map from v)`: the parameter's effect is off in " << settings_name
+       << "; its rows have it switched on, starting from the value v its settings block holds.";
+  md << '\n';
   for (double k : config.stiffnesses_N_per_m) {
     md << "\n## " << contact_title(o, k) << "\n";
     for (bool controller : {false, true}) {
@@ -144,7 +156,7 @@ std::string markdown(const StabilityOptions& o, const StabilityMapConfig& config
               const BoundarySearch& range = config.parameters[p].range;
               if (first)
                 md << "| `" << config.parameters[p].field << "` | " << sig3(range.lo) << " – " << sig3(range.hi)
-                   << " | " << sig3(c.base_value) << " |";
+                   << " | " << base_text(c) << " |";
               first = false;
               md << ' ' << cell_text(c) << " |";
             }
@@ -159,7 +171,7 @@ std::string cells_csv(const StabilityOptions& o, const StabilityMapConfig& confi
   auto number = [](double v) { return std::isnan(v) ? std::string() : format_number(v); };
   std::ostringstream csv;
   csv << "field,effect,contact,stiffness_N_per_m,rate_Hz,controller,range_lo,range_hi,base_value,base_stable,"
-         "below_kind,below_stable,below_unstable,above_kind,above_stable,above_unstable\n";
+         "below_kind,below_stable,below_unstable,above_kind,above_stable,above_unstable,base_effect\n";
   for (const StabilityCell& c : map.cells) {
     const StabilityParameter& p = config.parameters[c.parameter];
     csv << p.field << ',' << stability_effect(p) << ',' << o.contact << ',' << format_number(c.stiffness_N_per_m)
@@ -168,7 +180,7 @@ std::string cells_csv(const StabilityOptions& o, const StabilityMapConfig& confi
         << ',' << (c.base_stable ? 1 : 0);
     for (const Boundary* b : {&c.below, &c.above})
       csv << ',' << kind_name(b->kind) << ',' << number(b->stable) << ',' << number(b->unstable);
-    csv << '\n';
+    csv << ',' << (c.base_effect_on ? "on" : "off") << '\n';
   }
   return csv.str();
 }
@@ -197,11 +209,13 @@ std::vector<std::string> draw(const fs::path& dir, const StabilityMapConfig& con
     std::ostringstream data;
     std::vector<std::string> titles;
     double base = 0.0;
+    bool base_on = true;
     for (double k : config.stiffnesses_N_per_m)
       for (bool controller : {false, true}) {
         for (const StabilityCell& c : map.cells)
           if (c.parameter == p && c.stiffness_N_per_m == k && c.controller == controller) {
             base = c.base_value;
+            base_on = c.base_effect_on;
             data << format_number(c.rate_Hz) << ' ' << (found(c.below) ? format_number(c.below.stable) : "NaN")
                  << ' ' << (found(c.above) ? format_number(c.above.stable) : "NaN") << '\n';
           }
@@ -225,7 +239,8 @@ std::vector<std::string> draw(const fs::path& dir, const StabilityMapConfig& con
               " using 1:2 with linespoints lw 2 dt 2 pt 11" + colour + " title " +
               analysis::gnuplot_quote(titles[i] + ", below the base") + ", ";
     }
-    plot += format_number(base) + " with lines lc 'black' dt 3 title 'base value'";
+    plot += format_number(base) + " with lines lc 'black' dt 3 title " +
+            (base_on ? "'base value'" : "'start value (the effect is off in the base settings)'");
     script.add_plot(block + ".svg", plot, 900, 560);
   }
   analysis::run_gnuplot(script, dir, analysis::find_gnuplot());
@@ -238,7 +253,11 @@ StabilityMapConfig stability_config(const StabilityOptions& o, const NamedSettin
   config.rates_Hz = o.rates_Hz;
   std::sort(config.rates_Hz.begin(), config.rates_Hz.end());
   config.rates_Hz.erase(std::unique(config.rates_Hz.begin(), config.rates_Hz.end()), config.rates_Hz.end());
+  // Stiffnesses as rates: sorted, a repeated one mapped once.
   config.stiffnesses_N_per_m = o.stiffnesses_N_per_m;
+  std::sort(config.stiffnesses_N_per_m.begin(), config.stiffnesses_N_per_m.end());
+  config.stiffnesses_N_per_m.erase(std::unique(config.stiffnesses_N_per_m.begin(), config.stiffnesses_N_per_m.end()),
+                                   config.stiffnesses_N_per_m.end());
   config.contact = o.contact == "wall" ? StiffContactKind::kWall : StiffContactKind::kGraspedTissue;
   config.parameters = chosen_parameters(o.effects);
   for (StabilityParameter& p : config.parameters) p.range.steps = o.steps;
@@ -246,6 +265,60 @@ StabilityMapConfig stability_config(const StabilityOptions& o, const NamedSettin
   config.criterion.max_energy_J = o.max_energy_mJ * 1e-3;
   config.duration_s = o.duration_s;
   return config;
+}
+
+// An --effects list for what is left after leaving out the fields `refused`:
+// an effect's name where all of its chosen fields remain, else the fields.
+std::string effects_without(const std::vector<StabilityParameter>& chosen, const std::vector<std::string>& refused) {
+  auto kept = [&](const StabilityParameter& p) {
+    return std::find(refused.begin(), refused.end(), p.field) == refused.end();
+  };
+  std::string list;
+  std::vector<std::string> named;
+  for (const StabilityParameter& p : chosen) {
+    if (!kept(p)) continue;
+    const std::string effect = stability_effect(p);
+    const bool whole = std::all_of(chosen.begin(), chosen.end(), [&](const StabilityParameter& q) {
+      return stability_effect(q) != effect || kept(q);
+    });
+    const std::string item = whole ? effect : p.field;
+    if (std::find(named.begin(), named.end(), item) != named.end()) continue;
+    named.push_back(item);
+    list += (list.empty() ? "" : ",") + item;
+  }
+  return list;
+}
+
+// Every effect the map varies is switched on for its runs. One the base
+// settings cannot have on (backlash needs inertia) is refused here, before
+// the timing runs and --out, instead of failing part way through the map.
+void refuse_effects_the_base_cannot_have_on(const StabilityMapConfig& config, const fs::path& settings_path,
+                                            const std::string& name) {
+  std::vector<std::string> fields;
+  std::string problems, needs;
+  for (const StabilityParameter& p : config.parameters) {
+    const std::string why = stability_parameter_problem(config.base, p);
+    if (why.empty()) continue;
+    fields.push_back(p.field);
+    const std::vector<std::string> path = split_settings_field(p.field);
+    const std::string block = path.size() > 1 ? path[0] + "." + path[1] : p.field;
+    if (problems.find(block + " cannot") != std::string::npos) continue;
+    problems += (problems.empty() ? "" : "; ") + block + " cannot be switched on (" + why + ")";
+    // "... needs 'translation.inertia' enabled: ..." -> "'translation.inertia' enabled", for the way out.
+    const std::size_t at = why.find(" needs "), end = why.find(':', at == std::string::npos ? 0 : at);
+    if (at != std::string::npos && end != std::string::npos)
+      needs += (needs.empty() ? "" : " and ") + why.substr(at + 7, end - at - 7);
+  }
+  if (fields.empty()) return;
+  std::string listed;
+  for (const std::string& f : fields) listed += (listed.empty() ? "" : ", ") + f;
+  const std::string rest = effects_without(config.parameters, fields);
+  throw CLI::ValidationError(
+      "--effects", "the map switches on the effect of every parameter it varies, but in the base settings file " +
+                       settings_path.string() + " (" + name + ") " + problems + ". Either pass --effects without " +
+                       listed + (rest.empty() ? "" : " (e.g. --effects " + rest + ")") +
+                       ", or a base settings file (--settings) " +
+                       (needs.empty() ? "in which those effects can be switched on" : "with " + needs));
 }
 
 // The time per device update on this machine, the least of three runs of
@@ -290,11 +363,13 @@ void run(const StabilityOptions& o) {
   const fs::path settings_path = o.settings.empty() ? default_settings_dir() / "max_stable.json" : fs::path(o.settings);
   const NamedSettings named = load_settings_file(settings_path);
   StabilityMapConfig config = stability_config(o, named);
+  refuse_effects_the_base_cannot_have_on(config, settings_path, named.name);
   const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
   config.jobs = o.jobs == 0 ? cores : o.jobs;
   announce_stability_map(o, config, named.name, cores);
 
-  fs::create_directories(o.out);
+  // Made and proven writable now, not found unusable after the whole map.
+  planning::prepare_plan_folder(o.out);
   ProgressLine line(stdout);
   const auto start = std::chrono::steady_clock::now();
   const StabilityMap map = run_stability_map(config, [&](std::size_t done, std::size_t total) {

@@ -32,15 +32,34 @@ double value_in(const nlohmann::json& base, const std::string& field) {
   return find_settings_field(base, field)->get<double>();
 }
 
+// Whether the block of `field` is switched on in `base` (a block without
+// an "enabled" switch always is).
+bool effect_on_in(const nlohmann::json& base, const std::string& field) {
+  const std::vector<std::string> p = split_settings_field(field);
+  const nlohmann::json& block = base.at(p[0]).at(p[1]);
+  return !block.contains("enabled") || block["enabled"].get<bool>();
+}
+
+// Each value once: a repeated one would map its cells twice.
+void refuse_repeats(const std::vector<double>& values, const std::string& what, const std::string& unit) {
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if (std::find(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(i), values[i]) !=
+        values.begin() + static_cast<std::ptrdiff_t>(i))
+      throw std::invalid_argument("stability map: " + what + " " + format_number(values[i]) + " " + unit +
+                                  " is given twice; each must be given once");
+}
+
 void validate(const StabilityMapConfig& c, const nlohmann::json& base) {
   auto bad = [](const std::string& what) { throw std::invalid_argument("stability map: " + what); };
   if (c.rates_Hz.empty()) bad("no rate given");
   for (double r : c.rates_Hz)
     if (!(r >= 150.0 && r <= 2000.0)) bad("rate " + format_number(r) + " Hz, but each must be >= 150 and <= 2000");
+  refuse_repeats(c.rates_Hz, "rate", "Hz");
   if (c.stiffnesses_N_per_m.empty()) bad("no stiffness given");
   for (double k : c.stiffnesses_N_per_m)
     if (!(k >= 1e-3 && k <= 1e6))
       bad("stiffness " + format_number(k) + " N/m, but each must be >= 0.001 and <= 1000000");
+  refuse_repeats(c.stiffnesses_N_per_m, "stiffness", "N/m");
   if (!(c.duration_s >= 1.5 && c.duration_s <= 600.0))
     bad("duration_s is " + format_number(c.duration_s) + ", but must be >= 1.5 and <= 600");
   if (!(c.criterion.max_oscillation_m > 0.0) || !(c.criterion.max_energy_J > 0.0))
@@ -58,6 +77,9 @@ void validate(const StabilityMapConfig& c, const nlohmann::json& base) {
       bad(p.field + "'s range is " + format_number(p.range.lo) + ".." + format_number(p.range.hi) +
           ", but must lie within its allowed " + (it->lo_exclusive ? "> " : ">= ") + format_number(it->lo) +
           ", <= " + format_number(it->hi) + " with lo < hi");
+    // Found here, not by a worker part way through the map.
+    if (const std::string why = stability_parameter_problem(c.base, p); !why.empty())
+      bad(p.field + " cannot be varied from these base settings: " + why);
   }
 }
 
@@ -117,6 +139,26 @@ EngineSettings with_passivity_enabled(EngineSettings s, bool enabled) {
   s.translation.passivity.enabled = enabled;
   s.rotation.passivity.enabled = enabled;
   return s;
+}
+
+std::string stability_parameter_problem(const EngineSettings& base, const StabilityParameter& p) {
+  for (bool controller : {false, true}) {
+    const nlohmann::json j = settings_to_json({"base", "", with_passivity_enabled(base, controller)});
+    const nlohmann::json* field = find_settings_field(j, p.field);
+    if (field == nullptr || !field->is_number() || split_settings_field(p.field).size() != 3)
+      return "'" + p.field + "' is not a settings field of an effect";
+    for (double v : {field->get<double>(), p.range.lo, p.range.hi}) {
+      try {
+        (void)with_value(j, p.field, v);
+      } catch (const SettingsError& e) {
+        // The settings' rule without with_value's "stability map, FIELD = V: ".
+        const std::string what = e.what();
+        const std::string label = "stability map, " + p.field + " = " + format_number(v) + ": ";
+        return what.starts_with(label) ? what.substr(label.size()) : what;
+      }
+    }
+  }
+  return "";
 }
 
 StabilityMapSize stability_map_size(const StabilityMapConfig& c) {
@@ -203,6 +245,7 @@ StabilityMap run_stability_map(const StabilityMapConfig& c,
       cell.stiffness_N_per_m = b.stiffness_N_per_m;
       cell.controller = b.controller;
       cell.base_value = value_in(base_json, c.parameters[p].field);
+      cell.base_effect_on = effect_on_in(base_json, c.parameters[p].field);
       map.cells.push_back(std::move(cell));
     }
   // The settings with and without the controller, as JSON, made once.

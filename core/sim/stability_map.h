@@ -79,6 +79,11 @@ struct StabilityCell {
   double stiffness_N_per_m = 0.0;
   bool controller = false;
   double base_value = 0.0;  // the parameter's value in the base settings
+  // Whether the parameter's effect is on in the base settings. When it is
+  // off, base_value is what its disabled block holds (the field's default
+  // unless the file set it): the search starts there, the effect switched
+  // on, so a report must not show it as the base settings' own value.
+  bool base_effect_on = true;
   bool base_stable = false;
   // kind kStableEverywhere: stable out to the range's end; kStableAbove /
   // kStableBelow: a boundary; kUnstableEverywhere: no stable value found.
@@ -109,9 +114,19 @@ struct StabilityMapSize {
 };
 StabilityMapSize stability_map_size(const StabilityMapConfig& config);
 
+// Why the map cannot vary `p` from `base`, or empty when it can. Every run
+// of a parameter's search has its effect switched on, which a rule of the
+// settings may forbid in this base: backlash needs inertia on. The text is
+// the settings' own message ("settings block 'translation.backlash' needs
+// 'translation.inertia' enabled: ..."), checked at the base value and at
+// both ends of the range, with the passivity controller off and on.
+std::string stability_parameter_problem(const EngineSettings& base, const StabilityParameter& p);
+
 // Throws std::invalid_argument naming the field for a bad rate, stiffness,
-// duration or parameter (a settings path that does not exist or a range
-// outside the field's allowed one). `progress` (may be empty) is called
+// duration or parameter (a settings path that does not exist, a range
+// outside the field's allowed one, an effect the base settings cannot have
+// switched on: stability_parameter_problem), or a rate or stiffness given
+// twice, before any run. `progress` (may be empty) is called
 // after every cell, from one thread at a time, with cells done and total.
 StabilityMap run_stability_map(const StabilityMapConfig& config,
                                const std::function<void(std::size_t, std::size_t)>& progress = {});

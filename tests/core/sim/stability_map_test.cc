@@ -144,6 +144,55 @@ TEST(StabilityMapTest, BadGridsAreRefusedNamingTheField) {
   c = small_map();
   c.duration_s = 1.0;
   EXPECT_THAT(message(c), HasSubstr("duration_s is 1, but must be >= 1.5"));
+  // A rate or stiffness given twice would map its cells twice.
+  c = small_map();
+  c.stiffnesses_N_per_m = {2000, 320, 2000};
+  EXPECT_EQ(message(c), "stability map: stiffness 2000 N/m is given twice; each must be given once");
+  c = small_map();
+  c.rates_Hz = {150, 150};
+  EXPECT_EQ(message(c), "stability map: rate 150 Hz is given twice; each must be given once");
+}
+
+// Every run of a parameter's search has its effect switched on. Backlash
+// needs inertia on, so from a base without inertia (Friction) the backlash
+// gap cannot be mapped: refused before any run, with the settings' rule,
+// where the map used to fail part way through.
+TEST(StabilityMapTest, AnEffectTheBaseCannotSwitchOnIsRefusedBeforeAnyRun) {
+  StabilityMapConfig c = small_map();
+  c.base = testing::load_example("friction");
+  c.parameters = {parameter("translation.inertia.mass_kg", 1), parameter("translation.backlash.gap_m", 1)};
+  EXPECT_EQ(stability_parameter_problem(c.base, c.parameters[0]), "");
+  EXPECT_THAT(stability_parameter_problem(c.base, c.parameters[1]),
+              HasSubstr("settings block 'translation.backlash' needs 'translation.inertia' enabled"));
+  EXPECT_EQ(stability_parameter_problem(testing::load_example("inertia"), c.parameters[1]), "");
+  std::size_t progress_calls = 0;
+  try {
+    run_stability_map(c, [&](std::size_t, std::size_t) { ++progress_calls; });
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("stability map: translation.backlash.gap_m cannot be varied from these base "
+                                    "settings: settings block 'translation.backlash' needs"));
+  }
+  EXPECT_EQ(progress_calls, 0u);
+}
+
+// A parameter whose effect is off in the base settings is searched from the
+// value its disabled block holds, the effect switched on; the cell says the
+// effect was off, so a report does not show that value as the base's.
+TEST(StabilityMapTest, ACellSaysWhetherItsEffectIsOnInTheBase) {
+  StabilityMapConfig c;
+  c.base = testing::load_example("inertia");
+  c.rates_Hz = {1000};
+  c.stiffnesses_N_per_m = {320};
+  c.duration_s = 1.5;
+  c.parameters = {parameter("translation.friction.dynamic_level_N", 1),
+                  parameter("translation.inertia.damping_ratio", 1)};
+  const StabilityMap map = run_stability_map(c);
+  ASSERT_EQ(map.cells.size(), 4u);
+  for (const StabilityCell& cell : map.cells) {
+    EXPECT_EQ(cell.base_effect_on, cell.parameter == 1) << cell.parameter;
+    EXPECT_DOUBLE_EQ(cell.base_value, cell.parameter == 0 ? 0.45 : 0.3);
+  }
 }
 
 TEST(StabilityMapTest, TheSizeCountsEveryRunTheMapMayNeed) {
