@@ -109,6 +109,24 @@ bool unicode_space(char32_t c) {
 // U+00C0..U+00FF as the letter they are written with, '\0' for the two
 // signs among them (multiplication, division).
 constexpr char kLatin1Base[] = "aaaaaaaceeeeiiiidnooooo\0ouuuuytsaaaaaaaceeeeiiiidnooooo\0ouuuuyty";
+// U+0100..U+017F (Latin Extended-A: the letters of Central and Eastern
+// European names, "Řeháček", "Łódź") likewise, upper and lower case alike;
+// '\0' for the ligatures ĳ and œ, kra, ŉ and eng, which stay as written.
+constexpr char kLatinExtendedABase[] =
+    "aaaaaaccccccccddddeeeeeeeeeegggggggghhhhiiiiiiiiii\0\0jjkk\0llllllllllnnnnnn\0\0\0oooooo\0\0rrrrrrssssssss"
+    "ttttttuuuuuuuuuuuuwwyyyzzzzzzs";
+static_assert(sizeof kLatinExtendedABase == 0x80 + 1, "one letter for each of U+0100..U+017F");
+
+// A byte below 0x20 or 0x7F, or a C1 control (U+0080..U+009F), which no
+// table shows: "A\u0000B" printed as "A", "A\nB" across two lines.
+bool has_control_character(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const auto [c, n] = utf8_char_at(text, i);
+    if (c < 0x20 || (c >= 0x7F && c <= 0x9F)) return true;
+    i += n;
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -141,6 +159,8 @@ std::string setting_name_key(std::string_view name) {
       // a combining accent: the letter before it stands for both
     } else if (c >= 0x00C0 && c <= 0x00FF && kLatin1Base[c - 0x00C0] != '\0') {
       add(std::string_view(&kLatin1Base[c - 0x00C0], 1));
+    } else if (c >= 0x0100 && c <= 0x017F && kLatinExtendedABase[c - 0x0100] != '\0') {
+      add(std::string_view(&kLatinExtendedABase[c - 0x0100], 1));
     } else {
       add(name.substr(i, n));
     }
@@ -260,6 +280,17 @@ void validate_setting_names(const Protocol& p, const std::string& source) {
       throw ProtocolError(source, index_path("settings", i) + ".name",
                           "is missing or empty, but every setting needs a name: designs refer to settings by it");
     }
+    if (has_control_character(name)) {
+      throw ProtocolError(source, index_path("settings", i) + ".name",
+                          "is " + in_quotes(escaped(name)) +
+                              ", which holds a control character (a table would cut the name there or break "
+                              "its line); a setting's name must be printable text");
+    }
+    if (setting_name_key(name).empty()) {
+      throw ProtocolError(source, index_path("settings", i) + ".name",
+                          "is " + in_quotes(escaped(name)) +
+                              ", which has no letter or digit; a reader tells settings apart by their names");
+    }
     for (std::size_t j = 0; j < i; ++j) {
       const std::string& other = p.settings[j].settings.name;
       if (other == name) {
@@ -358,6 +389,11 @@ void validate_safety(const Protocol& p, const std::string& source) {
 
 void validate_protocol(const Protocol& p, const std::string& source) {
   if (p.study.empty()) throw ProtocolError(source, "study", "is empty, but must name the study");
+  if (has_control_character(p.study) || setting_name_key(p.study).empty()) {
+    throw ProtocolError(source, "study",
+                        "is " + in_quotes(escaped(p.study)) +
+                            ", but must name the study in printable text with at least one letter or digit");
+  }
   validate_safety(p, source);
   validate_tasks(p, source);
   validate_setting_names(p, source);

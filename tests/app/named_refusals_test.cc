@@ -231,6 +231,16 @@ TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseSpacesPunctuationAndA
     EXPECT_EQ(rc, 1) << a.second;
     EXPECT_THAT(text, HasSubstr("'settings[1].name'")) << a.second;
   }
+  // Beyond Latin-1 (an outside check): Polish and Czech letters in either
+  // case, and composed beside decomposed, were two settings.
+  for (const auto& [first, second] : std::vector<std::pair<std::string, std::string>>{
+           {"\u0141\u00f3d\u017a", "\u0142\u00f3d\u017a"}, {"T\u0159en\u00ed", "Tr\u030cen\u00ed"}}) {
+    const fs::path q =
+        protocol("alike2.json", R"({"name": ")" + first + R"("}, {"name": ")" + second + R"(", "translation": {"friction": {}}})");
+    std::tie(rc, text) = cli("study create --protocol " + q.string() + " --db " + (dir_ / "alike2.db").string());
+    EXPECT_EQ(rc, 1) << second;
+    EXPECT_THAT(text, HasSubstr("but for case, spaces, punctuation or accents")) << second;
+  }
   // Names a reader tells apart are still settings of their own: a number's
   // sign and decimal point count (a dose series' "f = -0.5" and "f = 0.5").
   const fs::path apart = protocol("apart.json", R"({"name": "High Fidelity"}, {"name": "Caf\u00e8", "translation": )"
@@ -239,6 +249,34 @@ TEST_F(NamedRefusalsTest, SettingNamesAreUniqueIgnoringCaseSpacesPunctuationAndA
                                                 R"( {"name": "Delay 20 ms"}, {"name": "f = 0.5"}, {"name": "f = 05"})");
   std::tie(rc, text) = cli("study create --protocol " + apart.string() + " --db " + (dir_ / "apart.db").string());
   EXPECT_EQ(rc, 0) << text;
+}
+
+// A setting named "Strong Friction\u0000 v2" was stored, shown and analysed
+// as "Strong Friction", beside another "Strong Friction" (an outside
+// check); a newline broke the tables, a name of spaces showed blank. Each
+// is refused, and so is such a study name.
+TEST_F(NamedRefusalsTest, SettingAndStudyNamesArePrintableText) {
+  for (const auto& [name, why] : std::vector<std::pair<std::string, std::string>>{
+           {"Strong Friction\\u0000 v2", "holds a control character"},
+           {"Strong\\nFriction", "holds a control character"},
+           {"Strong\\u0085Friction", "holds a control character"},
+           {"   ", "has no letter or digit"},
+           {"--", "has no letter or digit"}}) {
+    const fs::path q = protocol("names.json", "\"" + (kSettings / "high_fidelity.json").string() + R"(", {"name": ")" +
+                                                  name + R"(", "translation": {"friction": {}}})");
+    const auto [rc, text] = cli("study create --protocol " + q.string() + " --db " + (dir_ / "names.db").string());
+    EXPECT_EQ(rc, 1) << name;
+    EXPECT_THAT(text, AllOf(HasSubstr("'settings[1].name'"), HasSubstr(why))) << name;
+    EXPECT_FALSE(fs::exists(dir_ / "names.db"));
+  }
+  for (const std::string study : {"a\\u0000b", "  "}) {
+    const fs::path q = dir_ / "study_name.json";
+    std::ofstream(q) << R"({"study": ")" << study << R"(", "tasks": ["clip"], "repetitions": {"clip": 1}, "settings": [)"
+                     << two_settings() << R"(], "participants": ["A", "B"], "design": {"type": "complete"}, "seed": 5})";
+    const auto [rc, text] = cli("study create --protocol " + q.string() + " --db " + (dir_ / "names.db").string());
+    EXPECT_EQ(rc, 1) << study;
+    EXPECT_THAT(text, AllOf(HasSubstr("protocol field 'study'"), HasSubstr("printable text"))) << study;
+  }
 }
 
 // "S1" and "s1" were two participants: an operator who typed one ran the
