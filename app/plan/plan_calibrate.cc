@@ -129,7 +129,7 @@ int run_plan_calibrate_fit(const PlanCalibrateOptions& o) {
   fit.max_trial_s = o.max_trial_s;
   fit.jobs = o.jobs;
   fit.command = o.command;
-  fs::create_directories(o.out);
+  planning::prepare_plan_folder(o.out);
   InterruptFlag interrupt;
   const planning::PopulationFitResult r = fit_with_progress(o, protocol, fit, interrupt);
   // Diagnostics, whatever the outcome.

@@ -21,6 +21,7 @@
 #include "planning/transfer_power.h"
 #include "protocols/loop_protections.h"
 #include "protocols/protocol_json.h"
+#include "planning/plan_folder.h"
 
 namespace hapticlab::app {
 namespace {
@@ -124,7 +125,7 @@ int run_transfer_power(const protocols::Protocol& protocol, const PlanPowerOptio
   options.simulation.population = population.point;
   options.simulation.learning.force_free_share = share;
   options.simulation.protections = protocols::loop_protections(protocol);
-  std::filesystem::create_directories(o.out);
+  planning::prepare_plan_folder(o.out);
   std::vector<TaskPower> tasks;
   int timed_out = 0, trials = 0;
   for (const planning::TransferDesign& d : designs) {

@@ -17,6 +17,7 @@
 #include "analysis/stats/data_error.h"
 #include "analysis/transfer/transfer_analysis.h"
 #include "core/common/output_file.h"
+#include "planning/plan_folder.h"
 
 namespace hapticlab::app {
 namespace {
@@ -78,7 +79,7 @@ void run_learning(const LearningOptions& opt) {
     cusum->spec.lc_limit = opt.lc_limit;
   }
   const auto analysis = an::learning::analyze_learning(table, parse_phase(opt.phase), cusum);
-  fs::create_directories(opt.out);
+  planning::prepare_plan_folder(opt.out, "nothing was written");
   std::ostringstream curves;
   an::learning::write_curves_csv(analysis, curves);
   write_file(fs::path(opt.out) / "curves.csv", curves.str());

@@ -25,6 +25,7 @@
 #include "sessions/session_runner.h"
 #include "sessions/study_progress.h"
 #include "sessions/study_setup.h"
+#include "planning/plan_folder.h"
 
 namespace hapticlab::app {
 namespace {
@@ -192,7 +193,7 @@ DemoSessions run_demo_sessions(const fs::path& db_path, const DemoStanding& stan
 int run(const DemoOptions& opt) {
   const auto started = std::chrono::steady_clock::now();
   const fs::path out(opt.out);
-  fs::create_directories(out);
+  planning::prepare_plan_folder(out);
   const fs::path protocol = opt.protocol.empty()
                                 ? default_protocols_dir() / (opt.quick ? "thesis_quick.json" : "thesis_as_run.json")
                                 : fs::path(opt.protocol);

@@ -145,6 +145,27 @@ TEST_F(NamedRefusalsTest, PlanCalibrateChecksItsOutputFolderBeforeSimulating) {
                           HasSubstr("nothing was simulated"), Not(HasSubstr("simulating"))));
 }
 
+// Every command that writes a folder names an --out it cannot use before
+// its work (an outside check found the library's "filesystem error: cannot
+// create directories: Not a directory [afile]" from several).
+TEST_F(NamedRefusalsTest, AnOutThatIsAFileIsNamedByEveryCommandThatWritesAFolder) {
+  const fs::path file = dir_ / "a_file";
+  std::ofstream(file) << "x";
+  std::ofstream(dir_ / "trials.csv") << "participant,group,phase,trial,completion_time_s\n"
+                                        "A,g,training,1,30\nA,g,training,2,25\nA,g,training,3,22\nA,g,training,4,20\n"
+                                        "A,g,training,5,19\nA,g,training,6,18\n";
+  const std::string protocols = std::string(HAPTICLAB_SOURCE_DIR) + "/examples/protocols/";
+  for (const auto& [args, not_done] : std::vector<std::pair<std::string, std::string>>{
+           {"demo --quick", "nothing was simulated"},
+           {"plan calibrate --fit --fit-studies 1", "nothing was simulated"},
+           {"plan power --studies 1 --no-plots --protocol " + protocols + "transfer_pilot.json", "nothing was simulated"},
+           {"stats learning " + (dir_ / "trials.csv").string() + " --no-figures", "nothing was written"}}) {
+    const auto [rc, text] = cli(args + " --out " + file.string());
+    EXPECT_EQ(rc, 1) << args;
+    EXPECT_THAT(text, HasSubstr("--out '" + file.string() + "': exists and is not a folder; " + not_done)) << args;
+  }
+}
+
 // Options a command would not use are refused by name, not ignored: the
 // fit draws its own participants; --quick picks a shipped protocol; a
 // database trial has its own task; a CSV holds one recording. Each is
