@@ -248,6 +248,11 @@ class Reader {
   int as_int(const json& v, const std::string& path, long long lo, long long hi,
              const std::string& why = "") const {
     const std::string rule = "must be a whole number >= " + std::to_string(lo) + " and <= " + std::to_string(hi) + why;
+    // 2.0 and 1e2 are whole numbers to a reader; the rule is about how
+    // they are written (a count is read as an integer, not rounded).
+    if (v.is_number_float()) {
+      fail(path, "is " + shown(v) + ", but " + rule + ", written without a decimal point or exponent");
+    }
     if (!v.is_number_integer()) fail(path, "is " + shown(v) + ", but " + rule);
     // Unsigned values above LLONG_MAX are out of every range used here.
     if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi)) {
@@ -264,6 +269,7 @@ class Reader {
     // Parsed non-negative integers are unsigned; ones built in code may be
     // signed.
     if (v.is_number_integer() && v.get<long long>() >= 0) return static_cast<std::uint64_t>(v.get<long long>());
+    if (v.is_number_float()) fail(path, "is " + shown(v) + ", but " + rule + ", written without a decimal point or exponent");
     fail(path, "is " + shown(v) + ", but " + rule);
   }
 

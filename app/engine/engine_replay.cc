@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -73,6 +74,14 @@ void refuse_mostly_gaps(const std::string& input, long long gap_rows, const std:
       " s). Is t_s in seconds? The engine runs at 150..2000 updates per second");
 }
 
+// Two finite times can be an infinite step apart (-1e308, then 1e308): the
+// engine would take it for a non-finite input.
+void refuse_infinite_step(const std::string& input, int instrument, double from_s, double to_s) {
+  if (std::isfinite(to_s - from_s)) return;
+  throw std::runtime_error("--csv " + input + ": instrument " + std::to_string(instrument) + "'s t_s goes from " +
+                           format_number(from_s) + " to " + format_number(to_s) + ", a step too large for a double");
+}
+
 void print_summary(const ReplayOptions& opt, const std::array<long long, kNumInstruments>& rows,
                    double peak_force_N, long long fault_rows, long long gap_rows) {
   const std::string gaps =
@@ -119,6 +128,7 @@ void run_replay(const ReplayOptions& opt) {
     InstrumentInput in;
     in.dt_s = started[i] ? row.t_s - last_t_s[i] : 0.0;
     if (started[i]) {
+      refuse_infinite_step(opt.input, i, last_t_s[i], row.t_s);
       dts_s.push_back(in.dt_s);
       if (in.dt_s > kMaxSubsteps * kMaxDt_s) ++gap_rows;
     }

@@ -289,6 +289,12 @@ TEST_F(EngineReplayTest, TimesNotInSecondsAPipeAndNoRowsAreRefusedByName) {
   EXPECT_NE(pipe.find("not a regular file"), std::string::npos) << pipe;
   EXPECT_NE(pipe.find("--csv " + fifo.string()), std::string::npos) << pipe;
 
+  const std::string overflow =
+      refusal(write_file("overflow.csv", std::string(kInputHeader) + row_text(-1e308, 0, 0.1) + row_text(1e308, 0, 0.1)));
+  EXPECT_NE(overflow.find("instrument 0's t_s goes from -1e+308 to 1e+308, a step too large for a double"),
+            std::string::npos)
+      << overflow;
+
   fs::remove(output);
   const std::string empty = refusal(write_file("empty.csv", kInputHeader));
   EXPECT_NE(empty.find("a header and no rows"), std::string::npos) << empty;

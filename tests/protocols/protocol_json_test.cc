@@ -136,6 +136,15 @@ TEST(ProtocolJsonTest, ZeroOrTooManyRepetitions) {
   f = failure_of(j);
   EXPECT_EQ(f.field, "repetitions.clip");
   EXPECT_THAT(f.message, HasSubstr("missing"));
+  // 2.0 is a whole number to a reader: the message says what is refused,
+  // the way it is written (it once read "is 2.0, but must be a whole number").
+  j["repetitions"]["clip"] = 2.0;
+  f = failure_of(j);
+  EXPECT_THAT(f.message, HasSubstr("is 2.0, but must be a whole number >= 1 and <= 100"));
+  EXPECT_THAT(f.message, HasSubstr(", written without a decimal point or exponent"));
+  j["repetitions"]["clip"] = 2;
+  j["seed"] = 5.0;
+  EXPECT_THAT(failure_of(j).message, HasSubstr("written without a decimal point or exponent"));
 }
 
 TEST(ProtocolJsonTest, DuplicateParticipantCodes) {
