@@ -2,6 +2,7 @@
 
 #include <map>
 #include <stdexcept>
+#include <vector>
 
 #include "protocols/protocol_json.h"
 #include "protocols/schedule.h"
@@ -42,6 +43,13 @@ CreatedStudy create_study(db::StudyDb& db, const std::filesystem::path& protocol
     }
   }
   tx.commit();
+  if (!protocol.staircase) {
+    std::vector<bool> scheduled(protocol.settings.size(), false);
+    for (const protocols::ParticipantPlan& p : plan.participants)
+      for (const protocols::PlannedTrial& t : p.trials) scheduled[t.setting_index] = true;
+    for (std::size_t i = 0; i < protocol.settings.size(); ++i)
+      if (!scheduled[i]) created.unscheduled_settings.push_back(protocol.settings[i].settings.name);
+  }
   return created;
 }
 

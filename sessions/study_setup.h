@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "db/study_db.h"
 #include "protocols/protocol.h"
@@ -17,6 +18,11 @@ struct CreatedStudy {
   int participants = 0;
   int trials = 0;
   bool external_ve = false;  // the protocol says "ve": "external": run by the lab's application
+  // Settings of the protocol that no participant's schedule holds (an
+  // incomplete or explicit design with too few participants): they will not
+  // be run, which the caller says. Empty for a staircase, whose strengths
+  // are made during the sessions.
+  std::vector<std::string> unscheduled_settings;
 };
 
 // Reads and validates the protocol file (ProtocolError), plans the study

@@ -41,6 +41,12 @@ void create(const StudyOptions& opt) {
     const sessions::CreatedStudy created = sessions::create_study(db, opt.protocol, software_version());
     std::printf("created study %lld in %s: %d participants, %d planned trials\n",
                 static_cast<long long>(created.study_id), opt.db.c_str(), created.participants, created.trials);
+    for (const std::string& name : created.unscheduled_settings)
+      std::fprintf(stderr,
+                   "hapticlab: warning: setting '%s' is in no participant's schedule (the design gives it no "
+                   "trials with these %d participants), so it will not be run; add participants, or leave it out "
+                   "of the protocol\n",
+                   name.c_str(), created.participants);
     if (created.external_ve)
       std::printf("next: hapticlab study show --db %s; the lab's application runs the trials through the study API "
                   "(hapticlab/study.h, docs/ve_events.md)\n",

@@ -300,6 +300,33 @@ TEST_F(NamedRefusalsTest, SettingAndStudyNamesArePrintableText) {
   }
 }
 
+// An incomplete design with too few participants left a listed setting
+// without a trial, and `study create` said nothing (an outside check): the
+// study ran without it. A warning names it; the study is still made.
+TEST_F(NamedRefusalsTest, ASettingNoParticipantRunsIsAWarning) {
+  const fs::path q = protocol("unused.json", two_settings() + R"(, {"name": "Friction", "translation": {"friction": {}}},)"
+                                                              R"( {"name": "Cogging", "translation": {"cogging": {}}})");
+  std::string text;
+  {
+    std::ifstream in(q);
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string complete = R"("design": {"type": "complete"})";
+  text.replace(text.find(complete), complete.size(),
+               R"("design": {"type": "incomplete", "required": ["High Fidelity"], "k": 1})");
+  std::ofstream(q) << text;
+  const auto [rc, out] = cli("study create --protocol " + q.string() + " --db " + (dir_ / "unused.db").string());
+  EXPECT_EQ(rc, 0) << out;
+  // Two participants, one optional setting each, three optional settings:
+  // one at least is left out.
+  EXPECT_THAT(out, HasSubstr("is in no participant's schedule (the design gives it no trials with these 2 "
+                             "participants), so it will not be run"));
+  const auto [rc_full, out_full] = cli("study create --protocol " + protocol("used.json", two_settings()).string() +
+                                       " --db " + (dir_ / "used.db").string());
+  EXPECT_EQ(rc_full, 0) << out_full;
+  EXPECT_THAT(out_full, Not(HasSubstr("warning")));
+}
+
 // "S1" and "s1" were two participants: an operator who typed one ran the
 // other's schedule, and a merge counted one person at two sites as two.
 TEST_F(NamedRefusalsTest, ParticipantCodesAreUniqueIgnoringCase) {
