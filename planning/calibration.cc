@@ -14,6 +14,7 @@
 #include "analysis/stats/percentile.h"
 #include "core/common/csv_format.h"
 #include "planning/power.h"
+#include "planning/undegraded_control.h"
 
 namespace hapticlab::planning {
 
@@ -178,6 +179,9 @@ CalibrationSettings check_calibration_protocol(const protocols::Protocol& protoc
     throw std::runtime_error(protocol_path + ": " + e.what() + "; plan calibrate compares No Force Feedback with it");
   }
   found.control = names.control;
+  // The control by what it does too: a degraded one would calibrate the
+  // effect of force feedback against another degradation.
+  check_control_undegraded(protocol, names.control, protocol_path, "plan calibrate");
   // No Force Feedback by what it does, not its name: the tip force clipped to 0 N.
   for (const auto& s : protocol.settings) {
     const auto& t = s.settings.engine.tip_force_saturation;
