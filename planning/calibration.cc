@@ -105,7 +105,12 @@ SimulatedPopulation simulate_population(const protocols::Protocol& protocol, int
   for (std::size_t k = 0; k < groups.size(); ++k) {
     out.trials_timed_out += groups[k].trials_timed_out;
     for (analysis::TrialRecord t : groups[k].analysis.trials) {
-      t.participant = "s" + std::to_string(k) + "/" + t.participant;
+      // Piecewise: GCC 12 warns falsely (-Wstringop-overflow) on "text" + std::string here.
+      std::string code = "s";
+      code += std::to_string(k);
+      code += '/';
+      code += t.participant;
+      t.participant = std::move(code);
       out.analysis.trials.push_back(std::move(t));
     }
   }
