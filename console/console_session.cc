@@ -397,6 +397,8 @@ nlohmann::json ConsoleSession::operator_status() const {
                    {"stopped_by_operator", result_->stopped_by_operator},
                    {"device_fault", result_->device_fault_reason},
                    {"warnings", result_->condition_warnings}};
+    // Nothing was to run: why, and no session was added.
+    if (result_->nothing_to_run) j["result"]["nothing_to_run"] = *result_->nothing_to_run;
   }
   return j;
 }

@@ -14,6 +14,7 @@
 #include "analysis/stats/percentile.h"
 #include "core/common/csv_format.h"
 #include "planning/power.h"
+#include "planning/undegraded_control.h"
 
 namespace hapticlab::planning {
 
@@ -104,7 +105,12 @@ SimulatedPopulation simulate_population(const protocols::Protocol& protocol, int
   for (std::size_t k = 0; k < groups.size(); ++k) {
     out.trials_timed_out += groups[k].trials_timed_out;
     for (analysis::TrialRecord t : groups[k].analysis.trials) {
-      t.participant = "s" + std::to_string(k) + "/" + t.participant;
+      // Piecewise: GCC 12 warns falsely (-Wstringop-overflow) on "text" + std::string here.
+      std::string code = "s";
+      code += std::to_string(k);
+      code += '/';
+      code += t.participant;
+      t.participant = std::move(code);
       out.analysis.trials.push_back(std::move(t));
     }
   }
@@ -178,6 +184,9 @@ CalibrationSettings check_calibration_protocol(const protocols::Protocol& protoc
     throw std::runtime_error(protocol_path + ": " + e.what() + "; plan calibrate compares No Force Feedback with it");
   }
   found.control = names.control;
+  // The control by what it does too: a degraded one would calibrate the
+  // effect of force feedback against another degradation.
+  check_control_undegraded(protocol, names.control, protocol_path, "plan calibrate");
   // No Force Feedback by what it does, not its name: the tip force clipped to 0 N.
   for (const auto& s : protocol.settings) {
     const auto& t = s.settings.engine.tip_force_saturation;

@@ -82,7 +82,8 @@ struct CalibrationSettings {
 // Checks a calibration protocol before anything runs: it has a control
 // (analysis::choose_control under `sim`'s analysis options) and a setting
 // that displays no force (No Force Feedback by what it does, not its
-// name: tip_force_saturation enabled with limit_N 0), and its design takes
+// name: tip_force_saturation enabled with limit_N 0), that the control is
+// undegraded (undegraded_control.h), and that its design takes
 // the group sizes of `participants` (resized_protocol with `seed`). Throws
 // std::runtime_error naming `protocol_path` and what is missing.
 CalibrationSettings check_calibration_protocol(const protocols::Protocol& protocol, const std::string& protocol_path,

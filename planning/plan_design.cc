@@ -11,6 +11,7 @@
 #include "analysis/study/study_analysis.h"
 #include "core/settings/settings_json.h"
 #include "planning/plan_inputs.h"
+#include "planning/undegraded_control.h"
 
 namespace hapticlab::planning {
 
@@ -36,6 +37,7 @@ PlanDesign check_plan_design(const protocols::Protocol& protocol, const std::str
                                "; plan power compares every setting with the control");
     }
     control_name = names.control;
+    check_control_undegraded(protocol, names.control, o.protocol, "plan power");
     for (int n : counts) (void)resized_protocol(protocol, n, o.seed);
     // A null setting: the control's parameters under another name. Any
     // difference found for it is a false positive.

@@ -20,7 +20,7 @@ struct PlanDesign {
 };
 
 // Throws std::runtime_error naming `protocol_path` when the protocol has no
-// control, when a declared null setting is the control or differs from it
+// control, when the control degrades something (undegraded_control.h), when a declared null setting is the control or differs from it
 // (naming the first differing field, as settings.field.path), or when the
 // design cannot take one of `counts` participants (resized_protocol with
 // `seed`).

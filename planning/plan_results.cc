@@ -12,6 +12,7 @@
 #include "core/common/csv_format.h"
 #include "core/common/output_file.h"
 #include "planning/change_summary.h"
+#include "planning/participant_reach.h"
 
 namespace hapticlab::planning {
 namespace {
@@ -73,6 +74,24 @@ std::vector<std::string> draw_power(const fs::path& out, const std::vector<Power
   return script.outputs();
 }
 
+// One note per participant count whose participant-level power is 0
+// whatever the data (participant_reach.h); the level is the simulated
+// studies' own: alpha over every setting but the control.
+std::vector<std::string> participant_power_notes(const protocols::Protocol& protocol, const PlanInputs& inputs,
+                                                 const std::vector<PowerRow>& rows) {
+  std::vector<std::string> notes;
+  const std::size_t comparisons = protocol.settings.empty() ? 0 : protocol.settings.size() - 1;
+  for (int n : inputs.participants) {
+    const bool shown = std::any_of(rows.begin(), rows.end(), [&](const PowerRow& r) {
+      return r.method == "participant_pairwise" && r.participants == n;
+    });
+    if (!shown) continue;
+    if (std::string note = participant_power_note(n, inputs.alpha, comparisons); !note.empty())
+      notes.push_back(std::move(note));
+  }
+  return notes;
+}
+
 }  // namespace
 
 std::string power_csv_text(const std::vector<PowerRow>& rows) {
@@ -116,10 +135,14 @@ PlanResults write_plan_results(const protocols::Protocol& protocol, const PlanIn
   report.participants = inputs.participants;
   report.settings = setting_order;
   r.comparison = comparison_markdown(r.variants, report);
+  r.notes = participant_power_notes(protocol, inputs, r.rows);
+  std::string notes_md;
+  for (const std::string& note : r.notes) notes_md += "\nNote: " + note + ".\n";
   r.change_csv = out / "predicted_change.csv";
   r.comparison_md = out / "comparison.md";
   write_file_atomically(r.change_csv, comparison_csv(r.variants, report));
-  write_file_atomically(r.comparison_md, "# " + protocol.study + ": predicted change and power\n\n" + r.comparison);
+  write_file_atomically(r.comparison_md,
+                        "# " + protocol.study + ": predicted change and power\n\n" + r.comparison + notes_md);
   if (plots) r.figures = draw_power(out, r.rows, measure);
   return r;
 }

@@ -22,6 +22,9 @@ struct PlanResults {
   std::vector<StaircaseSummaryRow> staircases;     // a staircase protocol's
   std::vector<ReportVariant> variants;             // one: "model fixed" or "with model uncertainty"
   std::string comparison;                          // comparison.md's Markdown after its title
+  // Per participant count whose participant-level power is 0 by
+  // construction, why (participant_reach.h); also at comparison.md's end.
+  std::vector<std::string> notes;
   std::filesystem::path folder;  // where they are written
   std::filesystem::path power_csv, change_csv, comparison_md;
   std::vector<std::string> figures;  // file names in the folder (none without plots)

@@ -13,6 +13,7 @@
 #include "core/device/device_factory.h"
 #include "core/loop/task_event.h"
 #include "sessions/crash_note.h"
+#include "sessions/nothing_to_run.h"
 #include "sessions/sitting_gate.h"
 #include "sessions/staircase_planner.h"
 #include "analysis/study/session_conditions.h"
@@ -66,9 +67,6 @@ constexpr const char* kHungDeviceAdvice =
     "an isolated plugin (docs/devices.md) is killed and restarted instead";
 
 std::string ms_text(double s) { return std::to_string(static_cast<long long>(std::llround(1e3 * s))) + " ms"; }
-
-
-
 
 // One session, stage by stage: opening (StudySession), then per trial the
 // training before a task's first trial, the trial itself (the rig, the
@@ -134,14 +132,18 @@ class SessionRun {
 SessionRun::SessionRun(const std::filesystem::path& db_path, const SessionOptions& options, SittingGate gate)
     : options_(options),
       gate_(std::move(gate)),
-      // Opening, the participant's lock, recovery, re-queueing and the
-      // session row: the bookkeeping every runner shares (study_session.h).
-      session_(db_path, options.participant, options.device.describe(),
-               options.clock == ClockKind::kVirtual ? "virtual" : "wall", options.rate_Hz, refuse_external_ve),
+      // Opening, the participant's lock, recovery, re-queueing and, once
+      // something is to run, the session row: the bookkeeping every runner
+      // shares (study_session.h).
+      session_(db_path, options.participant, StudySession::DeferBegin{}, refuse_external_ve),
       db_(session_.db()),
       study_(session_.study()) {
   result_.stale_session = session_.stale_session();
   result_.trials_requeued = session_.requeued_on_open();
+  result_.nothing_to_run = nothing_to_run(session_, options_.max_trials, result_.staircase);
+  if (result_.nothing_to_run) return;  // run() adds no session row
+  session_.begin(options.device.describe(), options.clock == ClockKind::kVirtual ? "virtual" : "wall",
+                 options.rate_Hz);
   who_ = participant_seed(study_.seed, options_.participant);
   training_per_task_ =
       options_.training_trials.value_or(protocol_training_trials(study_.protocol_json, options_.participant));
@@ -527,6 +529,10 @@ void SessionRun::run_trial(const db::TrialRow& trial) {
 // the session as interrupted before it is reported, rather than leaving it
 // open for the next session to recover as a crash.
 SessionResult SessionRun::run() {
+  if (result_.nothing_to_run) {
+    result_.trials_left = session_.trials_left();
+    return result_;
+  }
   try {
     return run_schedule();
   } catch (const db::DbError&) {

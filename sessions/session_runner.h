@@ -161,6 +161,10 @@ struct SessionResult {
   // device (this session ran otherwise than earlier ones): one warning per
   // difference, naming values and sessions (analysis/study/session_conditions.h).
   std::vector<std::string> condition_warnings;
+  // Set when nothing was to run (the participant's schedule and staircase
+  // done, or max_trials 0): why, with the participant's counts
+  // (nothing_to_run.h). No session row was added: session_id is 0.
+  std::optional<std::string> nothing_to_run;
 };
 
 // The device refused to be driven when a trial (or training) was about to

@@ -49,6 +49,18 @@ int requeue_aborted(db::StudyDb& db, const std::vector<db::TrialRow>& trials) {
 StudySession::StudySession(const std::filesystem::path& db_path, const std::string& participant,
                            std::string_view device, std::string_view clock, std::optional<double> rate_Hz,
                            const std::function<void(const db::StudyRow&)>& check_study)
+    : StudySession(db_path, participant, DeferBegin{}, check_study) {
+  begin(device, clock, rate_Hz);
+}
+
+void StudySession::begin(std::string_view device, std::string_view clock, std::optional<double> rate_Hz) {
+  if (begun()) throw std::logic_error("StudySession::begin(): session " + std::to_string(session_id_) +
+                                      " has already begun");
+  session_id_ = db_.begin_session(participant_id_, device, clock, rate_Hz);
+}
+
+StudySession::StudySession(const std::filesystem::path& db_path, const std::string& participant, DeferBegin,
+                           const std::function<void(const db::StudyRow&)>& check_study)
     : db_path_(db_path), participant_(participant), db_(open_without_recovery(db_path)) {
   const std::vector<db::StudyRow> studies = db_.studies();
   if (studies.empty()) throw std::runtime_error(db_.path() + ": holds no study (run `hapticlab study create` first)");
@@ -89,7 +101,6 @@ StudySession::StudySession(const std::filesystem::path& db_path, const std::stri
     }
   }
   scheduled_ = static_cast<int>(slots.size());
-  session_id_ = db_.begin_session(participant_id_, device, clock, rate_Hz);
 }
 
 StudySession::~StudySession() = default;
@@ -117,6 +128,7 @@ void StudySession::start_trial(const db::TrialRow& trial, SpscQueue<LoopSample>&
   if (writer_) throw std::logic_error("StudySession::start_trial(): trial " + std::to_string(running_->id) +
                                       " is still running");
   if (ended_) throw std::logic_error("StudySession::start_trial(): the session has ended");
+  if (!begun()) throw std::logic_error("StudySession::start_trial(): the session has not begun");
   db_.start_trial(trial.id, session_id_);
   running_ = trial;
   try {
@@ -204,6 +216,7 @@ db::SessionLock::CrashNoteTarget StudySession::crash_note_target() const noexcep
 void StudySession::end(db::SessionStatus status) {
   if (writer_) throw std::logic_error("StudySession::end(): trial " + std::to_string(running_->id) + " is still running");
   if (ended_) throw std::logic_error("StudySession::end(): the session has already ended");
+  if (!begun()) throw std::logic_error("StudySession::end(): the session has not begun");
   if (left_running_)
     throw std::logic_error("StudySession::end(): trial " + std::to_string(*left_running_) +
                            " was left running; the session stays open for the participant's next session to "

@@ -73,6 +73,15 @@ class StudySession {
   StudySession(const std::filesystem::path& db_path, const std::string& participant, std::string_view device,
                std::string_view clock, std::optional<double> rate_Hz,
                const std::function<void(const db::StudyRow&)>& check_study = {});
+  // The same opening without the session row, for a caller that first
+  // looks whether anything is left to run: a participant with nothing left
+  // gets no empty session in the study. begin() adds the row; until then
+  // session_id() is 0 and neither start_trial nor end may be called.
+  struct DeferBegin {};
+  StudySession(const std::filesystem::path& db_path, const std::string& participant, DeferBegin,
+               const std::function<void(const db::StudyRow&)>& check_study = {});
+  void begin(std::string_view device, std::string_view clock, std::optional<double> rate_Hz);
+  bool begun() const noexcept { return session_id_ != 0; }
   // Without end() (an exception unwound the caller) the session row and a
   // running trial are left as they are, as a crash would leave them: the
   // participant's next session recovers them under the lock. Never throws.

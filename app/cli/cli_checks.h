@@ -2,7 +2,7 @@
 // What the command line accepts as a number, a seed or a list, with
 // refusals that name the option, the value and what is allowed:
 //
-//   --max-trial-s: 'inf' is refused: must be a finite number > 0
+//   --max-trial-s: 'inf' is refused: must be a finite number from 1 to 3600
 //   --seed: '-1' is refused: must be a whole number from 0 to 18446744073709551615
 //   --effects: ',' is refused: an empty item in the comma-separated list
 //

@@ -282,9 +282,8 @@ void add_plan_calibrate_subcommand(CLI::App* plan) {
   add_loop_rate_option(*calibrate, cal->rate_Hz,
                        "Haptic loop rate of the simulated trials [Hz], 150..2000 (default 1000; 250 with --fit, "
                        "whose rate check compares 1 kHz)");
-  calibrate->add_option("--max-trial-s", cal->max_trial_s, "Per-trial time limit [s], as session run's")
-      ->capture_default_str()
-      ->check(number_in(1.0, 3600.0));
+  add_trial_limit_option(*calibrate, cal->max_trial_s, "Per-trial time limit [s], 1..3600, as session run's")
+      ->capture_default_str();
   calibrate->add_flag("--json", cal->json, "Print the table as JSON (progress goes to stderr)");
   calibrate->callback([cal] {
     cal->command = "hapticlab plan calibrate --fit --fit-studies " + std::to_string(cal->fit_studies) + " --seed " +

@@ -243,9 +243,8 @@ void add_power_plan_options(CLI::App* cmd, PlanPowerOptions& o) {
 void add_power_run_options(CLI::App* cmd, const std::shared_ptr<PlanPowerOptions>& opt) {
   add_loop_rate_option(*cmd, opt->rate_Hz, "Haptic loop rate of the simulated trials [Hz], 150..2000, as session run's")
       ->capture_default_str();
-  cmd->add_option("--max-trial-s", opt->max_trial_s, "Per-trial time limit [s], as session run's")
-      ->capture_default_str()
-      ->check(positive_number());
+  add_trial_limit_option(*cmd, opt->max_trial_s, "Per-trial time limit [s], 1..3600, as session run's")
+      ->capture_default_str();
   cmd->add_flag("--no-plots", [opt](std::int64_t) { opt->plots = false; }, "No figures (no gnuplot needed)");
   cmd->add_flag("--json", opt->json, "Print the power table as JSON (progress goes to stderr)");
   add_shard_option(cmd, *opt);

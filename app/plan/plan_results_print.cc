@@ -78,6 +78,7 @@ void print_plan_json(const planning::PlanInputs& inputs, const planning::PlanDes
   j["population"] = run.population;
   j["model_uncertainty"] = inputs.model_uncertainty;
   j["rows"] = power_rows_json(r.rows);
+  j["notes"] = r.notes;
   j["null_settings"] = design.null_settings;
   j["family_wise_false_positives"] = false_positives_json(r.false_positives);
   j["staircase"] = staircases_json(r.staircases);
@@ -181,6 +182,7 @@ void print_plan_results(const protocols::Protocol& protocol, const planning::Pla
                             inputs.model_uncertainty};
   print_power_table(view, "pairwise", "Thesis procedure (pairwise Friedman, repetitions and hands as replicates)");
   print_power_table(view, "participant_pairwise", "Participant level (one value per participant, sign-flip test)");
+  for (const std::string& note : results.notes) std::printf("note: %s\n", note.c_str());
   print_false_positives(results.false_positives, measure);
   print_staircases(protocol, results.staircases);
   print_participant_level(results.rows, measure);

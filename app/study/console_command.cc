@@ -133,8 +133,7 @@ void add_console_command(CLI::App& app) {
   add_loop_rate_option(*cmd, opt->rate_Hz, "Haptic loop rate of the sessions and the free trial [Hz], 150..2000, "
                                            "as `session run --rate-hz`")
       ->capture_default_str();
-  cmd->add_option("--max-trial-s", opt->max_trial_s, "Time limit per trial [s]")
-      ->check(positive_number())
+  add_trial_limit_option(*cmd, opt->max_trial_s, "Time limit per trial [s], 1..3600, as session run's")
       ->capture_default_str();
   cmd->add_option("--training-trials", opt->training_trials,
                   "Simulated training trials per task (default: the protocol's)")

@@ -180,7 +180,8 @@ nlohmann::json session_staircase_json(const sessions::SessionResult& r) {
 
 void print_session_json(const SessionCommandOptions& opt, const sessions::SessionOptions& options,
                         const sessions::SessionResult& r) {
-  nlohmann::json j = {{"session", r.session_id},
+  nlohmann::json j = {{"session", r.nothing_to_run ? nlohmann::json() : nlohmann::json(r.session_id)},
+                      {"nothing_to_run", r.nothing_to_run ? nlohmann::json(*r.nothing_to_run) : nlohmann::json()},
                       {"participant", opt.participant},
                       {"device", options.device.describe()},
                       {"training_trials", r.training_trials},
@@ -200,6 +201,11 @@ void print_session_json(const SessionCommandOptions& opt, const sessions::Sessio
 }
 
 void print_session_text(const SessionCommandOptions& opt, const sessions::SessionResult& r) {
+  if (r.nothing_to_run) {
+    std::printf("%s\n", r.nothing_to_run->c_str());
+    if (r.staircase) std::printf("%s\n", analysis::staircase_summary(*r.staircase).c_str());
+    return;
+  }
   std::printf("session %lld of %s: %d %s run (%d complete, %d aborted), %d re-queued, %d still planned, "
               "%llu updates logged%s\n",
               static_cast<long long>(r.session_id), opt.participant.c_str(), r.trials_run,
@@ -301,9 +307,8 @@ void add_session_device_options(CLI::App* cmd, SessionCommandOptions& o) {
 // --max-trial-s, --training-trials, --training-until-enter, --max-trials,
 // --override-due-date: which trials run, and how long.
 void add_session_trial_options(CLI::App* cmd, SessionCommandOptions& o) {
-  cmd->add_option("--max-trial-s", o.max_trial_s,
-                  "Time limit per trial [s]; a trial that reaches it is aborted and not re-queued")
-      ->check(positive_number())
+  add_trial_limit_option(*cmd, o.max_trial_s,
+                         "Time limit per trial [s], 1..3600; a trial that reaches it is aborted and not re-queued")
       ->capture_default_str();
   cmd->add_option("--training-trials", o.training_trials,
                   "Simulated training trials per task before its first trial, 0..1000 (default: the protocol's; "
@@ -312,8 +317,7 @@ void add_session_trial_options(CLI::App* cmd, SessionCommandOptions& o) {
   cmd->add_flag("--training-until-enter", o.training_until_enter,
                 "The operator ends each task's training: trials repeat until Enter is pressed (or stdin ends), "
                 "as with a real participant, who practises until the operator judges them ready");
-  cmd->add_option("--max-trials", o.max_trials, "Run at most this many trials, then stop (default: all)")
-      ->check(non_negative_number());
+  add_max_trials_option(*cmd, o.max_trials, "Run at most this many trials, then stop, 0..1000000 (default: all)");
   cmd->add_flag("--override-due-date", o.override_due_date,
                 "Run a group design's next sitting before its due date (the protocol's minimum gap); the "
                 "override is logged in the study (operator_action)");

@@ -261,7 +261,7 @@ TEST_F(DeviceFaultSessionTest, AReadThatNeverReturnsIsAnnouncedAtOnceAndRecorded
 TEST_F(DeviceFaultSessionTest, ADeactivateThatFailsEndsTheSessionAsADeviceFault) {
   const std::string db = create_study();
   const auto [status, out] =
-      testing::run_cli(kBinary, session(db, "--clock virtual --max-trial-s 0.5 --device-option fault=fail_deactivate", 1));
+      testing::run_cli(kBinary, session(db, "--clock virtual --max-trial-s 1 --device-option fault=fail_deactivate", 1));
   EXPECT_EQ(status, 3) << out;
   EXPECT_THAT(out, HasSubstr("device deactivate() failed (write_failed) as trial "));
   EXPECT_THAT(out, HasSubstr("the device may still be powered"));
@@ -282,7 +282,7 @@ TEST_F(DeviceFaultSessionTest, ADeactivateThatNeverReturnsIsAnnouncedAndGivenUpO
   const std::string db = create_study();
   const auto start = std::chrono::steady_clock::now();
   const auto [status, out] = testing::run_cli(
-      kBinary, session(db, "--clock wall --max-trial-s 0.3 --device-option fault=hang_in_deactivate", 1));
+      kBinary, session(db, "--clock wall --max-trial-s 1 --device-option fault=hang_in_deactivate", 1));
   const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_EQ(status, 3) << out;
   EXPECT_THAT(out, HasSubstr("device deactivate() has not returned for 2500 ms"));

@@ -51,6 +51,36 @@ class NamedRefusalsTest : public ::testing::Test {
 
 void edit_study_db(const fs::path& db, const std::string& sql) { testing::edit_with_sqlite(db, sql); }
 
+// A trial that reaches --max-trial-s is aborted for good, so a slip such
+// as 1e-300 would have ruined the design: every command that runs designed
+// trials takes 1..3600 s, as plan calibrate did. --max-trials is a count:
+// a whole number, its range named (1.5 gave CLI11's "Could not convert").
+TEST_F(NamedRefusalsTest, TrialLimitsAndTrialCountsAreNamedWithTheirRange) {
+  const std::string session = "session run --db " + (dir_ / "none.db").string() + " --participant A ";
+  const std::string plan = "plan power --protocol " + protocol("p.json", two_settings()).string() +
+                           " --studies 1 --no-plots --out " + (dir_ / "plan").string() + " ";
+  const std::string calibrate = "plan calibrate --protocol " + protocol("c.json", two_settings()).string() +
+                                " --out " + (dir_ / "cal").string() + " ";
+  for (const std::string& command : {session, plan, calibrate}) {
+    for (const char* value : {"1e-300", "0.5", "3601"}) {
+      const auto [rc, text] = cli(command + "--max-trial-s " + value);
+      EXPECT_EQ(rc, 2) << command;
+      EXPECT_THAT(text, HasSubstr("--max-trial-s: '" + std::string(value) +
+                                  "' is refused: must be a finite number from 1 to 3600"))
+          << command;
+    }
+  }
+  for (const char* value : {"1.5", "-1", "1000001"}) {
+    const auto [rc, text] = cli(session + "--max-trials " + value);
+    EXPECT_EQ(rc, 2);
+    EXPECT_THAT(text, AllOf(HasSubstr("--max-trials: '" + std::string(value) +
+                                      "' is refused: must be a whole number from 0 to 1000000"),
+                            Not(HasSubstr("Could not convert"))));
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "none.db"));
+  EXPECT_FALSE(fs::exists(dir_ / "plan"));
+}
+
 TEST_F(NamedRefusalsTest, OptionValuesAreNamedWithWhatIsAllowed) {
   // --studies 1 and an --out of its own: had a value slipped through, the run would be short and kept here.
   const std::string plan = "plan power --protocol " + protocol("p.json", two_settings()).string() +
@@ -66,7 +96,7 @@ TEST_F(NamedRefusalsTest, OptionValuesAreNamedWithWhatIsAllowed) {
   EXPECT_THAT(text, AllOf(HasSubstr("--seed is given 2 values ('1', '2'), but takes one"), Not(HasSubstr("At Most"))));
   std::tie(rc, text) = cli(plan + "--max-trial-s inf");
   EXPECT_EQ(rc, 2);
-  EXPECT_THAT(text, AllOf(HasSubstr("--max-trial-s: 'inf' is refused: must be a finite number > 0"),
+  EXPECT_THAT(text, AllOf(HasSubstr("--max-trial-s: 'inf' is refused: must be a finite number from 1 to 3600"),
                           Not(HasSubstr("17976931348623157"))));
   std::tie(rc, text) = cli(plan + "--rate-hz nan");  // passed CLI::Range before
   EXPECT_EQ(rc, 2);

@@ -28,6 +28,7 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::Not;
+using ::testing::StartsWith;
 
 
 // A staircase protocol: every simulated participant runs the staircase
@@ -360,6 +361,28 @@ TEST_F(PlanPowerTest, ModelUncertaintyDrawsEachStudysPopulationFromTheFit) {
   EXPECT_EQ(rc, 1);
   EXPECT_THAT(text, HasSubstr("has no posterior draws to draw from; use a fitted population file"));
   EXPECT_FALSE(fs::exists(dir_ / "unfitted" / "plan_power.db"));
+}
+
+// With one participant the sign-flip test's smallest p is 2/2^1 = 1: the
+// participant-level power is 0 whatever the data, and the table says so
+// beside it (tiny.json: 2 settings, m = 1, the level is alpha 0.05, which
+// 2/2^6 = 0.031 is the first to go under). power.csv keeps its columns.
+TEST_F(PlanPowerTest, ParticipantLevelPowerZeroByConstructionIsSaidSo) {
+  const std::string note =
+      "participant-level power is 0 by construction with 1 participant: the sign-flip test's smallest p, 2/2^1 "
+      "= 1, is not below the Šidák level 0.05 (alpha 0.05, m = 1 comparison); it needs at least 6 participants";
+  const auto [rc, text] = plan("--participants 1 --studies 1 --no-plots --out " + (dir_ / "one").string());
+  ASSERT_EQ(rc, 0) << text;
+  EXPECT_THAT(text, HasSubstr("note: " + note + "\n"));
+  EXPECT_THAT(testing::slurp(dir_ / "one" / "comparison.md"), HasSubstr("\nNote: " + note + ".\n"));
+  EXPECT_THAT(testing::slurp(dir_ / "one" / "power.csv"),
+              StartsWith("participants,method,task,setting,measure,tests,significant,rate,wilson_low,wilson_high,"
+                         "model_low,model_high\n"));
+  const auto [json_rc, json] = testing::run_cli_stdout(
+      HAPTICLAB_CLI_PATH, "plan power --protocol " + protocol_.string() + kRate +
+                              "--participants 1 --studies 1 --no-plots --json --out " + (dir_ / "one").string());
+  ASSERT_EQ(json_rc, 0) << json;
+  EXPECT_EQ(nlohmann::json::parse(json).at("notes"), nlohmann::json::array({note}));
 }
 
 TEST_F(PlanPowerTest, BadInputIsNamed) {

@@ -66,9 +66,9 @@ TEST_F(SessionCommandTest, APracticeTrialCutShortIsRecordedAsWhatItWas) {
   const std::string db = (dir_ / "training.db").string();
   auto [status, out] = testing::run_cli(kBinary, "study create --protocol " + protocol.string() + " --db " + db);
   ASSERT_EQ(status, 0) << out;
-  // 0.5 s: no practice trial completes the clip task.
+  // 1 s, the shortest limit session run takes: no practice trial completes the clip task.
   std::tie(status, out) =
-      testing::run_cli(kBinary, "session run --db " + db + " --participant A --max-trial-s 0.5 --max-trials 1");
+      testing::run_cli(kBinary, "session run --db " + db + " --participant A --max-trial-s 1 --max-trials 1");
   ASSERT_EQ(status, 0) << out;
   EXPECT_THAT(out, HasSubstr("after 2 training trials (2 cut short before the task was complete)"));
   // Given time, both are done in full.
@@ -80,12 +80,43 @@ TEST_F(SessionCommandTest, APracticeTrialCutShortIsRecordedAsWhatItWas) {
   ASSERT_EQ(cut.size(), 1u);
   EXPECT_EQ(cut[0].trials, 0);
   EXPECT_EQ(cut[0].cut_short, 2);
-  EXPECT_THAT(cut[0].cut_short_reason, HasSubstr("time limit (0.5 s) reached before the task was complete"));
+  EXPECT_THAT(cut[0].cut_short_reason, HasSubstr("time limit (1 s) reached before the task was complete"));
   const std::vector<db::TrainingRow> full = study.training(2);
   ASSERT_EQ(full.size(), 1u);
   EXPECT_EQ(full[0].trials, 2);
   EXPECT_EQ(full[0].cut_short, 0);
   EXPECT_EQ(full[0].cut_short_reason, "");
+}
+
+// A participant with nothing left to run (the design complete, or
+// --max-trials 0) is told so, and the study gets no empty session row each
+// time the command is run again.
+TEST_F(SessionCommandTest, NothingLeftToRunIsSaidAndAddsNoSession) {
+  const fs::path protocol = dir_ / "two.json";
+  std::ofstream(protocol) << R"({"study": "two", "tasks": ["clip"], "repetitions": {"clip": 1},
+    "settings": [{"name": "High Fidelity"}, {"name": "Copy"}], "participants": ["A", "B"], "training_trials": 0,
+    "design": {"type": "complete"}, "seed": 5})";
+  const std::string db = (dir_ / "two.db").string();
+  auto [status, out] = testing::run_cli(kBinary, "study create --protocol " + protocol.string() + " --db " + db);
+  ASSERT_EQ(status, 0) << out;
+  const std::string run = "session run --db " + db + " --rate-hz 250 --participant ";
+  // B: nothing asked for, nothing run; its 2 trials stay planned.
+  std::tie(status, out) = testing::run_cli(kBinary, run + "B --max-trials 0");
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_THAT(out, HasSubstr("participant B: no trial run, as at most 0 were asked for (0 complete, 0 aborted, 2 "
+                             "still planned); no session was added"));
+  // A: both trials in one session, then nothing is left.
+  std::tie(status, out) = testing::run_cli(kBinary, run + "A");
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_THAT(out, HasSubstr("session 1 of A: 2 trials run"));
+  for (int again = 0; again < 2; ++again) {
+    std::tie(status, out) = testing::run_cli(kBinary, run + "A");
+    ASSERT_EQ(status, 0) << out;
+    EXPECT_THAT(out, HasSubstr("participant A has no trials left to run: 2 complete, 0 aborted"));
+    EXPECT_THAT(out, Not(HasSubstr("session 2")));
+  }
+  db::StudyDb study(db);
+  EXPECT_EQ(study.sessions().size(), 1u);
 }
 
 TEST_F(SessionCommandTest, ShowPrintsTheScheduleAndProgressSummaryOnlyProgress) {

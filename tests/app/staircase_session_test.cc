@@ -163,7 +163,7 @@ TEST_F(StaircaseSessionTest, AKillInTheMiddleOfATrialResumesToTheSameEnd) {
 // is nothing to measure a change from, and the session says so.
 TEST_F(StaircaseSessionTest, AStaircaseWithoutABaselineIsNamed) {
   const std::string db = create("none.db");
-  const auto [status, out] = cli("session run --db " + db + " --participant P01 --max-trial-s 0.2");
+  const auto [status, out] = cli("session run --db " + db + " --participant P01 --max-trial-s 1");
   EXPECT_EQ(status, 1) << out;
   EXPECT_THAT(out, HasSubstr("staircase.baseline: participant P01 has no complete trial of the baseline "
                              "'High Fidelity' in clip"));

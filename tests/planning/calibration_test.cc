@@ -160,6 +160,24 @@ TEST_F(PlanCalibrateTest, TheProtocolCheckFindsTheControlAndTheSettingWithoutFor
   }
 }
 
+// The control is taken by its name but judged by what it does, like No
+// Force Feedback: a 'High Fidelity' with friction on is refused by name.
+TEST_F(PlanCalibrateTest, AControlThatDegradesSomethingIsRefused) {
+  const auto settings = std::filesystem::path(HAPTICLAB_SOURCE_DIR) / "examples" / "settings";
+  const auto path = (dir_ / "degraded.json").string();
+  std::ofstream(path) << R"({"study": "c", "tasks": ["clip"], "repetitions": {"clip": 1}, "settings": [
+      {"name": "High Fidelity", "translation": {"friction": {"dynamic_level_N": 2.0}}}, ")"
+                      << (settings / "no_force_feedback.json").string()
+                      << R"("], "participants": ["A"], "design": {"type": "complete"}, "seed": 3})";
+  try {
+    (void)check_calibration_protocol(protocols::load_protocol_file(path), path, 12, 3, SimulatedStudyOptions{});
+    FAIL() << "a degraded control was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr(path + ": the control 'High Fidelity' has translation.friction on, but plan "
+                                           "calibrate measures every effect against an undegraded control"));
+  }
+}
+
 TEST(CalibrationCsvTest, OneLinePerEffectWithItsMeasuredRatio) {
   MeasuredEffect e;
   e.effect = published_effects().front();

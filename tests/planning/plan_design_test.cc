@@ -75,5 +75,22 @@ TEST_F(PlanDesignTest, ADeclaredNullSettingThatIsNotACopyOrIsTheControlIsRefused
   }
 }
 
+// The control is found by its name, but judged by what it does: a 'High
+// Fidelity' with friction on is refused, naming the setting and the effect.
+TEST_F(PlanDesignTest, AControlThatDegradesSomethingIsRefusedNamingTheEffect) {
+  const fs::path path = dir_ / "degraded.json";
+  std::ofstream(path) << R"({"study": "d", "tasks": ["clip"], "repetitions": {"clip": 1}, "settings": [
+      {"name": "High Fidelity", "translation": {"friction": {"dynamic_level_N": 2.0}}},
+      {"name": "Other", "rotation": {"friction": {"dynamic_level_Nm": 0.1}}}],
+      "participants": ["P01"], "design": {"type": "complete"}, "seed": 7})";
+  try {
+    check_plan_design(protocols::load_protocol_file(path), path.string(), {1}, 1, {});
+    FAIL() << "a degraded control was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr(path.string() + ": the control 'High Fidelity' has translation.friction on, but "
+                                                    "plan power measures every effect against an undegraded control"));
+  }
+}
+
 }  // namespace
 }  // namespace hapticlab::planning
