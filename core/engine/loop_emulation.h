@@ -7,12 +7,13 @@
 //   hold:  the output changes only at `hold_rate_Hz` (zero-order hold)
 //
 // Fixed capacity, no allocation: 256 samples kept at least 0.4 ms apart
-// cover 102 ms, more than the 100 ms latency limit, at any update rate. Up
-// to 2.5 kHz every update's sample is kept; at faster updates a sample less
-// than 0.4 ms after the last kept one is not kept, so the delay is resolved
-// to 0.4 ms plus one update there (the latency, up to that much more) rather
-// than cut to what 256 samples of a fast loop span (26 ms at 10 kHz, before
-// this rule).
+// cover 102 ms, more than the 100 ms latency limit, at any update rate. A
+// sample less than 0.4 ms after the last kept one is not kept: at a steady
+// rate up to 2.5 kHz that is none (every update's sample is kept, as
+// before this rule), in a jittered loop an update that came early or
+// repeated a time, and above 2.5 kHz enough that the delay is resolved to
+// 0.4 ms plus one update (the latency, up to that much more) rather than
+// cut to what 256 samples of a fast loop span (26 ms at 10 kHz before).
 
 #include <array>
 
