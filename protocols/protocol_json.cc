@@ -65,9 +65,16 @@ class Reader {
                                             kMinRateToleranceFraction, kMaxRateToleranceFraction, false);
     if (j.contains("null_settings")) {
       p.null_settings = read_names(j["null_settings"], "null_settings");
-      for (std::size_t i = 0; i < p.null_settings.size(); ++i)
+      for (std::size_t i = 0; i < p.null_settings.size(); ++i) {
         if (!p.find_setting(p.null_settings[i]))
           fail(index_path("null_settings", i), "is \"" + p.null_settings[i] + "\", but is not one of the settings");
+        // As in tasks and required: a name twice is a slip, whose second
+        // copy a reader would look for in vain.
+        for (std::size_t k = 0; k < i; ++k)
+          if (p.null_settings[k] == p.null_settings[i])
+            fail(index_path("null_settings", i), "is \"" + p.null_settings[i] + "\", the same as null_settings[" +
+                                                     std::to_string(k) + "]; name each setting once");
+      }
     }
     if (j.contains("staircase")) {
       if (j.contains("dose")) fail("staircase", "is given with \"dose\", but a protocol has one or the other");

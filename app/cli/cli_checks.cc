@@ -20,9 +20,12 @@ std::string refused(const std::string& value, const std::string& rule) {
   return "'" + value + "' is refused: must be " + rule;
 }
 
-// The whole of `text` as a double (strtod's syntax), or nothing.
+// The whole of `text` as a decimal double (strtod's syntax without its
+// hexadecimal form: "0x0.2" is 0.125 s to strtod, which a banner printing
+// "0.1 s" would hide; the whole-number options refuse "0x3" too), or nothing.
 std::optional<double> parse_number(const std::string& text) {
   if (text.empty() || std::isspace(static_cast<unsigned char>(text.front()))) return std::nullopt;
+  if (text.find_first_of("xX") != std::string::npos) return std::nullopt;
   char* end = nullptr;
   const double x = std::strtod(text.c_str(), &end);
   if (end != text.c_str() + text.size()) return std::nullopt;

@@ -152,6 +152,9 @@ TEST(CliConventions, TheRecurringOptionShapesAreRefusedAlikeByEveryCommand) {
       {"plan calibrate -j 257", "--jobs: " + jobs},
       {"analyze --jobs 257", "--jobs: " + jobs},
       {"stability map --jobs 257", "--jobs: " + jobs},
+      // Hexadecimal, which strtod reads (0x2 = 2): refused as the whole
+      // numbers refuse it.
+      {"sim run --rate-hz 0x3e8", "--rate-hz: '0x3e8' " + rate},
   };
   for (const auto& [args, refusal] : cases) {
     const auto [status, out] = testing::run_cli(kBinary, args);

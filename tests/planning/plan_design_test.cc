@@ -73,6 +73,15 @@ TEST_F(PlanDesignTest, ADeclaredNullSettingThatIsNotACopyOrIsTheControlIsRefused
   } catch (const std::runtime_error& e) {
     EXPECT_THAT(e.what(), HasSubstr("null_settings names 'High Fidelity', the control itself"));
   }
+  // Named twice: refused when the protocol is read, as tasks and required are.
+  const std::string twice = protocol(R"(["HF copy", "HF copy"])");
+  try {
+    protocols::load_protocol_file(twice);
+    FAIL() << "a null setting named twice was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_THAT(e.what(), HasSubstr("'null_settings[1]' is \"HF copy\", the same as null_settings[0]; name each "
+                                    "setting once"));
+  }
 }
 
 // The control is found by its name, but judged by what it does: a 'High

@@ -33,6 +33,10 @@ def rewrites():
         # (text in the README, what CI runs instead, why)
         ("--clock wall", "--clock virtual",
          "real time takes about 30 minutes per participant"),
+        ("device check --device plugin:/opt/lab/libmydevice.so --seconds 2",
+         "device check --device plugin:build/plugins/hapticlab_sim_device.so --seconds 2 --rate-tolerance 0.5",
+         "the check's wall-clock rate is the CI machine's, busy with other tests: 721 Hz of 1000 was seen "
+         "once under load; the plugin is checked, not the machine (as tests/app/device_check_test.cc does)"),
         ("plugin:/opt/lab/libmydevice.so", "plugin:build/plugins/hapticlab_sim_device.so",
          "the lab's own driver: the shipped simulated workstation stands in"),
         (" --device-option port=/dev/ttyUSB0", "",
