@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/common/sha256.h"
+#include "core/common/input_file.h"
 
 namespace hapticlab::planning {
 
@@ -120,13 +121,20 @@ namespace {
 // The file's JSON, after the checks that say whether it is a population
 // file this hapticlab may use at all: format, versions, checksum.
 json checked_document(const std::filesystem::path& path, int& model, std::string& stored) {
-  std::ifstream in(path);
-  if (!in) refuse(path, "cannot be read (missing, or no permission)");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
+  // Bounded, as settings and protocol files are: /dev/zero given as a
+  // population grew without limit. The shipped fit is 0.65 MB.
+  constexpr std::size_t kMaxPopulationFileBytes = std::size_t{16} << 20;
+  std::string text;
+  try {
+    text = read_text_file(path, kMaxPopulationFileBytes, "population file");
+  } catch (const InputFileError& e) {
+    const std::string what = e.what();
+    const std::string prefix = path.string() + ": ";
+    refuse(path, what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+  }
   json j;
   try {
-    j = json::parse(buffer.str());
+    j = json::parse(text);
   } catch (const json::exception& e) {
     refuse(path, std::string("is not valid JSON (damaged?): ") + e.what());
   }

@@ -11,7 +11,14 @@ void add_population_option(CLI::App* cmd, std::string& value) {
   cmd->add_option("--population", value,
                   "Population the simulated participants are drawn from: a population file (docs/simulation.md, "
                   "\"Fitting the population\"), or 'unfitted' for the participant model without a fit (default: the "
-                  "shipped fitted population, examples/population/fitted.json)");
+                  "shipped fitted population, examples/population/fitted.json)")
+      // Given empty (an unset script variable), it would fall back to the
+      // default population without a word.
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            return v.empty() ? std::string("'' is refused: name a population file, or 'unfitted'") : std::string();
+          },
+          "FILE|unfitted"));
 }
 
 ChosenPopulation choose_population(const std::string& value) {

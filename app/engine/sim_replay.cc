@@ -21,6 +21,8 @@
 #include "db/study_db.h"
 #include "protocols/loop_protections.h"
 #include "sessions/session_runner.h"
+#include "app/cli/option_shapes.h"
+#include "core/common/csv_format.h"
 
 namespace hapticlab::app {
 namespace {
@@ -132,6 +134,14 @@ int run(const SimReplayOptions& opt) {
   const char* rate_source = opt.rate_Hz ? "" : rec.recorded_rate_Hz ? ", the recording's rate" : ", the default";
   // The whole recording, and a little more: the loop ends at its last frame.
   const double recording_s = rec.frames.back().t_s - rec.frames.front().t_s;
+  // A recording longer than any trial may last is a t_s in other units
+  // (milliseconds), not a trial: replayed, it wrote without end (2.5 GB in
+  // 30 s for one spanning 1e6 s).
+  if (!(recording_s <= kMaxTrialLimit_s)) {
+    throw std::invalid_argument(rec.what + ": the recording spans " + format_number(recording_s) +
+                                " s, more than the " + format_number(kMaxTrialLimit_s) +
+                                " s a trial may last (--max-trial-s); is t_s in seconds?");
+  }
   config.max_duration_s = recording_s + 1.0;
   config.stop_when_complete = false;
   config.replay = std::make_shared<const std::vector<ReplayFrame>>(std::move(rec.frames));

@@ -48,6 +48,8 @@ int run(const SimRunOptions& opt) {
   SimTrialConfig config;
   config.task = parse_task_kind(opt.task);
   refuse_output_over_input(opt.settings, opt.output, "--settings", "--out");
+  if (!opt.population.empty() && opt.population != "unfitted")
+    refuse_output_over_input(opt.population, opt.output, "--population", "--out");
   const NamedSettings settings = load_settings_file(opt.settings);
   config.settings = settings.engine;
   config.participant_seed = opt.participant_seed;

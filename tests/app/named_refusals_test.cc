@@ -196,6 +196,47 @@ TEST_F(NamedRefusalsTest, AnOutThatIsAFileIsNamedByEveryCommandThatWritesAFolder
   }
 }
 
+// From an outside check of the simulated rig's commands: a recording in
+// milliseconds replayed without end (2.5 GB in 30 s); `sim run --out` onto
+// its --population file replaced the population by the trial's CSV;
+// /dev/zero as the population grew without limit; an empty --population
+// (an unset script variable) used the default without a word.
+TEST_F(NamedRefusalsTest, SimInputsThatWouldRunWithoutEndOrBeLostAreRefused) {
+  const fs::path csv = dir_ / "ms.csv";
+  std::ofstream(csv) << "t_s,instrument,insertion_m,pitch_rad,yaw_rad,ve_force_x_N,ve_force_y_N,ve_force_z_N\n"
+                        "0,0,0.1,0,0,0,0,0\n0,1,0.1,0,0,0,0,0\n1e6,0,0.1,0,0,0,0,0\n1e6,1,0.1,0,0,0,0,0\n";
+  const std::string hf = (kSettings / "high_fidelity.json").string();
+  auto [rc, text] = cli("sim replay --csv " + csv.string() + " --task clip --settings " + hf + " --out " +
+                        (dir_ / "replay.csv").string());
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, HasSubstr("the recording spans 1e+06 s, more than the 3600 s a trial may last "
+                              "(--max-trial-s); is t_s in seconds?"));
+  EXPECT_FALSE(fs::exists(dir_ / "replay.csv"));
+
+  const fs::path population = dir_ / "population.json";
+  fs::copy_file(fs::path(HAPTICLAB_SOURCE_DIR) / "examples" / "population" / "fitted.json", population);
+  const auto size = fs::file_size(population);
+  std::tie(rc, text) = cli("sim run --settings " + hf + " --population " + population.string() + " --out " +
+                           population.string() + " --max-trial-s 1");
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, HasSubstr("--population"));
+  EXPECT_EQ(fs::file_size(population), size);
+
+  std::tie(rc, text) = cli("sim run --settings " + hf + " --population /dev/zero --out " +
+                           (dir_ / "z.csv").string() + " --max-trial-s 1");
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, HasSubstr("/dev/zero: larger than 16 MiB, the limit for a population file"));
+  std::tie(rc, text) = cli("sim run --settings " + hf + " --population " + dir_.string() + " --out " +
+                           (dir_ / "z.csv").string() + " --max-trial-s 1");
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, HasSubstr("Is a directory"));
+  std::tie(rc, text) = cli("sim run --settings " + hf + " --population '' --out " + (dir_ / "z.csv").string() +
+                           " --max-trial-s 1");
+  EXPECT_EQ(rc, 2) << text;
+  EXPECT_THAT(text, HasSubstr("--population: '' is refused: name a population file, or 'unfitted'"));
+  EXPECT_FALSE(fs::exists(dir_ / "z.csv"));
+}
+
 // Options a command would not use are refused by name, not ignored: the
 // fit draws its own participants; --quick picks a shipped protocol; a
 // database trial has its own task; a CSV holds one recording. Each is
