@@ -197,6 +197,11 @@ StudyDb::StudyDb(const std::filesystem::path& path, const OpenOptions& options)
   refuse_findings(db_, check_tables(db_, check_schema_version(db_)));
   if (options.read_only) {
     version_found_ = check_schema_version(db_);
+    // Version 0 is no HapticLab schema at all (an empty file, another
+    // program's database): migrating would not make it a study.
+    if (version_found_ == 0)
+      throw DbError(db_.path() + ": holds no HapticLab study (no schema: an empty database, or another program's); "
+                                 "give a study database made by `hapticlab study create`");
     if (version_found_ != kSchemaVersion)
       throw DbError(db_.path() + ": schema version " + std::to_string(version_found_) + ", expected " +
                     std::to_string(kSchemaVersion) + "; open it once read-write to migrate it");

@@ -22,6 +22,7 @@
 #include "core/common/clock.h"
 #include "core/loop/rate_monitor.h"
 #include "core/sim/participant.h"
+#include "core/common/csv_format.h"
 
 namespace hapticlab::app {
 namespace {
@@ -192,8 +193,8 @@ std::string fault_list(const CheckResult& r) {
 
 void print_text(const DeviceSpec& spec, const Device& device, const DeviceRatings& ratings, const CheckResult& r,
                 const CheckOptions& opt) {
-  std::printf("hapticlab device check: %s (%s), %.1f s at %.0f Hz on the wall clock, zero force commanded\n",
-              spec.describe().c_str(), device.name(), opt.seconds, opt.rate_Hz);
+  std::printf("hapticlab device check: %s (%s), %s s at %.0f Hz on the wall clock, zero force commanded\n",
+              spec.describe().c_str(), device.name(), format_number(opt.seconds).c_str(), opt.rate_Hz);
   std::printf("ratings:\n  %-5s %-9s %24s %22s %14s\n", "", "joint", "range", "continuous / peak", "max velocity");
   for (int i = 0; i < 2; ++i)
     for (int j = 0; j < kNumDeviceJoints; ++j) {
@@ -328,9 +329,10 @@ int run_check(const CheckOptions& opt) {
     return kExitDeviceFault;
   }
   if (r.faults() > 0) {
-    std::fprintf(stderr, "hapticlab device check: %llu faults in %llu updates (%s); fix them before running a "
+    std::fprintf(stderr, "hapticlab device check: %llu fault%s in %llu updates (%s); fix them before running a "
                          "session on this device\n",
-                 static_cast<unsigned long long>(r.faults()), static_cast<unsigned long long>(r.updates),
+                 static_cast<unsigned long long>(r.faults()), r.faults() == 1 ? "" : "s",
+                 static_cast<unsigned long long>(r.updates),
                  fault_list(r).c_str());
     return kExitDeviceFault;
   }

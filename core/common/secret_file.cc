@@ -78,7 +78,7 @@ std::string read_secret_file(const std::filesystem::path& path, const std::strin
   if (distinct.size() < rules.min_distinct)
     throw std::invalid_argument(where + " uses only " + std::to_string(distinct.size()) +
                                 " different characters, must be at least " + std::to_string(rules.min_distinct) +
-                                "; make a random one (e.g. `openssl rand -hex 16`)");
+                                "; make a random one (e.g. `openssl rand -hex 32`, or `hapticlab device keygen`)");
   return text;
 }
 

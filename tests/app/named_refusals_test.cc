@@ -235,6 +235,13 @@ TEST_F(NamedRefusalsTest, SimInputsThatWouldRunWithoutEndOrBeLostAreRefused) {
   EXPECT_EQ(rc, 2) << text;
   EXPECT_THAT(text, HasSubstr("--population: '' is refused: name a population file, or 'unfitted'"));
   EXPECT_FALSE(fs::exists(dir_ / "z.csv"));
+  // An empty file as the study: no schema at all, which no migration would
+  // make a study (the message advised one).
+  std::ofstream(dir_ / "empty.db").flush();
+  std::tie(rc, text) = cli("sim replay --db " + (dir_ / "empty.db").string() + " --trial 1 --out " +
+                           (dir_ / "r.csv").string());
+  EXPECT_EQ(rc, 1) << text;
+  EXPECT_THAT(text, AllOf(HasSubstr("holds no HapticLab study (no schema"), Not(HasSubstr("migrate"))));
 }
 
 // Options a command would not use are refused by name, not ignored: the
