@@ -79,7 +79,11 @@ PluginDevice::PluginDevice(const std::string& path, const std::map<std::string, 
   };
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw std::runtime_error("plugin " + path + ": no such file");
+  if (!fs::is_regular_file(path, ec)) {
+    const bool exists = fs::exists(path, ec);
+    throw std::runtime_error("plugin " + path + (exists ? ": not a regular file (a directory?); name the plugin's .so file"
+                                                        : ": no such file"));
+  }
   // dlopen searches the library path for a name without a slash; the
   // operator means the file.
   const std::string file = fs::absolute(path, ec).string();

@@ -194,6 +194,10 @@ TEST(DeviceCheckTest, WrongAbiMissingEntryAndMissingFileAreRefused) {
   const auto [s3, missing] = testing::run_cli(kBinary, "device check --device plugin:/nonexistent/acme.so");
   EXPECT_EQ(s3, 1) << missing;
   EXPECT_THAT(missing, HasSubstr("plugin /nonexistent/acme.so: no such file"));
+  // A directory exists: "no such file" sent the user looking for a typo.
+  const auto [s4, folder] = testing::run_cli(kBinary, "device check --device plugin:/tmp");
+  EXPECT_EQ(s4, 1) << folder;
+  EXPECT_THAT(folder, HasSubstr("plugin /tmp: not a regular file (a directory?)"));
 }
 
 TEST(DeviceCheckTest, InvalidRatingsAreRefusedNamingTheJoint) {
