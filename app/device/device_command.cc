@@ -332,8 +332,7 @@ int run_check(const CheckOptions& opt) {
     std::fprintf(stderr, "hapticlab device check: %llu fault%s in %llu updates (%s); fix them before running a "
                          "session on this device\n",
                  static_cast<unsigned long long>(r.faults()), r.faults() == 1 ? "" : "s",
-                 static_cast<unsigned long long>(r.updates),
-                 fault_list(r).c_str());
+                 static_cast<unsigned long long>(r.updates), fault_list(r).c_str());
     return kExitDeviceFault;
   }
   return 0;
