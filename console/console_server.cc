@@ -534,6 +534,9 @@ ConsoleOutcome serve_console(const ConsoleConfig& config, const std::atomic<bool
                                                 kParticipantStreams});
   console.set_participant_port(participant_port);
   const std::string host = url_host(config.bind_address);
+  if (!config.token_file.empty())
+    std::printf("console token (controls need it): in %s (readable only by you) and in the address below\n",
+                config.token_file.c_str());
   std::printf("console: http://%s:%d/#token=%s  (the operator's page; the token stays in the page)\n", host.c_str(),
               port, config.token.c_str());
   std::printf("participant screen: http://%s:%d/participant  (open it on the participant's display)\n", host.c_str(),

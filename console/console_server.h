@@ -34,6 +34,7 @@ struct ConsoleConfig {
   int port = 8080;                       // the operator's; 0: any free port (printed)
   int participant_port = 0;              // the participant screen's; 0: any free port (printed)
   std::string token;                     // required for every control request
+  std::filesystem::path token_file;      // where the token is kept: printed with the address
   std::filesystem::path chart_js = "/usr/share/javascript/chart.js/chart.min.js";  // Debian libjs-chart.js
 };
 
@@ -45,8 +46,10 @@ struct ConsoleOutcome {
 };
 
 // Serves until `stop` is set (seen within 50 ms). Prints both addresses to
-// stdout once it listens, the operator's with the token in its fragment
-// (#token=...: the page keeps it and takes it out of the address bar).
+// stdout once it listens (and not before, so a console that cannot listen
+// promises no address), the operator's with the token in its fragment
+// (#token=...: the page keeps it and takes it out of the address bar),
+// after the line naming token_file.
 // Throws std::runtime_error when it cannot listen (address in use, bad
 // address) or the database has no study.
 ConsoleOutcome serve_console(const ConsoleConfig& config, const std::atomic<bool>& stop);

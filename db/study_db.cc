@@ -118,6 +118,8 @@ std::string sqlite_header_problem(Database& db) {
   return "";
 }
 
+}  // namespace
+
 // A file that is not SQLite at all: SQLite itself would only say "file is
 // not a database" from whichever statement came first; this says which
 // file and what was expected. Asked through the connection, never by
@@ -140,8 +142,6 @@ void refuse_non_sqlite_file(Database& db) {
                   e.sqlite_code());
   }
 }
-
-}  // namespace
 
 const char* to_string(TrialStatus status) noexcept {
   switch (status) {

@@ -171,6 +171,10 @@ struct RecoveryReport {
   int sessions_interrupted = 0;
 };
 
+// Step 0 of opening, on any connection: throws DbError naming the file when
+// it is not SQLite at all (its header says why); an empty file passes.
+void refuse_non_sqlite_file(Database& db);
+
 class StudyDb {
  public:
   // Throws DbError naming the file and what failed.

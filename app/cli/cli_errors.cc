@@ -84,7 +84,7 @@ std::string exit_status_help() {
   return "Exit status: 0 success; 1 the command failed (the message says what and where); 2 usage error "
          "(unknown command or option, bad value); 3 a device fault ended the run (session run, sim run, "
          "sim replay); 4 sim run: the task did not complete in time; 130 stopped by Ctrl-C (session run, demo: "
-         "run it again to continue).\nMore: hapticlab help COMMAND, or hapticlab COMMAND --help.";
+         "run it again to continue; sim run, sim replay: nothing written).\nMore: hapticlab help COMMAND, or hapticlab COMMAND --help.";
 }
 
 std::string nearest_name(const std::string& word, const std::vector<std::string>& candidates) {

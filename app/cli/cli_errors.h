@@ -8,7 +8,8 @@
 //        has "hapticlab: error: ..." and which --help to read
 //   3    session run / sim run / sim replay: a device fault ended the run
 //   4    sim run: the task did not complete within the time limit
-//   130  stopped by Ctrl-C (session run, demo); run it again to continue
+//   130  stopped by Ctrl-C (session run, demo: run it again to continue;
+//        sim run, sim replay: their output file is not written)
 
 #include <string>
 #include <vector>

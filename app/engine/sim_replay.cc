@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "app/cli/cli_checks.h"
+#include "app/cli/interrupt_flag.h"
 #include "app/cli/renamed_option.h"
 #include "app/engine/sim_run.h"
 #include "core/common/output_file.h"
@@ -146,7 +147,9 @@ int run(const SimReplayOptions& opt) {
   config.stop_when_complete = false;
   config.replay = std::make_shared<const std::vector<ReplayFrame>>(std::move(rec.frames));
 
-  const SimTrialResult r = run_sim_trial_to_csv(config, opt.output);
+  InterruptFlag interrupt;  // as sim run's: Ctrl-C leaves no temporary file
+  const SimTrialResult r = run_sim_trial_to_csv(config, opt.output, interrupt.flag());
+  if (r.stop_reason == StopReason::kStopRequested) return report_stopped("sim replay", r, opt.output);
 
   std::printf("replayed %s through %s at %g Hz%s: %.2f s of %.2f s recorded (%s), task %s, %llu samples, "
               "peak VE force left %.2f N right %.2f N%s -> %s\n",
@@ -176,7 +179,8 @@ void add_sim_replay_command(CLI::App& sim) {
       "degradation engine and a task VE, with no participant: the same hand motion under another "
       "setting. Writes every loop update to a CSV file (the columns of `sim run`) and prints a "
       "summary. The positions are replayed open loop: the recorded hand does not react to the new "
-      "forces. Exit status 0 when the recording was played, 3 when it holds a non-finite reading.");
+      "forces. Exit status 0 when the recording was played, 3 when it holds a non-finite reading, 130 when "
+      "stopped by Ctrl-C (nothing is written then).");
   cmd->add_option("--db", opt->db, "Study database holding the recorded trial")->check(CLI::ExistingFile);
   cmd->add_option("--trial", opt->trial, "Trial id in --db (hapticlab study show / export list them)");
   cmd->add_option("--csv", opt->csv, "Engine trajectory CSV instead of a database trial (docs/engine.md)")

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "app/cli/cli_checks.h"
+#include "app/cli/interrupt_flag.h"
 #include "app/cli/population_option.h"
 #include "app/cli/renamed_option.h"
 #include "app/cli/option_shapes.h"
@@ -31,15 +32,24 @@ struct SimRunOptions {
 
 }  // namespace
 
-SimTrialResult run_sim_trial_to_csv(const SimTrialConfig& config, const std::filesystem::path& output) {
+SimTrialResult run_sim_trial_to_csv(const SimTrialConfig& config, const std::filesystem::path& output,
+                                    const std::atomic<bool>& stop) {
   AtomicOutputFile file{output};
   LoopSampleCsvWriter writer(file.stream());
   SimTrialSink sink;
   sink.on_event = [&](const TaskEvent& e) { writer.add_event(e); };
   sink.on_sample = [&](const LoopSample& s) { writer.write(s); };
+  sink.between_drains = [&](SimRig&) { return !stop.load(std::memory_order_relaxed); };
   const SimTrialResult r = run_sim_trial(config, sink);
-  file.commit();
+  // Not committed, the file's destructor removes the temporary file.
+  if (r.stop_reason != StopReason::kStopRequested) file.commit();
   return r;
+}
+
+int report_stopped(const char* command, const SimTrialResult& result, const std::filesystem::path& output) {
+  std::fprintf(stderr, "hapticlab %s: stopped by Ctrl-C (or SIGTERM) after %.2f s of the trial; nothing was "
+                       "written to %s\n", command, result.duration_s, output.c_str());
+  return 130;
 }
 
 namespace {
@@ -62,7 +72,12 @@ int run(const SimRunOptions& opt) {
   config.thesis_rate = opt.thesis_rate;
   config.max_duration_s = opt.max_duration_s;
 
-  const SimTrialResult r = run_sim_trial_to_csv(config, opt.output);
+  // Installed before the output's temporary file is made: from then on
+  // Ctrl-C stops the loop and the file is removed, rather than the process
+  // dying with the temporary file left behind.
+  InterruptFlag interrupt;
+  const SimTrialResult r = run_sim_trial_to_csv(config, opt.output, interrupt.flag());
+  if (r.stop_reason == StopReason::kStopRequested) return report_stopped("sim run", r, opt.output);
 
   const std::string who = !population.file ? " (unfitted participant model)"
                           : opt.population.empty() ? " (fitted population)"
@@ -96,7 +111,7 @@ void add_sim_run_command(CLI::App& sim) {
       "Run one simulated trial: a simulated participant performs a task on the simulated "
       "workstation through the degradation engine. Writes every loop update to a CSV file and "
       "prints a one-line summary. Exit status 0 when the task completed, 4 when it timed out, "
-      "3 on a device fault.");
+      "3 on a device fault, 130 when stopped by Ctrl-C (nothing is written then).");
   cmd->add_option("--task", opt->task, "dissection or clip (thesis 3.3.2)")
       ->check(CLI::IsMember({"dissection", "clip"}))
       ->capture_default_str();

@@ -13,12 +13,15 @@
 #include "app/cli/option_shapes.h"
 #include "app/cli/interrupt_flag.h"
 #include "app/cli/population_option.h"
+#include "app/study/console_bind.h"
 #include "console/console_server.h"
 #include "core/common/secret_file.h"
 #include "core/device/device_factory.h"
 #include "core/device/device_spec.h"
 #include "core/loop/realtime.h"
 #include "core/sim/trial_runner.h"
+#include "db/sqlite_handle.h"
+#include "db/study_file_probe.h"
 
 namespace hapticlab::app {
 namespace {
@@ -50,15 +53,44 @@ std::string token_from_file(const std::string& path) {
   return read_secret_file(path, "--token-file");
 }
 
+// Everything the console can refuse before it writes anything: a refused
+// start-up leaves the study's directory exactly as it was (no token file,
+// no database made of a file that is none).
+void check_before_writing(const ConsoleOptions& opt, const console::ConsoleConfig& config) {
+  // Refused now rather than at the first session (the device itself is
+  // opened only then).
+  check_device_spec(config.session.device);
+  if (opt.port != 0 && opt.port == opt.participant_port)
+    throw CLI::ValidationError("--participant-port " + std::to_string(opt.participant_port),
+                               "the same port as --port; the participant screen needs a port of its own, so the "
+                               "participant's browser cannot read the operator's pages (0: any free one)");
+  const bool loopback = console_bind_is_loopback(opt.bind);
+  if (!loopback && opt.token_file.empty())
+    throw CLI::ValidationError("--bind " + opt.bind, "serving beyond this machine needs --token-file FILE");
+  // Opened read-only, as `study show` does: the console itself opens it
+  // read-write, which would make an empty file an SQLite database. Last,
+  // because a read-only connection to a study leaves its -wal and -shm.
+  try {
+    db::refuse_unless_study(opt.db);
+  } catch (const db::DbError& e) {
+    throw std::runtime_error(std::string("--db: ") + e.what());
+  }
+  // What is true of it (docs/console.md, "Security"): without the token
+  // only the page's shell and the participant screen are served.
+  if (!loopback)
+    std::fprintf(stderr,
+                 "warning: the console listens on %s: anyone who can reach it gets the operator page's empty shell "
+                 "and the participant screen; the study's data and every control need the token in %s. HTTP is "
+                 "not encrypted: the token and the data cross the network readable, so use a trusted network.\n",
+                 opt.bind.c_str(), opt.token_file.c_str());
+}
+
 int run(const ConsoleOptions& opt) {
   console::ConsoleConfig config;
   config.session.db = opt.db;
   config.session.device = parse_device_spec(opt.device);
   add_device_options(config.session.device, opt.device_options);
   config.session.device.insecure = opt.insecure;
-  // Refused now rather than at the first session (the device itself is
-  // opened only then).
-  check_device_spec(config.session.device);
   config.session.clock = parse_clock_kind(opt.clock);
   config.session.rate_Hz = opt.rate_Hz;
   config.session.max_trial_s = opt.max_trial_s;
@@ -67,6 +99,7 @@ int run(const ConsoleOptions& opt) {
   // As `session run`: a study's simulated participants are drawn from one
   // population whichever command runs their sessions.
   config.session.population = choose_population(opt.population).point;
+  check_before_writing(opt, config);
   if (opt.realtime) {
     RealtimeResult granted;
     std::fprintf(stderr, "%s\n", prepare_realtime(config.session.realtime, &granted).c_str());
@@ -76,19 +109,8 @@ int run(const ConsoleOptions& opt) {
   config.bind_address = opt.bind;
   config.port = opt.port;
   config.participant_port = opt.participant_port;
-  const bool loopback = opt.bind == "127.0.0.1" || opt.bind == "localhost" || opt.bind == "::1";
-  if (!loopback) {
-    if (opt.token_file.empty())
-      throw std::invalid_argument("--bind " + opt.bind + ": serving beyond this machine needs --token-file FILE");
-    std::fprintf(stderr,
-                 "warning: the console listens on %s: anyone who can reach it sees the study's progress; "
-                 "controls need the token in %s. HTTP is not encrypted: use a trusted network.\n",
-                 opt.bind.c_str(), opt.token_file.c_str());
-  }
-  const std::string token_file = opt.token_file.empty() ? opt.db + ".console-token" : opt.token_file;
-  config.token = token_from_file(token_file);
-  std::printf("console token (controls need it): in %s (readable only by you) and in the address below\n",
-              token_file.c_str());
+  config.token_file = opt.token_file.empty() ? opt.db + ".console-token" : opt.token_file;
+  config.token = token_from_file(config.token_file.string());
   InterruptFlag interrupt;
   const console::ConsoleOutcome outcome = console::serve_console(config, interrupt.flag());
   if (outcome.device_hung) {
@@ -119,7 +141,8 @@ void add_console_command(CLI::App& app) {
                   "the participant's browser cannot read the operator's pages, which name the setting")
       ->check(whole_number_in(0, 65535))
       ->capture_default_str();
-  cmd->add_option("--bind", opt->bind, "Address to listen on; anything but 127.0.0.1 needs --token-file")
+  cmd->add_option("--bind", opt->bind,
+                  "Numeric IP address (or localhost) to listen on; one outside 127.0.0.0/8 and ::1 needs --token-file")
       ->capture_default_str();
   cmd->add_option("--token-file", opt->token_file,
                   "File with the control token (made with a new one, mode 600, if missing; default: DB.console-token)");

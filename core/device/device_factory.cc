@@ -73,6 +73,13 @@ void check_device_spec(const DeviceSpec& spec) {
   check_insecure(spec);
   if (spec.kind == DeviceSpec::Kind::kSim) reject_options(spec);
   if (spec.kind == DeviceSpec::Kind::kUdp) (void)UdpDevice::checked_key(udp_options(spec));
+  if (spec.kind == DeviceSpec::Kind::kPlugin) {
+    try {
+      check_plugin_library(spec.path);
+    } catch (const std::runtime_error& e) {
+      throw std::invalid_argument("--device " + spec.describe() + ": " + e.what());
+    }
+  }
 }
 
 SimDeviceParams sim_backend_params() {

@@ -16,10 +16,14 @@ namespace hapticlab {
 std::unique_ptr<Device> open_device(const DeviceSpec& spec);
 
 // What open_device refuses without touching the device: unknown or bad
-// options, an --insecure that does not apply, and for the UDP bridge an
+// options, an --insecure that does not apply, for the UDP bridge an
 // unreadable key file or a host beyond loopback without a key or
-// --insecure. For a command that opens the device only later (the
-// console). Throws std::invalid_argument as open_device does.
+// --insecure, and for a plugin a file that is no plugin (loaded and its
+// entry point looked up, check_plugin_library; no device is made, and the
+// plugin's options are its create()'s to judge, at the first session).
+// For a command that opens the device only later (the console). Throws
+// std::invalid_argument as open_device does, a plugin's message after
+// "--device plugin:PATH: ".
 void check_device_spec(const DeviceSpec& spec);
 
 // Before a session or a check: a device plugin is loaded, created and

@@ -69,7 +69,53 @@ std::string number(double value) {
   return s.str();
 }
 
+// The file at `path` as a plugin names it, refused when it is none.
+void check_plugin_file(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    throw std::runtime_error("plugin " + path + ": is a directory; expected the plugin's shared library file (.so)");
+  if (!fs::is_regular_file(path, ec)) throw std::runtime_error("plugin " + path + ": no such file");
+}
+
+// dlopen of the plugin's file; throws with the loader's reason.
+void* open_plugin_library(const std::string& path, int flags) {
+  std::error_code ec;
+  // dlopen searches the library path for a name without a slash; the
+  // operator means the file.
+  const std::string file = std::filesystem::absolute(path, ec).string();
+  void* library = ::dlopen(file.c_str(), flags);
+  if (library == nullptr) {
+    const char* why = ::dlerror();
+    throw std::runtime_error("plugin " + path + " could not be loaded: " + (why != nullptr ? why : "unknown reason"));
+  }
+  return library;
+}
+
+// The plugin's entry point in `library`; throws when it has none.
+void* plugin_entry(void* library, const std::string& path) {
+  void* symbol = ::dlsym(library, HL_DEVICE_PLUGIN_ENTRY);
+  if (symbol == nullptr)
+    throw std::runtime_error("plugin " + path + " does not export " HL_DEVICE_PLUGIN_ENTRY
+                             "(), so it is not a HapticLab device plugin (see hapticlab/device_plugin.h)");
+  return symbol;
+}
+
 }  // namespace
+
+void check_plugin_library(const std::string& path) {
+  check_plugin_file(path);
+  // Without RTLD_NODELETE: nothing of the plugin ran but its static
+  // constructors, so unloading it again is safe.
+  void* library = open_plugin_library(path, RTLD_NOW | RTLD_LOCAL);
+  try {
+    (void)plugin_entry(library, path);
+  } catch (...) {
+    ::dlclose(library);
+    throw;
+  }
+  ::dlclose(library);
+}
 
 PluginDevice::PluginDevice(const std::string& path, const std::map<std::string, std::string>& options,
                            StageHook stage, void* stage_context)
@@ -77,32 +123,16 @@ PluginDevice::PluginDevice(const std::string& path, const std::map<std::string, 
   const auto at = [&](const char* name) {
     if (stage != nullptr) stage(stage_context, name);
   };
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) {
-    const bool exists = fs::exists(path, ec);
-    throw std::runtime_error("plugin " + path + (exists ? ": not a regular file (a directory?); name the plugin's .so file"
-                                                        : ": no such file"));
-  }
-  // dlopen searches the library path for a name without a slash; the
-  // operator means the file.
-  const std::string file = fs::absolute(path, ec).string();
+  check_plugin_file(path);
 
   at("load");
   // RTLD_NODELETE: a plugin's static destructors and thread_local cleanups
   // may run after dlclose otherwise; each trial opens the device again.
-  library_ = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
-  if (library_ == nullptr) {
-    const char* why = ::dlerror();
-    throw std::runtime_error("plugin " + path + " could not be loaded: " + (why != nullptr ? why : "unknown reason"));
-  }
+  library_ = open_plugin_library(path, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
   try {
     at("hl_device_plugin_entry");
     using Entry = const hl_device_plugin* (*)();
-    void* symbol = ::dlsym(library_, HL_DEVICE_PLUGIN_ENTRY);
-    if (symbol == nullptr)
-      throw std::runtime_error("plugin " + path + " does not export " HL_DEVICE_PLUGIN_ENTRY
-                               "(), so it is not a HapticLab device plugin (see hapticlab/device_plugin.h)");
+    void* symbol = plugin_entry(library_, path);
     table_ = reinterpret_cast<Entry>(symbol)();
     if (table_ == nullptr)
       throw std::runtime_error("plugin " + path + ": " HL_DEVICE_PLUGIN_ENTRY "() returned no function table");

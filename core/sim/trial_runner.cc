@@ -127,6 +127,10 @@ SimRig::~SimRig() {
   }
 }
 
+// The drain takes at most 64 batches before sink.between_drains is asked
+// again: on the virtual clock the loop refills the queue as fast as it is
+// popped (it waits rather than drops), so draining "until empty" lasted the
+// whole trial and a stop (STOP, Ctrl-C) was first seen after its end.
 SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& sink) {
   // On the heap: a device call that never returns keeps the loop thread
   // inside the rig, which then can never be destroyed (device_hung).
@@ -138,13 +142,14 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
   // Samples first, then events: an event is queued before the sample of its
   // update, so after this order every event up to the last popped sample is
   // in hand and the sink gets events no later than their sample.
-  auto drain = [&] {
-    for (;;) {
+  // At most 64 batches per call (see above); returns whether it emptied the queue.
+  auto drain = [&]() -> bool {
+    for (int round = 0; round < 64; ++round) {
       const std::size_t n = loop.samples().pop_bulk(batch.data(), batch.size());
       TaskEvent event;
       while (loop.events().try_pop(event))
         if (sink.on_event) sink.on_event(event);
-      if (n == 0) break;
+      if (n == 0) return true;
       for (std::size_t k = 0; k < n; ++k) {
         const LoopSample& s = batch[k];
         for (int i = 0; i < 2; ++i) {
@@ -156,6 +161,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
       }
       result.samples += n;
     }
+    return false;
   };
 
   if (!loop.start()) {
@@ -166,7 +172,7 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
   }
   std::optional<std::chrono::steady_clock::time_point> hung_since;
   while (loop.running()) {
-    drain();
+    const bool emptied = drain();
     if (sink.between_drains && !sink.between_drains(rig)) loop.request_stop();
     if (sink.device_hang_grace_s > 0.0 && loop.watchdog_tripped() && loop.watchdog_call() != DeviceCall::kNone) {
       const auto now = std::chrono::steady_clock::now();
@@ -187,10 +193,10 @@ SimTrialResult run_sim_trial(const SimTrialConfig& config, const SimTrialSink& s
         return result;
       }
     }
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    if (emptied) std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   loop.join();
-  drain();
+  while (!drain()) continue;
 
   result.stop_reason = loop.stop_reason();
   result.device_status = loop.device_status();

@@ -197,7 +197,7 @@ TEST(DeviceCheckTest, WrongAbiMissingEntryAndMissingFileAreRefused) {
   // A directory exists: "no such file" sent the user looking for a typo.
   const auto [s4, folder] = testing::run_cli(kBinary, "device check --device plugin:/tmp");
   EXPECT_EQ(s4, 1) << folder;
-  EXPECT_THAT(folder, HasSubstr("plugin /tmp: not a regular file (a directory?)"));
+  EXPECT_THAT(folder, HasSubstr("plugin /tmp: is a directory"));
 }
 
 TEST(DeviceCheckTest, InvalidRatingsAreRefusedNamingTheJoint) {
