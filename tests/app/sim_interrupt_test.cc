@@ -79,13 +79,14 @@ TEST_F(SimInterruptTest, CtrlCInSimRunRemovesTheTemporaryFileAndExits130) {
 }
 
 TEST_F(SimInterruptTest, CtrlCInSimReplayRemovesTheTemporaryFileAndExits130) {
-  // A recording of 20000 s: on the virtual clock its replay runs for
-  // minutes, so the SIGINT comes while the loop runs.
+  // A recording of 3500 s (a longer one is refused as more than a trial
+  // may last): on the virtual clock its replay of 3.5 M updates, each
+  // written, runs for many seconds, so the SIGINT comes while the loop runs.
   const fs::path csv = dir_ / "long.csv";
   {
     std::ofstream f(csv);
     f << "t_s,instrument,insertion_m,pitch_rad,yaw_rad,ve_force_x_N,ve_force_y_N,ve_force_z_N\n";
-    for (int k = 0; k <= 20000; ++k)
+    for (int k = 0; k <= 3500; ++k)
       for (int instrument = 0; instrument < 2; ++instrument)
         f << k << ',' << instrument << ",0.05," << (k % 2 ? 0.01 : -0.01) << ",0,0,0,0\n";
   }
