@@ -276,6 +276,10 @@ class Reader {
     // Parsed non-negative integers are unsigned; ones built in code may be
     // signed.
     if (v.is_number_integer() && v.get<long long>() >= 0) return static_cast<std::uint64_t>(v.get<long long>());
+    // A whole number above 2^64 - 1 is read as a double ("is
+    // 1.8446744073709552e+19" for 2^64): said as what it is.
+    if (v.is_number_float() && v.get<double>() >= 0x1p64)
+      fail(path, "is larger than 18446744073709551615, but " + rule);
     if (v.is_number_float()) fail(path, "is " + shown(v) + ", but " + rule + ", written without a decimal point or exponent");
     fail(path, "is " + shown(v) + ", but " + rule);
   }

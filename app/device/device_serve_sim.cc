@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "app/cli/cli_checks.h"
 #include "app/cli/interrupt_flag.h"
 #include "core/device/udp_device.h"
 #include "core/device/udp_protocol.h"
@@ -60,7 +61,11 @@ void add_device_serve_sim_command(CLI::App& device) {
   CLI::App* cmd = device.add_subcommand(
       "serve-sim", "Serve the simulated workstation over the UDP bridge (docs/udp_bridge.md), for "
                    "`session run --device udp:HOST:PORT`; runs until Ctrl-C");
-  cmd->add_option("--port", o->port, "UDP port to listen on, 0..65535 (0: any free port, printed)")->required();
+  // Checked at the option, as every whole-number option is (a usage error,
+  // exit 2, naming the range), not later by the server (exit 1).
+  cmd->add_option("--port", o->port, "UDP port to listen on, 0..65535 (0: any free port, printed)")
+      ->required()
+      ->check(whole_number_in(0, 65535));
   cmd->add_option("--host", o->host, "IPv4 address to listen on")->capture_default_str();
   CLI::Option* key_option = cmd->add_option(
       "--key-file", o->key_file,

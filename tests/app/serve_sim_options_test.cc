@@ -65,5 +65,16 @@ TEST_F(ServeSimOptionsTest, AHostThatIsNoIpv4AddressIsRefusedAsSuchBeforeLoopbac
   EXPECT_THAT(out, HasSubstr("serving the simulated workstation on udp:127.0.0.2:"));
 }
 
+// A port out of range was the server's error (exit 1) where a port that is
+// no number was a usage error (exit 2); both are usage errors now.
+TEST_F(ServeSimOptionsTest, APortOutOfRangeIsAUsageErrorNamingTheRange) {
+  for (const std::string port : {"65536", "-1", "abc"}) {
+    const auto [code, out] =
+        testing::run_shell("timeout 5 " + kServeSimCli + " device serve-sim --port " + port + " 2>&1");
+    EXPECT_EQ(code, 2) << port << "\n" << out;
+    EXPECT_THAT(out, HasSubstr("--port: '" + port + "' is refused: must be a whole number from 0 to 65535")) << out;
+  }
+}
+
 }  // namespace
 }  // namespace hapticlab::app

@@ -289,6 +289,11 @@ TEST_F(ConsoleTuningTest, ThePilotParticipantComesFromTheConfiguredPopulation) {
   const auto first_seconds = [this](const PopulationParams& population) {
     ConsoleTuningConfig config = config_;
     config.population = population;
+    // One repetition of 3.5 s of loop time and no second one, whose start
+    // would clear the live view: on the virtual clock a repetition can end
+    // within milliseconds, and a test thread held off that long (a busy CI
+    // machine) found the first one's points gone (last_t -1).
+    config.max_s = 3.5;
     ConsoleTuning tuning(config, device_);
     tuning.start("clip", high_fidelity());
     std::map<double, Pose> pose;  // the left instrument's, by loop time

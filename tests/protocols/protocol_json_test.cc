@@ -145,6 +145,9 @@ TEST(ProtocolJsonTest, ZeroOrTooManyRepetitions) {
   j["repetitions"]["clip"] = 2;
   j["seed"] = 5.0;
   EXPECT_THAT(failure_of(j).message, HasSubstr("written without a decimal point or exponent"));
+  // 2^64 is read as a double: said as too large, not as "1.8446744073709552e+19".
+  j["seed"] = json::parse("18446744073709551616");
+  EXPECT_THAT(failure_of(j).message, HasSubstr("is larger than 18446744073709551615, but must be a whole number"));
 }
 
 TEST(ProtocolJsonTest, DuplicateParticipantCodes) {
