@@ -171,7 +171,7 @@ void add_engine_replay_command(CLI::App& engine) {
   CLI::Option* csv = cmd->add_option("--csv", opt->input,
                   "Trajectory CSV with a header row and the columns (any order) t_s, "
                   "instrument (0 or 1), insertion_m, pitch_rad, yaw_rad, ve_force_x_N, "
-                  "ve_force_y_N, ve_force_z_N")
+                  "ve_force_y_N, ve_force_z_N; required (a file, not a pipe: it is read twice)")
       ->check(CLI::ExistingFile);
   const RenamedOption csv_option = add_old_spelling(*cmd, csv, "--input", opt->input);
   csv_option.old->check(CLI::ExistingFile);
@@ -180,7 +180,7 @@ void add_engine_replay_command(CLI::App& engine) {
                   "insertion_force_N, pitch_torque_Nm, yaw_torque_Nm, degraded_insertion_m, "
                   "degraded_pitch_rad, degraded_yaw_rad, fault (status bits). Written to "
                   "OUTPUT.<pid>.tmp and renamed when complete, so a failed replay leaves no "
-                  "OUT; must not be the input file");
+                  "OUT; must not be the input file; required");
   const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
   cmd->footer(
       "Sign conventions: world frame at the trocar, z up out of the patient; at zero pitch and "

@@ -198,7 +198,7 @@ void add_sim_replay_command(CLI::App& sim) {
                   "Haptic loop rate [Hz], 150..2000 (default for a database trial: the rate it was recorded at, "
                   "from its median update period; for --csv: 1000)")
       ->check(number_in(150.0, 2000.0));
-  CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update)");
+  CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update); required");
   const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
   cmd->callback([opt, out_option] {
     out_option.require();

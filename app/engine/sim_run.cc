@@ -144,7 +144,7 @@ void add_sim_run_command(CLI::App& sim) {
                            ->check(positive_number())
                            ->capture_default_str();
   add_old_spelling(*cmd, limit, "--max-duration-s", opt->max_duration_s).old->check(positive_number());
-  CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update)");
+  CLI::Option* out = cmd->add_option("--out", opt->output, "CSV file to write (one row per loop update); required");
   const RenamedOption out_option = add_old_spelling(*cmd, out, "--output", opt->output);
   cmd->callback([opt, out_option] {
     out_option.require();
