@@ -122,7 +122,7 @@ namespace {
 // file this hapticlab may use at all: format, versions, checksum.
 json checked_document(const std::filesystem::path& path, int& model, std::string& stored) {
   // Bounded, as settings and protocol files are: /dev/zero given as a
-  // population grew without limit. The shipped fit is 0.65 MB.
+  // population grew without limit. The shipped fit is 56 KB.
   constexpr std::size_t kMaxPopulationFileBytes = std::size_t{16} << 20;
   std::string text;
   try {

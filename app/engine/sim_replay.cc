@@ -135,10 +135,12 @@ int run(const SimReplayOptions& opt) {
   const char* rate_source = opt.rate_Hz ? "" : rec.recorded_rate_Hz ? ", the recording's rate" : ", the default";
   // The whole recording, and a little more: the loop ends at its last frame.
   const double recording_s = rec.frames.back().t_s - rec.frames.front().t_s;
-  // A recording longer than any trial may last is a t_s in other units
+  // A CSV longer than any trial may last is a t_s in other units
   // (milliseconds), not a trial: replayed, it wrote without end (2.5 GB in
-  // 30 s for one spanning 1e6 s).
-  if (!(recording_s <= kMaxTrialLimit_s)) {
+  // 30 s for one spanning 1e6 s). A stored trial's t_s is the loop's own,
+  // in seconds, and as long as its study's limit let it run (which may
+  // have been above 3600 s before that option had a range).
+  if (!opt.csv.empty() && !(recording_s <= kMaxTrialLimit_s)) {
     throw std::invalid_argument(rec.what + ": the recording spans " + format_number(recording_s) +
                                 " s, more than the " + format_number(kMaxTrialLimit_s) +
                                 " s a trial may last (--max-trial-s); is t_s in seconds?");

@@ -6,6 +6,8 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <system_error>
 #include <vector>
 
 #include "app/cli/cli_checks.h"
@@ -110,9 +112,21 @@ int run(const ConsoleOptions& opt) {
   config.port = opt.port;
   config.participant_port = opt.participant_port;
   config.token_file = opt.token_file.empty() ? opt.db + ".console-token" : opt.token_file;
+  std::error_code ec;
+  const bool token_existed = std::filesystem::exists(config.token_file, ec);
   config.token = token_from_file(config.token_file.string());
   InterruptFlag interrupt;
-  const console::ConsoleOutcome outcome = console::serve_console(config, interrupt.flag());
+  console::ConsoleOutcome outcome;
+  try {
+    outcome = console::serve_console(config, interrupt.flag());
+  } catch (const std::runtime_error& e) {
+    // A console that could not listen (a port in use) promised no address
+    // with this token: a token file this run made goes, so the refusal
+    // leaves the directory as it found it.
+    if (!token_existed && std::string_view(e.what()).find("): cannot listen on ") != std::string_view::npos)
+      std::filesystem::remove(config.token_file, ec);
+    throw;
+  }
   if (outcome.device_hung) {
     std::fprintf(stderr,
                  "hapticlab console: the device hung (%s); restart the device before the next session\n",

@@ -105,16 +105,19 @@ void* plugin_entry(void* library, const std::string& path) {
 
 void check_plugin_library(const std::string& path) {
   check_plugin_file(path);
-  // Without RTLD_NODELETE: nothing of the plugin ran but its static
-  // constructors, so unloading it again is safe.
-  void* library = open_plugin_library(path, RTLD_NOW | RTLD_LOCAL);
-  try {
-    (void)plugin_entry(library, path);
-  } catch (...) {
-    ::dlclose(library);
-    throw;
-  }
-  ::dlclose(library);
+  // Its first bytes only, never loaded: loading would run the plugin's
+  // static constructors in this process, unsupervised (a vendor SDK that
+  // opens USB or hangs at load would take the console down, which
+  // plugin-isolated: exists to prevent), and unloading them again is what
+  // PluginDevice's RTLD_NODELETE avoids.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("plugin " + path + ": cannot be read: " + std::strerror(errno));
+  unsigned char magic[4] = {};
+  const ssize_t n = ::read(fd, magic, sizeof magic);
+  ::close(fd);
+  if (n != static_cast<ssize_t>(sizeof magic) || magic[0] != 0x7f || magic[1] != 'E' || magic[2] != 'L' ||
+      magic[3] != 'F')
+    throw std::runtime_error("plugin " + path + ": is not a shared library (no ELF header); name the plugin's .so file");
 }
 
 PluginDevice::PluginDevice(const std::string& path, const std::map<std::string, std::string>& options,

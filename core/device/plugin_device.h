@@ -106,13 +106,14 @@ class PluginDevice final : public Device, public HandAttachment {
   std::atomic<std::int32_t> unknown_op_{0}, unknown_code_{0};
 };
 
-// Loads `path` and looks up its entry point, hl_device_plugin_entry,
-// without calling it or anything else of the plugin (no device is made, so
-// no hardware is touched); unloads it again. For a command that opens the
-// device only later (the console): a file that is no plugin is refused at
-// start-up with the message PluginDevice would give ("no such file", "is a
-// directory", "could not be loaded: ...", "does not export ..."). Its
-// static constructors do run in this process. Throws std::runtime_error.
+// Checks `path` without loading it: it exists, is a regular file and an
+// ELF shared object (its first bytes). For a command that opens the device
+// only later (the console): a file that is no plugin is refused at
+// start-up ("no such file", "is a directory", "is not a shared library").
+// Nothing of the plugin runs in this process (its static constructors
+// would, unsupervised, if it were loaded here); whether it exports
+// hl_device_plugin_entry is found when a session loads it, in the plugin
+// host when isolated. Throws std::runtime_error.
 void check_plugin_library(const std::string& path);
 
 // "the plugin's read returned 42, which is no hl_device_status (taken as

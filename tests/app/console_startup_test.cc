@@ -7,7 +7,11 @@
 // is no plugin was found only at the first session. --bind was judged by
 // its spelling (127.0.0.2 "needed --token-file", "" too), and one port for
 // both sites failed only when the second could not listen.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -108,15 +112,16 @@ TEST_F(ConsoleStartupTest, OnePortForBothSitesIsRefusedByNameBeforeListening) {
   EXPECT_EQ(directory_bytes(dir_), before) << "the refused console made its token file";
 }
 
-// A plugin is loaded and its entry point looked up at start-up, as a bad
-// udp: address or device option is refused there, not at the first session.
+// A plugin file is checked at start-up (it exists, is a regular file, an
+// ELF shared library), as a bad udp: address or device option is refused
+// there, not at the first session.
 TEST_F(ConsoleStartupTest, APluginThatIsNoPluginIsRefusedAtStartUp) {
   const std::string db = create_study("s.db");
   const fs::path text = dir_ / "notplugin.so";
   std::ofstream(text) << "not a shared library\n";
   fs::create_directory(dir_ / "plugins");
   for (const auto& [path, why] : std::vector<std::pair<std::string, std::string>>{
-           {text.string(), "could not be loaded"},
+           {text.string(), "is not a shared library (no ELF header)"},
            {(dir_ / "plugins").string(), "is a directory"},
            {(dir_ / "missing.so").string(), "no such file"}}) {
     const std::map<std::string, std::string> before = directory_bytes(dir_);
@@ -156,6 +161,43 @@ TEST_F(ConsoleStartupTest, BindIsJudgedOnTheParsedAddress) {
   EXPECT_THAT(out, Not(HasSubstr("sees the study's progress")));
   EXPECT_THAT(out, HasSubstr("the study's data and every control need the token in " + token));
   EXPECT_THAT(out, Not(HasSubstr("in the address below"))) << "the token line promised an address never printed";
+}
+
+// The start-up check does not load the plugin: none of its code runs in
+// the console (a review found its static constructors running there,
+// unsupervised, for plugin-isolated: too). A library without the entry
+// point is therefore found when a session loads it, not here: the console
+// starts.
+TEST_F(ConsoleStartupTest, APluginIsNotLoadedIntoTheConsoleAtStartUp) {
+  const std::string db = create_study("s.db");
+  const auto [code, out] =
+      console("--db " + db + " --port 0 --device plugin-isolated:" + std::string(HAPTICLAB_FAKE_PLUGIN_NO_ENTRY_PATH), 4);
+  EXPECT_THAT(out, HasSubstr("console: http://")) << out;
+  EXPECT_THAT(out, Not(HasSubstr("does not export"))) << out;
+  EXPECT_EQ(code, 0) << out;  // stopped by the SIGINT
+}
+
+// A console that cannot listen (its port taken) made its token file before
+// it found out, and left it (a review): a refused start leaves the
+// directory as it was.
+TEST_F(ConsoleStartupTest, AConsoleThatCannotListenLeavesNoTokenFile) {
+  const std::string db = create_study("s.db");
+  const int taken = ::socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(taken, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(taken, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  ASSERT_EQ(::listen(taken, 1), 0);
+  socklen_t length = sizeof address;
+  ASSERT_EQ(::getsockname(taken, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  const int port = ntohs(address.sin_port);
+  const std::map<std::string, std::string> before = directory_bytes(dir_);
+  const auto [code, out] = console("--db " + db + " --port " + std::to_string(port));
+  ::close(taken);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_THAT(out, HasSubstr("cannot listen")) << out;
+  EXPECT_EQ(directory_bytes(dir_), before) << "the refused console left its token file";
 }
 
 }  // namespace
