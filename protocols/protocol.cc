@@ -77,6 +77,21 @@ std::optional<Task> task_from_name(std::string_view name) {
   return std::nullopt;
 }
 
+namespace {
+
+// A byte below 0x20 or 0x7F, or a C1 control (U+0080..U+009F), which no
+// table shows: "A\u0000B" printed as "A", "A\nB" across two lines.
+bool has_control_character(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const auto [c, n] = utf8_char_at(text, i);
+    if (c < 0x20 || (c >= 0x7F && c <= 0x9F)) return true;
+    i += n;
+  }
+  return false;
+}
+
+}  // namespace
+
 std::optional<std::string> task_name_problem(std::string_view name, Ve ve) {
   if (ve == Ve::kSimulated) {
     if (task_from_name(name)) return std::nullopt;
@@ -87,10 +102,7 @@ std::optional<std::string> task_name_problem(std::string_view name, Ve ve) {
                            " bytes of printable text without leading or trailing spaces";
   if (name.empty() || name.size() > kMaxTaskNameLength)
     return "has " + std::to_string(name.size()) + " bytes, but " + rule;
-  for (char c : name) {
-    const auto u = static_cast<unsigned char>(c);
-    if (u < 0x20 || u == 0x7f) return "contains a control character, but " + rule;
-  }
+  if (has_control_character(name)) return "contains a control character, but " + rule;
   if (name.front() == ' ' || name.back() == ' ') return "begins or ends with a space, but " + rule;
   return std::nullopt;
 }
@@ -117,16 +129,6 @@ constexpr char kLatinExtendedABase[] =
     "ttttttuuuuuuuuuuuuwwyyyzzzzzzs";
 static_assert(sizeof kLatinExtendedABase == 0x80 + 1, "one letter for each of U+0100..U+017F");
 
-// A byte below 0x20 or 0x7F, or a C1 control (U+0080..U+009F), which no
-// table shows: "A\u0000B" printed as "A", "A\nB" across two lines.
-bool has_control_character(std::string_view text) {
-  for (std::size_t i = 0; i < text.size();) {
-    const auto [c, n] = utf8_char_at(text, i);
-    if (c < 0x20 || (c >= 0x7F && c <= 0x9F)) return true;
-    i += n;
-  }
-  return false;
-}
 
 }  // namespace
 

@@ -336,6 +336,8 @@ TEST(ProtocolJsonTest, ExternalTaskNamesMustBeSane) {
   EXPECT_EQ(failure_of(external({"peg", std::string(65, 'x')})).field, "tasks[1]");
   EXPECT_NO_THROW(parse(external({std::string(64, 'x')})));
   EXPECT_THAT(failure_of(external({"peg\ttouch"})).message, HasSubstr("control character"));
+  // The check setting and study names share: a C1 control (U+0085) too.
+  EXPECT_THAT(failure_of(external({"peg\u0085touch"})).message, HasSubstr("control character"));
   EXPECT_THAT(failure_of(external({" peg"})).message, HasSubstr("space"));
   json j = external({"peg"});
   j["tasks"] = {"peg", 3};
